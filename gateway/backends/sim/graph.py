@@ -1,0 +1,395 @@
+"""An in-process ROS-like graph on the IOLoop: nodes, topics, services, actions, parameters.
+
+No threads: everything runs on the loop that owns the graph. Messages are plain dicts in
+rosbridge shape and are treated as immutable once published (subscribers share one object).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import inspect
+import itertools
+import logging
+import uuid
+from collections import deque
+from collections.abc import Awaitable, Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from protocol.msgdefs import Definitions, normalize
+
+from ..base import (
+    STATUS_ABORTED, STATUS_ACCEPTED, STATUS_CANCELED, STATUS_CANCELING, STATUS_EXECUTING,
+    STATUS_SUCCEEDED, ActionResult, ActionServerCallbacks, BackendError, QoS, ServiceTimeout,
+)
+
+log = logging.getLogger('rosgate.sim')
+Message = dict[str, Any]
+TERMINAL = (STATUS_SUCCEEDED, STATUS_CANCELED, STATUS_ABORTED)
+
+
+def resolve(name: str, namespace: str = '/') -> str:
+    """Absolute ROS name: 'cmd_vel' in namespace '/turtle1' -> '/turtle1/cmd_vel'."""
+    if not name:
+        raise ValueError('empty ROS name')
+    if name.startswith('/'):
+        return name.rstrip('/') or '/'
+    return (namespace.rstrip('/') + '/' + name).rstrip('/')
+
+
+@dataclass(eq=False)
+class Topic:
+    name: str
+    type: str
+    publishers: list[SimPublisher] = field(default_factory=list)
+    subscriptions: list[SimSubscription] = field(default_factory=list)
+    latched: deque = field(default_factory=lambda: deque(maxlen=1))
+
+
+class SimPublisher:
+    def __init__(self, node: Node, topic: Topic, qos: QoS):
+        self.node, self._topic, self.qos = node, topic, qos
+        self.topic, self.type = topic.name, topic.type
+        if qos.transient_local and topic.latched.maxlen < qos.depth:
+            topic.latched = deque(topic.latched, maxlen=max(1, qos.depth))
+
+    def publish(self, msg: Message) -> None:
+        topic = self._topic
+        if self.qos.transient_local:
+            topic.latched.append(msg)
+        for sub in tuple(topic.subscriptions):
+            try:
+                sub.callback(msg)
+            except Exception:  # a faulty subscriber must not break the publisher
+                log.exception('subscription callback on %s failed', topic.name)
+
+    def destroy(self) -> None:
+        self.node.graph._remove_endpoint(self._topic, self, 'publishers')
+        self.node._owned.discard(self)
+
+
+class SimSubscription:
+    def __init__(self, node: Node, topic: Topic, callback: Callable[[Message], None], qos: QoS | None):
+        self.node, self._topic, self.callback, self.qos = node, topic, callback, qos
+        self.topic, self.type = topic.name, topic.type
+
+    def destroy(self) -> None:
+        self.node.graph._remove_endpoint(self._topic, self, 'subscriptions')
+        self.node._owned.discard(self)
+
+
+@dataclass(eq=False)
+class SimService:
+    node: Node
+    name: str
+    type: str
+    handler: Callable[[Message], Any]
+
+    def destroy(self) -> None:
+        if self.node.graph._services.get(self.name) is self:
+            del self.node.graph._services[self.name]
+        self.node._owned.discard(self)
+
+
+class SimServerGoal:
+    """A goal as the action server sees it."""
+
+    def __init__(self, server: SimActionServer, request: Message):
+        self.server, self.request = server, request
+        self.goal_id = str(uuid.uuid4())
+        self.status = STATUS_ACCEPTED
+        self.feedback_listeners: list[Callable[[Message], None]] = []
+        self.done: asyncio.Future = asyncio.get_running_loop().create_future()
+
+    @property
+    def cancel_requested(self) -> bool:
+        return self.status == STATUS_CANCELING
+
+    @property
+    def active(self) -> bool:
+        return self.status not in TERMINAL
+
+    def publish_feedback(self, feedback: Message) -> None:
+        if not self.active:
+            return
+        if self.status == STATUS_ACCEPTED:
+            self.status = STATUS_EXECUTING
+        for listener in tuple(self.feedback_listeners):
+            listener(feedback)
+
+    def finish(self, status: int, result: Message) -> None:
+        if not self.active:
+            return
+        self.status = status
+        self.server.goals.pop(self.goal_id, None)
+        if not self.done.done():
+            self.done.set_result(ActionResult(status, result))
+
+
+@dataclass(eq=False)
+class SimActionServer:
+    node: Node
+    name: str
+    type: str
+    callbacks: ActionServerCallbacks
+    goals: dict[str, SimServerGoal] = field(default_factory=dict)
+
+    def destroy(self) -> None:
+        for goal in list(self.goals.values()):
+            goal.finish(STATUS_ABORTED, self.node.graph.default_result(self.type))
+        if self.node.graph._actions.get(self.name) is self:
+            del self.node.graph._actions[self.name]
+        self.node._owned.discard(self)
+
+
+class SimClientGoal:
+    """A goal as the action client sees it."""
+
+    def __init__(self, goal: SimServerGoal):
+        self._goal = goal
+        self.goal_id = goal.goal_id
+
+    async def result(self) -> ActionResult:
+        return await asyncio.shield(self._goal.done)
+
+    async def cancel(self) -> None:
+        goal = self._goal
+        if goal.active and goal.status != STATUS_CANCELING:
+            goal.status = STATUS_CANCELING
+            goal.server.callbacks.on_cancel(goal)
+
+
+class Node:
+    """A node of the sim graph. Robots, demo servers and the gateway itself are nodes."""
+
+    def __init__(self, graph: Graph, name: str, namespace: str = '/'):
+        self.graph, self.namespace = graph, namespace
+        self.name = resolve(name, namespace)
+        self.params: dict[str, Any] = {}
+        self._param_hooks: dict[str, Callable[[Any], None]] = {}
+        self._owned: set = set()
+        self._tasks: set[asyncio.Task] = set()
+
+    def resolve(self, name: str) -> str:
+        return resolve(name, self.namespace)
+
+    # topics
+    def create_publisher(self, topic: str, type: str, qos: QoS = QoS()) -> SimPublisher:
+        pub = SimPublisher(self, self.graph._topic(self.resolve(topic), type), qos)
+        pub._topic.publishers.append(pub)
+        self._owned.add(pub)
+        return pub
+
+    def create_subscription(self, topic: str, type: str, callback: Callable[[Message], None],
+                            qos: QoS | None = None) -> SimSubscription:
+        t = self.graph._topic(self.resolve(topic), type)
+        sub = SimSubscription(self, t, callback, qos)
+        t.subscriptions.append(sub)
+        self._owned.add(sub)
+        if qos is None or qos.transient_local:
+            for msg in tuple(t.latched):
+                self.graph.loop.call_soon(_deliver, sub, msg)
+        return sub
+
+    # services
+    def create_service(self, name: str, type: str, handler: Callable[[Message], Any]) -> SimService:
+        name = self.resolve(name)
+        type = normalize(type, 'srv')
+        self.graph.defs.srv(type)
+        old = self.graph._services.get(name)
+        if old is not None and old.node is not self:
+            raise BackendError(f'service {name} is already provided by {old.node.name}')
+        svc = SimService(self, name, type, handler)
+        self.graph._services[name] = svc
+        self._owned.add(svc)
+        return svc
+
+    # actions
+    def create_action_server(self, name: str, type: str, callbacks: ActionServerCallbacks) -> SimActionServer:
+        name = self.resolve(name)
+        type = normalize(type, 'action')
+        self.graph.defs.action(type)
+        old = self.graph._actions.get(name)
+        if old is not None:
+            raise BackendError(f'action {name} is already served by {old.node.name}')
+        server = SimActionServer(self, name, type, callbacks)
+        self.graph._actions[name] = server
+        self._owned.add(server)
+        return server
+
+    def create_simple_action_server(self, name: str, type: str,
+                                    execute: Callable[[SimServerGoal], Awaitable[Message]]) -> SimActionServer:
+        """An action server whose goals each run ``execute(goal)`` as a task.
+
+        ``execute`` returns the result; it should check ``goal.cancel_requested`` and call
+        ``goal.finish(STATUS_CANCELED, result)`` itself when it honours a cancel.
+        """
+        def on_goal(goal: SimServerGoal) -> None:
+            self.spawn(self._run_goal(goal, execute))
+
+        return self.create_action_server(name, type, ActionServerCallbacks(on_goal, lambda goal: None))
+
+    async def _run_goal(self, goal: SimServerGoal, execute) -> None:
+        try:
+            result = await execute(goal)
+            goal.finish(STATUS_SUCCEEDED, result)
+        except asyncio.CancelledError:
+            goal.finish(STATUS_ABORTED, self.graph.default_result(goal.server.type))
+            raise
+        except Exception:
+            log.exception('action %s failed', goal.server.name)
+            goal.finish(STATUS_ABORTED, self.graph.default_result(goal.server.type))
+
+    # parameters
+    def declare_parameter(self, name: str, value: Any, on_set: Callable[[Any], None] | None = None) -> None:
+        self.params[name] = value
+        if on_set:
+            self._param_hooks[name] = on_set
+
+    def set_parameter(self, name: str, value: Any) -> None:
+        old = self.params.get(name)
+        if old is not None and value is not None and type(old) is not type(value) and not (
+                isinstance(old, float) and isinstance(value, int) and not isinstance(value, bool)):
+            raise BackendError(f'parameter {name} of {self.name} is a {type(old).__name__}, '
+                               f'not a {type(value).__name__}')
+        if isinstance(old, float) and isinstance(value, int):
+            value = float(value)
+        self.params[name] = value
+        hook = self._param_hooks.get(name)
+        if hook:
+            hook(value)
+
+    # tasks and timers
+    def spawn(self, coro) -> asyncio.Task:
+        task = asyncio.ensure_future(coro)
+        self._tasks.add(task)
+        task.add_done_callback(self._tasks.discard)
+        return task
+
+    def create_timer(self, period: float, callback: Callable[[], Any]) -> asyncio.Task:
+        async def tick():
+            loop = asyncio.get_running_loop()
+            next_at = loop.time()
+            while True:
+                next_at += period
+                try:
+                    callback()
+                except Exception:
+                    log.exception('timer of %s failed', self.name)
+                await asyncio.sleep(max(0.0, next_at - loop.time()))
+        return self.spawn(tick())
+
+    def destroy(self) -> None:
+        for task in list(self._tasks):
+            task.cancel()
+        for entity in list(self._owned):
+            entity.destroy()
+        self.graph._nodes.pop(self.name, None)
+
+
+def _deliver(sub: SimSubscription, msg: Message) -> None:
+    if sub in sub._topic.subscriptions:
+        sub.callback(msg)
+
+
+class Graph:
+    def __init__(self, defs: Definitions | None = None):
+        self.defs = defs or Definitions.jazzy()
+        self._topics: dict[str, Topic] = {}
+        self._services: dict[str, SimService] = {}
+        self._actions: dict[str, SimActionServer] = {}
+        self._nodes: dict[str, Node] = {}
+        self._ids = itertools.count(1)
+
+    @property
+    def loop(self) -> asyncio.AbstractEventLoop:
+        return asyncio.get_running_loop()
+
+    def node(self, name: str, namespace: str = '/') -> Node:
+        node = Node(self, name, namespace)
+        if node.name in self._nodes:
+            raise BackendError(f'a node named {node.name} already exists')
+        self._nodes[node.name] = node
+        return node
+
+    def default_result(self, action_type: str) -> Message:
+        from protocol.convert import default_message
+        return default_message(self.defs, self.defs.action(action_type).result)
+
+    # --- endpoints ---------------------------------------------------------------------------
+
+    def _topic(self, name: str, type: str) -> Topic:
+        type = normalize(type, 'msg')
+        self.defs.msg(type)
+        topic = self._topics.get(name)
+        if topic is None:
+            topic = self._topics[name] = Topic(name, type)
+        elif topic.type != type:
+            raise BackendError(f'topic {name} has type {topic.type}, not {type}')
+        return topic
+
+    def _remove_endpoint(self, topic: Topic, endpoint, kind: str) -> None:
+        items = getattr(topic, kind)
+        if endpoint in items:
+            items.remove(endpoint)
+        if not topic.publishers and not topic.subscriptions and self._topics.get(topic.name) is topic:
+            del self._topics[topic.name]
+
+    # --- clients -----------------------------------------------------------------------------
+
+    async def call_service(self, name: str, request: Message, timeout: float | None) -> Message:
+        svc = self._services.get(name)
+        if svc is None:
+            raise BackendError(f'service {name} is not available')
+        try:
+            result = svc.handler(request)
+            if inspect.isawaitable(result):
+                result = await asyncio.wait_for(result, timeout)
+        except asyncio.TimeoutError:
+            raise ServiceTimeout(f'service {name} did not answer within {timeout} s') from None
+        except BackendError:
+            raise
+        except Exception as e:
+            log.exception('service %s failed', name)
+            raise BackendError(f'service {name} failed: {e}') from e
+        return result
+
+    async def send_goal(self, name: str, request: Message,
+                        on_feedback: Callable[[Message], None] | None) -> SimClientGoal:
+        server = self._actions.get(name)
+        if server is None:
+            raise BackendError(f'action server {name} is not available')
+        goal = SimServerGoal(server, request)
+        if on_feedback:
+            goal.feedback_listeners.append(on_feedback)
+        server.goals[goal.goal_id] = goal
+        server.callbacks.on_goal(goal)
+        return SimClientGoal(goal)
+
+    # --- introspection -----------------------------------------------------------------------
+
+    def topics(self) -> list[tuple[str, str]]:
+        return sorted((t.name, t.type) for t in self._topics.values())
+
+    def services(self) -> list[tuple[str, str]]:
+        return sorted((s.name, s.type) for s in self._services.values())
+
+    def actions(self) -> list[tuple[str, str]]:
+        return sorted((a.name, a.type) for a in self._actions.values())
+
+    def nodes(self) -> list[str]:
+        return sorted(self._nodes)
+
+    def get_node(self, name: str) -> Node:
+        try:
+            return self._nodes[resolve(name)]
+        except (KeyError, ValueError):
+            raise BackendError(f'no node named {name}') from None
+
+    def endpoints(self, topic: str, kind: str) -> list[str]:
+        t = self._topics.get(topic)
+        return sorted({e.node.name for e in getattr(t, kind)}) if t else []
+
+    def service_node(self, name: str) -> str | None:
+        svc = self._services.get(name)
+        return svc.node.name if svc else None

@@ -1,0 +1,126 @@
+"""send_action_goal, cancel_action_goal, advertise_action, action_feedback, action_result,
+unadvertise_action."""
+
+from __future__ import annotations
+
+import asyncio
+
+from protocol.convert import from_json
+from protocol.errors import ProtocolError
+from protocol.msgdefs import normalize
+from protocol.ops import (
+    ActionFeedback, ActionResult, AdvertiseAction, CancelActionGoal, SendActionGoal, UnadvertiseAction,
+)
+
+from ..backends.base import (
+    STATUS_ABORTED, STATUS_CANCELED, STATUS_SUCCEEDED, STATUS_UNKNOWN, ActionServerCallbacks, BackendError,
+)
+from ..session import ClientSession
+from .topics import absolute
+
+TERMINAL = (STATUS_SUCCEEDED, STATUS_CANCELED, STATUS_ABORTED)
+
+
+def send_action_goal(s: ClientSession, op: SendActionGoal) -> None:
+    s.spawn(_send_goal(s, op, op.id or s.next_id(f'send_action_goal:{op.action}')), op.OP, op.id)
+
+
+async def _send_goal(s: ClientSession, op: SendActionGoal, id: str) -> None:
+    name = absolute(op.action)
+    reply = {'op': 'action_result', 'action': op.action, 'id': id}
+    adef = None
+    try:
+        s.gateway.policy.check(s, 'send_goal', name, op.OP, id)
+        type = normalize(op.action_type, 'action')
+        adef = s.backend.action_def(type)
+        goal = from_json(s.backend.defs, adef.goal, op.args if op.args is not None else {})
+
+        def on_feedback(values: dict) -> None:
+            s.reply({'op': 'action_feedback', 'action': op.action, 'id': id, 'values': values},
+                    op.compression, op.fragment_size, msgdef=adef.feedback, defs=s.backend.defs, body='values')
+
+        handle = await s.backend.send_goal(name, type, goal, on_feedback if op.feedback else None)
+        s.client_goals[id] = handle
+        try:
+            outcome = await handle.result()
+        finally:
+            s.client_goals.pop(id, None)
+    except asyncio.CancelledError:
+        raise
+    except (ProtocolError, BackendError, LookupError, ValueError, TypeError) as e:
+        message = getattr(e, 'message', None) or str(e)
+        s.reply({**reply, 'values': message, 'status': STATUS_UNKNOWN, 'result': False})
+        return
+    s.reply({**reply, 'values': outcome.result, 'status': outcome.status, 'result': True},
+            op.compression, op.fragment_size, msgdef=adef.result, defs=s.backend.defs, body='values')
+
+
+def cancel_action_goal(s: ClientSession, op: CancelActionGoal) -> None:
+    handle = s.client_goals.get(op.id)
+    if handle is None:
+        s.status('warning', f'no running goal with id {op.id} on {op.action}', op.OP, op.id)
+        return
+    s.spawn(handle.cancel(), op.OP, op.id)
+
+
+def advertise_action(s: ClientSession, op: AdvertiseAction) -> None:
+    name = absolute(op.action)
+    s.gateway.policy.check(s, 'advertise_action', name, op.OP, op.id)
+    type = normalize(op.type, 'action')
+    adef = s.backend.action_def(type)
+    if name in s.actions:
+        _release(s, name)
+
+    def on_goal(goal) -> None:
+        s.server_goals[goal.goal_id] = (goal, name, adef)
+        s.reply({'op': 'send_action_goal', 'action': op.action, 'action_type': type,
+                 'id': goal.goal_id, 'args': goal.request, 'feedback': True})
+
+    def on_cancel(goal) -> None:
+        s.reply({'op': 'cancel_action_goal', 'action': op.action, 'id': goal.goal_id})
+
+    handle = s.backend.advertise_action(name, type, ActionServerCallbacks(on_goal, on_cancel))
+    s.actions[name] = (handle, adef)
+
+
+def _goal(s: ClientSession, op, remove: bool):
+    entry = (s.server_goals.pop if remove else s.server_goals.get)(op.id) if op.id else None
+    if entry is None:
+        raise ProtocolError(f'no goal with id {op.id} is running on {op.action}', op=op.OP, id=op.id)
+    return entry
+
+
+def action_feedback(s: ClientSession, op: ActionFeedback) -> None:
+    goal, _, adef = _goal(s, op, remove=False)
+    goal.publish_feedback(from_json(s.backend.defs, adef.feedback, op.values or {}))
+
+
+def action_result(s: ClientSession, op: ActionResult) -> None:
+    goal, _, adef = _goal(s, op, remove=True)
+    if op.result is False:
+        status, values = op.status if op.status in TERMINAL else STATUS_ABORTED, {}
+    else:
+        status = op.status if op.status in TERMINAL else STATUS_SUCCEEDED
+        values = op.values if isinstance(op.values, dict) else {}
+    try:
+        result = from_json(s.backend.defs, adef.result, values)
+    except ProtocolError:
+        goal.finish(STATUS_ABORTED, from_json(s.backend.defs, adef.result, {}))
+        raise
+    goal.finish(status, result)
+
+
+def unadvertise_action(s: ClientSession, op: UnadvertiseAction) -> None:
+    name = absolute(op.action)
+    if name not in s.actions:
+        s.status('warning', f'{name} is not advertised by this client', op.OP, op.id)
+        return
+    _release(s, name)
+
+
+def _release(s: ClientSession, name: str) -> None:
+    handle, _ = s.actions.pop(name)
+    for gid, (_, action, _) in list(s.server_goals.items()):
+        if action == name:
+            del s.server_goals[gid]
+    handle.destroy()

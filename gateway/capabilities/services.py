@@ -1,0 +1,129 @@
+"""call_service, advertise_service, service_response, unadvertise_service."""
+
+from __future__ import annotations
+
+import asyncio
+
+from protocol.convert import from_json
+from protocol.errors import ProtocolError
+from protocol.msgdefs import normalize
+from protocol.ops import AdvertiseService, CallService, ServiceResponse, UnadvertiseService
+
+from .. import rosapi
+from ..backends.base import BackendError
+from ..session import ClientSession
+from .topics import absolute
+
+
+def request_args(fields, args, op: str, id: str | None) -> dict:
+    """rosbridge accepts args as an object or as a list in field order."""
+    if args is None:
+        return {}
+    if isinstance(args, list):
+        if len(args) > len(fields):
+            raise ProtocolError(f'{len(args)} args given, the request has {len(fields)} fields', op=op, id=id)
+        return {f.name: v for f, v in zip(fields, args)}
+    return args
+
+
+def call_service(s: ClientSession, op: CallService) -> None:
+    s.spawn(_call(s, op), op.OP, op.id)
+
+
+async def _call(s: ClientSession, op: CallService) -> None:
+    name = absolute(op.service)
+    reply = {'op': 'service_response', 'service': op.service, 'id': op.id}
+    try:
+        s.gateway.policy.check(s, 'call', name, op.OP, op.id)
+        if rosapi.handles(name):
+            values = await rosapi.call(s, name, op.args)
+            srv = None
+        else:
+            type = normalize(op.type, 'srv') if op.type else service_type(s, name)
+            srv = s.backend.srv_def(type)
+            request = from_json(s.backend.defs, srv.request, request_args(srv.request.fields, op.args, op.OP, op.id))
+            timeout = op.timeout if op.timeout is not None else s.gateway.settings.default_call_service_timeout
+            values = await s.backend.call_service(name, type, request, timeout if timeout > 0 else None)
+    except asyncio.CancelledError:
+        raise
+    except (ProtocolError, BackendError, LookupError, ValueError, TypeError) as e:
+        s.reply({**reply, 'values': _sentence(e), 'result': False})
+        return
+    s.reply({**reply, 'values': values, 'result': True}, op.compression, op.fragment_size,
+            msgdef=srv.response if srv else None, defs=s.backend.defs, body='values')
+
+
+def _sentence(e: Exception) -> str:
+    return getattr(e, 'message', None) or str(e) or type(e).__name__
+
+
+def service_type(s: ClientSession, name: str) -> str:
+    for service, type in s.backend.services():
+        if service == name:
+            return type
+    raise BackendError(f'service {name} does not exist')
+
+
+def advertise_service(s: ClientSession, op: AdvertiseService) -> None:
+    name = absolute(op.service)
+    s.gateway.policy.check(s, 'advertise_service', name, op.OP, op.id)
+    type = normalize(op.type, 'srv')
+    srv = s.backend.srv_def(type)
+    owner = s.gateway.service_owners.get(name)
+    if owner is not None and owner is not s:   # re-advertising replaces, as in rosbridge
+        owner.status('warning', f'{name} was advertised again by another client', op.OP)
+        _release(owner, name)
+    elif name in s.services:
+        _release(s, name)
+
+    async def handler(request: dict) -> dict:
+        rid = f'service_request:{name}:{next(s._counter)}'
+        fut = asyncio.get_running_loop().create_future()
+        s.service_requests[rid] = (fut, srv)
+        s.reply({'op': 'call_service', 'id': rid, 'service': name, 'args': request})
+        try:
+            return await asyncio.wait_for(fut, s.gateway.settings.default_call_service_timeout)
+        except asyncio.TimeoutError:
+            raise BackendError(f'the client serving {name} did not answer in time') from None
+        finally:
+            s.service_requests.pop(rid, None)
+
+    s.services[name] = (s.backend.advertise_service(name, type, handler), srv)
+    s.gateway.service_owners[name] = s
+
+
+def service_response(s: ClientSession, op: ServiceResponse) -> None:
+    pending = s.service_requests.pop(op.id, None) if op.id else None
+    if pending is None:
+        s.status('warning', 'no request with this id is waiting for a response', op.OP, op.id)
+        return
+    fut, srv = pending
+    if fut.done():
+        return
+    if op.result is False:
+        fut.set_exception(BackendError(str(op.values) if op.values else 'the serving client failed the call'))
+        return
+    try:
+        values = from_json(s.backend.defs, srv.response, op.values if isinstance(op.values, dict) else {})
+    except ProtocolError as e:
+        fut.set_exception(BackendError(f'invalid response from the serving client: {e.message}'))
+        raise
+    fut.set_result(values)
+
+
+def unadvertise_service(s: ClientSession, op: UnadvertiseService) -> None:
+    name = absolute(op.service)
+    if name not in s.services:
+        s.status('warning', f'{name} is not advertised by this client', op.OP, op.id)
+        return
+    _release(s, name)
+
+
+def _release(s: ClientSession, name: str) -> None:
+    handle, _ = s.services.pop(name)
+    if s.gateway.service_owners.get(name) is s:
+        del s.gateway.service_owners[name]
+    for rid, (fut, _) in list(s.service_requests.items()):
+        if rid.startswith(f'service_request:{name}:') and not fut.done():
+            fut.set_exception(BackendError(f'{name} was unadvertised'))
+    handle.destroy()

@@ -1,0 +1,180 @@
+"""The ``rosgate`` command. Flags mirror rosbridge_server's parameters (``--port`` or ``port:=9090``)."""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import logging
+import os
+import signal
+import ssl
+import sys
+from dataclasses import fields
+from pathlib import Path
+
+import tornado.httpserver
+import tornado.netutil
+
+from .settings import Settings
+
+log = logging.getLogger('rosgate')
+
+
+def default_programs_dir() -> Path:
+    base = os.environ.get('XDG_DATA_HOME') or Path.home() / '.local' / 'share'
+    return Path(base) / 'rosgate' / 'programs'
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog='rosgate',
+        description='A rosbridge v2 gateway with an embedded ROS graph, simulated robots and a block IDE. '
+                    'Flags also accept the ROS form name:=value.')
+    d = Settings()
+    g = p.add_argument_group('rosbridge_server parameters')
+    g.add_argument('--port', type=int, default=d.port, help='port (0 picks a free one) [%(default)s]')
+    g.add_argument('--address', default=d.address, help='address to listen on (empty: all)')
+    g.add_argument('--url-path', default=d.url_path, help='websocket path [%(default)s]')
+    g.add_argument('--certfile', help='TLS certificate (with --keyfile: wss and https)')
+    g.add_argument('--keyfile', help='TLS private key')
+    g.add_argument('--max-message-size', type=int, default=d.max_message_size,
+                   help='largest incoming frame in bytes [%(default)s]')
+    g.add_argument('--fragment-timeout', type=float, default=d.fragment_timeout, help='[%(default)s] s')
+    g.add_argument('--unregister-timeout', type=float, default=d.unregister_timeout,
+                   help='grace before an unadvertised publisher is destroyed [%(default)s] s')
+    g.add_argument('--use-compression', action=argparse.BooleanOptionalAction, default=d.use_compression,
+                   help='permessage-deflate')
+    for kind in ('topics', 'services', 'params', 'actions', 'topics-pub', 'topics-sub'):
+        g.add_argument(f'--{kind}-glob', help=f"allowed {kind.replace('-', ' ')} names, e.g. \"['/turtle1/*']\"")
+    g.add_argument('--default-call-service-timeout', type=float, default=d.default_call_service_timeout,
+                   help='[%(default)s] s')
+    g.add_argument('--websocket-ping-interval', type=float, default=d.websocket_ping_interval)
+    g.add_argument('--websocket-ping-timeout', type=float, default=d.websocket_ping_timeout)
+    g.add_argument('--send-buffer-limit', type=int, default=d.send_buffer_limit,
+                   help='bytes queued per client before its topic messages are dropped [%(default)s]')
+    g.add_argument('--allowed-origins', help='browser origins allowed besides our own and localhost ("*" for any)')
+    b = p.add_argument_group('backend')
+    b.add_argument('--backend', choices=('auto', 'sim', 'rclpy'), default='auto',
+                   help='auto: rclpy when it imports, else the embedded sim [%(default)s]')
+    b.add_argument('--node-name', default=d.node_name, help='the gateway node name [%(default)s]')
+    b.add_argument('--talker', action='store_true', help='sim: publish /chatter once a second')
+    b.add_argument('--fibonacci-interval', type=float, default=1.0,
+                   help='sim: seconds between /fibonacci steps [%(default)s]')
+    b.add_argument('--programs-dir', type=Path, default=default_programs_dir(),
+                   help='where the IDE program library is stored [%(default)s]')
+    b.add_argument('--log-level', default='info', choices=('debug', 'info', 'warning', 'error'))
+    for extension in _extensions():
+        extension.add_arguments(p)
+    return p
+
+
+def _extensions() -> list:
+    """Optional parts that add flags of their own (robots, security)."""
+    found = []
+    for name in ('gateway.backends.sim.robots', 'gateway.security'):
+        try:
+            module = __import__(name, fromlist=['add_arguments'])
+        except ModuleNotFoundError as e:
+            if e.name != name:
+                raise
+            continue
+        if hasattr(module, 'add_arguments'):
+            found.append(module)
+    return found
+
+
+def ros_style(argv: list[str]) -> list[str]:
+    """Turn ROS launch style ``port:=9090`` into ``--port 9090``; ``--ros-args`` and after are kept aside."""
+    out = []
+    for arg in argv:
+        if ':=' in arg and not arg.startswith('-'):
+            key, value = arg.split(':=', 1)
+            out += [f"--{key.replace('_', '-')}", value]
+        else:
+            out.append(arg)
+    return out
+
+
+def settings_from(args: argparse.Namespace) -> Settings:
+    known = {f.name for f in fields(Settings)}
+    values = {k: v for k, v in vars(args).items() if k in known}
+    extra = {k: v for k, v in vars(args).items() if k not in known}
+    return Settings(**values, extra=extra)
+
+
+def make_backend(args: argparse.Namespace, ros_args: list[str]):
+    choice = args.backend
+    if choice == 'auto':
+        try:
+            import rclpy  # noqa: F401
+            choice = 'rclpy'
+        except ImportError:
+            choice = 'sim'
+    if choice == 'rclpy':
+        from .backends.rclpy_backend import RclpyBackend
+        return RclpyBackend(node_name=args.node_name, ros_args=ros_args)
+    from .backends.sim import SimBackend
+    robots = ()
+    try:
+        from .backends.sim import robots as robot_module
+    except ModuleNotFoundError:
+        robot_module = None
+    if hasattr(robot_module, 'specs_from_args'):
+        robots = robot_module.specs_from_args(args)
+    return SimBackend(node_name=args.node_name, talker=args.talker,
+                      fibonacci_interval=args.fibonacci_interval, robots=robots)
+
+
+async def serve(settings: Settings, backend, *, announce=print) -> None:
+    from .server import client_count_publisher, make_app
+
+    await backend.start()
+    app, gateway = make_app(settings, backend)
+    gateway.on_client_count = client_count_publisher(gateway)
+    gateway.on_client_count()
+    for extension in _extensions():
+        install = getattr(extension, 'install', None)
+        if install:
+            install(gateway, app)
+    ssl_ctx = None
+    if settings.certfile and settings.keyfile:
+        ssl_ctx = ssl.create_default_context(ssl.Purpose.CLIENT_AUTH)
+        ssl_ctx.load_cert_chain(settings.certfile, settings.keyfile)
+    server = tornado.httpserver.HTTPServer(app, ssl_options=ssl_ctx, max_buffer_size=settings.max_message_size * 4)
+    sockets = tornado.netutil.bind_sockets(settings.port, settings.address or None)
+    server.add_sockets(sockets)
+    port = sockets[0].getsockname()[1]
+    host = settings.address if settings.address not in ('', '0.0.0.0', '::') else 'localhost'
+    host = f'[{host}]' if ':' in host else host
+    http, ws = ('https', 'wss') if ssl_ctx else ('http', 'ws')
+    path = settings.url_path if settings.url_path.startswith('/') else '/' + settings.url_path
+    announce(f'rosgate: IDE {http}://{host}:{port}/ websocket {ws}://{host}:{port}{path} backend {backend.name}')
+
+    stop = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        loop.add_signal_handler(sig, stop.set)
+    await stop.wait()
+    log.info('shutting down')
+    server.stop()
+    await gateway.shutdown()
+    await backend.stop()
+    await server.close_all_connections()
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    ros_args: list[str] = []
+    if '--ros-args' in argv:
+        i = argv.index('--ros-args')
+        argv, ros_args = argv[:i], argv[i:]
+    args = build_parser().parse_args(ros_style(argv))
+    logging.basicConfig(level=args.log_level.upper(), format='%(asctime)s %(levelname)s %(name)s: %(message)s',
+                        stream=sys.stderr)
+    settings = settings_from(args)
+    backend = make_backend(args, ros_args)
+    try:
+        asyncio.run(serve(settings, backend, announce=lambda line: print(line, flush=True)))
+    except KeyboardInterrupt:
+        pass
+    return 0

@@ -1,0 +1,140 @@
+"""One backend subscription per topic, shared by every client subscribed to it.
+
+Each incoming message is encoded at most once per (compression, fragment_size) and the same
+frames are queued to every subscriber's outbox; throttle_rate and queue_length are applied per
+subscriber at its queue.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import itertools
+import time
+from typing import TYPE_CHECKING, Any
+
+from . import encode
+
+if TYPE_CHECKING:
+    from .session import ClientSession
+
+_fragment_ids = itertools.count(1)
+
+
+class Subscriber:
+    """One client's subscription to one topic (all its subscribe ids merged, as rosbridge does)."""
+
+    __slots__ = ('session', 'fanout', 'options', 'compression', 'fragment_size', 'throttle',
+                 'queue_length', 'last_sent', 'pending', 'timer', 'key')
+
+    def __init__(self, session: ClientSession, fanout: TopicFanout):
+        self.session, self.fanout = session, fanout
+        self.options: dict[str | None, tuple] = {}   # subscribe id -> (throttle_ms, queue_length, compression, fragment_size)
+        self.last_sent = 0.0
+        self.pending = None
+        self.timer = None
+        self.key = (fanout.topic, session.id)
+        self.compression, self.fragment_size, self.throttle, self.queue_length = 'none', None, 0.0, 0
+
+    def update(self, default_queue_length: int) -> None:
+        opts = list(self.options.values())
+        self.throttle = min(o[0] for o in opts) / 1000.0
+        lengths = [o[1] for o in opts]
+        self.queue_length = max(lengths) or default_queue_length
+        self.compression, self.fragment_size = opts[-1][2], opts[-1][3]
+
+    def deliver(self, frames: encode.Frames) -> None:
+        outbox = self.session.outbox
+        for payload, binary in frames:
+            outbox.message(payload, binary, self.key, self.queue_length)
+
+    def cancel(self) -> None:
+        if self.timer is not None:
+            self.timer.cancel()
+            self.timer = None
+        self.session.outbox.forget(self.key)
+
+
+class TopicFanout:
+    def __init__(self, gateway, topic: str, type: str):
+        self.gateway, self.topic, self.type = gateway, topic, type
+        backend = gateway.backend
+        self.msgdef = backend.msg_def(type)
+        self.subscribers: dict[int, Subscriber] = {}
+        self.last: dict | None = None
+        self.handle = backend.subscribe(topic, type, self._on_message)
+
+    def add(self, session: ClientSession, sid: str | None, options: tuple) -> Subscriber:
+        sub = self.subscribers.get(session.id)
+        if sub is None:
+            sub = self.subscribers[session.id] = Subscriber(session, self)
+        sub.options[sid] = options
+        sub.update(self.gateway.settings.default_queue_length)
+        return sub
+
+    def remove(self, session: ClientSession, sid: str | None) -> bool:
+        """Remove one subscribe id (or all with None); True once the client has none left."""
+        sub = self.subscribers.get(session.id)
+        if sub is None:
+            return True
+        if sid in sub.options:
+            del sub.options[sid]
+        else:   # no id, or one we never saw: the client means all of its subscriptions
+            sub.options.clear()
+        if sub.options:
+            sub.update(self.gateway.settings.default_queue_length)
+            return False
+        sub.cancel()
+        del self.subscribers[session.id]
+        if not self.subscribers:
+            self.gateway.drop_fanout(self)
+        return True
+
+    def destroy(self) -> None:
+        for sub in self.subscribers.values():
+            sub.cancel()
+        self.subscribers.clear()
+        self.handle.destroy()
+
+    # --- the hot path -----------------------------------------------------------------------
+
+    def replay_latched(self, sub: Subscriber) -> None:
+        """A client joining a shared subscription still gets a latched topic's last message."""
+        if self.last is not None and self.gateway.backend.latched(self.topic):
+            sub.last_sent = time.monotonic()
+            sub.deliver(self._encode(self.last, sub.compression, sub.fragment_size))
+
+    def _on_message(self, msg: dict) -> None:
+        self.last = msg
+        cache: dict[tuple, encode.Frames] = {}
+        now = time.monotonic()
+        for sub in tuple(self.subscribers.values()):
+            if sub.throttle:
+                if now - sub.last_sent < sub.throttle:
+                    sub.pending = msg   # keep the latest; sent when the period ends
+                    if sub.timer is None:
+                        delay = sub.throttle - (now - sub.last_sent)
+                        sub.timer = asyncio.get_running_loop().call_later(delay, self._flush, sub)
+                    continue
+                sub.last_sent = now
+            key = (sub.compression, sub.fragment_size)
+            frames = cache.get(key)
+            if frames is None:
+                frames = cache[key] = self._encode(msg, *key)
+            sub.deliver(frames)
+
+    def _flush(self, sub: Subscriber) -> None:
+        sub.timer = None
+        msg, sub.pending = sub.pending, None
+        if msg is not None and sub.session.id in self.subscribers:
+            sub.last_sent = time.monotonic()
+            sub.deliver(self._encode(msg, sub.compression, sub.fragment_size))
+
+    def _encode(self, msg: dict, compression: str, fragment_size: int | None) -> encode.Frames:
+        if compression == 'cbor-raw':
+            sec, nanosec = self.gateway.backend.now()
+            body: Any = {'secs': sec, 'nsecs': nanosec, 'bytes': self.gateway.backend.to_cdr(self.type, msg)}
+            return encode.frames({'op': 'publish', 'topic': self.topic, 'msg': body}, 'cbor-raw')
+        op = {'op': 'publish', 'topic': self.topic, 'msg': msg}
+        if fragment_size or compression == 'png':
+            op['id'] = f'publish:{self.topic}:{next(_fragment_ids)}'
+        return encode.frames(op, compression, fragment_size, msgdef=self.msgdef, defs=self.gateway.backend.defs)

@@ -1,0 +1,136 @@
+"""A bounded per-client send queue.
+
+Replies (service responses, action results, status) are never dropped. Topic messages are:
+each subscription keeps at most ``queue_length`` queued messages (oldest dropped first), and once
+the whole queue holds more than ``byte_limit`` bytes, new topic messages are dropped and the
+client is warned (at most once per ``warn_interval``). A slow client therefore loses its own
+oldest messages; it never grows server memory without bound nor stalls anyone else.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from collections import deque
+from collections.abc import Awaitable, Callable
+
+BATCH_BYTES = 256 * 1024   # written to the socket before waiting for it to drain
+
+
+class Entry:
+    __slots__ = ('frame', 'binary', 'key', 'size', 'alive')
+
+    def __init__(self, frame: bytes, binary: bool, key: object | None):
+        self.frame, self.binary, self.key = frame, binary, key
+        self.size = len(frame)
+        self.alive = True
+
+
+class Outbox:
+    def __init__(self, write: Callable[[bytes, bool], Awaitable[None] | None], *,
+                 byte_limit: int = 64 * 2**20, on_overflow: Callable[[int], None] | None = None,
+                 warn_interval: float = 5.0):
+        self._write = write          # ws.write_message(frame, binary=...) -> Future
+        self._queue: deque[Entry] = deque()
+        self._per_key: dict[object, deque[Entry]] = {}
+        self.byte_limit = byte_limit
+        self.queued_bytes = 0
+        self.dropped = 0
+        self._on_overflow = on_overflow
+        self._warn_interval = warn_interval
+        self._last_warn = -1e9
+        self._dropped_since_warn = 0
+        self._wakeup = asyncio.Event()
+        self._closed = False
+        self._task: asyncio.Task | None = None
+
+    def start(self) -> None:
+        self._task = asyncio.ensure_future(self._run())
+
+    def close(self) -> None:
+        self._closed = True
+        self._queue.clear()
+        self._per_key.clear()
+        self.queued_bytes = 0
+        self._wakeup.set()
+        if self._task:
+            self._task.cancel()
+
+    def reply(self, frame: bytes, binary: bool = False) -> None:
+        """Queue a frame that must not be dropped."""
+        if self._closed:
+            return
+        entry = Entry(frame, binary, None)
+        self._queue.append(entry)
+        self.queued_bytes += entry.size
+        self._wakeup.set()
+
+    def message(self, frame: bytes, binary: bool, key: object, queue_length: int) -> bool:
+        """Queue a topic message for subscription ``key``; False if it was dropped."""
+        if self._closed:
+            return False
+        if self.queued_bytes + len(frame) > self.byte_limit and self.queued_bytes:
+            self._drop_warning()
+            return False
+        entry = Entry(frame, binary, key)
+        per = self._per_key.get(key)
+        if per is None:
+            per = self._per_key[key] = deque()
+        per.append(entry)
+        if queue_length > 0:
+            while len(per) > queue_length:
+                old = per.popleft()
+                old.alive = False
+                self.queued_bytes -= old.size
+                self.dropped += 1
+        self._queue.append(entry)
+        self.queued_bytes += entry.size
+        self._wakeup.set()
+        return True
+
+    def forget(self, key: object) -> None:
+        """Drop everything still queued for a subscription that went away."""
+        for entry in self._per_key.pop(key, ()):
+            if entry.alive:
+                entry.alive = False
+                self.queued_bytes -= entry.size
+
+    def _drop_warning(self) -> None:
+        self.dropped += 1
+        self._dropped_since_warn += 1
+        now = asyncio.get_running_loop().time()
+        if self._on_overflow and now - self._last_warn >= self._warn_interval:
+            self._last_warn = now
+            count, self._dropped_since_warn = self._dropped_since_warn, 0
+            self._on_overflow(count)
+
+    async def _run(self) -> None:
+        try:
+            await self._pump()
+        except asyncio.CancelledError:
+            raise
+        except Exception:   # the connection went away under us; the handler cleans up
+            self._closed = True
+
+    async def _pump(self) -> None:
+        queue = self._queue
+        while not self._closed:
+            if not queue:
+                self._wakeup.clear()
+                await self._wakeup.wait()
+                continue
+            batch = 0
+            pending = None
+            while queue and batch < BATCH_BYTES:
+                entry = queue.popleft()
+                if not entry.alive:
+                    continue
+                entry.alive = False
+                self.queued_bytes -= entry.size
+                if entry.key is not None:
+                    per = self._per_key.get(entry.key)
+                    if per and per[0] is entry:
+                        per.popleft()
+                pending = self._write(entry.frame, entry.binary)
+                batch += entry.size
+            if pending is not None:
+                await pending   # flow control: wait until the socket took the batch

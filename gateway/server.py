@@ -1,0 +1,111 @@
+"""The tornado application: the rosbridge websocket, the IDE, and a small HTTP API."""
+
+from __future__ import annotations
+
+import logging
+import time
+
+import orjson
+import tornado.web
+import tornado.websocket
+
+from .backends.base import QoS
+from .core import Gateway
+from .session import ClientSession
+from .settings import Settings
+
+log = logging.getLogger('rosgate')
+HARD_LIMIT_FACTOR = 4   # frames up to this many times max_message_size get a status; larger ones close 1009
+
+
+class RosbridgeHandler(tornado.websocket.WebSocketHandler):
+    """Websocket upgrade on the rosbridge path; a plain GET there serves the IDE."""
+
+    def initialize(self, gateway: Gateway) -> None:
+        self.gateway = gateway
+        self.session: ClientSession | None = None
+
+    async def get(self, *args, **kwargs) -> None:
+        if self.request.headers.get('Upgrade', '').lower() != 'websocket':
+            index = self.gateway.settings.ide_dir / 'index.html'
+            if not index.is_file():
+                raise tornado.web.HTTPError(404)
+            self.set_header('Content-Type', 'text/html; charset=UTF-8')
+            self.write(index.read_bytes())
+            return
+        await super().get(*args, **kwargs)
+
+    def check_origin(self, origin: str) -> bool:
+        return self.gateway.policy.origin_allowed(origin, self.request)
+
+    def get_compression_options(self):
+        return {} if self.gateway.settings.use_compression else None
+
+    def open(self, *args, **kwargs) -> None:
+        self.set_nodelay(True)   # without it Nagle's algorithm stalls small messages
+        self.session = ClientSession(self.gateway, self._send, self.close, self.request.remote_ip or '')
+        self.session.attrs.update(self.gateway.policy.connect_attrs(self.request))
+        self.session.open()
+        self.gateway.client_count_changed()
+
+    def _send(self, payload: bytes, binary: bool):
+        return self.write_message(payload, binary=binary)
+
+    def on_message(self, message: str | bytes) -> None:
+        if self.session is not None:
+            self.session.receive(message)
+
+    def on_close(self) -> None:
+        if self.session is not None:
+            self.session.close()
+            self.gateway.client_count_changed()
+
+
+class HealthHandler(tornado.web.RequestHandler):
+    def initialize(self, gateway: Gateway) -> None:
+        self.gateway = gateway
+
+    def get(self) -> None:
+        gw = self.gateway
+        self.set_header('Content-Type', 'application/json')
+        self.write(orjson.dumps({
+            'status': 'ok', 'backend': gw.backend.name, 'clients': len(gw.sessions),
+            'uptime': round(time.time() - gw.started, 3), 'topics': len(gw.fanouts),
+        }))
+
+
+class IdeFileHandler(tornado.web.StaticFileHandler):
+    """The static IDE; vendored files may change between installs, so revalidate them."""
+
+    def set_extra_headers(self, path: str) -> None:
+        self.set_header('Cache-Control', 'no-cache')
+
+
+def make_app(settings: Settings, backend) -> tuple[tornado.web.Application, Gateway]:
+    gateway = Gateway(settings, backend)
+    ws_path = settings.url_path.rstrip('/') or '/'
+    routes: list = [(ws_path if ws_path == '/' else ws_path + '/?', RosbridgeHandler, {'gateway': gateway})]
+    routes += [
+        (r'/health', HealthHandler, {'gateway': gateway}),
+        (r'/teleop/?', IdeFileHandler, {'path': str(settings.ide_dir), 'default_filename': 'teleop.html'}),
+        (r'/examples/(.*)', IdeFileHandler, {'path': str(settings.examples_dir)}),
+    ]
+    if settings.programs_dir is not None:
+        from .programs import program_routes
+        routes += program_routes(settings.programs_dir)
+    routes += gateway.policy.http_routes()
+    routes.append((r'/(.*)', IdeFileHandler, {'path': str(settings.ide_dir), 'default_filename': 'index.html'}))
+    app = tornado.web.Application(
+        routes,
+        websocket_max_message_size=settings.max_message_size * HARD_LIMIT_FACTOR,
+        websocket_ping_interval=settings.websocket_ping_interval or None,
+        websocket_ping_timeout=settings.websocket_ping_timeout,
+        compress_response=True,
+    )
+    return app, gateway
+
+
+def client_count_publisher(gateway: Gateway):
+    """rosbridge publishes the number of connected clients, latched, on /client_count."""
+    pub = gateway.backend.create_publisher('/client_count', 'std_msgs/msg/Int32', QoS(depth=1, transient_local=True))
+    return lambda: pub.publish({'data': len(gateway.sessions)})

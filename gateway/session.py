@@ -1,0 +1,181 @@
+"""One connected client: its protocol state, outbox, and every ROS entity it created."""
+
+from __future__ import annotations
+
+import asyncio
+import itertools
+import logging
+from collections.abc import Callable, Coroutine
+from typing import TYPE_CHECKING, Any
+
+from protocol.errors import ProtocolError
+from protocol.msgdefs import UnknownType
+from protocol.session import Session
+
+from . import encode
+from .backends.base import BackendError
+from .outbox import Outbox
+
+if TYPE_CHECKING:
+    from .core import Gateway
+
+log = logging.getLogger('rosgate')
+_session_ids = itertools.count(1)
+CLIENT_ERRORS = (ProtocolError, BackendError, UnknownType, ValueError, TypeError)
+
+
+class ClientSession:
+    def __init__(self, gateway: Gateway, send: Callable[[bytes, bool], Any],
+                 close: Callable[[int, str], None], remote: str = ''):
+        settings = gateway.settings
+        self.id = next(_session_ids)
+        self.gateway, self.backend, self.remote = gateway, gateway.backend, remote
+        self.proto = Session(fragment_timeout=settings.fragment_timeout,
+                             max_message_size=settings.max_message_size)
+        self.outbox = Outbox(send, byte_limit=settings.send_buffer_limit, on_overflow=self._overflow)
+        self._close_connection = close
+        self.subscriptions: dict[str, Any] = {}        # topic -> fanout.Subscriber
+        self.publishers: dict[str, Any] = {}           # topic -> core.SharedPublisher
+        self.services: dict[str, Any] = {}             # service -> (handle, SrvDef)
+        self.service_requests: dict[str, tuple[asyncio.Future, Any]] = {}
+        self.actions: dict[str, Any] = {}              # action -> (handle, ActionDef)
+        self.server_goals: dict[str, Any] = {}         # goal id -> (ServerGoal, action)
+        self.client_goals: dict[str, Any] = {}         # send_action_goal id -> ClientGoal
+        self.tasks: set[asyncio.Task] = set()
+        self.attrs: dict[str, Any] = {}                # role, lease, ... for policy hooks
+        self.closed = False
+        self._counter = itertools.count(1)
+
+    def open(self) -> None:
+        self.outbox.start()
+        self.gateway.add(self)
+
+    def next_id(self, prefix: str) -> str:
+        return f'{prefix}:{next(self._counter)}'
+
+    # --- incoming ----------------------------------------------------------------------------
+
+    def receive(self, data: str | bytes) -> None:
+        if self.closed:
+            return
+        now = asyncio.get_running_loop().time()
+        if isinstance(data, bytes):
+            items = self.proto.receive_bytes(data, now)
+        else:
+            items = self.proto.receive_text(data, now)
+        from .capabilities import HANDLERS
+        for item in items:
+            if isinstance(item, ProtocolError):
+                self.report(item.op, item.id, item)
+                continue
+            handler = HANDLERS.get(type(item))
+            if handler is None:
+                continue
+            try:
+                handler(self, item)
+            except Exception as e:  # the one catch site: every failure becomes a status
+                self.report(item.OP, item.id, e)
+
+    def spawn(self, coro: Coroutine, op: str, id: str | None) -> asyncio.Task:
+        """Run long work (calls, goals) without blocking this client's later ops."""
+        task = asyncio.ensure_future(coro)
+        self.tasks.add(task)
+
+        def done(t: asyncio.Task) -> None:
+            self.tasks.discard(t)
+            if not t.cancelled() and t.exception() is not None:
+                self.report(op, id, t.exception())
+
+        task.add_done_callback(done)
+        return task
+
+    # --- outgoing ----------------------------------------------------------------------------
+
+    def reply(self, op: dict, compression: str = 'none', fragment_size: int | None = None, **kw) -> None:
+        if self.closed:
+            return
+        for payload, binary in encode.frames(op, compression, fragment_size, **kw):
+            self.outbox.reply(payload, binary)
+
+    def status(self, level: str, msg: str, op: str | None = None, id: str | None = None) -> None:
+        text = msg
+        if op:
+            text = f'{op}{f" (id {id})" if id else ""}: {msg}'
+        status = self.proto.status(level, text, id=id, op=op)
+        if status is not None:
+            self.reply(status)
+
+    def report(self, op: str | None, id: str | None, exc: BaseException) -> None:
+        if isinstance(exc, ProtocolError):
+            message = exc.message
+            if op and message.startswith(f'{op}:'):
+                message = message[len(op) + 1:].lstrip()
+            self.status(exc.level, message, op, id)
+        elif isinstance(exc, CLIENT_ERRORS):
+            self.status('error', str(exc) or type(exc).__name__, op, id)
+        elif isinstance(exc, KeyError):
+            self.status('error', f'not found: {exc.args[0] if exc.args else exc}', op, id)
+        else:
+            log.error('internal error handling %s (id %s)', op, id, exc_info=exc)
+            self.status('error', f'internal error ({type(exc).__name__}); the server carries on', op, id)
+
+    def _overflow(self, dropped: int) -> None:
+        status = self.proto.status(
+            'warning', f'client is not reading fast enough: dropped {dropped} topic messages '
+                       f'(send buffer over {self.outbox.byte_limit} bytes)')
+        if status is not None:
+            self.outbox.reply(encode.text(status))
+
+    def close_connection(self, code: int, reason: str) -> None:
+        self._close_connection(code, reason)
+
+    # --- teardown ----------------------------------------------------------------------------
+
+    def close(self) -> None:
+        """Release every entity this client created (the connection is gone)."""
+        if self.closed:
+            return
+        self.closed = True
+        gateway = self.gateway
+        for hook in gateway.hooks:
+            on_close = getattr(hook, 'on_close', None)
+            if on_close:
+                try:
+                    on_close(self)
+                except Exception:
+                    log.exception('close hook failed')
+        for task in list(self.tasks):
+            task.cancel()
+        for goal in list(self.client_goals.values()):
+            asyncio.ensure_future(_quiet(goal.cancel()))
+        self.client_goals.clear()
+        for topic in list(self.subscriptions):
+            fan = gateway.fanouts.get(topic)
+            if fan is not None:
+                fan.remove(self, None)
+        self.subscriptions.clear()
+        for pub in self.publishers.values():
+            pub.detach(self.id)
+        self.publishers.clear()
+        for fut, _ in self.service_requests.values():
+            if not fut.done():
+                fut.set_exception(BackendError('the client serving this service disconnected'))
+        self.service_requests.clear()
+        for name, (handle, _) in self.services.items():
+            if gateway.service_owners.get(name) is self:
+                del gateway.service_owners[name]
+            handle.destroy()
+        self.services.clear()
+        for handle, _ in self.actions.values():
+            handle.destroy()   # aborts goals still running
+        self.actions.clear()
+        self.server_goals.clear()
+        self.outbox.close()
+        gateway.remove(self)
+
+
+async def _quiet(coro) -> None:
+    try:
+        await coro
+    except Exception:
+        pass

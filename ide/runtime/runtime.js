@@ -1,0 +1,363 @@
+// The API that generated JavaScript calls. Every call that talks to ROS returns a
+// Promise that rejects on a rosbridge `status` error or a failed result. stop()
+// ends the program: pending waits reject, subscriptions end, goals are cancelled
+// and every velocity topic the program drove gets a zero command.
+import { fmt, field, yaw, rangeAt, zeroVelocity, isVelocityType, poseOf, angleDiff }
+  from './util.js';
+
+export { fmt, field, yaw, rangeAt };
+
+export class StopSignal extends Error {
+  constructor() { super('program stopped'); this.name = 'StopSignal'; }
+}
+
+export class RosError extends Error {
+  constructor(msg) { super(msg); this.name = 'RosError'; }
+}
+
+let runCounter = 0;
+
+export class Runtime {
+  /**
+   * @param ros a connected roslib Ros
+   * @param hooks {log(text), highlight(blockId), error(err, blockId), idle()}
+   */
+  constructor(ros, hooks = {}) {
+    this.ros = ros;
+    this.hooks = hooks;
+    this.run = ++runCounter;
+    this.n = 0;
+    this.stopped = false;
+    this.paused = false;
+    this.current = null;          // id of the block running now
+    this.started = performance.now();
+    this.pending = new Set();     // {reject} of every promise stop() must end
+    this.subs = new Map();        // topic -> {id, type, latest, waiters:Set, handlers:[]}
+    this.advertised = new Map();  // topic -> type
+    this.velocityTopics = new Map();
+    this.goals = new Map();       // goal id -> action
+    this.statusIds = new Set();
+    this.lastYield = performance.now();
+    this._gate = null;
+    this._onStatus = (m) => this._status(m);
+  }
+
+  _id(op, name) { return `${op}:${name}:rosgate${this.run}.${++this.n}`; }
+
+  _send(msg) { this.ros.callOnConnection(msg); }
+
+  // A promise that stop() rejects.
+  _track(executor) {
+    let entry;
+    const p = new Promise((resolve, reject) => {
+      entry = { reject };
+      this.pending.add(entry);
+      executor((v) => { this.pending.delete(entry); resolve(v); },
+        (e) => { this.pending.delete(entry); reject(e); }, entry);
+    });
+    if (this.stopped) { this.pending.delete(entry); return Promise.reject(new StopSignal()); }
+    return p;
+  }
+
+  _watchStatus(id, onError) {
+    const ev = `status:${id}`;
+    const cb = (m) => { if (m.level === 'error') onError(m); };
+    this.ros.on(ev, cb);
+    return () => this.ros.off(ev, cb);
+  }
+
+  // ---- program control -------------------------------------------------
+  async step(blockId) {
+    if (this.stopped) throw new StopSignal();
+    this.current = blockId;
+    this.hooks.highlight?.(blockId);
+    if (this.paused) {
+      await this._track((resolve, reject, entry) => { this._gate = { resolve, entry }; });
+    }
+    await this.tick();
+  }
+
+  // Loop trap: lets the page breathe inside tight loops.
+  async tick() {
+    if (this.stopped) throw new StopSignal();
+    const now = performance.now();
+    if (now - this.lastYield > 30) {
+      this.lastYield = now;
+      await new Promise((r) => setTimeout(r, 0));
+      if (this.stopped) throw new StopSignal();
+    }
+  }
+
+  pause() { this.paused = true; }
+  resume() { this.paused = false; this._release(); }
+  stepOnce() { this.paused = true; this._release(); }
+  _release() { const g = this._gate; this._gate = null; g?.resolve(); }
+
+  elapsed() { return (performance.now() - this.started) / 1000; }
+
+  sleep(seconds) {
+    const ms = Math.max(0, Number(seconds) || 0) * 1000;
+    return this._track((resolve) => { setTimeout(resolve, ms); });
+  }
+
+  log(value) { this.hooks.log?.(fmt(value)); }
+
+  // ---- topics ----------------------------------------------------------
+  advertise(topic, type) {
+    if (this.advertised.get(topic) === type) return;
+    const id = this._id('advertise', topic);
+    this._watchStatus(id, (m) => this._fail(`advertise ${topic}: ${m.msg}`));
+    this._send({ op: 'advertise', id, topic, type });
+    this.advertised.set(topic, type);
+  }
+
+  publish(topic, type, msg) {
+    if (this.stopped) throw new StopSignal();
+    this.advertise(topic, type);
+    if (isVelocityType(type)) this.velocityTopics.set(topic, type);
+    this._send({ op: 'publish', topic, msg });
+  }
+
+  _subscribe(topic, type) {
+    let sub = this.subs.get(topic);
+    if (sub) return sub;
+    const id = this._id('subscribe', topic);
+    sub = { id, type, latest: undefined, waiters: new Set(), handlers: [] };
+    sub.listener = (m) => this._deliver(sub, m.msg);
+    sub.unwatch = this._watchStatus(id, (m) => {
+      const err = new RosError(`subscribe ${topic}: ${m.msg}`);
+      for (const w of sub.waiters) w.reject(err);
+      sub.waiters.clear();
+      this._fail(err.message);
+    });
+    this.ros.on(topic, sub.listener);
+    this.subs.set(topic, sub);
+    this._send({ op: 'subscribe', id, topic, type });
+    return sub;
+  }
+
+  _deliver(sub, msg) {
+    if (this.stopped) return;
+    sub.latest = msg;
+    for (const w of sub.waiters) w.resolve(msg);
+    sub.waiters.clear();
+    for (const h of sub.handlers) h(msg);
+  }
+
+  _next(sub, timeout) {
+    return this._track((resolve, reject) => {
+      let timer = null;
+      const w = {
+        resolve: (m) => { clearTimeout(timer); resolve(m); },
+        reject: (e) => { clearTimeout(timer); reject(e); },
+      };
+      sub.waiters.add(w);
+      if (timeout > 0) {
+        timer = setTimeout(() => {
+          sub.waiters.delete(w);
+          reject(new RosError(`no message on ${this._topicOf(sub)} within ${timeout} s`));
+        }, timeout * 1000);
+      }
+    });
+  }
+
+  _topicOf(sub) { for (const [t, s] of this.subs) if (s === sub) return t; return '?'; }
+
+  // Runs handler(msg) for every message; a handler still busy keeps only the newest message.
+  onMessage(topic, type, handler) {
+    const sub = this._subscribe(topic, type);
+    let busy = false;
+    let queued;
+    let hasQueued = false;
+    const blockId = this.current;
+    const run = async (msg) => {
+      busy = true;
+      try {
+        await handler(msg);
+      } catch (e) {
+        if (!(e instanceof StopSignal)) this._fail(e, this.current ?? blockId);
+        return;
+      } finally { busy = false; }
+      if (hasQueued && !this.stopped) { hasQueued = false; run(queued); }
+    };
+    sub.handlers.push((msg) => {
+      if (busy) { queued = msg; hasQueued = true; } else run(msg);
+    });
+  }
+
+  async waitForMessage(topic, type, timeout = 0) {
+    return this._next(this._subscribe(topic, type), Number(timeout) || 0);
+  }
+
+  async latest(topic, type, path = '') {
+    const sub = this._subscribe(topic, type);
+    const msg = sub.latest !== undefined ? sub.latest : await this._next(sub, 10);
+    return path ? field(msg, path) : msg;
+  }
+
+  // ---- services and actions ------------------------------------------
+  callService(service, type, args = {}, timeout = 0) {
+    const id = this._id('call_service', service);
+    return this._track((resolve, reject) => {
+      const done = () => { this.ros.off(id, onReply); unwatch(); };
+      const onReply = (m) => {
+        if (m.op !== 'service_response') return;
+        done();
+        if (m.result === false) {
+          reject(new RosError(`service ${service} failed: ${typeof m.values === 'string' ? m.values : JSON.stringify(m.values)}`));
+        } else resolve(m.values ?? {});
+      };
+      const unwatch = this._watchStatus(id, (m) => {
+        done();
+        reject(new RosError(`call_service ${service}: ${m.msg}`));
+      });
+      this.ros.on(id, onReply);
+      const op = { op: 'call_service', id, service, args: args ?? {} };
+      if (type) op.type = type;
+      if (timeout > 0) op.timeout = Number(timeout);
+      this._send(op);
+    });
+  }
+
+  sendGoal(action, type, goal = {}, onFeedback = null) {
+    const id = this._id('send_action_goal', action);
+    const blockId = this.current;
+    let fbBusy = false;
+    return this._track((resolve, reject) => {
+      const done = () => { this.ros.off(id, onReply); unwatch(); this.goals.delete(id); };
+      const onReply = (m) => {
+        if (m.op === 'action_feedback') {
+          if (!onFeedback || fbBusy || this.stopped) return;
+          fbBusy = true;
+          Promise.resolve().then(() => onFeedback(m.values)).catch((e) => {
+            if (!(e instanceof StopSignal)) this._fail(e, this.current ?? blockId);
+          }).finally(() => { fbBusy = false; });
+        } else if (m.op === 'action_result') {
+          done();
+          if (m.result === false || (m.status !== undefined && m.status !== 4)) {
+            const what = { 5: 'was canceled', 6: 'was aborted' }[m.status] ?? `ended with status ${m.status}`;
+            const detail = typeof m.values === 'string' ? `: ${m.values}` : '';
+            reject(new RosError(`action ${action} ${what}${detail}`));
+          } else resolve(m.values ?? {});
+        }
+      };
+      const unwatch = this._watchStatus(id, (m) => {
+        done();
+        reject(new RosError(`send_action_goal ${action}: ${m.msg}`));
+      });
+      this.ros.on(id, onReply);
+      this.goals.set(id, action);
+      this._send({ op: 'send_action_goal', id, action, action_type: type, args: goal ?? {}, feedback: true });
+    });
+  }
+
+  cancel(action) {
+    for (const [id, a] of this.goals) {
+      if (!action || a === action) this._send({ op: 'cancel_action_goal', id, action: a });
+    }
+  }
+
+  // ---- robot helpers ---------------------------------------------------
+  stopRobot() {
+    for (const [topic, type] of this.velocityTopics) {
+      this._send({ op: 'publish', topic, msg: zeroVelocity(type) });
+    }
+  }
+
+  // Publishes msg at 10 Hz for `seconds`, then zero.
+  async drive(topic, type, msg, seconds) {
+    const end = performance.now() + Math.max(0, Number(seconds) || 0) * 1000;
+    try {
+      while (performance.now() < end) {
+        this.publish(topic, type, msg);
+        await this.sleep(Math.min(0.1, (end - performance.now()) / 1000));
+      }
+    } finally {
+      if (!this.stopped) this.publish(topic, type, zeroVelocity(type));
+    }
+  }
+
+  // Drives straight for `distance` (negative: backwards), closed loop on the pose topic.
+  async move(spec, distance, speed = 1) {
+    distance = Number(distance) || 0;
+    const start = poseOf(await this.latest(spec.pose, spec.pose_type), spec.pose_type);
+    const sign = Math.sign(distance);
+    const goal = Math.abs(distance);
+    const type = spec.type ?? 'geometry_msgs/msg/Twist';
+    try {
+      for (;;) {
+        const p = poseOf(await this.latest(spec.pose, spec.pose_type), spec.pose_type);
+        const remaining = goal - Math.hypot(p.x - start.x, p.y - start.y);
+        if (remaining <= 0.005) break;
+        const v = Math.max(0.05, Math.min(Number(speed), 2 * remaining));
+        this.publish(spec.cmd, type, twist(type, sign * v, 0));
+        await this.sleep(0.02);
+      }
+    } finally {
+      if (!this.stopped) this.publish(spec.cmd, type, zeroVelocity(type));
+    }
+  }
+
+  // Turns by `degrees` (positive: left), closed loop on the pose topic.
+  async turn(spec, degrees, speed = 90) {
+    const target = (Number(degrees) || 0) * Math.PI / 180;
+    const rate = Number(speed) * Math.PI / 180;
+    const type = spec.type ?? 'geometry_msgs/msg/Twist';
+    let last = poseOf(await this.latest(spec.pose, spec.pose_type), spec.pose_type).theta;
+    let turned = 0;
+    try {
+      for (;;) {
+        const th = poseOf(await this.latest(spec.pose, spec.pose_type), spec.pose_type).theta;
+        turned += angleDiff(th, last);
+        last = th;
+        const remaining = target - turned;
+        if (Math.abs(remaining) <= 0.003) break;
+        const w = Math.max(0.05, Math.min(rate, 2 * Math.abs(remaining)));
+        this.publish(spec.cmd, type, twist(type, 0, Math.sign(remaining) * w));
+        await this.sleep(0.02);
+      }
+    } finally {
+      if (!this.stopped) this.publish(spec.cmd, type, zeroVelocity(type));
+    }
+  }
+
+  field(obj, path) { return field(obj, path); }
+  yaw(q) { return yaw(q); }
+  rangeAt(scan, degrees, window) { return rangeAt(scan, degrees, window); }
+
+  // ---- errors and the end --------------------------------------------
+  _status(m) {
+    if (m.level === 'error') this.hooks.log?.(`[gateway] ${m.msg}`, 'error');
+  }
+
+  _fail(err, blockId = this.current) {
+    if (this.stopped) return;
+    const e = err instanceof Error ? err : new RosError(String(err));
+    this.hooks.error?.(e, blockId);
+  }
+
+  // Ends the program; safe to call more than once and from pagehide.
+  stop() {
+    if (this.stopped) return;
+    this.stopped = true;
+    this.stopRobot();
+    this.cancel();
+    for (const [topic, sub] of this.subs) {
+      this.ros.off(topic, sub.listener);
+      sub.unwatch();
+      this._send({ op: 'unsubscribe', id: sub.id, topic });
+    }
+    this.subs.clear();
+    for (const topic of this.advertised.keys()) this._send({ op: 'unadvertise', topic });
+    this.advertised.clear();
+    const signal = new StopSignal();
+    for (const p of this.pending) p.reject(signal);
+    this.pending.clear();
+    this._release();
+  }
+}
+
+function twist(type, linear, angular) {
+  const t = { linear: { x: linear, y: 0, z: 0 }, angular: { x: 0, y: 0, z: angular } };
+  return /TwistStamped$/.test(type) ? { header: { frame_id: '' }, twist: t } : t;
+}

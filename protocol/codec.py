@@ -1,0 +1,273 @@
+"""Wire encodings: JSON and CBOR frames, png compression, outgoing fragments and their reassembly."""
+
+from __future__ import annotations
+
+import array
+import binascii
+import io
+import json
+import math
+import sys
+
+import cbor2
+import orjson
+
+from .errors import ProtocolError, json_type
+from .ops import Fragment
+
+_DUMPS_OPTIONS = orjson.OPT_SERIALIZE_NUMPY
+_LITTLE = sys.byteorder == 'little'
+
+# RFC 8746 little-endian typed-array tags by (kind, item size)
+_TAGS = {('u', 1): 64, ('i', 1): 72, ('u', 2): 69, ('i', 2): 77, ('u', 4): 70, ('i', 4): 78,
+         ('u', 8): 71, ('i', 8): 79, ('f', 4): 85, ('f', 8): 86}
+
+
+def _kind(code: str) -> str:
+    return 'f' if code in 'fd' else 'u' if code.isupper() else 'i'
+
+
+_CODE_OF: dict[tuple[str, int], str] = {}  # (kind, size) -> array typecode
+for _c in 'bBhHiIlLqQfd':
+    _CODE_OF.setdefault((_kind(_c), array.array(_c).itemsize), _c)
+_TAG_OF_CODE = {c: _TAGS[(_kind(c), array.array(c).itemsize)] for c in 'bBhHiIlLqQfd'}
+TYPED_ARRAY_TAGS = {tag: _CODE_OF[key] for key, tag in _TAGS.items()}
+
+
+# --- JSON ---------------------------------------------------------------------------------------
+
+def _json_default(value):
+    if isinstance(value, (bytes, bytearray, memoryview)):
+        return binascii.b2a_base64(value, newline=False).decode('ascii')
+    if isinstance(value, array.array):
+        return value.tolist()
+    tolist = getattr(value, 'tolist', None)  # numpy arrays and scalars orjson declined
+    if tolist is not None:
+        return tolist()
+    raise TypeError(f'cannot encode {type(value).__name__} as JSON')
+
+
+def dumps(obj) -> bytes:
+    """JSON bytes; bytes become base64 strings and NaN/Inf become null (in lists too)."""
+    return orjson.dumps(obj, default=_json_default, option=_DUMPS_OPTIONS)
+
+
+def _constant(token: str) -> float:
+    return {'NaN': math.nan, 'Infinity': math.inf, '-Infinity': -math.inf}[token]
+
+
+def decode_text(data: str | bytes) -> dict:
+    """A JSON text frame as an op object; ProtocolError on bad JSON or a non-object."""
+    try:
+        obj = orjson.loads(data)
+    except orjson.JSONDecodeError as e:
+        # Python clients (json.dumps) send NaN/Infinity tokens that strict JSON parsers refuse
+        try:
+            obj = json.loads(data, parse_constant=_constant)
+        except (ValueError, RecursionError):
+            raise ProtocolError(f'invalid JSON: {e}') from None
+    if type(obj) is not dict:
+        raise ProtocolError(f'expected a JSON object, got {json_type(obj)}')
+    return obj
+
+
+# --- CBOR ---------------------------------------------------------------------------------------
+
+def _typed_array(tag: int, payload: bytes) -> list:
+    values = array.array(TYPED_ARRAY_TAGS[tag])
+    if len(payload) % values.itemsize:
+        raise ValueError(f'typed array tag {tag}: {len(payload)} bytes is not a whole number of items')
+    values.frombytes(payload)
+    if not _LITTLE:
+        values.byteswap()
+    return values.tolist()
+
+
+def _tag_hook(decoder, tag):
+    if tag.tag in TYPED_ARRAY_TAGS and isinstance(tag.value, bytes):
+        return _typed_array(tag.tag, tag.value)
+    return tag
+
+
+def decode_binary(data: bytes) -> dict:
+    """A CBOR binary frame as an op object (typed arrays become lists); ProtocolError otherwise."""
+    try:
+        obj = cbor2.loads(data, tag_hook=_tag_hook, max_depth=100, strict_hashable_types=True)
+    except (cbor2.CBORError, ValueError, TypeError, OverflowError, RecursionError) as e:
+        raise ProtocolError(f'invalid CBOR: {e}') from None
+    if type(obj) is not dict:
+        raise ProtocolError(f'expected a CBOR map, got {json_type(obj)}')
+    return obj
+
+
+def typed_array_tag(values: array.array) -> cbor2.CBORTag:
+    """An array.array as its RFC 8746 little-endian typed-array tag."""
+    if not _LITTLE:
+        values = array.array(values.typecode, values)
+        values.byteswap()
+    return cbor2.CBORTag(_TAG_OF_CODE[values.typecode], values.tobytes())
+
+
+def _cbor_default(encoder, value):
+    if isinstance(value, array.array) and value.typecode in _TAG_OF_CODE:
+        encoder.encode(typed_array_tag(value))
+    elif isinstance(value, memoryview):
+        encoder.encode(bytes(value))
+    elif hasattr(value, 'dtype') and hasattr(value, 'tolist'):  # numpy
+        if value.ndim == 1 and (value.dtype.kind, value.dtype.itemsize) in _CODE_OF:
+            encoder.encode(typed_array_tag(array.array(_numpy_code(value), value.tobytes())))
+        else:
+            encoder.encode(value.tolist())
+    else:
+        raise cbor2.CBOREncodeTypeError(f'cannot encode {type(value).__name__} as CBOR')
+
+
+def _numpy_code(value) -> str:
+    return _CODE_OF[(value.dtype.kind, value.dtype.itemsize)]
+
+
+def encode_cbor(obj) -> bytes:
+    """CBOR bytes; bytes stay byte strings, typed-array tags from convert.to_cbor pass through."""
+    return cbor2.dumps(obj, default=_cbor_default)
+
+
+# --- png ----------------------------------------------------------------------------------------
+
+def png_encode(frame: bytes | str) -> str:
+    """rosbridge png compression: the bytes as pixels of a near-square RGB image padded with '\\n'."""
+    from PIL import Image  # noqa: PLC0415 (pillow is only needed by png subscribers)
+
+    if isinstance(frame, str):
+        frame = frame.encode()
+    length = len(frame)
+    width = max(1, math.floor(math.sqrt(length / 3.0)))
+    height = max(1, math.ceil(length / 3.0 / width))
+    padded = bytes(frame) + b'\n' * (width * height * 3 - length)
+    buf = io.BytesIO()
+    Image.frombytes('RGB', (width, height), padded).save(buf, 'png')
+    return binascii.b2a_base64(buf.getvalue(), newline=False).decode('ascii')
+
+
+def png_ops(frame: bytes | str, max_size: int | None = None, id: str | None = None) -> list[dict]:  # noqa: A002
+    """The png op(s) carrying frame; split into id/num/total pieces when longer than max_size."""
+    data = png_encode(frame)
+    if max_size is None or len(data) <= max_size:
+        op = {'op': 'png', 'data': data}
+        if id is not None:
+            op['id'] = id
+        return [op]
+    if max_size < 1:
+        raise ValueError('max_size must be positive')
+    pieces = [data[i:i + max_size] for i in range(0, len(data), max_size)]
+    return [{'op': 'png', 'id': id, 'data': p, 'num': n, 'total': len(pieces)} for n, p in enumerate(pieces)]
+
+
+def decode_png(data_b64: str, max_bytes: int = 64 * 2**20) -> dict:
+    """The op object inside a png op's data (the whole data, pieces already joined)."""
+    from PIL import Image, UnidentifiedImageError  # noqa: PLC0415
+
+    try:
+        raw = binascii.a2b_base64(data_b64, strict_mode=True)
+        with Image.open(io.BytesIO(raw)) as img:
+            if img.width * img.height * 4 > max_bytes:
+                raise ProtocolError(f'png: image of {img.width}x{img.height} pixels is too large')
+            pixels = img.convert('RGB').tobytes()
+    except (binascii.Error, UnidentifiedImageError, OSError, ValueError) as e:
+        raise ProtocolError(f'png: cannot decode data: {e}', op='png') from None
+    return decode_text(pixels.rstrip(b'\n'))
+
+
+# --- fragments ----------------------------------------------------------------------------------
+
+def fragment_ops(frame: bytes | str, fragment_size: int, id: str) -> list[dict]:  # noqa: A002
+    """rosbridge fragment ops for a JSON frame longer than fragment_size; [] if it fits."""
+    if fragment_size < 1:
+        raise ValueError('fragment_size must be positive')
+    text = frame.decode() if isinstance(frame, (bytes, bytearray, memoryview)) else frame
+    if isinstance(frame, (bytes, bytearray, memoryview)):
+        if len(frame) <= fragment_size:
+            return []
+    elif len(text) <= fragment_size:
+        return []
+    total = -(-len(text) // fragment_size)
+    return [{'op': 'fragment', 'id': id, 'data': text[i * fragment_size:(i + 1) * fragment_size],
+             'num': i, 'total': total} for i in range(total)]
+
+
+class _Pending:
+    __slots__ = ('total', 'pieces', 'size', 'last')
+
+    def __init__(self, total: int, now: float) -> None:
+        self.total = total
+        self.pieces: dict[int, str] = {}
+        self.size = 0
+        self.last = now
+
+
+class Reassembler:
+    """Collects incoming fragment ops per id into the op they carry, with timeout and flood limits."""
+
+    def __init__(self, timeout: float = 600.0, max_bytes: int = 64 * 2**20, max_messages: int = 64) -> None:
+        self.timeout = timeout
+        self.max_bytes = max_bytes
+        self.max_messages = max_messages
+        self._pending: dict[str, _Pending] = {}
+        self._bytes = 0
+
+    @property
+    def pending_bytes(self) -> int:
+        return self._bytes
+
+    def __len__(self) -> int:
+        return len(self._pending)
+
+    def _drop(self, fid: str) -> None:
+        entry = self._pending.pop(fid, None)
+        if entry is not None:
+            self._bytes -= entry.size
+
+    def add(self, frag: Fragment, now: float) -> dict | None:
+        """Store one fragment; the decoded op object once all of its id's pieces are in."""
+        fid = frag.id
+
+        def fail(why: str):
+            self._drop(fid)
+            return ProtocolError(f'fragment: {why}', op='fragment', id=fid)
+
+        entry = self._pending.get(fid)
+        if entry is None:
+            if len(self._pending) >= self.max_messages:
+                raise ProtocolError(f'fragment: too many incomplete messages (limit {self.max_messages})',
+                                    op='fragment', id=fid)
+            entry = _Pending(frag.total, now)
+            self._pending[fid] = entry
+        elif entry.total != frag.total:
+            raise fail(f'total changed from {entry.total} to {frag.total}')
+        if not 0 <= frag.num < frag.total:
+            raise fail(f'num {frag.num} is outside 0..{frag.total - 1}')
+        size = len(frag.data)
+        old = entry.pieces.get(frag.num)
+        grow = size - (len(old) if old is not None else 0)
+        if self._bytes + grow > self.max_bytes:
+            raise fail(f'incomplete messages exceed {self.max_bytes} bytes')
+        entry.pieces[frag.num] = frag.data
+        entry.size += grow
+        entry.last = now
+        self._bytes += grow
+        if len(entry.pieces) < entry.total:
+            return None
+        self._drop(fid)
+        text = ''.join(entry.pieces[i] for i in range(entry.total))
+        try:
+            return decode_text(text)
+        except ProtocolError as e:
+            raise ProtocolError(f'fragment: reassembled message: {e.message}', op='fragment', id=fid) from None
+
+    def expire(self, now: float) -> list[str]:
+        """Drop messages whose last fragment is older than the timeout; their ids."""
+        if not self._pending:
+            return []
+        old = [fid for fid, entry in self._pending.items() if now - entry.last > self.timeout]
+        for fid in old:
+            self._drop(fid)
+        return old

@@ -1,0 +1,360 @@
+"""Incoming rosbridge v2 ops: one frozen dataclass per op, parsed and validated by field tables."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+from .errors import ProtocolError, json_type
+
+COMPRESSIONS = ('none', 'png', 'cbor', 'cbor-raw')
+LEVELS = ('info', 'warning', 'error', 'none')
+
+
+class _Bad(Exception):
+    """A field failed its check; parse_op turns it into a ProtocolError sentence."""
+
+
+class Check:
+    """How one wire field is validated: required or not, and a checker of its value."""
+
+    __slots__ = ('required', 'check')
+
+    def __init__(self, check, required: bool = False) -> None:
+        self.check = check
+        self.required = required
+
+
+def _string(v):
+    if type(v) is str:
+        return v
+    raise _Bad('must be a string')
+
+
+def _ident(v):
+    if type(v) is str:
+        return v
+    if type(v) is int:
+        return str(v)
+    raise _Bad('must be a string')
+
+
+def _boolean(v):
+    if type(v) is bool:
+        return v
+    raise _Bad('must be a boolean')
+
+
+def _integer(minimum: int | None = None):
+    def check(v):
+        if type(v) is not int:
+            raise _Bad('must be an integer')
+        if minimum is not None and v < minimum:
+            raise _Bad(f'must be >= {minimum}', v)
+        return v
+    return check
+
+
+def _number(minimum: float | None = None):
+    def check(v):
+        if type(v) is not int and type(v) is not float:
+            raise _Bad('must be a number')
+        if minimum is not None and not v >= minimum:
+            raise _Bad(f'must be >= {minimum}', v)
+        return v
+    return check
+
+
+def _obj(v):
+    if type(v) is dict:
+        return v
+    raise _Bad('must be an object')
+
+
+def _obj_or_list(v):
+    if type(v) is dict or type(v) is list:
+        return v
+    raise _Bad('must be an object or an array')
+
+
+def _any(v):
+    return v
+
+
+def _enum(*choices: str, aliases: dict[str, str] | None = None):
+    aliases = aliases or {}
+
+    def check(v):
+        if type(v) is not str:
+            raise _Bad('must be a string')
+        v = aliases.get(v, v)
+        if v not in choices:
+            raise _Bad(f"must be one of {', '.join(choices)}", v)
+        return v
+    return check
+
+
+STR, STR_REQ = Check(_string), Check(_string, True)
+ID, ID_REQ = Check(_ident), Check(_ident, True)
+BOOL = Check(_boolean)
+OBJ, OBJ_REQ = Check(_obj), Check(_obj, True)
+ARGS = Check(_obj_or_list)
+ANY = Check(_any)
+NONNEG = Check(_integer(0))
+FRAGMENT_SIZE = Check(_integer(1))
+COMPRESSION = Check(_enum(*COMPRESSIONS))
+
+
+@dataclass(frozen=True, slots=True)
+class Advertise:
+    OP: ClassVar[str] = 'advertise'
+    SPEC: ClassVar = {'topic': STR_REQ, 'type': STR_REQ, 'id': ID, 'latch': BOOL, 'queue_size': NONNEG,
+                      'qos': OBJ}
+    topic: str
+    type: str
+    id: str | None = None
+    latch: bool = False
+    queue_size: int = 100
+    qos: dict | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class Unadvertise:
+    OP: ClassVar[str] = 'unadvertise'
+    SPEC: ClassVar = {'topic': STR_REQ, 'id': ID}
+    topic: str
+    id: str | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class Publish:
+    OP: ClassVar[str] = 'publish'
+    SPEC: ClassVar = {'topic': STR_REQ, 'msg': OBJ_REQ, 'id': ID, 'latch': BOOL, 'queue_size': NONNEG,
+                      'type': STR}
+    topic: str
+    msg: dict
+    id: str | None = None
+    latch: bool = False
+    queue_size: int = 100
+    type: str | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class Subscribe:
+    OP: ClassVar[str] = 'subscribe'
+    SPEC: ClassVar = {'topic': STR_REQ, 'id': ID, 'type': STR, 'throttle_rate': NONNEG,
+                      'queue_length': NONNEG, 'fragment_size': FRAGMENT_SIZE, 'compression': COMPRESSION,
+                      'qos': OBJ}
+    topic: str
+    id: str | None = None
+    type: str | None = None
+    throttle_rate: int = 0
+    queue_length: int = 0
+    fragment_size: int | None = None
+    compression: str = 'none'
+    qos: dict | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class Unsubscribe:
+    OP: ClassVar[str] = 'unsubscribe'
+    SPEC: ClassVar = {'topic': STR_REQ, 'id': ID}
+    topic: str
+    id: str | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class CallService:
+    OP: ClassVar[str] = 'call_service'
+    SPEC: ClassVar = {'service': STR_REQ, 'id': ID, 'args': ARGS, 'type': STR, 'timeout': Check(_number(0)),
+                      'fragment_size': FRAGMENT_SIZE, 'compression': COMPRESSION}
+    service: str
+    id: str | None = None
+    args: dict | list | None = None
+    type: str | None = None
+    timeout: float | None = None
+    fragment_size: int | None = None
+    compression: str = 'none'
+
+
+@dataclass(frozen=True, slots=True)
+class ServiceResponse:
+    OP: ClassVar[str] = 'service_response'
+    SPEC: ClassVar = {'service': STR_REQ, 'id': ID, 'values': ANY, 'result': BOOL}
+    service: str
+    id: str | None = None
+    values: Any = None
+    result: bool = True
+
+
+@dataclass(frozen=True, slots=True)
+class AdvertiseService:
+    OP: ClassVar[str] = 'advertise_service'
+    SPEC: ClassVar = {'service': STR_REQ, 'type': STR_REQ, 'id': ID}
+    service: str
+    type: str
+    id: str | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class UnadvertiseService:
+    OP: ClassVar[str] = 'unadvertise_service'
+    SPEC: ClassVar = {'service': STR_REQ, 'id': ID}
+    service: str
+    id: str | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class AdvertiseAction:
+    OP: ClassVar[str] = 'advertise_action'
+    SPEC: ClassVar = {'action': STR_REQ, 'type': STR_REQ, 'id': ID}
+    action: str
+    type: str
+    id: str | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class UnadvertiseAction:
+    OP: ClassVar[str] = 'unadvertise_action'
+    SPEC: ClassVar = {'action': STR_REQ, 'id': ID}
+    action: str
+    id: str | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class SendActionGoal:
+    OP: ClassVar[str] = 'send_action_goal'
+    SPEC: ClassVar = {'action': STR_REQ, 'action_type': STR_REQ, 'id': ID, 'args': ARGS, 'feedback': BOOL,
+                      'fragment_size': FRAGMENT_SIZE, 'compression': COMPRESSION}
+    action: str
+    action_type: str
+    id: str | None = None
+    args: dict | list | None = None
+    feedback: bool = False
+    fragment_size: int | None = None
+    compression: str = 'none'
+
+
+@dataclass(frozen=True, slots=True)
+class CancelActionGoal:
+    OP: ClassVar[str] = 'cancel_action_goal'
+    SPEC: ClassVar = {'action': STR_REQ, 'id': ID_REQ}
+    action: str
+    id: str
+
+
+@dataclass(frozen=True, slots=True)
+class ActionFeedback:
+    OP: ClassVar[str] = 'action_feedback'
+    SPEC: ClassVar = {'action': STR_REQ, 'id': ID, 'values': ANY}
+    action: str
+    id: str | None = None
+    values: Any = None
+
+
+@dataclass(frozen=True, slots=True)
+class ActionResult:
+    OP: ClassVar[str] = 'action_result'
+    SPEC: ClassVar = {'action': STR_REQ, 'id': ID, 'status': Check(_integer()), 'values': ANY, 'result': BOOL}
+    action: str
+    id: str | None = None
+    status: int | None = None
+    values: Any = None
+    result: bool = True
+
+
+@dataclass(frozen=True, slots=True)
+class SetLevel:
+    OP: ClassVar[str] = 'set_level'
+    SPEC: ClassVar = {'level': Check(_enum(*LEVELS, aliases={'warn': 'warning'}), True), 'id': ID}
+    level: str
+    id: str | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class Auth:
+    OP: ClassVar[str] = 'auth'
+    SPEC: ClassVar = {'id': ID, 'mac': STR, 'client': STR, 'dest': STR, 'rand': STR, 't': ANY, 'level': STR,
+                      'end': ANY, 'token': STR}
+    id: str | None = None
+    mac: str | None = None
+    client: str | None = None
+    dest: str | None = None
+    rand: str | None = None
+    t: Any = None
+    level: str | None = None
+    end: Any = None
+    token: str | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class Fragment:
+    OP: ClassVar[str] = 'fragment'
+    SPEC: ClassVar = {'id': ID_REQ, 'data': STR_REQ, 'num': Check(_integer(0), True),
+                      'total': Check(_integer(1), True)}
+    id: str
+    data: str
+    num: int
+    total: int
+
+
+@dataclass(frozen=True, slots=True)
+class Png:
+    """A png-compressed op (rosbridge sends these to clients; accepted in for symmetry)."""
+    OP: ClassVar[str] = 'png'
+    SPEC: ClassVar = {'data': STR_REQ, 'id': ID, 'num': NONNEG, 'total': Check(_integer(1))}
+    data: str
+    id: str | None = None
+    num: int | None = None
+    total: int | None = None
+
+
+OPS: dict[str, type] = {cls.OP: cls for cls in (
+    Advertise, Unadvertise, Publish, Subscribe, Unsubscribe, CallService, ServiceResponse,
+    AdvertiseService, UnadvertiseService, AdvertiseAction, UnadvertiseAction, SendActionGoal,
+    CancelActionGoal, ActionFeedback, ActionResult, SetLevel, Auth, Fragment, Png)}
+
+Op = (Advertise | Unadvertise | Publish | Subscribe | Unsubscribe | CallService | ServiceResponse
+      | AdvertiseService | UnadvertiseService | AdvertiseAction | UnadvertiseAction | SendActionGoal
+      | CancelActionGoal | ActionFeedback | ActionResult | SetLevel | Auth | Fragment | Png)
+
+
+def peek_id(obj: object) -> str | None:
+    """The op's id as a string when it has a usable one (for error replies), else None."""
+    if type(obj) is dict:
+        v = obj.get('id')
+        if type(v) is str:
+            return v
+        if type(v) is int:
+            return str(v)
+    return None
+
+
+def parse_op(obj: object) -> Op:
+    """Validate one decoded op object; raise ProtocolError naming op, id and field."""
+    if type(obj) is not dict:
+        raise ProtocolError(f'expected a JSON object, got {json_type(obj)}')
+    mid = peek_id(obj)
+    op = obj.get('op')
+    if op is None:
+        raise ProtocolError("missing required field 'op'", id=mid)
+    if type(op) is not str:
+        raise ProtocolError(f"field 'op' must be a string, got {json_type(op)}", id=mid)
+    cls = OPS.get(op)
+    if cls is None:
+        raise ProtocolError(f'unknown op {op!r}', op=op, id=mid)
+    kwargs = {}
+    for name, spec in cls.SPEC.items():
+        value = obj.get(name)
+        if value is None:
+            if spec.required:
+                if name in obj:
+                    raise ProtocolError(f"{op}: field '{name}' must not be null", op=op, id=mid)
+                raise ProtocolError(f"{op}: missing required field '{name}'", op=op, id=mid)
+            continue
+        try:
+            kwargs[name] = spec.check(value)
+        except _Bad as e:
+            shown = f'got {json_type(value)}' if len(e.args) == 1 else f'got {e.args[1]!r}'
+            raise ProtocolError(f"{op}: field '{name}' {e.args[0]}, {shown}", op=op, id=mid) from None
+    return cls(**kwargs)

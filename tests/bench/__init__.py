@@ -1,0 +1,1 @@
+"""Benchmark harness: rosgate (or any rosbridge server) against a bare-tornado ceiling."""

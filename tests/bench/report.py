@@ -1,0 +1,198 @@
+"""Summaries (median and spread of repeats), ratios to the ceiling, tables, goals."""
+
+from __future__ import annotations
+
+import statistics
+
+# Per scenario: the metrics shown in its table, with their headings.
+COLUMNS = {
+    "throughput": [
+        ("msg_per_s", "msg/s"), ("lat_p50_ms", "p50 ms"), ("lat_p95_ms", "p95 ms"),
+        ("lat_p99_ms", "p99 ms"), ("delivered_pct", "deliv%"), ("server_us_per_msg", "srv us/msg"),
+        ("server_cpu_pct", "srv CPU%"), ("client_cpu_pct", "cli CPU%"),
+    ],
+    "fanout": [
+        ("delivered_pct", "deliv%"), ("server_cpu_pct", "srv CPU%"),
+        ("server_cpu_s_per_1000", "srv CPU s/1000"), ("lat_p50_ms", "p50 ms"),
+        ("lat_p95_ms", "p95 ms"), ("client_cpu_pct", "cli CPU%"),
+    ],
+    "encodings": [
+        ("hz", "max Hz"), ("wire_kib", "wire KiB"), ("publish_kib", "in KiB"),
+        ("server_ms_per_msg", "srv ms/msg"), ("delivered_pct", "deliv%"),
+        ("server_cpu_pct", "srv CPU%"), ("client_cpu_pct", "cli CPU%"),
+    ],
+    "encodings_rate": [
+        ("published_hz", "pub Hz"), ("delivered_pct", "deliv%"),
+        ("server_ms_per_msg", "srv ms/msg"), ("server_cores", "srv cores"),
+        ("client_cpu_pct", "cli CPU%"),
+    ],
+    "services": [
+        ("calls_per_s", "calls/s"), ("lat_p50_ms", "p50 ms"), ("lat_p95_ms", "p95 ms"),
+        ("lat_p99_ms", "p99 ms"), ("failed", "failed"), ("server_us_per_call", "srv us/call"),
+        ("server_cpu_pct", "srv CPU%"), ("client_cpu_pct", "cli CPU%"),
+    ],
+    "slow_consumer": [
+        ("published_hz", "pub Hz"), ("healthy_hz_before", "others Hz before"),
+        ("healthy_hz_stalled", "others Hz stalled"), ("healthy_loss_pct", "others loss%"),
+        ("rss_at_stall_mb", "RSS MB at stall"), ("rss_max_mb", "RSS MB max"),
+        ("rss_growth_mb", "RSS growth MB"), ("server_cpu_pct", "srv CPU%"),
+        ("client_cpu_pct", "cli CPU%"),
+    ],
+}
+
+TITLES = {
+    "throughput": "1. Throughput and one-way latency: std_msgs/String, 1 publisher + 1 subscriber, W in flight",
+    "fanout": "2. Fan-out: 1 publisher, N subscribers (in worker processes), fixed rate",
+    "encodings": "3a. Encodings: max sustained rate to 1 subscriber (publisher sends JSON)",
+    "encodings_rate": "3b. Encodings at a fixed rate (0 subscribers = ingest of the JSON publish only)",
+    "services": "4. Services: /add_two_ints (example_interfaces/srv/AddTwoInts), C calls in flight",
+    "slow_consumer": "5. Slow consumer: 640x480 rgb8 at 30 Hz to 3 cbor subscribers, one stops reading",
+}
+
+
+def summarize(runs: list[dict]) -> dict:
+    out = {}
+    keys = {k for run in runs for k, v in run.items() if isinstance(v, (int, float)) and not isinstance(v, bool)}
+    for key in sorted(keys):
+        values = [run[key] for run in runs if isinstance(run.get(key), (int, float))]
+        if not values:
+            continue
+        median = statistics.median(values)
+        spread = (max(values) - min(values)) / 2 / abs(median) * 100 if median else 0.0
+        out[key] = {"median": median, "min": min(values), "max": max(values),
+                    "spread_pct": spread, "n": len(values)}
+    return out
+
+
+def finish_point(entry: dict) -> None:
+    """Add summary and ratio-to-ceiling to one point's entry in place."""
+    entry["summary"] = {name: summarize(runs) for name, runs in entry["runs"].items() if runs}
+    ceiling = entry["summary"].get("ceiling")
+    entry["ratio"] = {}
+    if not ceiling:
+        return
+    for name, summary in entry["summary"].items():
+        if name == "ceiling":
+            continue
+        ratios = {}
+        for key, stats in summary.items():
+            base = ceiling.get(key, {}).get("median")
+            if base:
+                ratios[key] = stats["median"] / base
+        entry["ratio"][name] = ratios
+
+
+def fmt(value) -> str:
+    if value is None:
+        return "-"
+    if isinstance(value, str):
+        return value
+    magnitude = abs(value)
+    if magnitude >= 1000:
+        return f"{value:,.0f}"
+    if magnitude >= 100:
+        return f"{value:.0f}"
+    if magnitude >= 10:
+        return f"{value:.1f}"
+    if magnitude >= 1:
+        return f"{value:.2f}"
+    if magnitude == 0:
+        return "0"
+    return f"{value:.3f}"
+
+
+def table(scenario: str, entries: list[dict], targets: list[str]) -> str:
+    columns = COLUMNS[scenario]
+    header = ["point", "server"] + [title for _key, title in columns]
+    rows = [header]
+    for entry in entries:
+        label = entry["label"]
+        for name in targets:
+            if name in entry.get("errors", {}):
+                rows.append([label, name, "error: " + entry["errors"][name][:90]])
+                label = ""
+                continue
+            summary = entry.get("summary", {}).get(name)
+            if not summary:
+                continue
+            cells = []
+            for i, (key, _title) in enumerate(columns):
+                stats = summary.get(key)
+                if stats is None:
+                    cells.append("-")
+                elif i == 0 and stats["n"] > 1:
+                    cells.append(f"{fmt(stats['median'])} ±{stats['spread_pct']:.0f}%")
+                else:
+                    cells.append(fmt(stats["median"]))
+            rows.append([label, name] + cells)
+            label = ""
+        for name, ratios in entry.get("ratio", {}).items():
+            if ratios:
+                rows.append(["", f"{name}/ceil"] + [
+                    "-" if key not in ratios else f"{ratios[key]:.2f}x" for key, _t in columns])
+    return _render(rows)
+
+
+def _render(rows: list[list[str]]) -> str:
+    width = max(len(r) for r in rows)
+    widths = [max(len(r[i]) for r in rows if i < len(r)) for i in range(width)]
+    lines = []
+    for n, row in enumerate(rows):
+        if len(row) == 3 and row[2].startswith("error:"):
+            lines.append(f"{row[0]:<{widths[0]}}  {row[1]:<{widths[1]}}  {row[2]}")
+        else:
+            lines.append("  ".join(
+                cell.ljust(widths[i]) if i < 2 else cell.rjust(widths[i]) for i, cell in enumerate(row)))
+        if n == 0:
+            lines.append("-" * len(lines[0]))
+    return "\n".join(lines)
+
+
+def _median(results: dict, scenario: str, match: dict, target: str, key: str):
+    for entry in results.get(scenario, []):
+        if all(entry["point"].get(k) == v for k, v in match.items()):
+            return entry.get("summary", {}).get(target, {}).get(key, {}).get("median")
+    return None
+
+
+def _ratio(results: dict, scenario: str, match: dict, target: str, key: str):
+    for entry in results.get(scenario, []):
+        if all(entry["point"].get(k) == v for k, v in match.items()):
+            return entry.get("ratio", {}).get(target, {}).get(key)
+    return None
+
+
+def goals(results: dict, target: str) -> list[dict]:
+    """The issue's goals, each with the measured figure and whether it is met."""
+    out = []
+
+    def add(goal: str, value, ok) -> None:
+        out.append({"goal": goal, "value": value, "met": None if value is None else bool(ok)})
+
+    for size in (64, 1024):
+        for w in (1, 32):
+            r = _ratio(results, "throughput", {"size": size, "window": w}, target, "msg_per_s")
+            add(f">= 60% of ceiling msg/s at {size} B, W={w}", r, r is not None and r >= 0.6)
+    for n in (1, 100):
+        v = _median(results, "fanout", {"subscribers": n}, target, "server_cpu_pct")
+        add(f"fan-out {n} subscriber(s) at the fan-out rate x 1 KiB < 10% of a core (srv CPU%)",
+            v, v is not None and v < 10)
+    v = _median(results, "encodings_rate", {"subscribers": 3, "compression": "cbor"}, target, "server_cores")
+    d = _median(results, "encodings_rate", {"subscribers": 3, "compression": "cbor"}, target, "delivered_pct")
+    add("640x480 rgb8 at 30 Hz to 3 cbor clients < 1 core (srv cores)", v,
+        v is not None and v < 1 and (d or 0) >= 99)
+    v = _median(results, "throughput", {"size": 64, "window": 1}, target, "lat_p95_ms")
+    add("p95 one-way latency < 0.5 ms at 64 B, W=1 (ms)", v, v is not None and v < 0.5)
+    v = _median(results, "slow_consumer", {}, target, "healthy_loss_pct")
+    add("a stalled client costs the others < 5% (others' loss %)", v, v is not None and v < 5)
+    v = _median(results, "slow_consumer", {}, target, "rss_growth_mb")
+    add("a stalled client costs the server < 50 MB (RSS growth MB)", v, v is not None and v < 50)
+    return out
+
+
+def goals_table(rows: list[dict], target: str) -> str:
+    lines = [f"Goals ({target}; reported, not asserted)"]
+    for row in rows:
+        mark = {True: "met", False: "NOT met", None: "no figure"}[row["met"]]
+        lines.append(f"  {mark:<9}  {fmt(row['value']):>8}  {row['goal']}")
+    return "\n".join(lines)

@@ -1,0 +1,272 @@
+"""Command line and orchestration of the benchmark.
+
+    .venv/bin/python -m tests.bench [--quick] [--out FILE] [--target ws://HOST:PORT --server-pid PID]
+
+By default it starts the ceiling server and rosgate (sim backend), runs every
+scenario against both, repeat by repeat, and prints each rosgate figure next
+to the ceiling's and as a ratio of it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import json
+import platform
+import sys
+import time
+from dataclasses import asdict, dataclass, field
+
+import tornado
+import websockets
+
+from . import payloads, report
+from .fanout import fanout
+from .servers import ProcMeter, Target, rosgate_available, start_ceiling, start_rosgate
+from .services import services
+from .topics import encoding_max, encoding_rate, slow_consumer, throughput
+
+SCENARIOS = ("throughput", "fanout", "encodings", "services", "slow_consumer")
+KIB = 1024
+
+
+@dataclass
+class Config:
+    repeats: int = 3
+    sizes: list[int] = field(default_factory=lambda: [64, KIB, 64 * KIB, KIB * KIB])
+    windows: list[int] = field(default_factory=lambda: [1, 32])
+    point_s: float = 1.5
+    fanout_ns: list[int] = field(default_factory=lambda: [1, 10, 100])
+    fanout_rate: float = 10.0
+    fanout_size: int = KIB
+    fanout_s: float = 2.5
+    fanout_procs: int = 2
+    encodings: list[str] = field(default_factory=lambda: ["none", "cbor", "cbor-raw"])
+    encoding_window: int = 2
+    rate_s: float = 2.0
+    concurrency: list[int] = field(default_factory=lambda: [1, 32])
+    slow_s: float = 60.0
+    scenarios: list[str] = field(default_factory=lambda: list(SCENARIOS))
+
+
+def quick_config() -> Config:
+    return Config(repeats=1, sizes=[64, KIB, 64 * KIB], point_s=0.25, fanout_ns=[1, 10],
+                  fanout_rate=20.0, fanout_s=0.5, rate_s=0.5, slow_s=3.0)
+
+
+def size_label(size: int) -> str:
+    if size >= KIB * KIB:
+        return f"{size // (KIB * KIB)}MiB"
+    return f"{size // KIB}KiB" if size >= KIB else f"{size}B"
+
+
+def plan(cfg: Config):
+    """(scenario, label, point, run(target) -> list of runs, repeated?) in order."""
+    image, cloud = payloads.image(), payloads.pointcloud()
+    for scenario in cfg.scenarios:
+        if scenario == "throughput":
+            for size in cfg.sizes:
+                for w in cfg.windows:
+                    yield (scenario, f"{size_label(size)} W={w}", {"size": size, "window": w},
+                           lambda t, s=size, w=w: throughput(t, s, w, cfg.point_s), True)
+        elif scenario == "fanout":
+            for n in cfg.fanout_ns:
+                yield (scenario, f"N={n} {cfg.fanout_rate:g}Hz {size_label(cfg.fanout_size)}",
+                       {"subscribers": n, "rate": cfg.fanout_rate, "size": cfg.fanout_size},
+                       lambda t, n=n: fanout(t, n, cfg.fanout_rate, cfg.fanout_size, cfg.fanout_s,
+                                             cfg.repeats, cfg.fanout_procs), False)
+        elif scenario == "encodings":
+            for payload in (image, cloud):
+                for enc in cfg.encodings:
+                    yield (scenario, f"{payload.name} {enc}", {"payload": payload.name, "compression": enc},
+                           lambda t, p=payload, e=enc: encoding_max(t, p, e, cfg.encoding_window, cfg.point_s),
+                           True)
+            for subs, enc in ((0, "none"), (3, "cbor")):
+                yield ("encodings_rate", f"{image.name} 30Hz {subs}x{enc if subs else 'pub only'}",
+                       {"payload": image.name, "subscribers": subs, "compression": enc, "rate": 30},
+                       lambda t, s=subs, e=enc: encoding_rate(t, image, e, s, 30.0, cfg.rate_s), True)
+        elif scenario == "services":
+            for c in cfg.concurrency:
+                yield (scenario, f"C={c}", {"concurrency": c},
+                       lambda t, c=c: services(t, c, cfg.point_s), True)
+        elif scenario == "slow_consumer":
+            yield (scenario, f"{cfg.slow_s:g}s", {"duration_s": cfg.slow_s},
+                   lambda t: slow_consumer(t, cfg.slow_s), False)
+
+
+def alive_error(target: Target) -> str | None:
+    if target.process is not None and target.process.poll() is not None:
+        return f"server exited with code {target.process.returncode}; log {target.log}"
+    return None
+
+
+async def run_point(fn, target: Target, budget: float) -> list[dict]:
+    dead = alive_error(target)
+    if dead:
+        raise RuntimeError(dead)
+    result = await asyncio.wait_for(fn(target), budget)
+    return result if isinstance(result, list) else [result]
+
+
+async def idle_cpu(target: Target, seconds: float) -> float | None:
+    meter = ProcMeter(target.pid)
+    start = meter.sample()
+    await asyncio.sleep(seconds)
+    cpu = ProcMeter.cpu_between(start, meter.sample())
+    return None if cpu is None else 100 * cpu / seconds
+
+
+async def run_all(cfg: Config, targets: list[Target], log) -> dict:
+    results: dict[str, list[dict]] = {}
+    names = [t.name for t in targets]
+    current = None
+    for scenario, label, point, fn, repeated in plan(cfg):
+        if scenario != current and current is not None:
+            log(f"\n{report.TITLES[current]}\n{report.table(current, results[current], names)}\n")
+        current = scenario
+        entry = {"label": label, "point": point, "runs": {n: [] for n in names}, "errors": {}}
+        budget = 60 + 3 * max(cfg.point_s, cfg.fanout_s, cfg.rate_s) * cfg.repeats + cfg.slow_s
+        for rep in range(cfg.repeats if repeated else 1):
+            for target in targets:
+                if target.name in entry["errors"]:
+                    continue
+                started = time.monotonic()
+                try:
+                    runs = await run_point(fn, target, budget)
+                except Exception as exc:  # recorded, and the run goes on
+                    entry["errors"][target.name] = f"{type(exc).__name__}: {exc}"
+                    log(f"  {scenario} {label} {target.name}: {entry['errors'][target.name]}", err=True)
+                    continue
+                entry["runs"][target.name].extend(runs)
+                first_key = report.COLUMNS[scenario][0][0]
+                shown = ", ".join(report.fmt(r.get(first_key)) for r in runs)
+                log(f"  {scenario} {label} {target.name} #{rep + 1}: {first_key}={shown} "
+                    f"({time.monotonic() - started:.1f} s)", err=True)
+        report.finish_point(entry)
+        results.setdefault(scenario, []).append(entry)
+    if current is not None:
+        log(f"\n{report.TITLES[current]}\n{report.table(current, results[current], names)}\n")
+    return results
+
+
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(prog="python -m tests.bench", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--target", help="a running rosbridge server, ws://HOST:PORT/ (replaces rosgate)")
+    p.add_argument("--target-name", default="target", help="its name in the tables")
+    p.add_argument("--server-pid", type=int, help="pid of --target, for its CPU and RSS")
+    p.add_argument("--no-ceiling", action="store_true", help="skip the ceiling server (no ratios)")
+    p.add_argument("--no-rosgate", action="store_true", help="do not start rosgate")
+    p.add_argument("--rosgate-arg", action="append", default=None,
+                   help="argument for the rosgate command line (repeatable; default: --robot none)")
+    p.add_argument("--quick", action="store_true", help="tiny durations, one repeat (a smoke run)")
+    p.add_argument("--repeats", type=int, help="repeats per point (default 3)")
+    p.add_argument("--duration", type=float, help="seconds per measured point (default 1.5)")
+    p.add_argument("--slow-seconds", type=float, help="slow-consumer duration (default 60)")
+    p.add_argument("--fanout-rate", type=float, help="fan-out publish rate in Hz (default 10)")
+    p.add_argument("--fanout-procs", type=int, help="subscriber worker processes (default 2)")
+    p.add_argument("--scenarios", help=f"comma-separated subset of {','.join(SCENARIOS)}")
+    p.add_argument("--out", help="write the figures as JSON to this file")
+    return p.parse_args(argv)
+
+
+def make_config(args: argparse.Namespace) -> Config:
+    cfg = quick_config() if args.quick else Config()
+    if args.repeats:
+        cfg.repeats = args.repeats
+    if args.duration:
+        cfg.point_s = args.duration
+        cfg.fanout_s = max(args.duration, 0.5)
+        cfg.rate_s = max(args.duration, 0.5)
+    if args.slow_seconds:
+        cfg.slow_s = args.slow_seconds
+    if args.fanout_rate:
+        cfg.fanout_rate = args.fanout_rate
+    if args.fanout_procs:
+        cfg.fanout_procs = args.fanout_procs
+    if args.scenarios:
+        wanted = [s.strip() for s in args.scenarios.split(",") if s.strip()]
+        unknown = set(wanted) - set(SCENARIOS)
+        if unknown:
+            raise SystemExit(f"unknown scenario(s): {', '.join(sorted(unknown))}")
+        cfg.scenarios = wanted
+    return cfg
+
+
+def log(text: str, err: bool = False) -> None:
+    print(text, file=sys.stderr if err else sys.stdout, flush=True)
+
+
+def start_targets(args: argparse.Namespace) -> list[Target]:
+    targets = []
+    try:
+        if not args.no_ceiling:
+            targets.append(start_ceiling())
+        if args.target:
+            targets.append(Target(name=args.target_name, url=args.target, pid=args.server_pid))
+        elif not args.no_rosgate:
+            if not rosgate_available():
+                raise SystemExit("rosgate is not there yet (no gateway/__main__.py): "
+                                 "use --no-rosgate or --target")
+            extra = args.rosgate_arg if args.rosgate_arg is not None else ["--robot", "none"]
+            targets.append(start_rosgate(extra))
+    except BaseException:
+        for target in targets:
+            target.stop()
+        raise
+    if not targets:
+        raise SystemExit("nothing to measure: no ceiling, no rosgate, no --target")
+    return targets
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    cfg = make_config(args)
+    started = time.monotonic()
+    targets = start_targets(args)
+    try:
+        for t in targets:
+            log(f"{t.name}: {t.url} pid {t.pid if t.pid else 'unknown (no CPU/RSS figures)'}")
+        idle = {t.name: asyncio.run(idle_cpu(t, 0.3 if args.quick else 1.0)) for t in targets}
+        results = asyncio.run(run_all(cfg, targets, log))
+    finally:
+        for t in targets:
+            t.stop()
+    primary = next((t.name for t in targets if t.kind != "ceiling"), None)
+    goal_rows = report.goals(results, primary) if primary and not args.no_ceiling else []
+    if goal_rows:
+        log(report.goals_table(goal_rows, primary))
+    total = time.monotonic() - started
+    log(f"\nidle server CPU %: {', '.join(f'{k} {report.fmt(v)}' for k, v in idle.items())}; "
+        f"total {total:.0f} s")
+    if args.out:
+        doc = {
+            "meta": {
+                "python": platform.python_version(), "cpus": _cpus(), "cpu_model": _cpu_model(),
+                "client": f"websockets {websockets.__version__}", "tornado": tornado.version,
+                "config": asdict(cfg), "total_s": total, "idle_server_cpu_pct": idle,
+                "targets": [{"name": t.name, "url": t.url, "pid": t.pid, "kind": t.kind} for t in targets],
+            },
+            "results": results,
+            "goals": goal_rows,
+        }
+        with open(args.out, "w") as f:
+            json.dump(doc, f, indent=1)
+        log(f"wrote {args.out}")
+    return 0
+
+
+def _cpus() -> int:
+    import os
+    return len(os.sched_getaffinity(0))
+
+
+def _cpu_model() -> str:
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor()

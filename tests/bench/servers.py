@@ -1,0 +1,160 @@
+"""Servers under test: starting rosgate and the ceiling, and reading a pid's CPU and RSS."""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[2]
+WS_URL = re.compile(r"ws://[^\s/]+:\d+/")
+
+
+@dataclass
+class Target:
+    name: str
+    url: str
+    pid: int | None = None
+    kind: str = "rosbridge"  # or "ceiling": gets preloaded frames
+    process: subprocess.Popen | None = field(default=None, repr=False)
+    log: Path | None = None
+
+    def stop(self) -> None:
+        proc = self.process
+        if proc is None or proc.poll() is not None:
+            return
+        proc.send_signal(signal.SIGTERM)
+        try:
+            proc.wait(5)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(5)
+
+
+def _start(name: str, kind: str, argv: list[str], timeout: float = 30.0) -> Target:
+    log = Path(tempfile.mkstemp(prefix=f"bench-{name}-", suffix=".log")[1])
+    err = open(log, "wb")
+    proc = subprocess.Popen(argv, cwd=REPO, stdout=subprocess.PIPE, stderr=err, text=True)
+    err.close()
+    lines: list[str] = []
+    got = threading.Event()
+
+    def drain() -> None:
+        assert proc.stdout is not None
+        for line in proc.stdout:  # keep the pipe empty for the server's lifetime
+            if not got.is_set():
+                lines.append(line)
+                if WS_URL.search(line):
+                    got.set()
+        got.set()
+
+    threading.Thread(target=drain, daemon=True).start()
+    got.wait(timeout)
+    match = WS_URL.search("".join(lines))
+    if match is None:
+        proc.kill()
+        proc.wait(5)
+        raise RuntimeError(
+            f"{name} did not print its websocket address within {timeout:.0f} s: "
+            f"{''.join(lines)!r}; stderr in {log}: {log.read_text()[-2000:]}"
+        )
+    return Target(name=name, url=match.group(0), pid=proc.pid, kind=kind, process=proc, log=log)
+
+
+def start_ceiling() -> Target:
+    return _start("ceiling", "ceiling", [sys.executable, "-m", "tests.bench.ceiling", "--port", "0"])
+
+
+def start_rosgate(extra_args: list[str]) -> Target:
+    argv = [sys.executable, "-m", "gateway", "--port", "0", "--address", "127.0.0.1", *extra_args]
+    return _start("rosgate", "rosbridge", argv)
+
+
+def rosgate_available() -> bool:
+    return (REPO / "gateway" / "__main__.py").exists()
+
+
+class ProcMeter:
+    """CPU seconds and RSS of one process, read from /proc.
+
+    CPU comes from the per-thread schedstat (nanoseconds) when the set of threads
+    is the same at both ends of a window, else from utime+stime (10 ms ticks),
+    which also counts threads that ended during the window.
+    """
+
+    TICK = os.sysconf("SC_CLK_TCK")
+
+    def __init__(self, pid: int | None) -> None:
+        self.pid = pid
+
+    def sample(self) -> tuple[dict[str, int], float] | None:
+        if self.pid is None:
+            return None
+        try:
+            task_dir = f"/proc/{self.pid}/task"
+            threads = {}
+            for tid in os.listdir(task_dir):
+                try:
+                    with open(f"{task_dir}/{tid}/schedstat") as f:
+                        threads[tid] = int(f.read().split()[0])
+                except (OSError, ValueError, IndexError):
+                    pass
+            with open(f"/proc/{self.pid}/stat") as f:
+                fields = f.read().rsplit(")", 1)[1].split()
+            ticks = (int(fields[11]) + int(fields[12])) / self.TICK
+            return threads, ticks
+        except OSError:
+            return None
+
+    @staticmethod
+    def cpu_between(start, end) -> float | None:
+        if start is None or end is None:
+            return None
+        threads0, ticks0 = start
+        threads1, ticks1 = end
+        if threads0 and threads0.keys() == threads1.keys():
+            return sum(threads1.values()) / 1e9 - sum(threads0.values()) / 1e9
+        return ticks1 - ticks0
+
+    def rss_bytes(self) -> int | None:
+        if self.pid is None:
+            return None
+        try:
+            with open(f"/proc/{self.pid}/status") as f:
+                for line in f:
+                    if line.startswith("VmRSS:"):
+                        return int(line.split()[1]) * 1024
+        except OSError:
+            return None
+        return None
+
+
+class Window:
+    """Elapsed time, server CPU and this process's CPU over one measurement window."""
+
+    def __init__(self, meter: ProcMeter) -> None:
+        self.meter = meter
+        self.start()
+
+    def start(self) -> None:
+        self.t0 = time.monotonic()
+        self.client0 = time.process_time()
+        self.server0 = self.meter.sample()
+
+    def stop(self, extra_client_cpu: float = 0.0) -> dict[str, float | None]:
+        elapsed = time.monotonic() - self.t0
+        server = ProcMeter.cpu_between(self.server0, self.meter.sample())
+        client = time.process_time() - self.client0 + extra_client_cpu
+        return {
+            "elapsed_s": elapsed,
+            "server_cpu_s": server,
+            "server_cpu_pct": None if server is None else 100 * server / elapsed,
+            "client_cpu_pct": 100 * client / elapsed,
+        }
