@@ -171,6 +171,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(ros_style(argv))
     logging.basicConfig(level=args.log_level.upper(), format='%(asctime)s %(levelname)s %(name)s: %(message)s',
                         stream=sys.stderr)
+    logging.getLogger('tornado.access').setLevel(logging.WARNING)
     settings = settings_from(args)
     backend = make_backend(args, ros_args)
     try:

@@ -83,7 +83,9 @@ def _typed_array(tag: int, payload: bytes) -> list:
     return values.tolist()
 
 
-def _tag_hook(decoder, tag):
+def _tag_hook(*args):
+    # cbor2 5 calls hook(decoder, tag), cbor2 6 calls hook(tag, immutable)
+    tag = args[0] if isinstance(args[0], cbor2.CBORTag) else args[1]
     if tag.tag in TYPED_ARRAY_TAGS and isinstance(tag.value, bytes):
         return _typed_array(tag.tag, tag.value)
     return tag
@@ -108,10 +110,8 @@ def typed_array_tag(values: array.array) -> cbor2.CBORTag:
     return cbor2.CBORTag(_TAG_OF_CODE[values.typecode], values.tobytes())
 
 
-def _cbor_default(encoder, value):
-    if isinstance(value, array.array) and value.typecode in _TAG_OF_CODE:
-        encoder.encode(typed_array_tag(value))
-    elif isinstance(value, memoryview):
+def _cbor_default(encoder, value) -> None:
+    if isinstance(value, memoryview):
         encoder.encode(bytes(value))
     elif hasattr(value, 'dtype') and hasattr(value, 'tolist'):  # numpy
         if value.ndim == 1 and (value.dtype.kind, value.dtype.itemsize) in _CODE_OF:
@@ -127,7 +127,11 @@ def _numpy_code(value) -> str:
 
 
 def encode_cbor(obj) -> bytes:
-    """CBOR bytes; bytes stay byte strings, typed-array tags from convert.to_cbor pass through."""
+    """CBOR bytes; bytes stay byte strings, typed-array tags from convert.to_cbor pass through.
+
+    numpy arrays become typed arrays too; array.array is written by cbor2 as a plain list (an
+    encoder override for it would double the cost of every frame), so tag those with to_cbor.
+    """
     return cbor2.dumps(obj, default=_cbor_default)
 
 

@@ -26,6 +26,8 @@ B64_TYPES = frozenset({'uint8', 'char'})  # uint8[]/char[] are base64 in JSON; b
 CBOR_TAGS = {'float64': (86, 'd', '<f8'), 'float32': (85, 'f', '<f4'), 'int8': (72, 'b', 'i1'),
              'int16': (77, 'h', '<i2'), 'uint16': (69, 'H', '<u2'), 'int32': (78, 'i', '<i4'),
              'uint32': (70, 'I', '<u4'), 'int64': (79, 'q', '<i8'), 'uint64': (71, 'Q', '<u8')}
+# non-zero defaults declared in .msg files that the rosbags typestore does not carry
+FIELD_DEFAULTS = {('geometry_msgs/msg/Quaternion', 'w'): 1.0}
 _LITTLE = sys.byteorder == 'little'
 _MISSING = object()
 _FLOAT_OK = frozenset({float})
@@ -102,11 +104,11 @@ def _scalar_default(f: Field):
     return 0
 
 
-def _field_default(defs: Definitions, f: Field):
+def _field_default(defs: Definitions, f: Field, owner: str = ''):
     """(constant, factory): factory is None for immutable defaults."""
     if f.array is None:
         if f.primitive:
-            return _scalar_default(f), None
+            return FIELD_DEFAULTS.get((owner, f.name), _scalar_default(f)), None
         return None, _default_factory(defs, defs.msg(f.type))
     n = f.array
     if f.type in B64_TYPES:
@@ -122,7 +124,7 @@ def _field_default(defs: Definitions, f: Field):
 
 def _default_factory(defs: Definitions, msgdef: MsgDef):
     def make(msgdef: MsgDef):
-        items = tuple((f.name, *_field_default(defs, f)) for f in msgdef.fields)
+        items = tuple((f.name, *_field_default(defs, f, msgdef.type)) for f in msgdef.fields)
 
         def default() -> dict:
             return {name: const if factory is None else factory() for name, const, factory in items}
@@ -166,7 +168,7 @@ def _boolean(v):
 
 def _integer(typ: str):
     lo, hi = INTEGERS[typ]
-    article = 'an' if typ[0] in 'aeiou' else 'a'
+    article = 'an' if typ.startswith('int') else 'a'
 
     def check(v):
         if type(v) is int:
@@ -341,7 +343,7 @@ def _field_check(defs: Definitions, f: Field):
 
 def _json_converter(defs: Definitions, msgdef: MsgDef):
     def make(msgdef: MsgDef):
-        fields = tuple((f.name, _field_check(defs, f), *_field_default(defs, f)) for f in msgdef.fields)
+        fields = tuple((f.name, _field_check(defs, f), *_field_default(defs, f, msgdef.type)) for f in msgdef.fields)
         names = frozenset(f.name for f in msgdef.fields)
         typename = msgdef.type
 
@@ -499,7 +501,7 @@ def _cdr_builder(defs: Definitions, msgdef: MsgDef):
                 fn = lambda v, s=sub: [s(x) for x in v]  # noqa: E731
             elif f.array is not None and f.type not in ('string', 'wstring'):
                 fn = _cdr_array(f)
-            fields.append((f.name, _pyname(f.name), fn, *_field_default(defs, f)))
+            fields.append((f.name, _pyname(f.name), fn, *_field_default(defs, f, msgdef.type)))
         fields = tuple(fields)
 
         def build(m: dict):

@@ -158,7 +158,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--no-ceiling", action="store_true", help="skip the ceiling server (no ratios)")
     p.add_argument("--no-rosgate", action="store_true", help="do not start rosgate")
     p.add_argument("--rosgate-arg", action="append", default=None,
-                   help="argument for the rosgate command line (repeatable; default: --robot none)")
+                   help="argument for the rosgate command line, repeatable, e.g. --rosgate-arg=--talker "
+                        "(default: --backend sim, --robot none and a scratch --programs-dir where offered)")
     p.add_argument("--quick", action="store_true", help="tiny durations, one repeat (a smoke run)")
     p.add_argument("--repeats", type=int, help="repeats per point (default 3)")
     p.add_argument("--duration", type=float, help="seconds per measured point (default 1.5)")
@@ -208,8 +209,7 @@ def start_targets(args: argparse.Namespace) -> list[Target]:
             if not rosgate_available():
                 raise SystemExit("rosgate is not there yet (no gateway/__main__.py): "
                                  "use --no-rosgate or --target")
-            extra = args.rosgate_arg if args.rosgate_arg is not None else ["--robot", "none"]
-            targets.append(start_rosgate(extra))
+            targets.append(start_rosgate(args.rosgate_arg))
     except BaseException:
         for target in targets:
             target.stop()

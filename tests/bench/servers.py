@@ -72,7 +72,23 @@ def start_ceiling() -> Target:
     return _start("ceiling", "ceiling", [sys.executable, "-m", "tests.bench.ceiling", "--port", "0"])
 
 
-def start_rosgate(extra_args: list[str]) -> Target:
+def default_rosgate_args() -> list[str]:
+    """The sim backend, no robots when the CLI offers that, and a scratch program library."""
+    help_text = subprocess.run([sys.executable, "-m", "gateway", "--help"], cwd=REPO,
+                               capture_output=True, text=True, timeout=60).stdout
+    args = []
+    if "--backend" in help_text:
+        args += ["--backend", "sim"]
+    if "--robot" in help_text:
+        args += ["--robot", "none"]
+    if "--programs-dir" in help_text:
+        args += ["--programs-dir", tempfile.mkdtemp(prefix="bench-programs-")]
+    return args
+
+
+def start_rosgate(extra_args: list[str] | None = None) -> Target:
+    if extra_args is None:
+        extra_args = default_rosgate_args()
     argv = [sys.executable, "-m", "gateway", "--port", "0", "--address", "127.0.0.1", *extra_args]
     return _start("rosgate", "rosbridge", argv)
 

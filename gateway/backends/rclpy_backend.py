@@ -1,0 +1,544 @@
+"""The rclpy backend: the gateway as one node of a real ROS 2 (Jazzy) graph.
+
+rclpy is imported when the backend starts, so importing this module works without ROS. One node
+(``rosgate`` by default; ROS arguments such as ``--ros-args -r __node:=x`` honoured) and one
+MultiThreadedExecutor spinning in its own thread. rclpy callbacks convert messages on the
+executor's threads and hop to the IOLoop with ``call_soon_threadsafe``; they never log. Callbacks
+that wait for the gateway (services and actions served by browser clients) are coroutines in a
+reentrant callback group: they hold no thread while they wait, and the loop wakes the executor
+when their answer is there.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import os
+import threading
+from collections.abc import Awaitable, Callable
+from typing import Any
+
+from protocol.msgdefs import ActionDef, MsgDef, SrvDef, normalize
+
+from .base import ActionServerCallbacks, BackendError, Message, NodeInfo, QoS, ServiceTimeout
+from .rclpy_actions import Pending, RclpyActionServer, send_goal
+from .rclpy_types import Converter, RosDefinitions
+
+log = logging.getLogger('rosgate.rclpy')
+
+PARAM_NOT_SET, PARAM_DOUBLE, PARAM_DOUBLE_ARRAY = 0, 3, 8
+
+
+def fq_name(namespace: str, name: str) -> str:
+    return namespace.rstrip('/') + '/' + name
+
+
+def split_node(node: str) -> tuple[str, str]:
+    """'/ns/name' -> ('name', '/ns'); 'name' -> ('name', '/')."""
+    ns, _, name = ('/' + node.strip('/')).rpartition('/')
+    return name, ns or '/'
+
+
+class RclpyPublisher:
+    def __init__(self, backend: RclpyBackend, topic: str, type: str, cls, publisher):
+        self.topic, self.type = topic, type
+        self._backend, self._cls, self._pub = backend, cls, publisher
+
+    def publish(self, msg: Message) -> None:
+        if self._pub is not None:
+            self._pub.publish(self._backend.convert.from_dict(self._cls, msg))
+
+    def destroy(self) -> None:
+        if self._pub is not None:
+            self._backend.node.destroy_publisher(self._pub)
+            self._pub = None
+
+
+class RclpySubscription:
+    def __init__(self, backend: RclpyBackend, topic: str, type: str, callback: Callable[[Message], None]):
+        self.topic, self.type = topic, type
+        self._backend, self._callback = backend, callback
+        self.sub = None
+
+    def deliver(self, msg: Message) -> None:    # on the loop
+        if self.sub is not None:
+            self._callback(msg)
+
+    def destroy(self) -> None:
+        if self.sub is not None:
+            self._backend.node.destroy_subscription(self.sub)
+            self.sub = None
+
+
+class RclpyService:
+    def __init__(self, backend: RclpyBackend, name: str, type: str):
+        self.name, self.type = name, type
+        self._backend = backend
+        self.srv = None
+
+    def destroy(self) -> None:
+        if self.srv is not None:
+            self._backend.node.destroy_service(self.srv)
+            self.srv = None
+            if self._backend._served.get(self.name) is self:
+                del self._backend._served[self.name]
+
+
+class RclpyBackend:
+    """Backend over rclpy. ``args``: ROS command-line arguments (None: ``sys.argv``)."""
+
+    name = 'rclpy'
+
+    def __init__(self, node_name: str = 'rosgate', *, args: list[str] | None = None,
+                 service_timeout: float = 5.0, num_threads: int | None = None):
+        self.node_name = '/' + node_name.strip('/')
+        self.service_timeout = service_timeout
+        self.defs = RosDefinitions()
+        self.convert = Converter(self.defs)
+        self._args, self._num_threads = args, num_threads
+        self.loop: asyncio.AbstractEventLoop | None = None
+        self.node = self.reentrant = None
+        self._context = self._executor = self._thread = None
+        self._clients: dict[tuple[str, str], Any] = {}
+        self._action_clients: dict[tuple[str, str], Any] = {}
+        self._served: dict[str, RclpyService] = {}
+        self._action_servers: dict[str, RclpyActionServer] = {}
+        self._serving: set = set()
+
+    # --- lifecycle ----------------------------------------------------------------------------
+
+    async def start(self) -> None:
+        import rclpy  # noqa: PLC0415 (optional dependency, present on ROS 2 machines)
+        from rclpy.callback_groups import ReentrantCallbackGroup  # noqa: PLC0415
+        from rclpy.context import Context  # noqa: PLC0415
+        from rclpy.executors import MultiThreadedExecutor  # noqa: PLC0415
+        from rclpy.signals import SignalHandlerOptions  # noqa: PLC0415
+
+        self.loop = asyncio.get_running_loop()
+        self._context = Context()
+        # the gateway handles SIGINT/SIGTERM itself (closing clients first), so rclpy must not
+        rclpy.init(args=self._args, context=self._context, signal_handler_options=SignalHandlerOptions.NO)
+        self.node = rclpy.create_node(self.node_name.lstrip('/'), context=self._context)
+        self.node_name = self.node.get_fully_qualified_name()
+        self.reentrant = ReentrantCallbackGroup()
+        threads = self._num_threads or max(4, os.cpu_count() or 2)
+        self._executor = MultiThreadedExecutor(num_threads=threads, context=self._context)
+        self._executor.add_node(self.node)
+        self._thread = threading.Thread(target=self._spin, name='rosgate-rclpy', daemon=True)
+        self._thread.start()
+
+    def _spin(self) -> None:
+        try:
+            self._executor.spin()
+        except Exception as e:  # noqa: BLE001 (external shutdown ends the spin)
+            self.hop(self.report, 'executor stopped', e)
+
+    async def stop(self) -> None:
+        if self.node is None:
+            return
+        for future in list(self._serving):
+            future.cancel()
+        for server in list(self._action_servers.values()):
+            server.destroy()
+        await asyncio.to_thread(self._shutdown)
+
+    def _shutdown(self) -> None:
+        executor, node, context, thread = self._executor, self.node, self._context, self._thread
+        self.node = None
+        executor.shutdown(timeout_sec=2.0)
+        node.destroy_node()
+        context.try_shutdown()
+        thread.join(timeout=2.0)
+
+    # --- threads ------------------------------------------------------------------------------
+
+    def hop(self, fn: Callable, *args) -> None:
+        """Run ``fn(*args)`` on the loop (from any thread)."""
+        try:
+            self.loop.call_soon_threadsafe(fn, *args)
+        except RuntimeError:
+            pass  # the loop is closed: the gateway is gone
+
+    def wake(self) -> None:
+        """Resume executor tasks waiting in ``Pending`` (from any thread).
+
+        A task re-checks its future on every executor wake-up; the second wake covers a task that
+        was between its check and its yield when the first came.
+        """
+        self._wake_executor()
+        self.hop(self.loop.call_later, 0.05, self._wake_executor)
+
+    def _wake_executor(self) -> None:
+        executor = self._executor
+        if executor is not None and self.node is not None:
+            executor.wake()
+
+    def wrap(self, future) -> asyncio.Future:
+        """An rclpy Future as an asyncio Future of the loop."""
+        result = self.loop.create_future()
+
+        def settle(f) -> None:
+            if result.done():
+                return
+            if f.cancelled():
+                result.cancel()
+            elif f.exception() is not None:
+                result.set_exception(f.exception())
+            else:
+                result.set_result(f.result())
+
+        future.add_done_callback(lambda f: self.hop(settle, f))
+        return result
+
+    @staticmethod
+    def report(what: str, error: BaseException) -> None:
+        log.warning('%s: %s', what, error)
+
+    async def _until(self, ready: Callable[[], bool], timeout: float, error: Exception) -> None:
+        """Wait for discovery to match a new client with its server (rclpy has no event for it)."""
+        deadline, delay = self.loop.time() + timeout, 0.001
+        while not ready():
+            if self.loop.time() >= deadline:
+                raise error
+            await asyncio.sleep(delay)
+            delay = min(delay * 2, 0.05)
+
+    # --- types --------------------------------------------------------------------------------
+
+    def msg_def(self, type: str) -> MsgDef:
+        return self.defs.msg(normalize(type, 'msg'))
+
+    def srv_def(self, type: str) -> SrvDef:
+        return self.defs.srv(type)
+
+    def action_def(self, type: str) -> ActionDef:
+        return self.defs.action(type)
+
+    def interfaces(self) -> list[str]:
+        return self.defs.interfaces()
+
+    def typedefs(self, msg: MsgDef) -> list[dict]:
+        return self.defs.typedefs(msg)
+
+    def full_text(self, msg: MsgDef) -> str:
+        return self.defs.full_text(msg)
+
+    def to_cdr(self, type: str, msg: Message) -> bytes:
+        from rclpy.serialization import serialize_message  # noqa: PLC0415
+        return serialize_message(self.convert.from_dict(self.defs.msg_class(type), msg))
+
+    # --- topics -------------------------------------------------------------------------------
+
+    def _topic(self, topic: str, type: str) -> tuple[str, str, Any]:
+        full = normalize(type, 'msg')
+        self.defs.msg(full)
+        topic = self.node.resolve_topic_name(topic)
+        for name, types in self.node.get_topic_names_and_types():
+            if name == topic and full not in types:
+                raise BackendError(f'topic {topic} has type {types[0]}, not {full}')
+        return topic, full, self.defs.msg_class(full)
+
+    def create_publisher(self, topic: str, type: str, qos: QoS) -> RclpyPublisher:
+        topic, full, cls = self._topic(topic, type)
+        return RclpyPublisher(self, topic, full, cls, self.node.create_publisher(cls, topic, ros_qos(qos)))
+
+    def subscribe(self, topic: str, type: str, callback: Callable[[Message], None],
+                  qos: QoS | None = None) -> RclpySubscription:
+        from rclpy.callback_groups import MutuallyExclusiveCallbackGroup  # noqa: PLC0415
+
+        topic, full, cls = self._topic(topic, type)
+        handle = RclpySubscription(self, topic, full, callback)
+        convert, hop = self.convert.to_dict, self.hop
+
+        def on_message(msg) -> None:   # executor thread: convert here, deliver on the loop
+            try:
+                data = convert(msg)
+            except Exception as e:  # noqa: BLE001
+                hop(self.report, f'subscription {topic}', e)
+                return
+            hop(handle.deliver, data)
+
+        profile = ros_qos(qos if qos is not None else self._adapted_qos(topic))
+        # one mutually exclusive group per subscription: its messages stay in order
+        handle.sub = self.node.create_subscription(
+            cls, topic, on_message, profile, callback_group=MutuallyExclusiveCallbackGroup())
+        return handle
+
+    def _adapted_qos(self, topic: str) -> QoS:
+        """Transient-local if every publisher is, best-effort if any publisher is."""
+        from rclpy.qos import DurabilityPolicy, ReliabilityPolicy  # noqa: PLC0415
+
+        infos = self.node.get_publishers_info_by_topic(topic)
+        latched = bool(infos) and all(
+            i.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for i in infos)
+        best_effort = any(i.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT for i in infos)
+        return QoS(reliable=not best_effort, transient_local=latched)
+
+    # --- services -----------------------------------------------------------------------------
+
+    def _client(self, service: str, type: str, cls):
+        client = self._clients.get((service, type))
+        if client is None:
+            client = self.node.create_client(cls, service, callback_group=self.reentrant)
+            self._clients[(service, type)] = client
+        return client
+
+    async def _call(self, service: str, type: str, cls, request, timeout: float | None):
+        client = self._client(service, type, cls)
+        timeout = timeout if timeout and timeout > 0 else None
+        wait = timeout or self.service_timeout
+        await self._until(client.service_is_ready, wait,
+                          ServiceTimeout(f'service {service} did not become ready within {wait} s'))
+        future = client.call_async(request)
+        try:
+            return await asyncio.wait_for(self.wrap(future), timeout)
+        except asyncio.TimeoutError:
+            raise ServiceTimeout(f'service {service} did not answer within {timeout} s') from None
+        finally:
+            if not future.done():
+                client.remove_pending_request(future)
+
+    async def call_service(self, service: str, type: str, request: Message, timeout: float) -> Message:
+        full = normalize(type, 'srv')
+        self.defs.srv(full)
+        cls = self.defs.srv_class(full)
+        service = self.node.resolve_service_name(service)
+        types = dict(self.node.get_service_names_and_types()).get(service)
+        if not types:
+            raise BackendError(f'service {service} is not available')
+        if full not in types:
+            raise BackendError(f'service {service} has type {types[0]}, not {full}')
+        response = await self._call(service, full, cls, self.convert.from_dict(cls.Request, request), timeout)
+        return self.convert.to_dict(response)
+
+    def advertise_service(self, service: str, type: str,
+                          handler: Callable[[Message], Awaitable[Message]]) -> RclpyService:
+        full = normalize(type, 'srv')
+        self.defs.srv(full)
+        cls = self.defs.srv_class(full)
+        service = self.node.resolve_service_name(service)
+        old = self._served.get(service)
+        if old is not None:
+            old.destroy()    # re-advertising replaces
+        elif service in dict(self.node.get_service_names_and_types()):
+            raise BackendError(f'service {service} is already provided by '
+                               f'{", ".join(self.service_providers(service)) or "another node"}')
+        convert = self.convert
+
+        async def serve(request, response):   # an executor task; holds no thread while waiting
+            try:
+                data = convert.to_dict(request)
+                future = asyncio.run_coroutine_threadsafe(self._serve(service, handler, data), self.loop)
+            except Exception as e:  # noqa: BLE001 (bad request, or the loop is gone)
+                self.hop(self.report, f'service {service}', e)
+                return response
+            self._serving.add(future)
+            future.add_done_callback(self._served_done)
+            done = await Pending(future)
+            if done.cancelled() or done.exception() is not None or done.result() is None:
+                return response
+            try:
+                return convert.from_dict(cls.Response, done.result())
+            except Exception as e:  # noqa: BLE001
+                self.hop(self.report, f'service {service}: bad response', e)
+                return response
+
+        handle = RclpyService(self, service, full)
+        handle.srv = self.node.create_service(cls, service, serve, callback_group=self.reentrant)
+        self._served[service] = handle
+        return handle
+
+    def _served_done(self, future) -> None:
+        self._serving.discard(future)
+        self.wake()
+
+    async def _serve(self, service: str, handler, request: Message) -> Message | None:
+        """On the loop: the gateway's answer, or None (the ROS caller then gets a default response)."""
+        try:
+            return await asyncio.wait_for(handler(request), self.service_timeout)
+        except asyncio.TimeoutError:
+            log.warning('service %s: no response within %s s', service, self.service_timeout)
+        except BackendError as e:
+            log.warning('service %s failed: %s', service, e)
+        except Exception:
+            log.exception('service %s failed', service)
+        return None
+
+    # --- actions ------------------------------------------------------------------------------
+
+    async def send_goal(self, action: str, type: str, goal: Message,
+                        on_feedback: Callable[[Message], None] | None):
+        from rclpy.action import ActionClient  # noqa: PLC0415
+
+        full = normalize(type, 'action')
+        self.defs.action(full)
+        cls = self.defs.action_class(full)
+        action = self.node.resolve_service_name(action)
+        served = dict(self.actions()).get(action)
+        if served is None:
+            raise BackendError(f'action server {action} is not available')
+        if served != full:
+            raise BackendError(f'action {action} has type {served}, not {full}')
+        client = self._action_clients.get((action, full))
+        if client is None:
+            client = ActionClient(self.node, cls, action, callback_group=self.reentrant)
+            self._action_clients[(action, full)] = client
+        await self._until(client.server_is_ready, self.service_timeout,
+                          BackendError(f'action server {action} did not become ready'))
+        return await send_goal(self, action, client, cls, goal, on_feedback, self.service_timeout)
+
+    def advertise_action(self, action: str, type: str, callbacks: ActionServerCallbacks) -> RclpyActionServer:
+        full = normalize(type, 'action')
+        self.defs.action(full)
+        cls = self.defs.action_class(full)
+        action = self.node.resolve_service_name(action)
+        if action in self._action_servers or action in dict(self.actions()):
+            raise BackendError(f'action {action} is already served')
+        server = RclpyActionServer(self, action, full, cls, callbacks)
+        self._action_servers[action] = server
+        return server
+
+    def forget_action_server(self, server: RclpyActionServer) -> None:
+        if self._action_servers.get(server.name) is server:
+            del self._action_servers[server.name]
+
+    # --- graph --------------------------------------------------------------------------------
+
+    def topics(self) -> list[tuple[str, str]]:
+        from rclpy.topic_or_service_is_hidden import topic_or_service_is_hidden  # noqa: PLC0415
+        return sorted((n, t[0]) for n, t in self.node.get_topic_names_and_types()
+                      if t and not topic_or_service_is_hidden(n))
+
+    def services(self) -> list[tuple[str, str]]:
+        from rclpy.topic_or_service_is_hidden import topic_or_service_is_hidden  # noqa: PLC0415
+        return sorted((n, t[0]) for n, t in self.node.get_service_names_and_types()
+                      if t and not topic_or_service_is_hidden(n))
+
+    def actions(self) -> list[tuple[str, str]]:
+        from rclpy.action import get_action_names_and_types  # noqa: PLC0415
+        return sorted((n, t[0]) for n, t in get_action_names_and_types(self.node) if t)
+
+    def nodes(self) -> list[str]:
+        return sorted({fq_name(ns, n) for n, ns in self.node.get_node_names_and_namespaces()})
+
+    def node_info(self, node: str) -> NodeInfo:
+        name, ns = split_node(node)
+        try:
+            pubs = self.node.get_publisher_names_and_types_by_node(name, ns)
+            subs = self.node.get_subscriber_names_and_types_by_node(name, ns)
+            srvs = self.node.get_service_names_and_types_by_node(name, ns)
+        except Exception as e:  # rclpy's NodeNameNonExistentError
+            raise BackendError(f'no node named {node}') from e
+        return NodeInfo(sorted(n for n, _ in pubs), sorted(n for n, _ in subs), sorted(n for n, _ in srvs))
+
+    def publishers(self, topic: str) -> list[str]:
+        return sorted({fq_name(i.node_namespace, i.node_name)
+                       for i in self.node.get_publishers_info_by_topic(topic)})
+
+    def subscribers(self, topic: str) -> list[str]:
+        return sorted({fq_name(i.node_namespace, i.node_name)
+                       for i in self.node.get_subscriptions_info_by_topic(topic)})
+
+    def service_providers(self, service: str) -> list[str]:
+        providers = []
+        for name, ns in self.node.get_node_names_and_namespaces():
+            try:
+                services = self.node.get_service_names_and_types_by_node(name, ns)
+            except Exception:  # noqa: BLE001 (the node left meanwhile)
+                continue
+            if any(s == service for s, _ in services):
+                providers.append(fq_name(ns, name))
+        return sorted(set(providers))
+
+    # --- parameters (through the node's rcl_interfaces services) -------------------------------
+
+    async def _param_call(self, node: str, suffix: str, srv_cls, request):
+        node = '/' + node.strip('/')
+        service = f'{node}/{suffix}'
+        if service not in dict(self.node.get_service_names_and_types()):
+            raise BackendError(f'no node named {node} with parameter services')
+        type = f'rcl_interfaces/srv/{srv_cls.__name__}'
+        return await self._call(service, type, srv_cls, request, self.service_timeout)
+
+    async def _get_value(self, node: str, name: str):
+        from rcl_interfaces.srv import GetParameters  # noqa: PLC0415
+        response = await self._param_call(node, 'get_parameters', GetParameters,
+                                          GetParameters.Request(names=[name]))
+        return response.values[0] if response.values else None
+
+    async def get_param(self, node: str, name: str) -> Any:
+        from rclpy.parameter import parameter_value_to_python  # noqa: PLC0415
+        value = await self._get_value(node, name)
+        if value is None or value.type == PARAM_NOT_SET:
+            raise KeyError(f'{node}:{name}')
+        return plain(parameter_value_to_python(value))
+
+    async def set_param(self, node: str, name: str, value: Any) -> None:
+        from rclpy.parameter import Parameter  # noqa: PLC0415
+        current = await self._get_value(node, name)
+        kind = current.type if current is not None else PARAM_NOT_SET
+        if kind == PARAM_DOUBLE and isinstance(value, int) and not isinstance(value, bool):
+            value = float(value)     # JSON '1' for a double parameter
+        elif kind == PARAM_DOUBLE_ARRAY and isinstance(value, list):
+            value = [float(v) if isinstance(v, int) and not isinstance(v, bool) else v for v in value]
+        try:
+            msg = Parameter(name, value=value).to_parameter_msg()
+        except TypeError as e:
+            raise BackendError(f'parameter {name}: {e}') from None
+        await self._set(node, name, msg, 'set')
+
+    async def delete_param(self, node: str, name: str) -> None:
+        from rcl_interfaces.msg import Parameter as ParameterMsg  # noqa: PLC0415
+        await self._set(node, name, ParameterMsg(name=name), 'delete')   # type NOT_SET undeclares
+
+    async def _set(self, node: str, name: str, msg, verb: str) -> None:
+        from rcl_interfaces.srv import SetParameters  # noqa: PLC0415
+        response = await self._param_call(node, 'set_parameters', SetParameters,
+                                          SetParameters.Request(parameters=[msg]))
+        result = response.results[0] if response.results else None
+        if result is None or not result.successful:
+            reason = result.reason if result is not None else 'no result'
+            raise BackendError(f'cannot {verb} parameter {name} of {node}: {reason}')
+
+    async def param_names(self) -> list[str]:
+        from rcl_interfaces.srv import ListParameters  # noqa: PLC0415
+        services = dict(self.node.get_service_names_and_types())
+        nodes = [n for n in self.nodes() if f'{n}/list_parameters' in services]
+
+        async def names(node: str) -> list[str]:
+            try:
+                response = await self._param_call(node, 'list_parameters', ListParameters,
+                                                  ListParameters.Request())
+            except BackendError:
+                return []   # the node left or does not answer
+            return [f'{node}:{n}' for n in response.result.names]
+
+        found = await asyncio.gather(*(names(n) for n in nodes))
+        return sorted(name for group in found for name in group)
+
+    def now(self) -> tuple[int, int]:
+        return self.node.get_clock().now().seconds_nanoseconds()
+
+
+def plain(value):
+    """Parameter values as plain Python (byte arrays arrive as 1-byte bytes objects)."""
+    if isinstance(value, list):
+        return [v[0] if isinstance(v, (bytes, bytearray)) else v for v in value]
+    return value
+
+
+def ros_qos(qos: QoS):
+    from rclpy.duration import Duration  # noqa: PLC0415
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy  # noqa: PLC0415
+
+    kwargs = {
+        'history': HistoryPolicy.KEEP_ALL if qos.history_keep_all else HistoryPolicy.KEEP_LAST,
+        'depth': max(1, qos.depth),
+        'reliability': ReliabilityPolicy.RELIABLE if qos.reliable else ReliabilityPolicy.BEST_EFFORT,
+        'durability': DurabilityPolicy.TRANSIENT_LOCAL if qos.transient_local else DurabilityPolicy.VOLATILE,
+    }
+    if qos.deadline:
+        kwargs['deadline'] = Duration(nanoseconds=int(qos.deadline * 1e9))
+    if qos.lifespan:
+        kwargs['lifespan'] = Duration(nanoseconds=int(qos.lifespan * 1e9))
+    return QoSProfile(**kwargs)

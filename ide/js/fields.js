@@ -1,0 +1,137 @@
+import { messageState } from './msgblock.js';
+import { shared } from './graph.js';
+
+// A dropdown of live ROS names (topics, services, actions, types, fields) that also
+// takes free text, and the block extensions that fill a block's TYPE from its name.
+/* global Blockly */
+
+export const OTHER = '\u0000other';
+const g = () => shared.graph;
+const typed = new Map();     // names typed by hand, per kind, offered again in the menus
+
+
+export class FieldRosName extends Blockly.FieldDropdown {
+  constructor(kind, value, validator) {
+    super(() => this.menu(), validator);
+    this.kind = kind;
+    if (value !== undefined) this.setValue(value);
+  }
+
+  static fromJson(options) {
+    return new FieldRosName(options.kind, options.value ?? '');
+  }
+
+  names() {
+    if (!g()) return [];
+    const block = this.getSourceBlock();
+    switch (this.kind) {
+      case 'topic': case 'service': case 'action': return g().names(this.kind);
+      case 'msgtype': return g().messageTypes();
+      case 'srvtype': return g().serviceTypes();
+      case 'actiontype': return g().actionTypes();
+      case 'field': {
+        const type = block?.getFieldValue('TYPE');
+        return type ? g().fieldPaths(type) : [];
+      }
+      default: return [];
+    }
+  }
+
+  menu() {
+    const seen = new Set();
+    const opts = [];
+    const add = (v) => { if (v && !seen.has(v)) { seen.add(v); opts.push([v, v]); } };
+    add(this.value_);
+    for (const n of this.names()) add(n);
+    for (const n of typed.get(this.kind) ?? []) add(n);
+    opts.push([this.kind === 'field' ? '✎ type a field…' : '✎ type a name…', OTHER]);
+    if (g()?.connected && !g()._refreshing && this.kind !== 'field') g().refresh().catch(() => {});
+    return opts;
+  }
+
+  doClassValidation_(v) {
+    if (v === OTHER) return v;
+    return typeof v === 'string' ? v : null;
+  }
+
+  doValueUpdate_(v) {
+    this.value_ = v;
+    this.isDirty_ = true;
+    this.selectedOption = [v || ' ', v];
+  }
+
+  onItemSelected_(menu, item) {
+    if (item.getValue() !== OTHER) { this.setValue(item.getValue()); return; }
+    const label = { topic: 'Topic name', service: 'Service name', action: 'Action name', field: 'Field path' }[this.kind] ?? 'Name';
+    Blockly.dialog.prompt(`${label}:`, this.value_ ?? '', (text) => {
+      if (text === null || text === undefined) return;
+      text = text.trim();
+      if (!text) return;
+      if (!typed.has(this.kind)) typed.set(this.kind, new Set());
+      typed.get(this.kind).add(text);
+      this.setValue(text);
+    });
+  }
+
+  getText_() { return this.value_ || '…'; }
+}
+
+Blockly.fieldRegistry.register('field_rosname', FieldRosName);
+
+// NAME kinds each block family uses.
+const NAME_FIELDS = { TOPIC: 'topic', SERVICE: 'service', ACTION: 'action' };
+const DETAIL_KIND = { topic: 'msg', service: 'request', action: 'goal' };
+const MSG_INPUT = { topic: 'MSG', service: 'REQUEST', action: 'GOAL' };
+
+// Keeps TYPE in step with the chosen name and offers a matching message block.
+Blockly.Extensions.register('ros_typed_name', function () {
+  const block = this;
+  const nameField = Object.keys(NAME_FIELDS).find((f) => block.getField(f));
+  if (!nameField) return;
+  const kind = NAME_FIELDS[nameField];
+  block.getField(nameField).setValidator(function (name) {
+    if (name === OTHER) return undefined;
+    if (block.isInFlyout || block.workspace.isFlyout) return undefined;
+    if (!g() || name === this.getValue()) return undefined;
+    setTimeout(() => fillType(block, kind, name), 0);
+    return undefined;
+  });
+});
+
+async function fillType(block, kind, name) {
+  if (block.isDeadOrDying?.() || block.disposed) return;
+  let type = g().typeOf(kind, name);
+  if (!type && g().connected) {
+    try {
+      if (kind === 'topic') type = (await g().call('/rosapi/topic_type', { topic: name })).type;
+      if (kind === 'service') type = (await g().call('/rosapi/service_type', { service: name })).type;
+      if (kind === 'action') type = (await g().call('/rosapi/action_type', { action: name })).type;
+    } catch { type = ''; }
+  }
+  if (!type || block.disposed) return;
+  Blockly.Events.setGroup(true);
+  try {
+    block.setFieldValue(type, 'TYPE');
+    const inputName = MSG_INPUT[kind];
+    if (inputName && block.getInput(inputName)) {
+      await attachMessage(block, inputName, DETAIL_KIND[kind], type);
+    }
+  } finally {
+    Blockly.Events.setGroup(false);
+  }
+}
+
+// Puts a message block of `type` into the block's input unless one of that type is there.
+export async function attachMessage(block, inputName, detailKind, type) {
+  const input = block.getInput(inputName);
+  const current = input.connection.targetBlock();
+  if (current && current.type === 'ros_message' && current.msgType === type) return;
+  if (current && current.type !== 'ros_message') return;   // a user's own expression stays
+  let defs;
+  try { defs = await g().details(detailKind, type); } catch { return; }
+  if (block.disposed) return;
+  if (current) current.dispose(false);
+  const state = messageState(detailKind, type, defs);
+  const child = Blockly.serialization.blocks.append(state, block.workspace);
+  input.connection.connect(child.outputConnection);
+}

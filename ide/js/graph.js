@@ -1,0 +1,139 @@
+// What the live ROS graph offers, asked through rosapi and cached for the dropdowns.
+// Every method answers from the cache at once; refresh() updates it in the background.
+
+export function normType(t) {
+  // 'pkg/Type' and 'pkg/msg/Type' name the same type
+  const p = String(t || '').split('/');
+  return p.length === 2 ? `${p[0]}/msg/${p[1]}` : String(t || '');
+}
+
+export class RosGraph extends EventTarget {
+  constructor() {
+    super();
+    this.ros = null;
+    this.topics = new Map();    // name -> type
+    this.services = new Map();
+    this.actions = new Map();
+    this.typedefs = new Map();  // 'kind:type' -> typedefs[]
+    this._refreshing = null;
+  }
+
+  setRos(ros) {
+    this.ros = ros;
+    this.typedefs.clear();
+  }
+
+  get connected() { return !!this.ros?.isConnected; }
+
+  call(service, args = {}, timeout = 5000) {
+    const ros = this.ros;
+    if (!ros?.isConnected) return Promise.reject(new Error('not connected'));
+    const id = `call_service:${service}:graph.${Math.random().toString(36).slice(2)}`;
+    return new Promise((resolve, reject) => {
+      const timer = setTimeout(() => { off(); reject(new Error(`${service}: no answer`)); }, timeout);
+      const off = () => { clearTimeout(timer); ros.off(id, onReply); ros.off(`status:${id}`, onStatus); };
+      const onReply = (m) => {
+        off();
+        if (m.result === false) reject(new Error(`${service}: ${m.values}`));
+        else resolve(m.values);
+      };
+      const onStatus = (m) => { if (m.level === 'error') { off(); reject(new Error(m.msg)); } };
+      ros.on(id, onReply);
+      ros.on(`status:${id}`, onStatus);
+      ros.callOnConnection({ op: 'call_service', id, service, args });
+    });
+  }
+
+  refresh() {
+    if (this._refreshing) return this._refreshing;
+    this._refreshing = (async () => {
+      try {
+        const t = await this.call('/rosapi/topics');
+        this.topics = new Map(t.topics.map((n, i) => [n, t.types[i]]));
+        const s = await this.call('/rosapi/services');
+        const services = new Map();
+        await Promise.all(s.services.map(async (name) => {
+          const known = this.services.get(name);
+          if (known) { services.set(name, known); return; }
+          try {
+            services.set(name, (await this.call('/rosapi/service_type', { service: name })).type);
+          } catch { services.set(name, ''); }
+        }));
+        this.services = services;
+        const a = await this.call('/rosapi/action_servers');
+        const actions = new Map();
+        await Promise.all(a.action_servers.map(async (name) => {
+          const known = this.actions.get(name);
+          if (known) { actions.set(name, known); return; }
+          try {
+            actions.set(name, (await this.call('/rosapi/action_type', { action: name })).type);
+          } catch { actions.set(name, ''); }
+        }));
+        this.actions = actions;
+        this.dispatchEvent(new Event('change'));
+      } finally {
+        this._refreshing = null;
+      }
+    })();
+    return this._refreshing;
+  }
+
+  names(kind) {
+    const m = { topic: this.topics, service: this.services, action: this.actions }[kind];
+    return m ? [...m.keys()].sort() : [];
+  }
+
+  typeOf(kind, name) {
+    const m = { topic: this.topics, service: this.services, action: this.actions }[kind];
+    return m?.get(name) || '';
+  }
+
+  // All message types seen on topics (for the message block's type menu).
+  messageTypes() {
+    return [...new Set([...this.topics.values()].filter(Boolean))].sort();
+  }
+
+  serviceTypes() { return [...new Set([...this.services.values()].filter(Boolean))].sort(); }
+  actionTypes() { return [...new Set([...this.actions.values()].filter(Boolean))].sort(); }
+
+  // typedefs of a message ('msg'), a service request ('request') or an action goal ('goal').
+  async details(kind, type) {
+    const key = `${kind}:${type}`;
+    if (this.typedefs.has(key)) return this.typedefs.get(key);
+    const [service] = {
+      msg: ['/rosapi/message_details'],
+      request: ['/rosapi/service_request_details'],
+      response: ['/rosapi/service_response_details'],
+      goal: ['/rosapi/action_goal_details'],
+      feedback: ['/rosapi/action_feedback_details'],
+      result: ['/rosapi/action_result_details'],
+    }[kind];
+    const r = await this.call(service, { type });
+    this.typedefs.set(key, r.typedefs);
+    return r.typedefs;
+  }
+
+  cachedDetails(kind, type) { return this.typedefs.get(`${kind}:${type}`); }
+
+  // Leaf field paths of a message type (for "latest [field] of topic"), from cache.
+  fieldPaths(type) {
+    const defs = this.cachedDetails('msg', type);
+    if (!defs?.length) return [];
+    const byType = new Map(defs.map((d) => [normType(d.type), d]));
+    const out = [];
+    const walk = (def, prefix, depth) => {
+      def.fieldnames.forEach((name, i) => {
+        const ft = def.fieldtypes[i];
+        const sub = byType.get(normType(ft));
+        const path = prefix ? `${prefix}.${name}` : name;
+        if (sub && def.fieldarraylen[i] === -1 && depth < 4) walk(sub, path, depth + 1);
+        else out.push(path);
+      });
+    };
+    walk(defs[0], '', 0);
+    return out;
+  }
+}
+
+// The graph the blocks' dropdowns read (set once by the page).
+export const shared = { graph: null };

@@ -1,0 +1,427 @@
+# --- rosgate runtime: the same API the IDE's JavaScript runtime offers, over roslibpy ---
+import argparse
+import json
+import math
+import os
+import random
+import signal
+import sys
+import threading
+import time
+import traceback
+
+import roslibpy
+
+
+class StopProgram(Exception):
+    """Raised inside the program when it has to end (Stop, Ctrl-C or an error)."""
+
+
+class RosError(Exception):
+    pass
+
+
+def fmt(v):
+    """Formats a value for log() the same way the IDE does."""
+    return v if isinstance(v, str) else _repr(v)
+
+
+def _repr(v):
+    if v is None:
+        return "null"
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if math.isnan(v):
+            return "nan"
+        if math.isinf(v):
+            return "inf" if v > 0 else "-inf"
+        if v.is_integer() and abs(v) < 1e21:
+            return str(int(v))
+        return repr(v)
+    if isinstance(v, str):
+        return json.dumps(v, ensure_ascii=False)
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_repr(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{" + ", ".join(json.dumps(str(k), ensure_ascii=False) + ": " + _repr(x)
+                               for k, x in v.items()) + "}"
+    return str(v)
+
+
+def field(obj, path):
+    """field({'pose': {'x': 1}}, 'pose.x') -> 1; numeric parts index lists."""
+    v = obj
+    for part in [p for p in str(path).split(".") if p]:
+        if isinstance(v, (list, tuple)) and part.lstrip("-").isdigit() and -len(v) <= int(part) < len(v):
+            v = v[int(part)]
+        elif isinstance(v, dict) and part in v:
+            v = v[part]
+        else:
+            raise RosError("no field '%s' of '%s' in message" % (part, path))
+    return v
+
+
+def yaw(q):
+    """Heading in radians from a geometry_msgs/Quaternion."""
+    q = q or {}
+    x, y, z, w = (q.get(k, d) for k, d in (("x", 0), ("y", 0), ("z", 0), ("w", 1)))
+    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+
+
+def angle_diff(a, b):
+    d = a - b
+    while d > math.pi:
+        d -= 2 * math.pi
+    while d <= -math.pi:
+        d += 2 * math.pi
+    return d
+
+
+def range_at(scan, degrees=0, window=20):
+    """Nearest valid range within +-window/2 degrees of `degrees` (0 ahead, 90 left)."""
+    centre = math.radians(float(degrees))
+    half = math.radians(abs(float(window))) / 2
+    best = math.inf
+    for i, r in enumerate(scan.get("ranges") or []):
+        if r is None or not math.isfinite(r) or r < scan["range_min"] or r > scan["range_max"]:
+            continue
+        a = scan["angle_min"] + i * scan["angle_increment"]
+        if abs(angle_diff(a, centre)) <= half and r < best:
+            best = r
+    return best
+
+
+def is_velocity_type(t):
+    return t.split("/")[0] == "geometry_msgs" and t.split("/")[-1] in ("Twist", "TwistStamped")
+
+
+def _twist(t, linear, angular):
+    tw = {"linear": {"x": linear, "y": 0.0, "z": 0.0}, "angular": {"x": 0.0, "y": 0.0, "z": angular}}
+    return {"header": {"frame_id": ""}, "twist": tw} if t.endswith("TwistStamped") else tw
+
+
+def zero_velocity(t):
+    return _twist(t, 0.0, 0.0)
+
+
+def pose_of(msg, t=""):
+    if "turtlesim" in t or "theta" in msg:
+        return msg["x"], msg["y"], msg["theta"]
+    p = msg
+    if "pose" in p and "pose" in p["pose"]:
+        p = p["pose"]["pose"]
+    elif "pose" in p:
+        p = p["pose"]
+    return p["position"]["x"], p["position"]["y"], yaw(p["orientation"])
+
+
+class _Sub:
+    def __init__(self, topic):
+        self.topic = topic
+        self.latest = None
+        self.cond = threading.Condition()
+        self.handlers = []
+
+
+class Runtime:
+    def __init__(self, url):
+        self.ros = roslibpy.Ros(url)
+        self.ros.run(timeout=10)
+        self.stopped = threading.Event()
+        self.error = None
+        self.t0 = time.monotonic()
+        self._lock = threading.Lock()
+        self._subs = {}
+        self._topics = {}
+        self._velocity = {}
+        self._actions = {}
+        self._goals = {}
+        self.handlers = 0
+
+    def _check(self):
+        if self.stopped.is_set():
+            raise StopProgram()
+
+    def _wait(self, event, timeout, what):
+        end = None if not timeout else time.monotonic() + timeout
+        while not event.wait(0.05):
+            self._check()
+            if end is not None and time.monotonic() > end:
+                raise RosError("%s: no answer within %g s" % (what, timeout))
+        self._check()
+
+    def fail(self, exc):
+        """Ends the program because of an error raised outside the main thread."""
+        if not self.stopped.is_set():
+            self.error = exc
+            print("error: %s" % exc, file=sys.stderr, flush=True)
+            self.stopped.set()
+
+    # ---- program control
+    def elapsed(self):
+        return time.monotonic() - self.t0
+
+    def sleep(self, seconds):
+        if self.stopped.wait(max(0.0, float(seconds or 0))):
+            raise StopProgram()
+
+    def log(self, value):
+        print(fmt(value), flush=True)
+
+    # ---- topics
+    def _topic(self, topic, t):
+        with self._lock:
+            tp = self._topics.get(topic)
+            if tp is None:
+                tp = self._topics[topic] = roslibpy.Topic(self.ros, topic, t)
+            return tp
+
+    def publish(self, topic, t, msg):
+        self._check()
+        if is_velocity_type(t):
+            self._velocity[topic] = t
+        self._topic(topic, t).publish(roslibpy.Message(msg))
+
+    def _subscribe(self, topic, t):
+        with self._lock:
+            sub = self._subs.get(topic)
+            if sub is not None:
+                return sub
+            sub = self._subs[topic] = _Sub(topic)
+
+        def deliver(msg):
+            if self.stopped.is_set():
+                return
+            with sub.cond:
+                sub.latest = msg
+                sub.cond.notify_all()
+            for h in list(sub.handlers):
+                h(msg)
+
+        roslibpy.Topic(self.ros, topic, t).subscribe(deliver)
+        return sub
+
+    def on_message(self, topic, t, handler):
+        """Runs handler(msg) in its own thread; while it is busy only the newest message waits."""
+        sub = self._subscribe(topic, t)
+        slot = {"msg": None, "has": False}
+        ready = threading.Condition()
+
+        def worker():
+            while not self.stopped.is_set():
+                with ready:
+                    while not slot["has"] and not self.stopped.is_set():
+                        ready.wait(0.1)
+                    if self.stopped.is_set():
+                        return
+                    msg, slot["has"] = slot["msg"], False
+                try:
+                    handler(msg)
+                except StopProgram:
+                    return
+                except Exception as e:
+                    traceback.print_exc()
+                    self.fail(e)
+                    return
+
+        def offer(msg):
+            with ready:
+                slot["msg"], slot["has"] = msg, True
+                ready.notify()
+
+        threading.Thread(target=worker, daemon=True).start()
+        sub.handlers.append(offer)
+        self.handlers += 1
+
+    def wait_for_message(self, topic, t, timeout=0):
+        sub = self._subscribe(topic, t)
+        end = None if not timeout else time.monotonic() + float(timeout)
+        with sub.cond:
+            before = sub.latest
+            while sub.latest is before:
+                self._check()
+                if end is not None and time.monotonic() > end:
+                    raise RosError("no message on %s within %g s" % (topic, float(timeout)))
+                sub.cond.wait(0.05)
+            return sub.latest
+
+    def latest(self, topic, t, path=""):
+        sub = self._subscribe(topic, t)
+        msg = sub.latest
+        if msg is None:
+            msg = self.wait_for_message(topic, t, 10)
+        return field(msg, path) if path else msg
+
+    # ---- services and actions
+    def call_service(self, service, t, args=None, timeout=0):
+        self._check()
+        done = threading.Event()
+        out = {}
+
+        def ok(values):
+            out["values"] = dict(values)
+            done.set()
+
+        def err(values):
+            out["error"] = values
+            done.set()
+
+        roslibpy.Service(self.ros, service, t).call(roslibpy.ServiceRequest(args or {}), ok, err)
+        self._wait(done, float(timeout) if timeout else 30.0, "service " + service)
+        if "error" in out:
+            raise RosError("service %s failed: %s" % (service, out["error"]))
+        return out["values"]
+
+    def send_goal(self, action, t, goal=None, on_feedback=None):
+        """Sends a goal and waits for its result; on_feedback runs in a worker thread."""
+        self._check()
+        with self._lock:
+            client = self._actions.get(action)
+            if client is None:
+                client = self._actions[action] = roslibpy.ActionClient(self.ros, action, t)
+        done = threading.Event()
+        out = {}
+        fb = {"busy": False}
+
+        def feedback(values):
+            if on_feedback is None or fb["busy"] or self.stopped.is_set():
+                return
+            fb["busy"] = True
+
+            def run():
+                try:
+                    on_feedback(dict(values))
+                except StopProgram:
+                    pass
+                except Exception as e:
+                    traceback.print_exc()
+                    self.fail(e)
+                finally:
+                    fb["busy"] = False
+            threading.Thread(target=run, daemon=True).start()
+
+        def result(res):
+            out["result"] = res
+            done.set()
+
+        def error(res):
+            out["error"] = res
+            done.set()
+
+        goal_id = client.send_goal(dict(goal or {}), result, feedback, error)
+        self._goals[goal_id] = client
+        try:
+            self._wait(done, 0, "action " + action)
+        finally:
+            self._goals.pop(goal_id, None)
+        res = out.get("result") or out.get("error") or {}
+        status = int(getattr(res.get("status"), "value", res.get("status") or 0))
+        if "error" in out or status != 4:
+            what = {5: "was canceled", 6: "was aborted"}.get(status, "ended with status %s" % status)
+            raise RosError("action %s %s" % (action, what))
+        return dict(res.get("values") or {})
+
+    def cancel(self, action=None):
+        for goal_id, client in list(self._goals.items()):
+            if action is None or client.name == action:
+                client.cancel_goal(goal_id)
+
+    # ---- robot helpers
+    def stop_robot(self):
+        for topic, t in list(self._velocity.items()):
+            self._topic(topic, t).publish(roslibpy.Message(zero_velocity(t)))
+
+    def drive(self, topic, t, msg, seconds):
+        end = time.monotonic() + max(0.0, float(seconds or 0))
+        try:
+            while time.monotonic() < end:
+                self.publish(topic, t, msg)
+                self.sleep(min(0.1, max(0.0, end - time.monotonic())))
+        finally:
+            if not self.stopped.is_set():
+                self.publish(topic, t, zero_velocity(t))
+
+    def move(self, spec, distance, speed=1.0):
+        distance = float(distance or 0)
+        t = spec.get("type", "geometry_msgs/msg/Twist")
+        x0, y0, _ = pose_of(self.latest(spec["pose"], spec["pose_type"]), spec["pose_type"])
+        sign = math.copysign(1.0, distance)
+        try:
+            while True:
+                x, y, _ = pose_of(self.latest(spec["pose"], spec["pose_type"]), spec["pose_type"])
+                remaining = abs(distance) - math.hypot(x - x0, y - y0)
+                if remaining <= 0.005:
+                    break
+                v = max(0.05, min(float(speed), 2 * remaining))
+                self.publish(spec["cmd"], t, _twist(t, sign * v, 0.0))
+                self.sleep(0.02)
+        finally:
+            if not self.stopped.is_set():
+                self.publish(spec["cmd"], t, zero_velocity(t))
+
+    def turn(self, spec, degrees, speed=90.0):
+        target = math.radians(float(degrees or 0))
+        rate = math.radians(float(speed))
+        t = spec.get("type", "geometry_msgs/msg/Twist")
+        last = pose_of(self.latest(spec["pose"], spec["pose_type"]), spec["pose_type"])[2]
+        turned = 0.0
+        try:
+            while True:
+                th = pose_of(self.latest(spec["pose"], spec["pose_type"]), spec["pose_type"])[2]
+                turned += angle_diff(th, last)
+                last = th
+                remaining = target - turned
+                if abs(remaining) <= 0.003:
+                    break
+                w = max(0.05, min(rate, 2 * abs(remaining)))
+                self.publish(spec["cmd"], t, _twist(t, 0.0, math.copysign(w, remaining)))
+                self.sleep(0.02)
+        finally:
+            if not self.stopped.is_set():
+                self.publish(spec["cmd"], t, zero_velocity(t))
+
+    def shutdown(self):
+        self.stopped.set()
+        try:
+            self.stop_robot()
+            self.cancel()
+            self.ros.close()
+        except Exception:
+            pass
+        try:
+            self.ros.terminate()
+        except Exception:
+            pass
+
+
+rt = None
+
+
+def run(main):
+    """Connects, runs main(), keeps message handlers alive until Ctrl-C, stops the robot."""
+    global rt
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--url", default=os.environ.get("ROSBRIDGE_URL", "ws://localhost:9090/"),
+                        help="rosbridge websocket URL (default: $ROSBRIDGE_URL or ws://localhost:9090/)")
+    args = parser.parse_args()
+    signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
+    rt = Runtime(args.url)
+    code = 0
+    try:
+        main()
+        while rt.handlers and not rt.stopped.wait(0.2):
+            pass
+        if rt.error is not None:
+            code = 1
+    except (KeyboardInterrupt, StopProgram):
+        code = 1 if rt.error is not None else 0
+    except Exception:
+        traceback.print_exc()
+        code = 1
+    finally:
+        rt.shutdown()
+    sys.exit(code)
+# --- end of the rosgate runtime ---

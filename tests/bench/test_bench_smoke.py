@@ -1,0 +1,105 @@
+"""The benchmark harness in its --quick mode: every scenario yields figures.
+
+Runs against the ceiling server, and against rosgate when the gateway is there.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from tests.bench.client import StringFrames, is_publish, read_stamp
+from tests.bench.report import finish_point, goals
+from tests.bench.servers import REPO, rosgate_available
+
+# scenario -> metrics that must be positive numbers for every server
+REQUIRED = {
+    "throughput": ["msg_per_s", "lat_p50_ms", "lat_p95_ms", "delivered_pct"],
+    "fanout": ["delivered_pct", "lat_p95_ms"],
+    "encodings": ["hz", "wire_kib", "delivered_pct"],
+    "encodings_rate": ["published_hz"],
+    "services": ["calls_per_s", "lat_p95_ms"],
+    "slow_consumer": ["published_hz", "healthy_hz_before", "healthy_hz_stalled"],
+}
+# metrics that need the server's pid: numbers, possibly zero
+MEASURED = {
+    "throughput": ["server_cpu_pct"],
+    "fanout": ["server_cpu_s_per_1000"],
+    "encodings": ["server_ms_per_msg"],
+    "encodings_rate": ["server_ms_per_msg"],
+    "services": ["server_us_per_call"],
+    "slow_consumer": ["rss_at_stall_mb", "rss_growth_mb"],
+}
+
+
+def run_quick(tmp_path, *args: str) -> dict:
+    out = tmp_path / "bench.json"
+    proc = subprocess.run(
+        [sys.executable, "-m", "tests.bench", "--quick", "--out", str(out), *args],
+        cwd=REPO, capture_output=True, text=True, timeout=90,
+    )
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert "1. Throughput" in proc.stdout and "5. Slow consumer" in proc.stdout
+    return json.loads(out.read_text())
+
+
+def check_figures(doc: dict, servers: list[str]) -> None:
+    assert [t["name"] for t in doc["meta"]["targets"]] == servers
+    results = doc["results"]
+    assert set(results) == set(REQUIRED)
+    for scenario, entries in results.items():
+        assert entries, scenario
+        for entry in entries:
+            assert entry["errors"] == {}, (scenario, entry["label"], entry["errors"])
+            for server in servers:
+                summary = entry["summary"][server]
+                for key in REQUIRED[scenario]:
+                    assert summary[key]["median"] > 0, (scenario, entry["label"], server, key)
+                for key in MEASURED[scenario]:
+                    assert summary[key]["median"] >= 0, (scenario, entry["label"], server, key)
+
+
+def test_quick_bench_yields_every_figure(tmp_path):
+    """Against the ceiling and rosgate (the ceiling alone until the gateway exists)."""
+    with_rosgate = rosgate_available()
+    doc = run_quick(tmp_path, *([] if with_rosgate else ["--no-rosgate"]))
+    check_figures(doc, ["ceiling", "rosgate"] if with_rosgate else ["ceiling"])
+    if not with_rosgate:
+        assert doc["goals"] == []
+        return
+    for entry in doc["results"]["throughput"]:
+        assert entry["ratio"]["rosgate"]["msg_per_s"] > 0
+    # quick mode stops at 10 subscribers, so the 100-subscriber goal has no figure
+    assert all(goal["value"] is not None for goal in doc["goals"]
+               if "100 subscriber" not in goal["goal"])
+
+
+def test_stamped_frames_read_back():
+    frames = StringFrames("/bench/t", 64)
+    frame = frames.frame(42)
+    assert len(frame) == len(b'{"op":"publish","topic":"/bench/t","msg":{"data":""}}') + 64
+    seq, stamp = read_stamp(frame)
+    assert seq == 42 and stamp > 0
+    # the reference server's json.dumps puts a space after colons
+    spaced = frame.replace(b'"data":"', b'"data": "')
+    assert read_stamp(spaced) == (42, stamp)
+    assert is_publish(frame) and is_publish(b"\xa3cbor")
+    assert not is_publish(b'{"op":"status","level":"error","msg":"no"}')
+
+
+def test_ratio_and_goal_from_runs():
+    entry = {"point": {"size": 64, "window": 1}, "runs": {
+        "ceiling": [{"msg_per_s": 100.0, "lat_p95_ms": 0.2}, {"msg_per_s": 120.0, "lat_p95_ms": 0.3}],
+        "rosgate": [{"msg_per_s": 50.0, "lat_p95_ms": 0.4}, {"msg_per_s": 70.0, "lat_p95_ms": 0.8},
+                    {"msg_per_s": 60.0, "lat_p95_ms": 0.6}],
+    }}
+    finish_point(entry)
+    assert entry["summary"]["rosgate"]["msg_per_s"]["median"] == 60.0
+    assert entry["summary"]["ceiling"]["msg_per_s"]["median"] == 110.0
+    assert entry["ratio"]["rosgate"]["msg_per_s"] == pytest.approx(60 / 110)
+    rows = {g["goal"]: g for g in goals({"throughput": [entry]}, "rosgate")}
+    assert rows[">= 60% of ceiling msg/s at 64 B, W=1"]["met"] is False
+    assert rows["p95 one-way latency < 0.5 ms at 64 B, W=1 (ms)"]["met"] is False

@@ -1,0 +1,105 @@
+"""Shared fixtures: a live rosgate process on a free loopback port, and clients for it."""
+
+from __future__ import annotations
+
+import os
+import re
+import select
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+LINE = re.compile(r'websocket (wss?)://([^:/]+|\[[^\]]+\]):(\d+)(/\S*)')
+
+
+class GatewayProcess:
+    """``python -m gateway --port 0`` on 127.0.0.1, its address read from the startup line."""
+
+    def __init__(self, *args: str, env: dict | None = None):
+        self.programs_dir = tempfile.mkdtemp(prefix='rosgate-programs-')
+        cmd = [sys.executable, '-m', 'gateway', '--port', '0', '--address', '127.0.0.1',
+               '--programs-dir', self.programs_dir, *args]
+        self.proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                     text=True, env={**os.environ, **(env or {})})
+        line = self._read_line(timeout=30)
+        m = LINE.search(line)
+        if not m:
+            self.stop()
+            raise RuntimeError(f'rosgate did not start: {line!r}\n{self.proc.stderr.read()}')
+        scheme, self.host, port, self.path = m.groups()
+        self.port = int(port)
+        self.ws_url = f'{scheme}://{self.host}:{self.port}{self.path}'
+        self.http_url = f"{'https' if scheme == 'wss' else 'http'}://{self.host}:{self.port}/"
+        self.pid = self.proc.pid
+
+    def _read_line(self, timeout: float) -> str:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            ready, _, _ = select.select([self.proc.stdout], [], [], 0.2)
+            if ready:
+                return self.proc.stdout.readline()
+            if self.proc.poll() is not None:
+                break
+        return ''
+
+    @property
+    def alive(self) -> bool:
+        return self.proc.poll() is None
+
+    def stop(self, sig: int = signal.SIGTERM, timeout: float = 10) -> int:
+        if self.proc.poll() is None:
+            self.proc.send_signal(sig)
+            try:
+                self.proc.wait(timeout)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+        return self.proc.returncode
+
+
+@pytest.fixture(scope='session')
+def start_gateway():
+    """Factory: start_gateway(*flags) -> a GatewayProcess, stopped at the end of the session."""
+    started: list[GatewayProcess] = []
+
+    def start(*args: str, env: dict | None = None) -> GatewayProcess:
+        gw = GatewayProcess(*args, env=env)
+        started.append(gw)
+        return gw
+
+    yield start
+    for gw in started:
+        gw.stop()
+
+
+@pytest.fixture(scope='session')
+def gateway(start_gateway):
+    """The shared sim gateway (demo nodes, fast Fibonacci)."""
+    return start_gateway('--fibonacci-interval', '0.05', '--unregister-timeout', '0.5')
+
+
+def wait_for(predicate, timeout: float = 5.0, interval: float = 0.01):
+    """Poll until predicate() is truthy; return its value or fail."""
+    deadline = time.monotonic() + timeout
+    while True:
+        value = predicate()
+        if value:
+            return value
+        if time.monotonic() > deadline:
+            raise AssertionError(f'condition not met within {timeout} s')
+        time.sleep(interval)
+
+
+@pytest.fixture
+def ros(gateway):
+    import roslibpy
+    client = roslibpy.Ros(gateway.host, gateway.port)
+    client.run(timeout=10)
+    yield client
+    client.close()

@@ -1,0 +1,53 @@
+"""A minimal rosbridge client over raw websocket frames, for tests that need exact control."""
+
+from __future__ import annotations
+
+import json
+import time
+
+import cbor2
+from websockets.sync.client import connect
+
+
+class Raw:
+    def __init__(self, url: str, **kw):
+        self.ws = connect(url, max_size=None, compression=None, open_timeout=10, legacy=True, **kw)
+        self.seen: list[dict] = []
+
+    def send(self, op) -> None:
+        if isinstance(op, dict):
+            op = json.dumps(op)
+        self.ws.send(op)
+
+    def recv(self, timeout: float = 5.0) -> dict:
+        frame = self.ws.recv(timeout=timeout)
+        if isinstance(frame, bytes):
+            return cbor2.loads(frame)
+        return json.loads(frame)
+
+    def expect(self, predicate, timeout: float = 5.0) -> dict:
+        """The first message matching predicate; everything read before it lands in self.seen."""
+        deadline = time.monotonic() + timeout
+        while True:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                raise AssertionError(f'no matching message within {timeout} s; saw {self.seen[-5:]}')
+            try:
+                msg = self.recv(left)
+            except TimeoutError:
+                continue
+            if predicate(msg):
+                return msg
+            self.seen.append(msg)
+
+    def status(self, id=None, timeout: float = 5.0) -> dict:
+        return self.expect(lambda m: m.get('op') == 'status' and (id is None or m.get('id') == id), timeout)
+
+    def close(self) -> None:
+        self.ws.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()

@@ -1,0 +1,183 @@
+"""The reference's websocket cases, re-done black-box with the real roslibpy client."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import roslibpy
+
+from tests.conftest import wait_for
+
+
+def test_smoke_ten_messages_each_way(ros):
+    inbound = roslibpy.Topic(ros, '/smoke/in', 'std_msgs/msg/String')
+    outbound = roslibpy.Topic(ros, '/smoke/out', 'std_msgs/msg/String')
+    got_in, got_out = [], []
+    inbound.subscribe(got_in.append)
+    outbound.subscribe(got_out.append)
+    wait_for(lambda: '/smoke/in' in ros.get_topics())
+    inbound.advertise()
+    outbound.advertise()
+    for i in range(10):
+        inbound.publish(roslibpy.Message({'data': f'in {i}'}))
+        outbound.publish(roslibpy.Message({'data': f'out {i}'}))
+    wait_for(lambda: len(got_in) == 10 and len(got_out) == 10)
+    assert [m['data'] for m in got_in] == [f'in {i}' for i in range(10)]
+    assert [m['data'] for m in got_out] == [f'out {i}' for i in range(10)]
+
+
+def test_call_service_exact_response(ros):
+    service = roslibpy.Service(ros, '/add_two_ints', 'example_interfaces/srv/AddTwoInts')
+    assert dict(service.call(roslibpy.ServiceRequest({'a': 40, 'b': 2}), timeout=5)) == {'sum': 42}
+    big = 2**53 + 1   # int64 survives JSON exactly on the Python side
+    assert service.call(roslibpy.ServiceRequest({'a': big, 'b': 1}), timeout=5)['sum'] == big + 1
+
+
+def test_call_service_failure_is_result_false(ros):
+    service = roslibpy.Service(ros, '/add_two_ints', 'example_interfaces/srv/AddTwoInts')
+    errors = []
+    done = threading.Event()
+    service.call(roslibpy.ServiceRequest({'a': 'x'}), lambda r: done.set(),
+                 lambda e: (errors.append(e), done.set()))
+    assert done.wait(5)
+    assert errors and "'a'" in errors[0]
+
+
+def test_advertise_service_and_its_duplicate(ros, gateway):
+    server = roslibpy.Service(ros, '/rg_test/add', 'example_interfaces/srv/AddTwoInts')
+
+    def handler(request, response):
+        response['sum'] = request['a'] + request['b']
+        return True
+
+    server.advertise(handler)
+    wait_for(lambda: '/rg_test/add' in ros.get_services())
+    other = roslibpy.Ros(gateway.host, gateway.port)
+    other.run(timeout=10)
+    try:
+        caller = roslibpy.Service(other, '/rg_test/add', 'example_interfaces/srv/AddTwoInts')
+        assert caller.call(roslibpy.ServiceRequest({'a': 3, 'b': 4}), timeout=5)['sum'] == 7
+
+        # a second server for the same name replaces the first, as in rosbridge
+        duplicate = roslibpy.Service(other, '/rg_test/add', 'example_interfaces/srv/AddTwoInts')
+
+        def doubled(request, response):
+            response['sum'] = 2 * (request['a'] + request['b'])
+            return True
+
+        duplicate.advertise(doubled)
+        wait_for(lambda: caller.call(roslibpy.ServiceRequest({'a': 3, 'b': 4}), timeout=5)['sum'] == 14)
+        assert ros.get_services().count('/rg_test/add') == 1
+    finally:
+        other.close()
+    # the replacing client left: the service is gone, not hanging
+    wait_for(lambda: '/rg_test/add' not in ros.get_services())
+
+
+def test_send_action_goal_fibonacci_feedback_and_result(ros):
+    client = roslibpy.ActionClient(ros, '/fibonacci', 'example_interfaces/action/Fibonacci')
+    results, feedback = [], []
+    goal_id = client.send_goal(roslibpy.Goal({'order': 6}), results.append, feedback.append, results.append)
+    client.wait_goal(goal_id, timeout=10)
+    assert results[0]['status'] == roslibpy.GoalStatus.SUCCEEDED
+    assert results[0]['values'] == {'sequence': [0, 1, 1, 2, 3, 5, 8]}
+    assert [f['sequence'] for f in feedback][-1] == [0, 1, 1, 2, 3, 5, 8]
+    assert len(feedback) >= 5
+
+
+def test_cancel_action_goal(ros, gateway):
+    client = roslibpy.ActionClient(ros, '/fibonacci', 'example_interfaces/action/Fibonacci')
+    results, feedback = [], []
+    goal_id = client.send_goal(roslibpy.Goal({'order': 40}), results.append, feedback.append, results.append)
+    wait_for(lambda: len(feedback) >= 2)
+    client.cancel_goal(goal_id)
+    client.wait_goal(goal_id, timeout=10)
+    assert results[0]['status'] == roslibpy.GoalStatus.CANCELED
+    assert len(results[0]['values']['sequence']) < 41
+
+
+def test_multiple_subscribers(ros, gateway):
+    others = [roslibpy.Ros(gateway.host, gateway.port) for _ in range(3)]
+    for o in others:
+        o.run(timeout=10)
+    try:
+        inboxes = []
+        for o in others:
+            box = []
+            roslibpy.Topic(o, '/multi', 'std_msgs/msg/Int32').subscribe(box.append)
+            inboxes.append(box)
+        pub = roslibpy.Topic(ros, '/multi', 'std_msgs/msg/Int32')
+        pub.advertise()
+        wait_for(lambda: _published_until_all(pub, inboxes))
+        for box in inboxes:
+            values = [m['data'] for m in box]
+            assert values == sorted(values)
+    finally:
+        for o in others:
+            o.close()
+
+
+def _published_until_all(pub, inboxes) -> bool:
+    pub.publish(roslibpy.Message({'data': int(time.monotonic() * 1000) % 2**31}))
+    time.sleep(0.02)
+    return all(inboxes)
+
+
+def test_latched_topic_reaches_late_subscribers(ros, gateway):
+    pub = roslibpy.Topic(ros, '/latched/state', 'std_msgs/msg/String', latch=True)
+    pub.advertise()
+    pub.publish(roslibpy.Message({'data': 'ready'}))
+    wait_for(lambda: '/latched/state' in ros.get_topics())
+    for _ in range(2):   # the first late subscriber creates the shared subscription, the second joins it
+        late = roslibpy.Ros(gateway.host, gateway.port)
+        late.run(timeout=10)
+        try:
+            got = []
+            roslibpy.Topic(late, '/latched/state', 'std_msgs/msg/String').subscribe(got.append)
+            wait_for(lambda: got)
+            assert got[0] == {'data': 'ready'}
+        finally:
+            late.close()
+
+
+def test_rosapi_listings_and_details(ros):
+    assert '/add_two_ints' in ros.get_services()
+    assert ros.get_service_type('/add_two_ints') == 'example_interfaces/srv/AddTwoInts'
+    servers = roslibpy.Service(ros, '/rosapi/action_servers', 'rosapi_msgs/srv/GetActionServers')
+    assert '/fibonacci' in servers.call(roslibpy.ServiceRequest({}), timeout=5)['action_servers']
+    assert '/rosapi' in ros.get_nodes()
+    details = ros.get_service_request_details('example_interfaces/srv/AddTwoInts')
+    assert details['typedefs'][0]['fieldnames'] == ['a', 'b']
+    assert details['typedefs'][0]['fieldtypes'] == ['int64', 'int64']
+    msg = ros.get_message_details('geometry_msgs/msg/Twist')['typedefs']
+    assert [t['type'] for t in msg] == ['geometry_msgs/Twist', 'geometry_msgs/Vector3']
+
+
+def test_params_through_rosapi(ros):
+    names = ros.get_params()
+    assert '/fibonacci_action_server:step_interval' in names
+    param = roslibpy.Param(ros, '/fibonacci_action_server:step_interval')
+    assert param.get(timeout=5) == 0.05
+    param.set(0.04, timeout=5)
+    assert param.get(timeout=5) == 0.04
+    param.set(0.05, timeout=5)
+
+
+def test_rapid_disconnect_smoke(gateway):
+    for i in range(20):
+        client = roslibpy.Ros(gateway.host, gateway.port)
+        client.run(timeout=10)
+        topic = roslibpy.Topic(client, f'/rapid/{i % 3}', 'std_msgs/msg/String')
+        topic.subscribe(lambda m: None)
+        topic.advertise()
+        topic.publish(roslibpy.Message({'data': 'x'}))
+        client.close()
+    survivor = roslibpy.Ros(gateway.host, gateway.port)
+    survivor.run(timeout=10)
+    try:
+        service = roslibpy.Service(survivor, '/add_two_ints', 'example_interfaces/srv/AddTwoInts')
+        assert service.call(roslibpy.ServiceRequest({'a': 1, 'b': 1}), timeout=5)['sum'] == 2
+    finally:
+        survivor.close()
+    assert gateway.alive
