@@ -28,7 +28,8 @@ def frames(op: dict, compression: str = 'none', fragment_size: int | None = None
         return [(codec.encode_cbor(op), True)]
     frame = codec.dumps(op)
     if compression == 'png':
-        return [(codec.dumps(p), False) for p in codec.png_ops(frame, fragment_size, id=op.get('id'))]
+        # one png op: roslibjs decodes each png op on its own, so png is never split
+        return [(codec.dumps(p), False) for p in codec.png_ops(frame, id=op.get('id'))]
     if fragment_size and len(frame) > fragment_size:
         return [(codec.dumps(f), False)
                 for f in codec.fragment_ops(frame, fragment_size, op.get('id') or _fragment_id(op))]

@@ -11,7 +11,7 @@ import json
 import os
 from typing import TYPE_CHECKING, Any
 
-from protocol.convert import from_json
+from protocol.convert import from_args
 from protocol.errors import ProtocolError
 from protocol.msgdefs import Definitions, MsgDef, normalize
 
@@ -44,9 +44,7 @@ async def call(s: ClientSession, name: str, args: Any) -> dict:
     short = name[len(PREFIX):]
     type, fn = SERVICES[short]
     srv = defs().srv(f'rosapi_msgs/srv/{type}')
-    if isinstance(args, list):
-        args = {f.name: v for f, v in zip(srv.request.fields, args)}
-    request = from_json(defs(), srv.request, args or {})
+    request = from_args(defs(), srv.request, args)
     result = fn(s, **request)
     if hasattr(result, '__await__'):
         result = await result

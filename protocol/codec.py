@@ -139,7 +139,7 @@ def encode_cbor(obj) -> bytes:
 
 def png_encode(frame: bytes | str) -> str:
     """rosbridge png compression: the bytes as pixels of a near-square RGB image padded with '\\n'."""
-    from PIL import Image  # noqa: PLC0415 (pillow is only needed by png subscribers)
+    from PIL import Image  # pillow is only needed by png subscribers
 
     if isinstance(frame, str):
         frame = frame.encode()
@@ -152,8 +152,12 @@ def png_encode(frame: bytes | str) -> str:
     return binascii.b2a_base64(buf.getvalue(), newline=False).decode('ascii')
 
 
-def png_ops(frame: bytes | str, max_size: int | None = None, id: str | None = None) -> list[dict]:  # noqa: A002
-    """The png op(s) carrying frame; split into id/num/total pieces when longer than max_size."""
+def png_ops(frame: bytes | str, max_size: int | None = None, id: str | None = None) -> list[dict]:
+    """The png op(s) carrying frame; split into id/num/total pieces when longer than max_size.
+
+    roslibjs decodes each png op on its own and ignores num/total, so for browser clients send
+    one png op (no max_size).
+    """
     data = png_encode(frame)
     if max_size is None or len(data) <= max_size:
         op = {'op': 'png', 'data': data}
@@ -168,38 +172,41 @@ def png_ops(frame: bytes | str, max_size: int | None = None, id: str | None = No
 
 def decode_png(data_b64: str, max_bytes: int = 64 * 2**20) -> dict:
     """The op object inside a png op's data (the whole data, pieces already joined)."""
-    from PIL import Image, UnidentifiedImageError  # noqa: PLC0415
+    from PIL import Image, UnidentifiedImageError
 
     try:
         raw = binascii.a2b_base64(data_b64, strict_mode=True)
         with Image.open(io.BytesIO(raw)) as img:
-            if img.width * img.height * 4 > max_bytes:
-                raise ProtocolError(f'png: image of {img.width}x{img.height} pixels is too large')
+            if img.width * img.height * 3 > max_bytes:
+                raise ProtocolError(f'png: image of {img.width}x{img.height} pixels is too large', op='png')
             pixels = img.convert('RGB').tobytes()
-    except (binascii.Error, UnidentifiedImageError, OSError, ValueError) as e:
+    except (binascii.Error, UnidentifiedImageError, Image.DecompressionBombError, OSError, ValueError) as e:
         raise ProtocolError(f'png: cannot decode data: {e}', op='png') from None
     return decode_text(pixels.rstrip(b'\n'))
 
 
 # --- fragments ----------------------------------------------------------------------------------
 
-def fragment_ops(frame: bytes | str, fragment_size: int, id: str) -> list[dict]:  # noqa: A002
-    """rosbridge fragment ops for a JSON frame longer than fragment_size; [] if it fits."""
+def fragment_ops(frame: bytes | str, fragment_size: int, id: str) -> list[dict]:
+    """rosbridge fragment ops for a JSON frame longer than fragment_size; [] if it fits.
+
+    id must be non-empty (roslibjs drops fragments without one); the pieces are split by
+    characters, so each data string is at most fragment_size characters.
+    """
     if fragment_size < 1:
         raise ValueError('fragment_size must be positive')
-    text = frame.decode() if isinstance(frame, (bytes, bytearray, memoryview)) else frame
-    if isinstance(frame, (bytes, bytearray, memoryview)):
-        if len(frame) <= fragment_size:
-            return []
-    elif len(text) <= fragment_size:
+    if not id:
+        raise ValueError('fragments need an id')
+    if len(frame) <= fragment_size:
         return []
+    text = frame if isinstance(frame, str) else bytes(frame).decode()  # split characters, not UTF-8 bytes
     total = -(-len(text) // fragment_size)
     return [{'op': 'fragment', 'id': id, 'data': text[i * fragment_size:(i + 1) * fragment_size],
              'num': i, 'total': total} for i in range(total)]
 
 
 class _Pending:
-    __slots__ = ('total', 'pieces', 'size', 'last')
+    __slots__ = ('last', 'pieces', 'size', 'total')
 
     def __init__(self, total: int, now: float) -> None:
         self.total = total

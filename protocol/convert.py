@@ -1,7 +1,8 @@
-"""Message values: JSON rules (validate, fill defaults), CBOR typed arrays and CDR, driven by msgdefs.
+"""Message values: the JSON rules (validate, fill defaults) and CBOR typed arrays, driven by msgdefs.
 
 Per message type the work is compiled once into closures (cached per Definitions), so converting
 a message is a walk over precomputed field tables, not an interpretation of its definition.
+CDR lives in cdr.py and is re-exported here.
 """
 
 from __future__ import annotations
@@ -9,27 +10,27 @@ from __future__ import annotations
 import array
 import binascii
 import math
+import operator
 import sys
-import weakref
 
 import cbor2
 
+from .cdr import from_cdr, to_cdr
+from .compiled import B64_TYPES, MISSING, compiled, default_message, field_default
 from .errors import ConversionError, json_type
 from .msgdefs import FLOATS, INTEGERS, Definitions, Field, MsgDef
+
+__all__ = ['default_message', 'from_args', 'from_cdr', 'from_json', 'to_cbor', 'to_cdr']
 
 NAN = math.nan
 F32_MAX = 3.4028234663852886e38
 TIME_TYPES = frozenset({'builtin_interfaces/msg/Time', 'builtin_interfaces/msg/Duration'})
 TIME_ALIASES = {'secs': 'sec', 'nsecs': 'nanosec'}
-B64_TYPES = frozenset({'uint8', 'char'})  # uint8[]/char[] are base64 in JSON; byte[] is a list (as rclpy)
 # RFC 8746 little-endian typed-array tag, array.array typecode and numpy dtype per element type
 CBOR_TAGS = {'float64': (86, 'd', '<f8'), 'float32': (85, 'f', '<f4'), 'int8': (72, 'b', 'i1'),
              'int16': (77, 'h', '<i2'), 'uint16': (69, 'H', '<u2'), 'int32': (78, 'i', '<i4'),
              'uint32': (70, 'I', '<u4'), 'int64': (79, 'q', '<i8'), 'uint64': (71, 'Q', '<u8')}
-# non-zero defaults declared in .msg files that the rosbags typestore does not carry
-FIELD_DEFAULTS = {('geometry_msgs/msg/Quaternion', 'w'): 1.0}
 _LITTLE = sys.byteorder == 'little'
-_MISSING = object()
 _FLOAT_OK = frozenset({float})
 _NUMBER_OK = frozenset({float, int, type(None)})
 _INT_OK = frozenset({int})
@@ -54,108 +55,31 @@ class _Bad(Exception):
         return ConversionError(f"field '{path}' {self.what}" if path else f'message {self.what}', path=path)
 
 
-def _got(v) -> str:
-    return json_type(v)
-
-
-# --- compiled per Definitions -------------------------------------------------------------------
-
-class _Cache:
-    __slots__ = ('json', 'default', 'cbor', 'cdr_build', 'cdr_read', 'cdr_types')
-
-    def __init__(self) -> None:
-        self.json: dict = {}
-        self.default: dict = {}
-        self.cbor: dict = {}
-        self.cdr_build: dict = {}
-        self.cdr_read: dict = {}
-        self.cdr_types: dict = {}
-
-
-_CACHES: weakref.WeakKeyDictionary[Definitions, _Cache] = weakref.WeakKeyDictionary()
-
-
-def _cache(defs: Definitions) -> _Cache:
-    cache = _CACHES.get(defs)
-    if cache is None:
-        cache = _CACHES[defs] = _Cache()
-    return cache
-
-
-def _compiled(table: dict, msgdef: MsgDef, make):
-    """table[type] -> (msgdef, fn); recompiled when a different MsgDef object shares the name."""
-    hit = table.get(msgdef.type)
-    if hit is not None and hit[0] is msgdef:
-        return hit[1]
-    fn = make(msgdef)
-    table[msgdef.type] = (msgdef, fn)
-    return fn
-
-
-# --- defaults -----------------------------------------------------------------------------------
-
-def _scalar_default(f: Field):
-    if f.type in FLOATS:
-        return 0.0
-    if f.type == 'bool':
-        return False
-    if f.type in ('string', 'wstring'):
-        return ''
-    return 0
-
-
-def _field_default(defs: Definitions, f: Field, owner: str = ''):
-    """(constant, factory): factory is None for immutable defaults."""
-    if f.array is None:
-        if f.primitive:
-            return FIELD_DEFAULTS.get((owner, f.name), _scalar_default(f)), None
-        return None, _default_factory(defs, defs.msg(f.type))
-    n = f.array
-    if f.type in B64_TYPES:
-        return bytes(n), None
-    if f.primitive:
-        if n == 0:
-            return None, list
-        item = _scalar_default(f)
-        return None, lambda: [item] * n
-    sub = _default_factory(defs, defs.msg(f.type))
-    return None, lambda: [sub() for _ in range(n)]
-
-
-def _default_factory(defs: Definitions, msgdef: MsgDef):
-    def make(msgdef: MsgDef):
-        items = tuple((f.name, *_field_default(defs, f, msgdef.type)) for f in msgdef.fields)
-
-        def default() -> dict:
-            return {name: const if factory is None else factory() for name, const, factory in items}
-        return default
-    return _compiled(_cache(defs).default, msgdef, make)
-
-
-def default_message(defs: Definitions, msgdef: MsgDef) -> dict:
-    """A message of msgdef's type with every field at its default."""
-    return _default_factory(defs, msgdef)()
-
-
 # --- JSON in: validate and fill defaults --------------------------------------------------------
 
 def _float64(v):
     t = type(v)
     if t is float:
         return v
-    if t is int:
+    if v is None:
+        return NAN
+    if t is not bool and hasattr(t, '__float__'):  # int, numpy scalars
         try:
             return float(v)
         except OverflowError:
             raise _Bad(f'is out of range for float64, got {v}') from None
-    if v is None:
-        return NAN
-    raise _Bad(f'must be a number, got {_got(v)}')
+        except (TypeError, ValueError):
+            pass
+    raise _Bad(f'must be a number, got {json_type(v)}')
+
+
+def _in_f32(x: float) -> bool:
+    return -F32_MAX <= x <= F32_MAX or math.isnan(x) or math.isinf(x)
 
 
 def _float32(v):
     x = _float64(v)
-    if -F32_MAX <= x <= F32_MAX or x != x or math.isinf(x):
+    if _in_f32(x):
         return x
     raise _Bad(f'is out of range for float32, got {v}')
 
@@ -163,7 +87,7 @@ def _float32(v):
 def _boolean(v):
     if type(v) is bool:
         return v
-    raise _Bad(f'must be a boolean, got {_got(v)}')
+    raise _Bad(f'must be a boolean, got {json_type(v)}')
 
 
 def _integer(typ: str):
@@ -171,11 +95,13 @@ def _integer(typ: str):
     article = 'an' if typ.startswith('int') else 'a'
 
     def check(v):
-        if type(v) is int:
-            if lo <= v <= hi:
-                return v
-            raise _Bad(f'must be {article} {typ} ({lo}..{hi}), got {v}')
-        raise _Bad(f'must be an integer, got {_got(v)}')
+        if type(v) is not int:
+            if type(v) is bool or isinstance(v, float) or not hasattr(type(v), '__index__'):
+                raise _Bad(f'must be an integer, got {json_type(v)}')
+            v = operator.index(v)  # numpy integers, IntEnum
+        if lo <= v <= hi:
+            return v
+        raise _Bad(f'must be {article} {typ} ({lo}..{hi}), got {v}')
     return check
 
 
@@ -185,7 +111,7 @@ def _string(bound: int):
             if bound and len(v) > bound:
                 raise _Bad(f'must be at most {bound} characters, got {len(v)}')
             return v
-        raise _Bad(f'must be a string, got {_got(v)}')
+        raise _Bad(f'must be a string, got {json_type(v)}')
     return check
 
 
@@ -219,15 +145,16 @@ def _length_check(f: Field):
     return check
 
 
-def _first_bad(values, item_check):
-    """Re-check items one by one to name the failing index (error path only)."""
+def _each(values, item) -> list:
+    """The slow path: convert item by item, naming the index that fails."""
+    out = []
     for i, x in enumerate(values):
         try:
-            item_check(x)
+            out.append(item(x))
         except _Bad as e:
             e.parts.append(i)
             raise
-    raise _Bad('has an invalid element')
+    return out
 
 
 def _as_list(v) -> list:
@@ -235,13 +162,14 @@ def _as_list(v) -> list:
         return v
     if type(v) is tuple:
         return list(v)
-    raise _Bad(f'must be an array, got {_got(v)}')
+    raise _Bad(f'must be an array, got {json_type(v)}')
 
 
 def _bytes_check(f: Field, as_list: bool):
     """uint8[]/char[] -> bytes (from base64, a byte string or a list of ints); byte[] -> list of ints."""
     length = _length_check(f)
     what = 'must be a base64 string or an array of integers 0..255'
+    octet = _integer('uint8')
 
     def check(v):
         t = type(v)
@@ -256,10 +184,9 @@ def _bytes_check(f: Field, as_list: bool):
             try:
                 b = bytes(v)
             except (ValueError, TypeError):
-                _first_bad(v, _integer('uint8'))
-                raise
+                b = bytes(_each(v, octet))
         else:
-            raise _Bad(f'{what}, got {_got(v)}')
+            raise _Bad(f'{what}, got {json_type(v)}')
         if length is not None:
             length(b)
         return list(b) if as_list else b
@@ -267,23 +194,23 @@ def _bytes_check(f: Field, as_list: bool):
 
 
 def _array_check(defs: Definitions, f: Field):
+    """Arrays: a C-speed type census decides; lists already right are kept as they are."""
     if f.type in B64_TYPES:
         return _bytes_check(f, as_list=False)
     if f.type == 'byte':
         return _bytes_check(f, as_list=True)
     length = _length_check(f)
     if not f.primitive:
-        sub = _json_converter(defs, defs.msg(f.type))
+        item = _json_converter(defs, defs.msg(f.type))
 
         def check(v):
             v = _as_list(v)
             if length is not None:
                 length(v)
             try:
-                return [sub(x) for x in v]
+                return [item(x) for x in v]
             except _Bad:
-                _first_bad(v, sub)
-                raise
+                return _each(v, item)
         return check
 
     item = _scalar_check(f)
@@ -295,17 +222,16 @@ def _array_check(defs: Definitions, f: Field):
             if length is not None:
                 length(v)
             types = set(map(type, v))
-            if types <= _FLOAT_OK and not f32:
-                return v
-            if types <= _NUMBER_OK:
+            if not types <= _FLOAT_OK:
+                if not types <= _NUMBER_OK:
+                    return _each(v, item)
                 try:
-                    out = [NAN if x is None else float(x) for x in v]
+                    v = [NAN if x is None else float(x) for x in v]
                 except OverflowError:
-                    out = None
-                if out is not None and (not f32 or all(-F32_MAX <= x <= F32_MAX or x != x or math.isinf(x)
-                                                        for x in out)):
-                    return out
-            _first_bad(v, item)
+                    return _each(v, item)
+            if f32 and v and (any(map(math.isnan, v)) or not -F32_MAX <= min(v) <= max(v) <= F32_MAX):
+                return _each(v, item)  # NaN/inf are fine, finite values beyond float32 are not
+            return v
         return check
 
     if f.type in INTEGERS:
@@ -317,7 +243,7 @@ def _array_check(defs: Definitions, f: Field):
                 length(v)
             if set(map(type, v)) <= _INT_OK and (not v or (lo <= min(v) and max(v) <= hi)):
                 return v
-            _first_bad(v, item)
+            return _each(v, item)
         return check
 
     ok = _BOOL_OK if f.type == 'bool' else _STR_OK
@@ -329,7 +255,7 @@ def _array_check(defs: Definitions, f: Field):
             length(v)
         if set(map(type, v)) <= ok and not (bound and v and max(map(len, v)) > bound):
             return v
-        _first_bad(v, item)
+        return _each(v, item)
     return check
 
 
@@ -343,18 +269,19 @@ def _field_check(defs: Definitions, f: Field):
 
 def _json_converter(defs: Definitions, msgdef: MsgDef):
     def make(msgdef: MsgDef):
-        fields = tuple((f.name, _field_check(defs, f), *_field_default(defs, f, msgdef.type)) for f in msgdef.fields)
+        fields = tuple((f.name, _field_check(defs, f), *field_default(defs, f, msgdef.type))
+                       for f in msgdef.fields)
         names = frozenset(f.name for f in msgdef.fields)
         typename = msgdef.type
 
         def convert(v):
             if type(v) is not dict:
-                raise _Bad(f'must be an object, got {_got(v)}')
+                raise _Bad(f'must be an object, got {json_type(v)}')
             out = {}
             seen = 0
             for name, check, const, factory in fields:
-                x = v.get(name, _MISSING)
-                if x is _MISSING:
+                x = v.get(name, MISSING)
+                if x is MISSING:
                     out[name] = const if factory is None else factory()
                     continue
                 seen += 1
@@ -374,12 +301,12 @@ def _json_converter(defs: Definitions, msgdef: MsgDef):
         if typename in TIME_TYPES:
             plain = convert
 
-            def convert(v):  # noqa: F811 (Time/Duration also accept ROS 1 secs/nsecs)
+            def convert(v):  # Time/Duration also accept ROS 1 secs/nsecs
                 if type(v) is dict and ('secs' in v or 'nsecs' in v):
                     v = {TIME_ALIASES.get(k, k): x for k, x in v.items()}
                 return plain(v)
         return convert
-    return _compiled(_cache(defs).json, msgdef, make)
+    return compiled(defs, 'json', msgdef, make)
 
 
 def from_json(defs: Definitions, msgdef: MsgDef, value, path: str = '') -> dict:
@@ -400,7 +327,7 @@ def from_args(defs: Definitions, msgdef: MsgDef, args, path: str = 'args') -> di
         if len(args) > len(names):
             raise ConversionError(f"field '{path}' has {len(args)} values but {msgdef.type} has "
                                   f'{len(names)} fields', path=path)
-        args = dict(zip(names, args))
+        args = dict(zip(names, args, strict=False))
     return from_json(defs, msgdef, args, path)
 
 
@@ -453,129 +380,10 @@ def _cbor_converter(defs: Definitions, msgdef: MsgDef):
                     out[name] = fn(v)
             return out
         return convert
-    return _compiled(_cache(defs).cbor, msgdef, make)
+    return compiled(defs, 'cbor', msgdef, make)
 
 
 def to_cbor(msgdef: MsgDef, msg: dict, defs: Definitions) -> dict:
     """The message with numeric arrays as typed-array tags and byte arrays as byte strings."""
     convert = _cbor_converter(defs, msgdef)
     return msg if convert is None else convert(msg)
-
-
-# --- CDR (cbor-raw, rclpy) through rosbags ------------------------------------------------------
-
-def _pyname(name: str) -> str:
-    import keyword  # noqa: PLC0415
-
-    return f'{name}_' if keyword.iskeyword(name) else name
-
-
-def _cdr_array(f: Field):
-    import numpy as np  # noqa: PLC0415 (a rosbags dependency; only needed for CDR)
-
-    if f.type in B64_TYPES:
-        return lambda v: np.frombuffer(v, np.uint8) if type(v) is bytes else np.asarray(v, np.uint8)
-    dtype = {'byte': np.uint8, 'bool': np.bool_, 'float32': np.float32}.get(f.type) or np.dtype(f.type)
-    if f.type == 'float32':
-        def to_f32(v):
-            with np.errstate(over='ignore'):
-                return np.asarray(v, np.float64).astype(np.float32)
-        return to_f32
-    return lambda v: np.asarray(v, dtype)
-
-
-def _cdr_builder(defs: Definitions, msgdef: MsgDef):
-    typestore = defs.typestore
-
-    def make(msgdef: MsgDef):
-        cls = typestore.types[msgdef.type]
-        fields = []
-        for f in msgdef.fields:
-            fn = None
-            if f.array is None and not f.primitive:
-                fn = _cdr_builder(defs, defs.msg(f.type))
-            elif f.array is None and f.type == 'byte':
-                fn = lambda v: v - 256 if v > 127 else v  # noqa: E731 (rosbags packs byte as int8)
-            elif f.array is not None and not f.primitive:
-                sub = _cdr_builder(defs, defs.msg(f.type))
-                fn = lambda v, s=sub: [s(x) for x in v]  # noqa: E731
-            elif f.array is not None and f.type not in ('string', 'wstring'):
-                fn = _cdr_array(f)
-            fields.append((f.name, _pyname(f.name), fn, *_field_default(defs, f, msgdef.type)))
-        fields = tuple(fields)
-
-        def build(m: dict):
-            kw = {}
-            for name, pyname, fn, const, factory in fields:
-                v = m.get(name, _MISSING)
-                if v is _MISSING:
-                    v = const if factory is None else factory()
-                kw[pyname] = v if fn is None else fn(v)
-            return cls(**kw)
-        return build
-    return _compiled(_cache(defs).cdr_build, msgdef, make)
-
-
-def _cdr_reader(defs: Definitions, msgdef: MsgDef):
-    def make(msgdef: MsgDef):
-        fields = []
-        for f in msgdef.fields:
-            fn = None
-            if f.array is None and not f.primitive:
-                fn = _cdr_reader(defs, defs.msg(f.type))
-            elif f.array is None and f.type == 'byte':
-                fn = lambda v: v & 0xFF  # noqa: E731
-            elif f.array is not None and not f.primitive:
-                sub = _cdr_reader(defs, defs.msg(f.type))
-                fn = lambda v, s=sub: [s(x) for x in v]  # noqa: E731
-            elif f.array is not None and f.type in B64_TYPES:
-                fn = lambda v: v.tobytes()  # noqa: E731
-            elif f.array is not None and f.type == 'byte':
-                fn = lambda v: v.view('u1').tolist()  # noqa: E731
-            elif f.array is not None and f.type in ('string', 'wstring'):
-                fn = list
-            elif f.array is not None:
-                fn = lambda v: v.tolist()  # noqa: E731
-            fields.append((f.name, _pyname(f.name), fn))
-        fields = tuple(fields)
-
-        def read(o) -> dict:
-            out = {}
-            for name, pyname, fn in fields:
-                v = getattr(o, pyname)
-                out[name] = v if fn is None else fn(v)
-            return out
-        return read
-    return _compiled(_cache(defs).cdr_read, msgdef, make)
-
-
-def _cdr_type(defs: Definitions, type: str) -> MsgDef:  # noqa: A002
-    cache = _cache(defs).cdr_types
-    msgdef = cache.get(type)
-    if msgdef is None:
-        if defs.typestore is None:
-            raise ConversionError('CDR needs definitions loaded from a rosbags typestore')
-        msgdef = cache[type] = defs.msg(type)
-        if msgdef.type not in defs.typestore.types:
-            raise ConversionError(f'{msgdef.type} is not registered with the CDR typestore')
-    return msgdef
-
-
-def to_cdr(defs: Definitions, type: str, msg: dict) -> bytes:  # noqa: A002
-    """CDR bytes (with encapsulation header) of a message dict, as ROS 2 puts on the wire."""
-    msgdef = _cdr_type(defs, type)
-    try:
-        obj = _cdr_builder(defs, msgdef)(msg)
-        return bytes(defs.typestore.serialize_cdr(obj, msgdef.type))
-    except Exception as e:  # bad values surface as rosbags SerdeError, struct.error, numpy errors
-        raise ConversionError(f'cannot serialize {msgdef.type}: {e}') from None
-
-
-def from_cdr(defs: Definitions, type: str, data: bytes) -> dict:  # noqa: A002
-    """A message dict (uint8[] as bytes, other arrays as lists) from CDR bytes."""
-    msgdef = _cdr_type(defs, type)
-    try:
-        obj = defs.typestore.deserialize_cdr(data, msgdef.type)
-    except Exception as e:  # rosbags SerdeError and friends
-        raise ConversionError(f'cannot deserialize {msgdef.type}: {e}') from None
-    return _cdr_reader(defs, msgdef)(obj)

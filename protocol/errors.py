@@ -6,7 +6,7 @@ from __future__ import annotations
 class ProtocolError(Exception):
     """The client sent something wrong; it becomes a ``status`` op naming op and id."""
 
-    def __init__(self, message: str, *, op: str | None = None, id: str | None = None,  # noqa: A002
+    def __init__(self, message: str, *, op: str | None = None, id: str | None = None,
                  level: str = 'error') -> None:
         super().__init__(message)
         self.message = message
@@ -30,7 +30,7 @@ class ProtocolError(Exception):
 class ConversionError(ProtocolError):
     """A message value does not fit its type; ``path`` names the field ('linear.x', 'poses[2].x')."""
 
-    def __init__(self, message: str, *, path: str = '', op: str | None = None, id: str | None = None,  # noqa: A002
+    def __init__(self, message: str, *, path: str = '', op: str | None = None, id: str | None = None,
                  level: str = 'error') -> None:
         super().__init__(message, op=op, id=id, level=level)
         self.path = path

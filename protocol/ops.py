@@ -18,7 +18,7 @@ class _Bad(Exception):
 class Check:
     """How one wire field is validated: required or not, and a checker of its value."""
 
-    __slots__ = ('required', 'check')
+    __slots__ = ('check', 'required')
 
     def __init__(self, check, required: bool = False) -> None:
         self.check = check

@@ -2,11 +2,31 @@
 
 from __future__ import annotations
 
+import re
+
 from .codec import Reassembler, decode_binary, decode_png, decode_text
 from .errors import ProtocolError
 from .ops import Fragment, Op, Png, SetLevel, parse_op, peek_id
 
 LEVEL_RANK = {'info': 0, 'warning': 1, 'warn': 1, 'error': 2, 'none': 3}
+
+
+_HEAD = 512   # how much of an oversized text frame is searched for its op and id
+_OP = re.compile(r'"op"\s*:\s*"([A-Za-z_]{1,40})"')
+_ID = re.compile(r'"id"\s*:\s*"([^"\\]{0,200})"')
+
+
+def _peek_op_and_id(data) -> tuple[str | None, str | None]:
+    """Op and id of a frame too large to parse, when they come early in its JSON text."""
+    if isinstance(data, (bytes, bytearray)):
+        try:
+            head = bytes(data[:_HEAD]).decode('utf-8', 'ignore')
+        except Exception:
+            return None, None
+    else:
+        head = data[:_HEAD]
+    op, id = _OP.search(head), _ID.search(head)
+    return (op.group(1) if op else None), (id.group(1) if id else None)
 
 
 class Session:
@@ -30,7 +50,7 @@ class Session:
         except ProtocolError as e:
             out.append(e)
             return out
-        self._handle(obj, now, out, nested=False)
+        self._handle(obj, now, out)
         return out
 
     def receive_bytes(self, data: bytes, now: float) -> list[Op | ProtocolError]:
@@ -44,7 +64,7 @@ class Session:
         except ProtocolError as e:
             out.append(e)
             return out
-        self._handle(obj, now, out, nested=False)
+        self._handle(obj, now, out)
         return out
 
     def expire(self, now: float) -> list[ProtocolError]:
@@ -53,7 +73,8 @@ class Session:
         self._expire(now, out)
         return out
 
-    def status(self, level: str, msg: str, *, id: str | None = None, op: str | None = None) -> dict | None:  # noqa: A002
+    def status(self, level: str, msg: str, *, id: str | None = None,
+               op: str | None = None) -> dict | None:
         """A status op for the client, or None when its set_level filters this level out."""
         if level == 'warn':
             level = 'warning'
@@ -80,7 +101,8 @@ class Session:
         if isinstance(data, str) and size <= limit < size * 4:
             size = len(data.encode('utf-8', 'surrogatepass'))
         if size > limit:
-            out.append(ProtocolError(f'message of {size} bytes exceeds max_message_size {limit}'))
+            op, id = _peek_op_and_id(data)
+            out.append(ProtocolError(f'message of {size} bytes exceeds max_message_size {limit}', op=op, id=id))
             return True
         return False
 
@@ -90,23 +112,24 @@ class Session:
                 f'fragment: incomplete message dropped after {self.reassembler.timeout:g} s without fragments',
                 op='fragment', id=fid))
 
-    def _handle(self, obj: dict, now: float, out: list, nested: bool) -> None:
+    def _handle(self, obj: dict, now: float, out: list, outer: Fragment | Png | None = None) -> None:
+        """Parse one op object; outer is the fragment/png op that carried it, if any."""
         try:
             op = parse_op(obj)
             if isinstance(op, Fragment):
-                if nested:
+                if outer is not None:
                     raise ProtocolError('fragment: a fragment may not carry another fragment',
                                         op='fragment', id=op.id)
                 full = self.reassembler.add(op, now)
                 if full is not None:
-                    self._handle(full, now, out, nested=True)
+                    self._handle(full, now, out, op)
                 return
             if isinstance(op, Png):
-                if nested:
+                if outer is not None:
                     raise ProtocolError('png: a png op may not carry another png op', op='png', id=op.id)
                 if op.total not in (None, 1):
                     raise ProtocolError('png: fragmented png input is not supported', op='png', id=op.id)
-                self._handle(decode_png(op.data), now, out, nested=True)
+                self._handle(decode_png(op.data), now, out, op)
                 return
             if isinstance(op, SetLevel):
                 self.level = op.level
@@ -114,4 +137,6 @@ class Session:
         except ProtocolError as e:
             if e.id is None and e.op is None:
                 e.id = peek_id(obj)
+                if e.id is None and outer is not None:
+                    e.op, e.id = outer.OP, outer.id
             out.append(e)

@@ -27,6 +27,9 @@ from .rclpy_types import Converter, RosDefinitions
 log = logging.getLogger('rosgate.rclpy')
 
 PARAM_NOT_SET, PARAM_DOUBLE, PARAM_DOUBLE_ARRAY = 0, 3, 8
+# requests in flight per service: a server's request reader keeps the last 10 (the default
+# service QoS), so a larger burst would lose requests
+IN_FLIGHT = 8
 
 
 def fq_name(namespace: str, name: str) -> str:
@@ -100,6 +103,7 @@ class RclpyBackend:
         self.node = self.reentrant = None
         self._context = self._executor = self._thread = None
         self._clients: dict[tuple[str, str], Any] = {}
+        self._in_flight: dict[str, asyncio.Semaphore] = {}
         self._action_clients: dict[tuple[str, str], Any] = {}
         self._served: dict[str, RclpyService] = {}
         self._action_servers: dict[str, RclpyActionServer] = {}
@@ -285,25 +289,28 @@ class RclpyBackend:
 
     async def _call(self, service: str, type: str, cls, request, timeout: float | None):
         client = self._client(service, type, cls)
+        limit = self._in_flight.setdefault(service, asyncio.Semaphore(IN_FLIGHT))
         timeout = timeout if timeout and timeout > 0 else None
         wait = timeout or self.service_timeout
-        await self._until(client.service_is_ready, wait,
-                          ServiceTimeout(f'service {service} did not become ready within {wait} s'))
-        future = client.call_async(request)
         try:
-            return await asyncio.wait_for(self.wrap(future), timeout)
-        except asyncio.TimeoutError:
+            async with asyncio.timeout(timeout), limit:
+                await self._until(client.service_is_ready, wait, ServiceTimeout(
+                    f'service {service} did not become ready within {wait} s'))
+                future = client.call_async(request)
+                try:
+                    return await self.wrap(future)
+                finally:
+                    if not future.done():
+                        client.remove_pending_request(future)
+        except TimeoutError:
             raise ServiceTimeout(f'service {service} did not answer within {timeout} s') from None
-        finally:
-            if not future.done():
-                client.remove_pending_request(future)
 
     async def call_service(self, service: str, type: str, request: Message, timeout: float) -> Message:
         full = normalize(type, 'srv')
         self.defs.srv(full)
         cls = self.defs.srv_class(full)
         service = self.node.resolve_service_name(service)
-        types = dict(self.node.get_service_names_and_types()).get(service)
+        types = self._served_types().get(service)
         if not types:
             raise BackendError(f'service {service} is not available')
         if full not in types:
@@ -320,7 +327,7 @@ class RclpyBackend:
         old = self._served.get(service)
         if old is not None:
             old.destroy()    # re-advertising replaces
-        elif service in dict(self.node.get_service_names_and_types()):
+        elif service in self._served_types():
             raise BackendError(f'service {service} is already provided by '
                                f'{", ".join(self.service_providers(service)) or "another node"}')
         convert = self.convert
@@ -409,14 +416,21 @@ class RclpyBackend:
         return sorted((n, t[0]) for n, t in self.node.get_topic_names_and_types()
                       if t and not topic_or_service_is_hidden(n))
 
+    def _served_types(self) -> dict[str, list[str]]:
+        """Services with a server (clients alone make a name appear in the graph too)."""
+        return {n: t for n, t in self.node.get_service_names_and_types()
+                if t and self.node.count_services(n)}
+
     def services(self) -> list[tuple[str, str]]:
         from rclpy.topic_or_service_is_hidden import topic_or_service_is_hidden  # noqa: PLC0415
-        return sorted((n, t[0]) for n, t in self.node.get_service_names_and_types()
-                      if t and not topic_or_service_is_hidden(n))
+        return sorted((n, t[0]) for n, t in self._served_types().items()
+                      if not topic_or_service_is_hidden(n))
 
     def actions(self) -> list[tuple[str, str]]:
+        """Actions with a server: a server publishes the action's status topic, clients do not."""
         from rclpy.action import get_action_names_and_types  # noqa: PLC0415
-        return sorted((n, t[0]) for n, t in get_action_names_and_types(self.node) if t)
+        return sorted((n, t[0]) for n, t in get_action_names_and_types(self.node)
+                      if t and self.node.count_publishers(f'{n}/_action/status'))
 
     def nodes(self) -> list[str]:
         return sorted({fq_name(ns, n) for n, ns in self.node.get_node_names_and_namespaces()})
@@ -455,7 +469,7 @@ class RclpyBackend:
     async def _param_call(self, node: str, suffix: str, srv_cls, request):
         node = '/' + node.strip('/')
         service = f'{node}/{suffix}'
-        if service not in dict(self.node.get_service_names_and_types()):
+        if not self.node.count_services(service):
             raise BackendError(f'no node named {node} with parameter services')
         type = f'rcl_interfaces/srv/{srv_cls.__name__}'
         return await self._call(service, type, srv_cls, request, self.service_timeout)
@@ -502,7 +516,7 @@ class RclpyBackend:
 
     async def param_names(self) -> list[str]:
         from rcl_interfaces.srv import ListParameters  # noqa: PLC0415
-        services = dict(self.node.get_service_names_and_types())
+        services = self._served_types()
         nodes = [n for n in self.nodes() if f'{n}/list_parameters' in services]
 
         async def names(node: str) -> list[str]:

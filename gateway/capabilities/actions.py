@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import asyncio
 
-from protocol.convert import from_json
+from protocol.convert import from_args, from_json
 from protocol.errors import ProtocolError
 from protocol.msgdefs import normalize
 from protocol.ops import (
@@ -33,7 +33,7 @@ async def _send_goal(s: ClientSession, op: SendActionGoal, id: str) -> None:
         s.gateway.policy.check(s, 'send_goal', name, op.OP, id)
         type = normalize(op.action_type, 'action')
         adef = s.backend.action_def(type)
-        goal = from_json(s.backend.defs, adef.goal, op.args if op.args is not None else {})
+        goal = from_args(s.backend.defs, adef.goal, op.args)
 
         def on_feedback(values: dict) -> None:
             s.reply({'op': 'action_feedback', 'action': op.action, 'id': id, 'values': values},

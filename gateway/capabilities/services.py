@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import asyncio
 
-from protocol.convert import from_json
+from protocol.convert import from_args, from_json
 from protocol.errors import ProtocolError
 from protocol.msgdefs import normalize
 from protocol.ops import AdvertiseService, CallService, ServiceResponse, UnadvertiseService
@@ -13,17 +13,6 @@ from .. import rosapi
 from ..backends.base import BackendError
 from ..session import ClientSession
 from .topics import absolute
-
-
-def request_args(fields, args, op: str, id: str | None) -> dict:
-    """rosbridge accepts args as an object or as a list in field order."""
-    if args is None:
-        return {}
-    if isinstance(args, list):
-        if len(args) > len(fields):
-            raise ProtocolError(f'{len(args)} args given, the request has {len(fields)} fields', op=op, id=id)
-        return {f.name: v for f, v in zip(fields, args)}
-    return args
 
 
 def call_service(s: ClientSession, op: CallService) -> None:
@@ -41,7 +30,7 @@ async def _call(s: ClientSession, op: CallService) -> None:
         else:
             type = normalize(op.type, 'srv') if op.type else service_type(s, name)
             srv = s.backend.srv_def(type)
-            request = from_json(s.backend.defs, srv.request, request_args(srv.request.fields, op.args, op.OP, op.id))
+            request = from_args(s.backend.defs, srv.request, op.args)
             timeout = op.timeout if op.timeout is not None else s.gateway.settings.default_call_service_timeout
             values = await s.backend.call_service(name, type, request, timeout if timeout > 0 else None)
     except asyncio.CancelledError:

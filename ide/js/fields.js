@@ -12,9 +12,10 @@ const typed = new Map();     // names typed by hand, per kind, offered again in 
 
 export class FieldRosName extends Blockly.FieldDropdown {
   constructor(kind, value, validator) {
-    super(() => this.menu(), validator);
+    // Blockly calls the generator as a method of the field, before `kind` is set
+    super(function () { return FieldRosName.prototype.menu.call(this); }, validator);
     this.kind = kind;
-    if (value !== undefined) this.setValue(value);
+    this.setValue(value ?? '');
   }
 
   static fromJson(options) {

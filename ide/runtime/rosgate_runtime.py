@@ -3,6 +3,7 @@ import argparse
 import json
 import math
 import os
+import queue
 import random
 import signal
 import sys
@@ -11,6 +12,8 @@ import time
 import traceback
 
 import roslibpy
+
+GAIN = 6.0  # proportional gain of move/turn near the goal (1/s)
 
 
 class StopProgram(Exception):
@@ -276,7 +279,8 @@ class Runtime:
         return out["values"]
 
     def send_goal(self, action, t, goal=None, on_feedback=None):
-        """Sends a goal and waits for its result; on_feedback runs in a worker thread."""
+        """Sends a goal and waits for its result; on_feedback runs, in order, in a worker thread
+        and has handled every feedback before the result is returned."""
         self._check()
         with self._lock:
             client = self._actions.get(action)
@@ -284,31 +288,39 @@ class Runtime:
                 client = self._actions[action] = roslibpy.ActionClient(self.ros, action, t)
         done = threading.Event()
         out = {}
-        fb = {"busy": False}
+        feedbacks = queue.Queue()
 
-        def feedback(values):
-            if on_feedback is None or fb["busy"] or self.stopped.is_set():
-                return
-            fb["busy"] = True
-
-            def run():
+        def worker():
+            while True:
+                values = feedbacks.get()
+                if values is None or self.stopped.is_set():
+                    return
                 try:
-                    on_feedback(dict(values))
+                    on_feedback(values)
                 except StopProgram:
-                    pass
+                    return
                 except Exception as e:
                     traceback.print_exc()
                     self.fail(e)
-                finally:
-                    fb["busy"] = False
-            threading.Thread(target=run, daemon=True).start()
+                    return
+
+        thread = None
+        if on_feedback is not None:
+            thread = threading.Thread(target=worker, daemon=True)
+            thread.start()
+
+        def feedback(values):
+            if thread is not None:
+                feedbacks.put(dict(values))
 
         def result(res):
             out["result"] = res
+            feedbacks.put(None)
             done.set()
 
         def error(res):
             out["error"] = res
+            feedbacks.put(None)
             done.set()
 
         goal_id = client.send_goal(dict(goal or {}), result, feedback, error)
@@ -322,6 +334,9 @@ class Runtime:
         if "error" in out or status != 4:
             what = {5: "was canceled", 6: "was aborted"}.get(status, "ended with status %s" % status)
             raise RosError("action %s %s" % (action, what))
+        while thread is not None and thread.is_alive():
+            thread.join(0.05)
+            self._check()
         return dict(res.get("values") or {})
 
     def cancel(self, action=None):
@@ -353,9 +368,9 @@ class Runtime:
             while True:
                 x, y, _ = pose_of(self.latest(spec["pose"], spec["pose_type"]), spec["pose_type"])
                 remaining = abs(distance) - math.hypot(x - x0, y - y0)
-                if remaining <= 0.005:
+                if remaining <= 0.01:
                     break
-                v = max(0.05, min(float(speed), 2 * remaining))
+                v = max(0.1, min(float(speed), GAIN * remaining))
                 self.publish(spec["cmd"], t, _twist(t, sign * v, 0.0))
                 self.sleep(0.02)
         finally:
@@ -374,9 +389,9 @@ class Runtime:
                 turned += angle_diff(th, last)
                 last = th
                 remaining = target - turned
-                if abs(remaining) <= 0.003:
+                if abs(remaining) <= 0.005:
                     break
-                w = max(0.05, min(rate, 2 * abs(remaining)))
+                w = max(0.1, min(rate, GAIN * abs(remaining)))
                 self.publish(spec["cmd"], t, _twist(t, 0.0, math.copysign(w, remaining)))
                 self.sleep(0.02)
         finally:

@@ -16,6 +16,7 @@ export class RosError extends Error {
 }
 
 let runCounter = 0;
+const GAIN = 6;   // proportional gain of move/turn near the goal (1/s)
 
 export class Runtime {
   /**
@@ -222,23 +223,22 @@ export class Runtime {
   sendGoal(action, type, goal = {}, onFeedback = null) {
     const id = this._id('send_action_goal', action);
     const blockId = this.current;
-    let fbBusy = false;
+    let chain = Promise.resolve();   // feedback handlers run one after another, in order
     return this._track((resolve, reject) => {
       const done = () => { this.ros.off(id, onReply); unwatch(); this.goals.delete(id); };
       const onReply = (m) => {
         if (m.op === 'action_feedback') {
-          if (!onFeedback || fbBusy || this.stopped) return;
-          fbBusy = true;
-          Promise.resolve().then(() => onFeedback(m.values)).catch((e) => {
+          if (!onFeedback) return;
+          chain = chain.then(() => (this.stopped ? null : onFeedback(m.values))).catch((e) => {
             if (!(e instanceof StopSignal)) this._fail(e, this.current ?? blockId);
-          }).finally(() => { fbBusy = false; });
+          });
         } else if (m.op === 'action_result') {
           done();
           if (m.result === false || (m.status !== undefined && m.status !== 4)) {
             const what = { 5: 'was canceled', 6: 'was aborted' }[m.status] ?? `ended with status ${m.status}`;
             const detail = typeof m.values === 'string' ? `: ${m.values}` : '';
             reject(new RosError(`action ${action} ${what}${detail}`));
-          } else resolve(m.values ?? {});
+          } else chain.then(() => resolve(m.values ?? {}));
         }
       };
       const unwatch = this._watchStatus(id, (m) => {
@@ -288,8 +288,8 @@ export class Runtime {
       for (;;) {
         const p = poseOf(await this.latest(spec.pose, spec.pose_type), spec.pose_type);
         const remaining = goal - Math.hypot(p.x - start.x, p.y - start.y);
-        if (remaining <= 0.005) break;
-        const v = Math.max(0.05, Math.min(Number(speed), 2 * remaining));
+        if (remaining <= 0.01) break;
+        const v = Math.max(0.1, Math.min(Number(speed), GAIN * remaining));
         this.publish(spec.cmd, type, twist(type, sign * v, 0));
         await this.sleep(0.02);
       }
@@ -311,8 +311,8 @@ export class Runtime {
         turned += angleDiff(th, last);
         last = th;
         const remaining = target - turned;
-        if (Math.abs(remaining) <= 0.003) break;
-        const w = Math.max(0.05, Math.min(rate, 2 * Math.abs(remaining)));
+        if (Math.abs(remaining) <= 0.005) break;
+        const w = Math.max(0.1, Math.min(rate, GAIN * Math.abs(remaining)));
         this.publish(spec.cmd, type, twist(type, 0, Math.sign(remaining) * w));
         await this.sleep(0.02);
       }

@@ -41,7 +41,7 @@ def test_call_service_failure_is_result_false(ros):
     service.call(roslibpy.ServiceRequest({'a': 'x'}), lambda r: done.set(),
                  lambda e: (errors.append(e), done.set()))
     assert done.wait(5)
-    assert errors and "'a'" in errors[0]
+    assert errors and "'args.a'" in errors[0]
 
 
 def test_advertise_service_and_its_duplicate(ros, gateway):

@@ -89,9 +89,9 @@ def test_dumps_is_compact_utf8():
 
 
 def test_decode_binary_map_and_typed_arrays():
-    payload = cbor2.dumps({'op': 'publish', 'msg': {'data': b'\x00\x01', 'f': cbor2.CBORTag(86, struct.pack('<2d', 1.5, -2)),
-                                                    'i': cbor2.CBORTag(78, struct.pack('<3i', -1, 0, 7)),
-                                                    'u': cbor2.CBORTag(71, struct.pack('<Q', 2**64 - 1))}})
+    tags = {'f': cbor2.CBORTag(86, struct.pack('<2d', 1.5, -2)), 'i': cbor2.CBORTag(78, struct.pack('<3i', -1, 0, 7)),
+            'u': cbor2.CBORTag(71, struct.pack('<Q', 2**64 - 1))}
+    payload = cbor2.dumps({'op': 'publish', 'msg': {'data': b'\x00\x01', **tags}})
     assert decode_binary(payload) == {'op': 'publish', 'msg': {'data': b'\x00\x01', 'f': [1.5, -2.0],
                                                                'i': [-1, 0, 7], 'u': [2**64 - 1]}}
 
@@ -163,11 +163,16 @@ def test_png_ops_split_like_fragments_when_too_long():
     assert png_ops(dumps(obj), max_size=10**9, id='x') == [{'op': 'png', 'data': whole, 'id': 'x'}]
 
 
-def test_decode_png_rejects_garbage():
+def test_decode_png_rejects_garbage_and_huge_images():
     for data in ('not base64 !', base64.b64encode(b'not a png').decode()):
         with pytest.raises(ProtocolError) as info:
             decode_png(data)
-        assert info.value.message.startswith('png: cannot decode')
+        assert info.value.message.startswith('png: cannot decode') and info.value.op == 'png'
+    buf = io.BytesIO()
+    Image.new('RGB', (2000, 2000)).save(buf, 'png')
+    with pytest.raises(ProtocolError) as info:
+        decode_png(base64.b64encode(buf.getvalue()).decode(), max_bytes=2**20)
+    assert 'too large' in info.value.message
 
 
 # --- outgoing fragments -------------------------------------------------------------------------

@@ -81,6 +81,25 @@ def test_empty_message(defs):
 # --- scalars ------------------------------------------------------------------------------------
 
 
+def test_quaternion_defaults_to_identity_as_in_its_msg_file(defs):
+    pose = from_json(defs, defs.msg('geometry_msgs/Pose'), {'position': {'x': 1}})
+    assert pose['orientation'] == {'x': 0.0, 'y': 0.0, 'z': 0.0, 'w': 1.0}
+    assert from_cdr(defs, 'geometry_msgs/Pose', to_cdr(defs, 'geometry_msgs/Pose', {}))['orientation']['w'] == 1.0
+
+
+def test_numeric_subclasses_are_accepted(defs, arrays):
+    import enum
+
+    import numpy as np
+
+    class Mode(enum.IntEnum):
+        FAST = 3
+    out = from_json(defs, arrays, {'small': Mode.FAST, 'big': np.uint64(7), 'single': np.float32(0.5),
+                                   'i32': [np.int32(1), 2], 'f64': [np.float64(1.5), 2]})
+    assert (out['small'], out['big'], out['single'], out['i32'], out['f64']) == (3, 7, 0.5, [1, 2], [1.5, 2.0])
+    assert type(out['small']) is int and type(out['big']) is int and type(out['f64'][0]) is float
+
+
 def test_floats_accept_ints_and_null(defs):
     v3 = defs.msg('geometry_msgs/Vector3')
     out = from_json(defs, v3, {'x': 1, 'y': None, 'z': -2.5})
@@ -204,6 +223,14 @@ def test_float_arrays_round_trip_through_json(defs, values):
     expected = [None if x is None or (isinstance(x, float) and not math.isfinite(x)) else float(x)
                 for x in values]
     assert [None if math.isnan(x) else x for x in again] == expected
+
+
+def test_float_arrays_from_javascript_whole_numbers(defs, arrays):
+    out = from_json(defs, arrays, {'f64': [0, 1, -2], 'f32': [0, 1.5, None, math.inf]})
+    assert out['f64'] == [0.0, 1.0, -2.0] and all(type(x) is float for x in out['f64'])
+    assert out['f32'][:2] == [0.0, 1.5] and math.isnan(out['f32'][2]) and out['f32'][3] == math.inf
+    floats = [0.25] * 10
+    assert from_json(defs, arrays, {'f64': floats})['f64'] is floats  # already right: kept, not copied
 
 
 def test_float_array_element_errors_name_the_index(defs):
@@ -437,6 +464,18 @@ def test_cdr_image(defs):
     msg = from_json(defs, img, {'header': {'frame_id': 'cam', 'stamp': {'sec': 3}}, 'height': 16, 'width': 64,
                                 'encoding': 'rgb8', 'step': 192, 'data': base64.b64encode(raw).decode()})
     assert from_cdr(defs, 'sensor_msgs/Image', to_cdr(defs, 'sensor_msgs/Image', msg)) == msg
+
+
+def test_cbor_raw_frame_carries_cdr_bytes_rosbags_can_read(defs):
+    scan = defs.msg('sensor_msgs/LaserScan')
+    msg = from_json(defs, scan, {'header': {'frame_id': 'laser'}, 'angle_max': 3.14, 'ranges': [1.0, 2.5, math.inf]})
+    frame = encode_cbor({'op': 'publish', 'topic': '/scan',
+                         'msg': {'secs': 12, 'nsecs': 34, 'bytes': to_cdr(defs, 'sensor_msgs/LaserScan', msg)}})
+    out = cbor2.loads(frame)
+    assert (out['op'], out['topic'], out['msg']['secs'], out['msg']['nsecs']) == ('publish', '/scan', 12, 34)
+    obj = defs.typestore.deserialize_cdr(out['msg']['bytes'], 'sensor_msgs/msg/LaserScan')
+    assert obj.header.frame_id == 'laser' and obj.ranges.tolist() == [1.0, 2.5, math.inf]
+    assert obj.angle_max == pytest.approx(3.14)
 
 
 def test_cdr_errors_are_conversion_errors(defs):

@@ -1,0 +1,157 @@
+// Python for the IDE's own blocks: a whole script that needs only roslibpy. The
+// runtime (runtime/rosgate_runtime.py) is copied into the file, so it runs anywhere:
+//   pip install roslibpy && python3 program.py --url ws://HOST:9090/
+/* global Blockly, python */
+import { specToCode } from './spec.js';
+
+const { Order } = python;
+
+const SNAKE = {
+  publish: 'publish', drive: 'drive', move: 'move', turn: 'turn', latest: 'latest',
+  callService: 'call_service', sendGoal: 'send_goal', rangeAt: 'range_at', yaw: 'yaw',
+};
+
+export const lang = {
+  order: { NONE: Order.NONE, CALL: Order.FUNCTION_CALL, MUL: Order.MULTIPLICATIVE },
+  none: 'None',
+  num: (n) => String(n),
+  bool: (b) => (b ? 'True' : 'False'),
+  str: (s) => gen.quote_(s),
+  arr: (items) => `[${items.join(', ')}]`,
+  obj: (entries) => `{${entries.map(([k, c]) => `${gen.quote_(k)}: ${c}`).join(', ')}}`,
+  concat: (parts) => parts.map((p) => (p.lit !== undefined && typeof p.lit === 'string' ? p.code : `str(${p.code})`)).join(' + '),
+  neg: (c) => `-(${c})`,
+  mul: (a, b) => `(${a}) * (${b})`,
+  deg2rad: (c) => `math.radians(${c})`,
+  degrees: (c) => `math.degrees(${c})`,
+  call: (name, args) => `rt.${SNAKE[name]}(${args.join(', ')})`,
+  stmt: (name, args) => `rt.${SNAKE[name]}(${args.join(', ')})\n`,
+  helper: (name, args) => `${SNAKE[name]}(${args.join(', ')})`,
+  field: (obj, path) => `field(${obj}, ${path})`,
+  parseLiteral(code) {
+    if (/^-?\d+(\.\d+)?$/.test(code)) return Number(code);
+    const m = /^'((?:[^'\\]|\\.)*)'$/.exec(code);
+    if (m && !m[1].includes('\\')) return m[1];
+    return undefined;
+  },
+};
+
+let runtimeSource = '# the rosgate runtime was not loaded\n';
+export function setRuntimeSource(text) { runtimeSource = text; }
+
+class RosPythonGenerator extends python.PythonGenerator {
+  constructor() {
+    super('Python');
+    Object.assign(this.forBlock, python.pythonGenerator.forBlock);
+    this.addReservedWords('rt,run,main,field,fmt,yaw,range_at,angle_diff,pose_of,roslibpy,Runtime,' +
+      'StopProgram,RosError,argparse,json,math,os,random,signal,sys,threading,time,traceback,message,queue,GAIN,is_velocity_type,zero_velocity');
+    this.programName = 'program';
+  }
+
+  init(workspace) {
+    super.init(workspace);
+    this.handlers_ = [];
+    const map = workspace.getVariableMap();
+    this.globals_ = map.getAllVariables().map((v) => this.getVariableName(v.getId()));
+  }
+
+  globalLine() {
+    return this.globals_.length ? `${this.INDENT}global ${this.globals_.join(', ')}\n` : '';
+  }
+
+  // A function in the file's definitions; returns its name.
+  defineCallback(block, prefix, varName, body) {
+    const name = this.nameDB_.getDistinctName(prefix, Blockly.Names.NameType.PROCEDURE);
+    this.definitions_[`%${name}`] =
+      `def ${name}(message):\n${this.globalLine()}${this.INDENT}${varName} = message\n${body || this.PASS}`;
+    return name;
+  }
+
+  finish(code) {
+    const imports = [];
+    const defs = [];
+    for (const def of Object.values(this.definitions_)) {
+      if (/^(from\s+\S+\s+)?import\s+\S+/.test(def)) imports.push(def); else defs.push(def);
+    }
+    const handlers = this.handlers_.map((h) => this.INDENT + h + '\n').join('');
+    const body = this.prefixLines(code, this.INDENT);
+    Blockly.CodeGenerator.prototype.finish.call(this, code);
+    this.isInitialized = false;
+    this.nameDB_.reset();
+    const own = imports.filter((i) => !/^import (math|random|time|json|sys|os)$/.test(i.trim()));
+    const doc = `"""${this.programName.replace(/"""/g, "'''")}: a rosgate block program.\n\n` +
+      'Needs only roslibpy (pip install roslibpy). Run it against any rosbridge server:\n' +
+      '    python3 this_file.py --url ws://localhost:9090/\n' +
+      '(or set ROSBRIDGE_URL). Ctrl-C stops it and the robot.\n"""\n';
+    return doc + runtimeSource.trimEnd() + '\n\n' +
+      (own.length ? own.join('\n') + '\n\n' : '') +
+      (defs.length ? defs.join('\n\n').replace(/\n*$/, '\n\n\n') : '') +
+      `def main():\n${this.globalLine()}${handlers}${body.trim() ? body : this.PASS}\n\n` +
+      "if __name__ == '__main__':\n    run(main)\n";
+  }
+
+  msgArg(block, name) { return this.valueToCode(block, name, Order.NONE) || '{}'; }
+  topicArgs(block, nameField) {
+    return `${this.quote_(block.getFieldValue(nameField))}, ${this.quote_(block.getFieldValue('TYPE') || '')}`;
+  }
+}
+
+export const gen = new RosPythonGenerator();
+const F = gen.forBlock;
+
+F.ros_publish = (block, g) => `rt.publish(${g.topicArgs(block, 'TOPIC')}, ${g.msgArg(block, 'MSG')})\n`;
+
+F.ros_message = (block, g) => {
+  const parts = [];
+  for (const f of block.msgFields) {
+    const code = g.valueToCode(block, `F_${f.name}`, Order.NONE);
+    if (code) parts.push(`${g.quote_(f.name)}: ${code}`);
+  }
+  return [`{${parts.join(', ')}}`, Order.ATOMIC];
+};
+
+F.ros_on_message = (block, g) => {
+  const v = g.getVariableName(block.getFieldValue('VAR'));
+  const name = g.defineCallback(block, 'on_message', v, g.statementToCode(block, 'DO'));
+  g.handlers_.push(`rt.on_message(${g.topicArgs(block, 'TOPIC')}, ${name})`);
+  return '';
+};
+
+F.ros_latest = (block, g) =>
+  [`rt.latest(${g.topicArgs(block, 'TOPIC')}, ${g.quote_(block.getFieldValue('FIELD') || '')})`, Order.FUNCTION_CALL];
+
+F.ros_wait_message = (block, g) => `rt.wait_for_message(${g.topicArgs(block, 'TOPIC')})\n`;
+
+F.ros_next_message = (block, g) => {
+  const timeout = g.valueToCode(block, 'TIMEOUT', Order.NONE) || '0';
+  return [`rt.wait_for_message(${g.topicArgs(block, 'TOPIC')}, ${timeout})`, Order.FUNCTION_CALL];
+};
+
+F.ros_call_service = (block, g) =>
+  [`rt.call_service(${g.topicArgs(block, 'SERVICE')}, ${g.msgArg(block, 'REQUEST')})`, Order.FUNCTION_CALL];
+
+F.ros_call_service_stmt = (block, g) =>
+  `rt.call_service(${g.topicArgs(block, 'SERVICE')}, ${g.msgArg(block, 'REQUEST')})\n`;
+
+F.ros_send_goal = (block, g) => {
+  const fbVar = g.getVariableName(block.getFieldValue('FEEDBACK_VAR'));
+  const resVar = g.getVariableName(block.getFieldValue('RESULT_VAR'));
+  const fbBody = g.statementToCode(block, 'FEEDBACK');
+  const onFeedback = fbBody ? g.defineCallback(block, 'on_feedback', fbVar, fbBody) : 'None';
+  return `${resVar} = rt.send_goal(${g.topicArgs(block, 'ACTION')}, ${g.msgArg(block, 'GOAL')}, ${onFeedback})\n` +
+    g.statementToCode(block, 'RESULT').replace(new RegExp(`^${g.INDENT}`, 'gm'), '');
+};
+
+F.ros_cancel = (block, g) => `rt.cancel(${g.quote_(block.getFieldValue('ACTION'))})\n`;
+
+F.ros_field = (block, g) =>
+  [`field(${g.valueToCode(block, 'OBJ', Order.NONE) || 'None'}, ${g.quote_(block.getFieldValue('FIELD'))})`, Order.FUNCTION_CALL];
+
+F.ros_sleep = (block, g) => `rt.sleep(${g.valueToCode(block, 'SECONDS', Order.NONE) || '0'})\n`;
+F.ros_log = (block, g) => `rt.log(${g.valueToCode(block, 'VALUE', Order.NONE) || "''"})\n`;
+F.ros_stop = () => 'rt.stop_robot()\n';
+F.ros_elapsed = () => ['rt.elapsed()', Order.FUNCTION_CALL];
+
+export function registerSpec(type, spec) {
+  F[type] = (block, g) => specToCode(g, block, spec, lang);
+}

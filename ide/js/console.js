@@ -1,0 +1,33 @@
+// The console under the code panel: log output, run markers and errors that point at blocks.
+export class Console {
+  constructor(el, onBlock) {
+    this.el = el;
+    this.onBlock = onBlock;
+    this.max = 500;
+  }
+
+  _line(text, cls, blockId) {
+    const div = document.createElement('div');
+    div.className = `line ${cls}`;
+    div.textContent = text;
+    if (blockId) {
+      const a = document.createElement('button');
+      a.className = 'goto';
+      a.textContent = 'show block';
+      a.onclick = () => this.onBlock(blockId);
+      div.append(' ', a);
+      div.dataset.block = blockId;
+    }
+    this.el.append(div);
+    while (this.el.childElementCount > this.max) this.el.firstElementChild.remove();
+    this.el.scrollTop = this.el.scrollHeight;
+  }
+
+  log(text, level) { this._line(text, level === 'error' ? 'error' : 'log'); }
+  info(text) { this._line(text, 'info'); }
+  error(text, blockId) { this._line(text, 'error', blockId); }
+  clear() { this.el.replaceChildren(); }
+
+  // The log lines only (what the program printed), for comparisons.
+  logs() { return [...this.el.querySelectorAll('.line.log')].map((d) => d.textContent); }
+}

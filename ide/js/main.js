@@ -1,0 +1,308 @@
+// The IDE page: registers the blocks, builds the workspace and wires the UI.
+// Nothing else registers anything.
+/* global Blockly */
+import { Ros } from 'roslib';
+import { RosGraph, shared } from './graph.js';
+import './fields.js';
+import './msgblock.js';
+import { gen as jsGen, registerSpec as registerJs } from '../generators/javascript.js';
+import { gen as pyGen, registerSpec as registerPy, setRuntimeSource } from '../generators/python.js';
+import { Runner } from './runner.js';
+import { Console } from './console.js';
+import { WorldView } from './worldview.js';
+import * as storage from './storage.js';
+import { MakeBlockDialog } from './makeblock.js';
+
+const $ = (sel) => document.querySelector(sel);
+const getJson = async (url) => {
+  const res = await fetch(url);
+  if (!res.ok) throw new Error(`${url}: ${res.status}`);
+  return res.json();
+};
+
+// ---- blocks ----------------------------------------------------------------
+function defineBlock(def, colour) {
+  const { rosgate: spec, ...json } = def;
+  if (json.colour === undefined) json.colour = colour;
+  Blockly.common.defineBlocksWithJsonArray([json]);
+  if (spec) { registerJs(json.type, spec); registerPy(json.type, spec); }
+}
+
+function toolboxEntries(set) {
+  if (set.toolbox) return set.toolbox;
+  return set.blocks.map((def) => {
+    const inputs = {};
+    for (const arg of (def.args0 ?? []).concat(def.args1 ?? [])) {
+      if (arg.type === 'input_value' && set.shadows?.[arg.name]) inputs[arg.name] = { shadow: set.shadows[arg.name] };
+    }
+    return { kind: 'block', type: def.type, inputs };
+  });
+}
+
+const ide = {
+  sets: {},
+  custom: [],            // "make a block" definitions saved with the program
+  programName: 'my program',
+  robot: 'any',
+};
+window.rosgateIde = ide;
+
+function buildToolbox(base) {
+  const contents = [...base.contents];
+  for (const key of ['ros', 'turtlesim', 'rover']) {
+    const set = ide.sets[key];
+    contents.push({ kind: 'category', name: set.name, colour: String(set.colour), contents: toolboxEntries(set) });
+  }
+  const mine = ide.custom.map((c) => ({ kind: 'block', type: c.json.type, inputs: c.toolboxInputs ?? {} }));
+  contents.push({
+    kind: 'category', name: 'My blocks', colour: '330',
+    contents: [{ kind: 'button', text: '＋ Make a block…', callbackKey: 'makeBlock' }, ...mine],
+  });
+  return { kind: 'categoryToolbox', contents };
+}
+
+export function addCustomBlock(def) {
+  if (!ide.custom.some((c) => c.json.type === def.json.type)) ide.custom.push(def);
+  if (!Blockly.Blocks[def.json.type]) defineBlock({ ...def.json, rosgate: def.spec }, 330);
+  ide.workspace?.updateToolbox(buildToolbox(ide.baseToolbox));
+}
+
+// The code panel shows the program; the runtime copied into the file is folded to one line.
+function foldRuntime(code) {
+  const a = code.indexOf('# --- rosgate runtime');
+  const b = code.indexOf('# --- end of the rosgate runtime ---');
+  if (a < 0 || b < 0) return code;
+  const n = code.slice(a, b).split('\n').length;
+  return `${code.slice(0, a)}# ... the rosgate runtime (${n} lines over roslibpy) is in the downloaded file ...${code.slice(b + 36)}`;
+}
+
+// ---- start -------------------------------------------------------------------
+async function start() {
+  const [ros_, turtlesim, rover, base, runtimePy] = await Promise.all([
+    getJson('blocks/ros.json'), getJson('blocks/turtlesim.json'), getJson('blocks/rover.json'),
+    getJson('toolbox.json'), fetch('runtime/rosgate_runtime.py').then((r) => r.text()),
+  ]);
+  ide.sets = { ros: ros_, turtlesim, rover };
+  ide.baseToolbox = base;
+  setRuntimeSource(runtimePy);
+  for (const set of Object.values(ide.sets)) for (const def of set.blocks) defineBlock(def, set.colour);
+
+  const workspace = Blockly.inject($('#blockly'), {
+    toolbox: buildToolbox(base),
+    media: 'vendor/blockly/media/',
+    renderer: 'zelos',
+    trashcan: true,
+    zoom: { controls: true, wheel: true, startScale: 0.8, maxScale: 2, minScale: 0.3 },
+    move: { scrollbars: true, drag: true, wheel: false },
+    grid: { spacing: 24, length: 2, colour: '#e4e6ee', snap: true },
+  });
+  ide.workspace = workspace;
+
+  const consoleView = new Console($('#console-lines'), (id) => {
+    const b = workspace.getBlockById(id);
+    if (b) { workspace.centerOnBlock(id); b.select(); }
+  });
+  ide.console = consoleView;
+
+  // connection
+  const graph = new RosGraph();
+  shared.graph = graph;
+  ide.graph = graph;
+  const world = new WorldView($('#world'));
+  ide.world = world;
+  const url = $('#url');
+  url.value = new URLSearchParams(location.search).get('url')
+    || `${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/`;
+  let retry = null;
+  const setStatus = (s, text) => {
+    const el = $('#status');
+    el.dataset.state = s;
+    el.textContent = text;
+    document.body.dataset.connection = s;
+  };
+  const connect = () => {
+    clearTimeout(retry);
+    if (ide.ros) { ide.ros.removeAllListeners?.(); ide.ros.close(); }
+    const ros = new Ros({});
+    ide.ros = ros;
+    setStatus('connecting', 'connecting…');
+    ros.on('connection', () => {
+      setStatus('connected', 'connected');
+      graph.setRos(ros);
+      world.attach(ros);
+      graph.refresh().catch((e) => consoleView.error(`rosapi: ${e.message}`));
+    });
+    ros.on('close', () => {
+      if (ide.ros !== ros) return;
+      setStatus('closed', 'disconnected');
+      runner.stop();
+      retry = setTimeout(connect, 2000);
+    });
+    ros.on('error', () => setStatus('error', 'cannot connect'));
+    ros.connect(url.value).catch(() => setStatus('error', 'bad URL'));
+  };
+  $('#reconnect').onclick = connect;
+  url.addEventListener('change', connect);
+
+  // running
+  const runner = new Runner(workspace, () => ide.ros, consoleView);
+  ide.runner = runner;
+  runner.addEventListener('state', (e) => { document.body.dataset.run = e.detail; });
+  document.body.dataset.run = 'idle';
+  $('#run').onclick = () => (runner.state === 'paused' ? runner.resume() : runner.run());
+  $('#pause').onclick = () => runner.pause();
+  $('#step').onclick = () => runner.step();
+  $('#stop').onclick = () => runner.stop();
+
+  // code panel, live
+  let codeTimer = null;
+  const updateCode = () => {
+    pyGen.programName = ide.programName;
+    try { $('#code-python').textContent = foldRuntime(pyGen.workspaceToCode(workspace)); } catch (e) { $('#code-python').textContent = `# ${e.message}`; }
+    try { $('#code-js').textContent = jsGen.generate(workspace); } catch (e) { $('#code-js').textContent = `// ${e.message}`; }
+  };
+  ide.generatePython = () => { pyGen.programName = ide.programName; return pyGen.workspaceToCode(workspace); };
+  ide.generateJs = (instrument = false) => jsGen.generate(workspace, { instrument });
+  for (const btn of document.querySelectorAll('[data-tab]')) {
+    btn.onclick = () => {
+      for (const b of document.querySelectorAll('[data-tab]')) b.classList.toggle('on', b === btn);
+      for (const p of document.querySelectorAll('.code')) p.hidden = p.id !== btn.dataset.tab;
+    };
+  }
+
+  // programs
+  const program = () => storage.makeProgram(workspace, { name: ide.programName, robot: ide.robot, blocks: ide.custom });
+  ide.program = program;
+  ide.loadProgram = (p) => {
+    storage.checkProgram(p);
+    runner.stop();
+    ide.custom = [];
+    for (const def of p.blocks ?? []) addCustomBlock(def);
+    workspace.updateToolbox(buildToolbox(ide.baseToolbox));
+    workspace.clear();
+    Blockly.serialization.workspaces.load(p.workspace, workspace);
+    ide.programName = p.name || 'program';
+    ide.robot = p.robot || 'any';
+    $('#name').value = ide.programName;
+    runner.clearErrors();
+    updateCode();
+    storage.autosave(program());
+  };
+  $('#name').addEventListener('change', () => { ide.programName = $('#name').value.trim() || 'program'; changed(); });
+
+  let saveTimer = null;
+  const changed = () => {
+    clearTimeout(codeTimer);
+    codeTimer = setTimeout(updateCode, 120);
+    clearTimeout(saveTimer);
+    saveTimer = setTimeout(() => { storage.autosave(program()); ide.saved = (ide.saved ?? 0) + 1; }, 300);
+  };
+  workspace.addChangeListener((e) => { if (!e.isUiEvent) changed(); });
+
+  $('#new').onclick = () => {
+    if (workspace.getAllBlocks(false).length && !confirm('Start a new program? The current one is replaced.')) return;
+    ide.custom = [];
+    ide.loadProgram({ format: storage.FORMAT, name: 'my program', workspace: {} });
+    workspace.updateToolbox(buildToolbox(base));
+  };
+  $('#download').onclick = () => {
+    storage.download(`${storage.safeName(ide.programName)}.json`, JSON.stringify(program(), null, 1));
+  };
+  $('#download-py').onclick = () => {
+    storage.download(`${storage.safeName(ide.programName).replace(/\W+/g, '_')}.py`, ide.generatePython(), 'text/x-python');
+  };
+  $('#upload').onclick = async () => {
+    const text = await storage.pickFile();
+    if (!text) return;
+    try { ide.loadProgram(JSON.parse(text)); consoleView.info(`opened ${ide.programName}`); } catch (e) { consoleView.error(`cannot open: ${e.message}`); }
+  };
+  $('#share').onclick = async () => {
+    const link = await storage.shareLink(program());
+    ide.lastShareLink = link;
+    history.replaceState(null, '', link);
+    try { await navigator.clipboard.writeText(link); consoleView.info('share link copied to the clipboard'); } catch {
+      consoleView.info('share link is in the address bar');
+    }
+  };
+  setupLibrary(program);
+  await setupExamples();
+  const maker = new MakeBlockDialog($('#dlg-make'), graph, addCustomBlock);
+  workspace.registerButtonCallback('makeBlock', () => maker.open());
+  ide.makeBlock = maker;
+
+  // the first program: a share link, else the autosave, else empty
+  try {
+    const shared_ = await storage.programFromHash();
+    if (shared_) ide.loadProgram(shared_);
+    else { const saved = storage.loadAutosave(); if (saved) ide.loadProgram(saved); }
+  } catch (e) { consoleView.error(`cannot open the program: ${e.message}`); }
+  updateCode();
+  connect();
+  ide.ready = true;
+  document.body.dataset.ready = 'true';
+}
+
+function setupLibrary(program) {
+  const dlg = $('#dlg-library');
+  const list = $('#library-list');
+  const refresh = async () => {
+    list.replaceChildren();
+    let items = [];
+    try { items = await storage.library.list(); } catch (e) { list.textContent = `library unavailable: ${e.message}`; return; }
+    for (const item of items) {
+      const li = document.createElement('li');
+      const open = document.createElement('button');
+      open.textContent = item.name;
+      open.className = 'lib-open';
+      open.onclick = async () => {
+        try { ide.loadProgram(await storage.library.load(item.name)); dlg.close(); } catch (e) { ide.console.error(e.message); }
+      };
+      const del = document.createElement('button');
+      del.textContent = '🗑';
+      del.title = `delete ${item.name}`;
+      del.onclick = async () => { if (confirm(`Delete ${item.name}?`)) { await storage.library.remove(item.name); refresh(); } };
+      li.append(open, del);
+      list.append(li);
+    }
+    if (!items.length) list.textContent = 'No programs saved on the gateway yet.';
+  };
+  $('#library').onclick = () => { dlg.showModal(); refresh(); };
+  $('#library-save').onclick = async () => {
+    const name = storage.safeName($('#name').value);
+    try {
+      await storage.library.save(name, program());
+      ide.console.info(`saved "${name}" on the gateway`);
+      refresh();
+    } catch (e) { ide.console.error(`save failed: ${e.message}`); }
+  };
+  $('#library-close').onclick = () => dlg.close();
+}
+
+async function setupExamples() {
+  const menu = $('#examples');
+  let index = [];
+  try { index = (await getJson('examples/index.json')).examples; } catch { /* no examples served */ }
+  ide.examples = index;
+  for (const ex of index) {
+    const opt = document.createElement('option');
+    opt.value = ex.file;
+    opt.textContent = `${ex.title} (${ex.robot})`;
+    menu.append(opt);
+  }
+  menu.onchange = async () => {
+    const file = menu.value;
+    menu.value = '';
+    if (!file) return;
+    try {
+      ide.loadProgram(await getJson(`examples/${file}`));
+      ide.console.info(`example "${ide.programName}" loaded`);
+    } catch (e) { ide.console.error(`cannot load example: ${e.message}`); }
+  };
+}
+
+start().catch((e) => {
+  document.body.dataset.ready = 'error';
+  console.error(e);
+  const el = document.querySelector('#console-lines');
+  if (el) el.textContent = `The IDE failed to start: ${e.message}`;
+});

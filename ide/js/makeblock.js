@@ -1,0 +1,147 @@
+// "Make a block": turns a live topic, service or action into a block of its own.
+// The definition (block JSON + rosgate spec) is saved with the program.
+import { normType } from './graph.js';
+
+const NUMERIC = /^(u?int(8|16|32|64)|float(32|64)|double|byte|char)$/;
+const MAX_INPUTS = 8;
+
+// Scalar leaf fields of a type: [{path, type}] (arrays left out: they keep their defaults).
+function leaves(typedefs) {
+  const byType = new Map(typedefs.map((d) => [normType(d.type), d]));
+  const out = [];
+  const walk = (def, prefix, depth) => def.fieldnames.forEach((name, i) => {
+    const t = def.fieldtypes[i].replace(/<=\d+$/, '');
+    const path = prefix ? `${prefix}.${name}` : name;
+    if (def.fieldarraylen[i] !== -1) return;
+    const sub = byType.get(normType(t));
+    if (sub && depth < 4) walk(sub, path, depth + 1);
+    else if (NUMERIC.test(t) || t === 'bool' || t === 'string') out.push({ path, type: t });
+  });
+  if (typedefs[0]) walk(typedefs[0], '', 0);
+  return out;
+}
+
+function shadowOf(type) {
+  if (type === 'bool') return { type: 'logic_boolean', fields: { BOOL: 'FALSE' } };
+  if (type === 'string') return { type: 'text', fields: { TEXT: '' } };
+  return { type: 'math_number', fields: { NUM: 0 } };
+}
+
+function checkOf(type) {
+  if (type === 'bool') return 'Boolean';
+  if (type === 'string') return 'String';
+  return 'Number';
+}
+
+// Nested template {a: {b: "$F0"}} from leaf paths.
+function template(fields) {
+  const tpl = {};
+  fields.forEach((f, i) => {
+    const parts = f.path.split('.');
+    let o = tpl;
+    for (const p of parts.slice(0, -1)) o = (o[p] ??= {});
+    o[parts.at(-1)] = `$F${i}`;
+  });
+  return tpl;
+}
+
+// Builds the definition of a block; `kind` is publish | read | service | action.
+export function buildDefinition({ kind, name, type, label, fields, responseFields = [] }) {
+  const slug = `${kind}_${name}`.replace(/[^A-Za-z0-9]+/g, '_').replace(/^_+|_+$/g, '').toLowerCase();
+  const typeName = `my_${slug}`;
+  const used = fields.slice(0, MAX_INPUTS);
+  let message = label.replace(/%/g, '%%');
+  const args = [];
+  const toolboxInputs = {};
+  used.forEach((f, i) => {
+    message += ` ${f.path} %${args.length + 1}`;
+    args.push({ type: 'input_value', name: `F${i}`, check: checkOf(f.type) });
+    toolboxInputs[`F${i}`] = { shadow: shadowOf(f.type) };
+  });
+  const json = { type: typeName, message0: message, args0: args, inputsInline: used.length <= 3, tooltip: `${kind} ${name} (${type})` };
+  let spec;
+  if (kind === 'publish') {
+    Object.assign(json, { previousStatement: null, nextStatement: null });
+    spec = { kind: 'publish', topic: name, type, msg: template(used) };
+  } else if (kind === 'service') {
+    if (responseFields.length) json.output = null; else Object.assign(json, { previousStatement: null, nextStatement: null });
+    spec = { kind: 'call', service: name, type, args: template(used) };
+    if (responseFields.length === 1) spec.field = responseFields[0].path;
+  } else if (kind === 'action') {
+    Object.assign(json, { previousStatement: null, nextStatement: null });
+    spec = { kind: 'goal', action: name, type, args: template(used) };
+  } else {
+    const options = fields.map((f) => [f.path, f.path]);
+    json.message0 = `${label.replace(/%/g, '%%')} %1`;
+    json.args0 = [{ type: 'field_dropdown', name: 'FIELD', options: options.length ? options : [['(message)', '']] }];
+    json.output = null;
+    json.inputsInline = true;
+    spec = { kind: 'latest', topic: name, type, field: '${FIELD}' };
+    return { json, spec, toolboxInputs: {} };
+  }
+  return { json, spec, toolboxInputs };
+}
+
+export class MakeBlockDialog {
+  constructor(dialog, graph, add) {
+    this.dlg = dialog;
+    this.graph = graph;
+    this.add = add;
+    this.kind = dialog.querySelector('[name=kind]');
+    this.name = dialog.querySelector('[name=rosname]');
+    this.names = dialog.querySelector('#make-names');
+    this.label = dialog.querySelector('[name=label]');
+    this.msg = dialog.querySelector('.make-msg');
+    this.kind.onchange = () => this.fillNames();
+    this.name.onchange = () => { this.label.value = this.defaultLabel(); };
+    dialog.querySelector('[data-act=cancel]').onclick = () => dialog.close();
+    dialog.querySelector('[data-act=create]').onclick = () => this.create();
+  }
+
+  graphKind() { return { publish: 'topic', read: 'topic', service: 'service', action: 'action' }[this.kind.value]; }
+
+  defaultLabel() {
+    const verb = { publish: 'publish to', read: 'latest of', service: 'call', action: 'run action' }[this.kind.value];
+    return `${verb} ${this.name.value}`;
+  }
+
+  fillNames() {
+    this.names.replaceChildren(...this.graph.names(this.graphKind()).map((n) => new Option(n, n)));
+  }
+
+  async open() {
+    this.msg.textContent = '';
+    if (this.graph.connected) await this.graph.refresh().catch(() => {});
+    this.fillNames();
+    this.dlg.showModal();
+  }
+
+  // Creates the block for kind/name (also callable from tests); resolves to its definition.
+  async make(kind, name, label) {
+    const gk = { publish: 'topic', read: 'topic', service: 'service', action: 'action' }[kind];
+    let type = this.graph.typeOf(gk, name);
+    if (!type) {
+      await this.graph.refresh();
+      type = this.graph.typeOf(gk, name);
+    }
+    if (!type) throw new Error(`no ${gk} named ${name} on the gateway`);
+    const detailKind = { publish: 'msg', read: 'msg', service: 'request', action: 'goal' }[kind];
+    const fields = leaves(await this.graph.details(detailKind, type));
+    const responseFields = kind === 'service' ? leaves(await this.graph.details('response', type)) : [];
+    const def = buildDefinition({ kind, name, type, label: label || `${kind} ${name}`, fields, responseFields });
+    this.add(def);
+    return def;
+  }
+
+  async create() {
+    const name = this.name.value.trim();
+    if (!name) { this.msg.textContent = 'Choose or type a name.'; return; }
+    try {
+      const def = await this.make(this.kind.value, name, this.label.value.trim() || this.defaultLabel());
+      this.msg.textContent = `Made "${def.json.type}" — find it under My blocks.`;
+      this.dlg.close();
+    } catch (e) {
+      this.msg.textContent = e.message;
+    }
+  }
+}

@@ -1,0 +1,113 @@
+// Programs as JSON: autosave in the browser, files, the gateway's library, share links.
+/* global Blockly */
+
+export const FORMAT = 'rosgate-program';
+const AUTOSAVE_KEY = 'rosgate.autosave';
+
+// {format, version, name, robot, blocks: [custom block definitions], workspace}
+export function makeProgram(workspace, { name, robot, blocks }) {
+  return {
+    format: FORMAT,
+    version: 1,
+    name: name || 'program',
+    robot: robot || 'any',
+    blocks: blocks || [],
+    workspace: Blockly.serialization.workspaces.save(workspace),
+  };
+}
+
+export function checkProgram(p) {
+  if (!p || typeof p !== 'object' || p.format !== FORMAT || !p.workspace) {
+    throw new Error('not a rosgate program');
+  }
+  return p;
+}
+
+export function autosave(program) {
+  try { localStorage.setItem(AUTOSAVE_KEY, JSON.stringify(program)); } catch { /* quota */ }
+}
+
+export function loadAutosave() {
+  try {
+    const text = localStorage.getItem(AUTOSAVE_KEY);
+    return text ? checkProgram(JSON.parse(text)) : null;
+  } catch { return null; }
+}
+
+export function download(filename, text, type = 'application/json') {
+  const url = URL.createObjectURL(new Blob([text], { type }));
+  const a = document.createElement('a');
+  a.href = url;
+  a.download = filename;
+  document.body.append(a);
+  a.click();
+  a.remove();
+  setTimeout(() => URL.revokeObjectURL(url), 1000);
+}
+
+export function pickFile(accept = '.json,application/json') {
+  return new Promise((resolve) => {
+    const input = document.createElement('input');
+    input.type = 'file';
+    input.accept = accept;
+    input.onchange = async () => resolve(input.files[0] ? await input.files[0].text() : null);
+    input.click();
+  });
+}
+
+export function safeName(name) {
+  return String(name || 'program').replace(/[^A-Za-z0-9 _-]+/g, '_').replace(/^[ ]+/, '').slice(0, 64) || 'program';
+}
+
+// ---- share links: the program deflated into the URL fragment --------------
+function toBase64Url(bytes) {
+  let s = '';
+  for (let i = 0; i < bytes.length; i += 0x8000) s += String.fromCharCode(...bytes.subarray(i, i + 0x8000));
+  return btoa(s).replace(/\+/g, '-').replace(/\//g, '_').replace(/=+$/, '');
+}
+
+function fromBase64Url(text) {
+  const s = atob(text.replace(/-/g, '+').replace(/_/g, '/'));
+  return Uint8Array.from(s, (c) => c.charCodeAt(0));
+}
+
+async function pipe(bytes, stream) {
+  const out = new Response(new Blob([bytes]).stream().pipeThrough(stream));
+  return new Uint8Array(await out.arrayBuffer());
+}
+
+export async function shareLink(program) {
+  const bytes = new TextEncoder().encode(JSON.stringify(program));
+  const packed = await pipe(bytes, new CompressionStream('deflate-raw'));
+  const url = new URL(location.href);
+  url.search = '';
+  url.hash = `program=${toBase64Url(packed)}`;
+  return url.toString();
+}
+
+export async function programFromHash(hash = location.hash) {
+  const m = /[#&]program=([A-Za-z0-9_-]+)/.exec(hash);
+  if (!m) return null;
+  const bytes = await pipe(fromBase64Url(m[1]), new DecompressionStream('deflate-raw'));
+  return checkProgram(JSON.parse(new TextDecoder().decode(bytes)));
+}
+
+// ---- the gateway's program library ------------------------------------------
+async function api(path, options = {}) {
+  const res = await fetch(`api/programs${path}`, options);
+  if (!res.ok) {
+    let reason = res.statusText;
+    try { reason = (await res.json()).error || reason; } catch { /* not JSON */ }
+    throw new Error(`${res.status} ${reason}`);
+  }
+  return res.status === 204 ? null : res.json();
+}
+
+export const library = {
+  list: async () => (await api('')).programs,
+  load: async (name) => checkProgram(await api(`/${encodeURIComponent(name)}`)),
+  save: (name, program) => api(`/${encodeURIComponent(name)}`, {
+    method: 'PUT', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(program),
+  }),
+  remove: (name) => api(`/${encodeURIComponent(name)}`, { method: 'DELETE' }),
+};

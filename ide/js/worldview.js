@@ -1,0 +1,184 @@
+// Draws /world/markers (visualization_msgs/MarkerArray) from above, like a 2-D RViz:
+// bounds, walls, pen trails, laser hits and robots. Works for any robot that publishes it.
+import { yaw } from '../runtime/util.js';
+
+const ARROW = 0, CUBE = 1, SPHERE = 2, CYLINDER = 3, LINE_STRIP = 4, LINE_LIST = 5,
+  CUBE_LIST = 6, SPHERE_LIST = 7, POINTS = 8, TEXT = 9;
+const DELETE = 2, DELETEALL = 3;
+const LAYER = { bounds: 0, walls: 1, pen: 2, scan: 3, robots: 5 };
+
+const rgba = (c, fallback = 'rgba(200,200,200,1)') => (c
+  ? `rgba(${Math.round(c.r * 255)},${Math.round(c.g * 255)},${Math.round(c.b * 255)},${c.a === 0 ? 1 : c.a ?? 1})`
+  : fallback);
+
+export class WorldView {
+  constructor(canvas, topic = '/world/markers') {
+    this.canvas = canvas;
+    this.topic = topic;
+    this.markers = new Map();   // 'ns/id' -> marker
+    this.dirty = true;
+    this.count = 0;             // MarkerArrays received
+    this.ros = null;
+    this.listener = (m) => this.receive(m.msg);
+    new ResizeObserver(() => { this.dirty = true; }).observe(canvas);
+    const loop = () => { if (this.dirty) this.draw(); requestAnimationFrame(loop); };
+    requestAnimationFrame(loop);
+  }
+
+  attach(ros) {
+    if (this.ros) this.ros.off(this.topic, this.listener);
+    this.ros = ros;
+    this.markers.clear();
+    this.dirty = true;
+    const id = `subscribe:${this.topic}:worldview`;
+    ros.on(this.topic, this.listener);
+    ros.callOnConnection({
+      op: 'subscribe', id, topic: this.topic, type: 'visualization_msgs/msg/MarkerArray', queue_length: 20,
+    });
+  }
+
+  receive(msg) {
+    this.count += 1;
+    for (const m of msg?.markers ?? []) {
+      if (m.action === DELETEALL) {
+        for (const key of [...this.markers.keys()]) {
+          if (!m.ns || key.startsWith(`${m.ns}/`)) this.markers.delete(key);
+        }
+      } else if (m.action === DELETE) {
+        this.markers.delete(`${m.ns}/${m.id}`);
+      } else {
+        this.markers.set(`${m.ns}/${m.id}`, m);
+      }
+    }
+    this.dirty = true;
+  }
+
+  // Counts per namespace, for status lines and tests.
+  summary() {
+    const out = {};
+    for (const m of this.markers.values()) out[m.ns] = (out[m.ns] ?? 0) + 1;
+    return out;
+  }
+
+  extent() {
+    const b = [...this.markers.values()].filter((m) => m.ns === 'bounds');
+    const src = b.length ? b : [...this.markers.values()];
+    let x0 = Infinity, y0 = Infinity, x1 = -Infinity, y1 = -Infinity;
+    const add = (x, y) => { x0 = Math.min(x0, x); y0 = Math.min(y0, y); x1 = Math.max(x1, x); y1 = Math.max(y1, y); };
+    for (const m of src) {
+      const p = m.pose?.position ?? { x: 0, y: 0 };
+      if (m.points?.length) for (const q of m.points) add(p.x + q.x, p.y + q.y);
+      else if (m.type === CUBE) {
+        add(p.x - m.scale.x / 2, p.y - m.scale.y / 2);
+        add(p.x + m.scale.x / 2, p.y + m.scale.y / 2);
+      } else add(p.x, p.y);
+    }
+    if (!Number.isFinite(x0) || x1 - x0 < 1e-6) return { x0: 0, y0: 0, x1: 11.0889, y1: 11.0889 };
+    return { x0, y0, x1, y1 };
+  }
+
+  draw() {
+    this.dirty = false;
+    const c = this.canvas;
+    const dpr = window.devicePixelRatio || 1;
+    const w = c.clientWidth, h = c.clientHeight;
+    if (!w || !h) return;
+    if (c.width !== Math.round(w * dpr) || c.height !== Math.round(h * dpr)) {
+      c.width = Math.round(w * dpr);
+      c.height = Math.round(h * dpr);
+    }
+    const ctx = c.getContext('2d');
+    ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+    ctx.fillStyle = '#1d2230';
+    ctx.fillRect(0, 0, w, h);
+    const e = this.extent();
+    const pad = 8;
+    const s = Math.min((w - 2 * pad) / (e.x1 - e.x0), (h - 2 * pad) / (e.y1 - e.y0));
+    const ox = (w - s * (e.x1 - e.x0)) / 2 - s * e.x0;
+    const oy = (h + s * (e.y1 - e.y0)) / 2 + s * e.y0;
+    // world -> canvas: x right, y up
+    ctx.setTransform(dpr * s, 0, 0, -dpr * s, dpr * ox, dpr * oy);
+    const px = 1 / s;
+    const sorted = [...this.markers.values()].sort((a, b) => (LAYER[a.ns] ?? 4) - (LAYER[b.ns] ?? 4));
+    if (!sorted.some((m) => m.ns === 'bounds')) {
+      ctx.fillStyle = '#4556ff';
+      ctx.fillRect(e.x0, e.y0, e.x1 - e.x0, e.y1 - e.y0);
+    }
+    for (const m of sorted) this.drawMarker(ctx, m, px);
+  }
+
+  drawMarker(ctx, m, px) {
+    const p = m.pose?.position ?? { x: 0, y: 0 };
+    const th = yaw(m.pose?.orientation);
+    ctx.save();
+    ctx.translate(p.x, p.y);
+    ctx.rotate(th);
+    const colour = rgba(m.color);
+    ctx.fillStyle = colour;
+    ctx.strokeStyle = colour;
+    ctx.lineCap = 'round';
+    const pts = m.points ?? [];
+    switch (m.type) {
+      case CUBE: case CYLINDER: case SPHERE:
+        if (m.ns === 'bounds') {
+          ctx.fillRect(-m.scale.x / 2, -m.scale.y / 2, m.scale.x, m.scale.y);
+        } else if (m.type === CUBE) {
+          ctx.fillRect(-m.scale.x / 2, -m.scale.y / 2, m.scale.x, m.scale.y);
+        } else {
+          ctx.beginPath();
+          ctx.ellipse(0, 0, m.scale.x / 2, m.scale.y / 2, 0, 0, 2 * Math.PI);
+          ctx.fill();
+        }
+        break;
+      case LINE_STRIP: case LINE_LIST: {
+        ctx.lineWidth = Math.max(m.scale?.x || 0, px);
+        ctx.beginPath();
+        const step = m.type === LINE_LIST ? 2 : 1;
+        for (let i = 0; i + (step - 1) < pts.length; i += step) {
+          if (m.type === LINE_LIST) {
+            ctx.moveTo(pts[i].x, pts[i].y);
+            ctx.lineTo(pts[i + 1].x, pts[i + 1].y);
+          } else if (i === 0) ctx.moveTo(pts[i].x, pts[i].y);
+          else ctx.lineTo(pts[i].x, pts[i].y);
+        }
+        if (m.ns === 'bounds') { ctx.fillStyle = '#4556ff'; ctx.fill(); ctx.lineWidth = 2 * px; }
+        ctx.stroke();
+        break;
+      }
+      case POINTS: case SPHERE_LIST: case CUBE_LIST: {
+        const r = Math.max((m.scale?.x || 0.05) / 2, 1.5 * px);
+        pts.forEach((q, i) => {
+          if (m.colors?.[i]) ctx.fillStyle = rgba(m.colors[i]);
+          ctx.fillRect(q.x - r, q.y - r, 2 * r, 2 * r);
+        });
+        break;
+      }
+      case ARROW: {
+        const len = Math.max(m.scale?.x || 0.5, 12 * px);
+        const wid = Math.max(m.scale?.y || len * 0.6, 8 * px);
+        ctx.beginPath();
+        ctx.moveTo(len / 2, 0);
+        ctx.lineTo(-len / 2, wid / 2);
+        ctx.lineTo(-len / 4, 0);
+        ctx.lineTo(-len / 2, -wid / 2);
+        ctx.closePath();
+        ctx.fill();
+        ctx.lineWidth = px;
+        ctx.strokeStyle = '#000';
+        ctx.stroke();
+        break;
+      }
+      default: break;
+    }
+    ctx.restore();
+    if (m.text && (m.type === ARROW || m.type === TEXT)) {
+      ctx.save();
+      ctx.translate(p.x, p.y);
+      ctx.scale(px, -px);
+      ctx.fillStyle = '#fff';
+      ctx.font = '11px system-ui, sans-serif';
+      ctx.fillText(m.text, 10, -10);
+      ctx.restore();
+    }
+  }
+}

@@ -1,0 +1,77 @@
+"""Services both ways: calling a ROS service, and serving one through the backend."""
+
+from __future__ import annotations
+
+import asyncio
+import time
+
+import pytest
+
+from gateway.backends.base import BackendError, ServiceTimeout
+
+from .support import until
+
+
+async def test_call_add_two_ints(world):
+    response = await world.backend.call_service('/add_two_ints', world.add_type, world.add_request(2, 3), 5.0)
+    assert world.add_sum(response) == 5
+    big = await world.backend.call_service('/add_two_ints', world.add_type,
+                                           world.add_request(2**62, 12345), 5.0)
+    assert world.add_sum(big) == 2**62 + 12345
+
+
+async def test_concurrent_calls(world):
+    calls = [world.backend.call_service('/add_two_ints', world.add_type, world.add_request(i, i), 5.0)
+             for i in range(20)]
+    responses = await asyncio.gather(*calls)
+    assert [world.add_sum(r) for r in responses] == [2 * i for i in range(20)]
+
+
+async def test_advertise_and_call(world, topic):
+    backend, service = world.backend, topic + '/add'
+    seen = []
+
+    async def handler(request):
+        seen.append(request)
+        await asyncio.sleep(0)
+        a, b = world.add_operands(request)
+        return world.add_response(a * 10 + b)
+
+    handle = backend.advertise_service(service, world.add_type, handler)
+    try:
+        await until(lambda: service in dict(backend.services()), what='service in graph')
+        assert dict(backend.services())[service] == world.add_type
+        assert backend.service_providers(service) == [backend.node_name]
+        response = await backend.call_service(service, world.add_type, world.add_request(7, 0), 5.0)
+        assert world.add_sum(response) == 70
+        assert world.add_operands(seen[0]) == (7, 0)
+    finally:
+        handle.destroy()
+    await until(lambda: service not in dict(backend.services()), what='service gone')
+
+
+async def test_timeout(world, topic):
+    backend, service = world.backend, topic + '/never'
+    never = asyncio.Event()
+
+    async def handler(request):
+        await never.wait()
+
+    handle = backend.advertise_service(service, world.add_type, handler)
+    try:
+        await until(lambda: service in dict(backend.services()), what='service in graph')
+        started = time.monotonic()
+        with pytest.raises(ServiceTimeout):
+            await backend.call_service(service, world.add_type, world.add_request(1, 1), 0.3)
+        assert time.monotonic() - started < 3
+    finally:
+        handle.destroy()
+
+
+async def test_unknown_service(world):
+    started = time.monotonic()
+    with pytest.raises(BackendError) as e:
+        await world.backend.call_service('/no_such_service', world.add_type, world.add_request(1, 1), 5.0)
+    assert not isinstance(e.value, ServiceTimeout)
+    assert '/no_such_service' in str(e.value)
+    assert time.monotonic() - started < 1
