@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import inspect
 import logging
 import time
 from typing import TYPE_CHECKING
@@ -102,6 +103,15 @@ class Gateway:
         self.sessions.pop(session.id, None)
 
     async def shutdown(self) -> None:
+        for hook in self.hooks:   # e.g. stop commands, while publishers and clients still exist
+            on_shutdown = getattr(hook, 'on_shutdown', None)
+            if on_shutdown:
+                try:
+                    result = on_shutdown()
+                    if inspect.isawaitable(result):
+                        await result
+                except Exception:
+                    log.exception('shutdown hook failed')
         for session in list(self.sessions.values()):
             session.close_connection(1001, 'server shutting down')
         for fan in list(self.fanouts.values()):

@@ -47,6 +47,11 @@ class Policy:
     def allows(self, session, action: str, name: str) -> bool:
         return all(self.matches(kind, name) for kind in ACTION_KINDS[action])
 
+    def admit(self, session, op) -> bool:
+        """Called before every incoming op is handled: raise ProtocolError to refuse it with a
+        status; return False to drop it silently (a client already being disconnected)."""
+        return True
+
     def check(self, session, action: str, name: str, op: str, id: str | None) -> None:
         if not self.allows(session, action, name):
             raise ProtocolError(f'{name} is not allowed for {action} by this gateway', op=op, id=id)

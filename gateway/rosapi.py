@@ -105,6 +105,8 @@ def service_type(s, service):
 
 def service_providers(s, service):
     name = _abs(service)
+    if not s.gateway.policy.visible(s, 'services', name):
+        return {'providers': []}
     if handles(name):
         return {'providers': [NODE]}
     return {'providers': s.backend.service_providers(name)}
@@ -126,15 +128,20 @@ def node_details(s, node):
         info = s.backend.node_info(_abs(node))
     except BackendError:
         return {'subscribing': [], 'publishing': [], 'services': []}
-    return {'subscribing': info.subscribing, 'publishing': info.publishing, 'services': info.services}
+    visible = s.gateway.policy.visible
+    return {'subscribing': [t for t in info.subscribing if visible(s, 'topics', t)],
+            'publishing': [t for t in info.publishing if visible(s, 'topics', t)],
+            'services': [n for n in info.services if visible(s, 'services', n)]}
 
 
 def publishers(s, topic):
-    return {'publishers': s.backend.publishers(_abs(topic))}
+    name = _abs(topic)
+    return {'publishers': s.backend.publishers(name) if s.gateway.policy.visible(s, 'topics', name) else []}
 
 
 def subscribers(s, topic):
-    return {'subscribers': s.backend.subscribers(_abs(topic))}
+    name = _abs(topic)
+    return {'subscribers': s.backend.subscribers(name) if s.gateway.policy.visible(s, 'topics', name) else []}
 
 
 def action_servers(s):
@@ -142,7 +149,7 @@ def action_servers(s):
 
 
 def action_type(s, action):
-    return {'type': dict(s.backend.actions()).get(_abs(action), '')}
+    return {'type': dict(_visible(s, 'actions', s.backend.actions())).get(_abs(action), '')}
 
 
 def interfaces(s):

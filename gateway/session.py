@@ -72,6 +72,8 @@ class ClientSession:
             if handler is None:
                 continue
             try:
+                if self.gateway.policy.admit(self, item) is False:
+                    continue
                 handler(self, item)
             except Exception as e:  # the one catch site: every failure becomes a status
                 self.report(item.OP, item.id, e)

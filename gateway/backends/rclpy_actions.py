@@ -62,11 +62,15 @@ class RclpyClientGoal:
 async def send_goal(backend: RclpyBackend, name: str, client, action_cls, goal: Message, on_feedback,
                     timeout: float) -> RclpyClientGoal:
     convert = backend.convert
-    feedback_cb = None
-    if on_feedback is not None:
-        def feedback_cb(message) -> None:   # executor thread
+
+    def feedback_cb(message) -> None:   # executor thread
+        try:
             backend.hop(on_feedback, convert.to_dict(message.feedback))
-    future = client.send_goal_async(convert.from_dict(action_cls.Goal, goal), feedback_callback=feedback_cb)
+        except Exception as e:  # noqa: BLE001
+            backend.hop(backend.report, f'feedback of {name}', e)
+
+    future = client.send_goal_async(convert.from_dict(action_cls.Goal, goal),
+                                    feedback_callback=feedback_cb if on_feedback else None)
     try:
         handle = await asyncio.wait_for(backend.wrap(future), timeout)
     except asyncio.TimeoutError:
@@ -178,12 +182,14 @@ class RclpyActionServer:
             goal.finish(STATUS_ABORTED, {})
         self.backend.forget_action_server(self)
         if goals:   # let the aborted results reach their clients before the server goes
-            self.backend.loop.call_later(1.0, self._close)
+            self.backend.loop.call_later(1.0, self.close)
         else:
-            self._close()
+            self.close()
 
-    def _close(self) -> None:
-        try:
-            self._server.destroy()
-        except Exception as e:  # noqa: BLE001 (the node is already gone)
-            log.debug('action server %s: %s', self.name, e)
+    def close(self) -> None:
+        """Destroy the rclpy action server (once)."""
+        server, self._server = self._server, None
+        if self.backend._closing.get(self.name) is self:
+            del self.backend._closing[self.name]
+        if server is not None:
+            self.backend.destroy_quietly(lambda s: s.destroy(), server)

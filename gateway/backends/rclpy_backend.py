@@ -20,13 +20,13 @@ from typing import Any
 
 from protocol.msgdefs import ActionDef, MsgDef, SrvDef, normalize
 
+from . import rclpy_params
 from .base import ActionServerCallbacks, BackendError, Message, NodeInfo, QoS, ServiceTimeout
 from .rclpy_actions import Pending, RclpyActionServer, send_goal
 from .rclpy_types import Converter, RosDefinitions
 
 log = logging.getLogger('rosgate.rclpy')
 
-PARAM_NOT_SET, PARAM_DOUBLE, PARAM_DOUBLE_ARRAY = 0, 3, 8
 # requests in flight per service: a server's request reader keeps the last 10 (the default
 # service QoS), so a larger burst would lose requests
 IN_FLIGHT = 8
@@ -78,27 +78,39 @@ class RclpyService:
         self.name, self.type = name, type
         self._backend = backend
         self.srv = None
+        self.pending: set = set()     # requests waiting for the gateway's answer
 
     def destroy(self) -> None:
-        if self.srv is not None:
-            self._backend.node.destroy_service(self.srv)
-            self.srv = None
-            if self._backend._served.get(self.name) is self:
-                del self._backend._served[self.name]
+        srv, self.srv = self.srv, None
+        if srv is None:
+            return
+        backend = self._backend
+        if backend._served.get(self.name) is self:
+            del backend._served[self.name]
+        if not self.pending:
+            backend.node.destroy_service(srv)
+            return
+        # waiting callers get a default response now; the service goes once they have it
+        for future in list(self.pending):
+            future.cancel()
+        backend.loop.call_later(0.5, backend.destroy_quietly, backend.node.destroy_service, srv)
 
 
 class RclpyBackend:
-    """Backend over rclpy. ``args``: ROS command-line arguments (None: ``sys.argv``)."""
+    """Backend over rclpy. ``ros_args``: ROS arguments (``['--ros-args', '-r', '__ns:=/robot']``);
+    None reads them from ``sys.argv``. ``service_timeout``: how long a ROS caller of a service
+    served by the gateway waits for its answer, and a goal for its acceptance."""
 
     name = 'rclpy'
 
-    def __init__(self, node_name: str = 'rosgate', *, args: list[str] | None = None,
+    def __init__(self, node_name: str = 'rosgate', *, ros_args: list[str] | None = None,
                  service_timeout: float = 5.0, num_threads: int | None = None):
         self.node_name = '/' + node_name.strip('/')
         self.service_timeout = service_timeout
         self.defs = RosDefinitions()
         self.convert = Converter(self.defs)
-        self._args, self._num_threads = args, num_threads
+        self._args = None if ros_args is None else ['rosgate', *ros_args]
+        self._num_threads = num_threads
         self.loop: asyncio.AbstractEventLoop | None = None
         self.node = self.reentrant = None
         self._context = self._executor = self._thread = None
@@ -107,6 +119,7 @@ class RclpyBackend:
         self._action_clients: dict[tuple[str, str], Any] = {}
         self._served: dict[str, RclpyService] = {}
         self._action_servers: dict[str, RclpyActionServer] = {}
+        self._closing: dict[str, RclpyActionServer] = {}
         self._serving: set = set()
 
     # --- lifecycle ----------------------------------------------------------------------------
@@ -150,9 +163,9 @@ class RclpyBackend:
         executor, node, context, thread = self._executor, self.node, self._context, self._thread
         self.node = None
         executor.shutdown(timeout_sec=2.0)
+        thread.join(timeout=2.0)
         node.destroy_node()
         context.try_shutdown()
-        thread.join(timeout=2.0)
 
     # --- threads ------------------------------------------------------------------------------
 
@@ -270,13 +283,20 @@ class RclpyBackend:
 
     def _adapted_qos(self, topic: str) -> QoS:
         """Transient-local if every publisher is, best-effort if any publisher is."""
-        from rclpy.qos import DurabilityPolicy, ReliabilityPolicy  # noqa: PLC0415
+        from rclpy.qos import ReliabilityPolicy  # noqa: PLC0415
 
         infos = self.node.get_publishers_info_by_topic(topic)
-        latched = bool(infos) and all(
-            i.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for i in infos)
         best_effort = any(i.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT for i in infos)
-        return QoS(reliable=not best_effort, transient_local=latched)
+        return QoS(reliable=not best_effort, transient_local=self.latched(topic, infos))
+
+    def latched(self, topic: str, infos=None) -> bool:
+        """Whether every publisher of the topic is transient-local (and there is one)."""
+        from rclpy.qos import DurabilityPolicy  # noqa: PLC0415
+
+        if infos is None:
+            infos = self.node.get_publishers_info_by_topic(self.node.resolve_topic_name(topic))
+        return bool(infos) and all(i.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
+                                   for i in infos)
 
     # --- services -----------------------------------------------------------------------------
 
@@ -310,7 +330,7 @@ class RclpyBackend:
         self.defs.srv(full)
         cls = self.defs.srv_class(full)
         service = self.node.resolve_service_name(service)
-        types = self._served_types().get(service)
+        types = self.served_types().get(service)
         if not types:
             raise BackendError(f'service {service} is not available')
         if full not in types:
@@ -327,10 +347,12 @@ class RclpyBackend:
         old = self._served.get(service)
         if old is not None:
             old.destroy()    # re-advertising replaces
-        elif service in self._served_types():
-            raise BackendError(f'service {service} is already provided by '
-                               f'{", ".join(self.service_providers(service)) or "another node"}')
+        elif service in self.served_types():
+            others = [p for p in self.service_providers(service) if p != self.node_name]
+            if others:
+                raise BackendError(f'service {service} is already provided by {", ".join(others)}')
         convert = self.convert
+        handle = RclpyService(self, service, full)
 
         async def serve(request, response):   # an executor task; holds no thread while waiting
             try:
@@ -339,8 +361,9 @@ class RclpyBackend:
             except Exception as e:  # noqa: BLE001 (bad request, or the loop is gone)
                 self.hop(self.report, f'service {service}', e)
                 return response
+            handle.pending.add(future)
             self._serving.add(future)
-            future.add_done_callback(self._served_done)
+            future.add_done_callback(lambda f: self._served_done(handle, f))
             done = await Pending(future)
             if done.cancelled() or done.exception() is not None or done.result() is None:
                 return response
@@ -350,14 +373,22 @@ class RclpyBackend:
                 self.hop(self.report, f'service {service}: bad response', e)
                 return response
 
-        handle = RclpyService(self, service, full)
         handle.srv = self.node.create_service(cls, service, serve, callback_group=self.reentrant)
         self._served[service] = handle
         return handle
 
-    def _served_done(self, future) -> None:
+    def _served_done(self, handle: RclpyService, future) -> None:
+        handle.pending.discard(future)
         self._serving.discard(future)
         self.wake()
+
+    def destroy_quietly(self, destroy: Callable, entity) -> None:
+        """Destroy an entity later on; the node may be gone by then."""
+        if self.node is not None:
+            try:
+                destroy(entity)
+            except Exception as e:  # noqa: BLE001
+                log.debug('destroying %s: %s', entity, e)
 
     async def _serve(self, service: str, handler, request: Message) -> Message | None:
         """On the loop: the gateway's answer, or None (the ROS caller then gets a default response)."""
@@ -399,15 +430,23 @@ class RclpyBackend:
         self.defs.action(full)
         cls = self.defs.action_class(full)
         action = self.node.resolve_service_name(action)
-        if action in self._action_servers or action in dict(self.actions()):
-            raise BackendError(f'action {action} is already served')
+        if action in self._action_servers:
+            raise BackendError(f'action {action} is already served by this gateway')
+        others = [n for n in self.action_servers(action) if n != self.node_name]
+        if others:
+            raise BackendError(f'action {action} is already served by {", ".join(others)}')
+        closing = self._closing.pop(action, None)
+        if closing is not None:
+            closing.close()
         server = RclpyActionServer(self, action, full, cls, callbacks)
         self._action_servers[action] = server
         return server
 
     def forget_action_server(self, server: RclpyActionServer) -> None:
+        """The server stops taking goals; it is closed (``server.close()``) a moment later."""
         if self._action_servers.get(server.name) is server:
             del self._action_servers[server.name]
+            self._closing[server.name] = server
 
     # --- graph --------------------------------------------------------------------------------
 
@@ -416,14 +455,14 @@ class RclpyBackend:
         return sorted((n, t[0]) for n, t in self.node.get_topic_names_and_types()
                       if t and not topic_or_service_is_hidden(n))
 
-    def _served_types(self) -> dict[str, list[str]]:
+    def served_types(self) -> dict[str, list[str]]:
         """Services with a server (clients alone make a name appear in the graph too)."""
         return {n: t for n, t in self.node.get_service_names_and_types()
                 if t and self.node.count_services(n)}
 
     def services(self) -> list[tuple[str, str]]:
         from rclpy.topic_or_service_is_hidden import topic_or_service_is_hidden  # noqa: PLC0415
-        return sorted((n, t[0]) for n, t in self._served_types().items()
+        return sorted((n, t[0]) for n, t in self.served_types().items()
                       if not topic_or_service_is_hidden(n))
 
     def actions(self) -> list[tuple[str, str]]:
@@ -464,9 +503,34 @@ class RclpyBackend:
                 providers.append(fq_name(ns, name))
         return sorted(set(providers))
 
-    # --- parameters (through the node's rcl_interfaces services) -------------------------------
+    def action_servers(self, action: str) -> list[str]:
+        from rclpy.action import get_action_server_names_and_types_by_node  # noqa: PLC0415
+        servers = []
+        for name, ns in self.node.get_node_names_and_namespaces():
+            try:
+                actions = get_action_server_names_and_types_by_node(self.node, name, ns)
+            except Exception:  # noqa: BLE001 (the node left meanwhile)
+                continue
+            if any(a == action for a, _ in actions):
+                servers.append(fq_name(ns, name))
+        return sorted(set(servers))
 
-    async def _param_call(self, node: str, suffix: str, srv_cls, request):
+    # --- parameters (through the target node's rcl_interfaces services) ------------------------
+
+    async def get_param(self, node: str, name: str) -> Any:
+        return await rclpy_params.get_param(self, node, name)
+
+    async def set_param(self, node: str, name: str, value: Any) -> None:
+        await rclpy_params.set_param(self, node, name, value)
+
+    async def delete_param(self, node: str, name: str) -> None:
+        await rclpy_params.delete_param(self, node, name)
+
+    async def param_names(self) -> list[str]:
+        return await rclpy_params.param_names(self)
+
+    async def param_call(self, node: str, suffix: str, srv_cls, request):
+        """Call ``<node>/<suffix>`` (an rcl_interfaces service) with a ROS request object."""
         node = '/' + node.strip('/')
         service = f'{node}/{suffix}'
         if not self.node.count_services(service):
@@ -474,71 +538,8 @@ class RclpyBackend:
         type = f'rcl_interfaces/srv/{srv_cls.__name__}'
         return await self._call(service, type, srv_cls, request, self.service_timeout)
 
-    async def _get_value(self, node: str, name: str):
-        from rcl_interfaces.srv import GetParameters  # noqa: PLC0415
-        response = await self._param_call(node, 'get_parameters', GetParameters,
-                                          GetParameters.Request(names=[name]))
-        return response.values[0] if response.values else None
-
-    async def get_param(self, node: str, name: str) -> Any:
-        from rclpy.parameter import parameter_value_to_python  # noqa: PLC0415
-        value = await self._get_value(node, name)
-        if value is None or value.type == PARAM_NOT_SET:
-            raise KeyError(f'{node}:{name}')
-        return plain(parameter_value_to_python(value))
-
-    async def set_param(self, node: str, name: str, value: Any) -> None:
-        from rclpy.parameter import Parameter  # noqa: PLC0415
-        current = await self._get_value(node, name)
-        kind = current.type if current is not None else PARAM_NOT_SET
-        if kind == PARAM_DOUBLE and isinstance(value, int) and not isinstance(value, bool):
-            value = float(value)     # JSON '1' for a double parameter
-        elif kind == PARAM_DOUBLE_ARRAY and isinstance(value, list):
-            value = [float(v) if isinstance(v, int) and not isinstance(v, bool) else v for v in value]
-        try:
-            msg = Parameter(name, value=value).to_parameter_msg()
-        except TypeError as e:
-            raise BackendError(f'parameter {name}: {e}') from None
-        await self._set(node, name, msg, 'set')
-
-    async def delete_param(self, node: str, name: str) -> None:
-        from rcl_interfaces.msg import Parameter as ParameterMsg  # noqa: PLC0415
-        await self._set(node, name, ParameterMsg(name=name), 'delete')   # type NOT_SET undeclares
-
-    async def _set(self, node: str, name: str, msg, verb: str) -> None:
-        from rcl_interfaces.srv import SetParameters  # noqa: PLC0415
-        response = await self._param_call(node, 'set_parameters', SetParameters,
-                                          SetParameters.Request(parameters=[msg]))
-        result = response.results[0] if response.results else None
-        if result is None or not result.successful:
-            reason = result.reason if result is not None else 'no result'
-            raise BackendError(f'cannot {verb} parameter {name} of {node}: {reason}')
-
-    async def param_names(self) -> list[str]:
-        from rcl_interfaces.srv import ListParameters  # noqa: PLC0415
-        services = self._served_types()
-        nodes = [n for n in self.nodes() if f'{n}/list_parameters' in services]
-
-        async def names(node: str) -> list[str]:
-            try:
-                response = await self._param_call(node, 'list_parameters', ListParameters,
-                                                  ListParameters.Request())
-            except BackendError:
-                return []   # the node left or does not answer
-            return [f'{node}:{n}' for n in response.result.names]
-
-        found = await asyncio.gather(*(names(n) for n in nodes))
-        return sorted(name for group in found for name in group)
-
     def now(self) -> tuple[int, int]:
         return self.node.get_clock().now().seconds_nanoseconds()
-
-
-def plain(value):
-    """Parameter values as plain Python (byte arrays arrive as 1-byte bytes objects)."""
-    if isinstance(value, list):
-        return [v[0] if isinstance(v, (bytes, bytearray)) else v for v in value]
-    return value
 
 
 def ros_qos(qos: QoS):

@@ -11,6 +11,7 @@ from __future__ import annotations
 import array
 import importlib
 import os
+import re
 import sys
 from pathlib import Path
 from typing import Any
@@ -30,10 +31,12 @@ TYPECODES = {
     'int32': 'i', 'uint32': 'I', 'int64': 'q', 'uint64': 'Q',
 }
 KINDS = ('msg', 'srv', 'action')
+# Jazzy's generated classes write 'string<22>'; 'string<=22' (the .msg spelling) is accepted too
+BOUNDED_STRING = re.compile(r'^(w?string)<=?(\d+)>?$')
 
 
 def parse_idl_type(name: str, idl: str) -> Field:
-    """One entry of get_fields_and_field_types(): 'sequence<float, 5>', 'double[9]', 'string<=10',
+    """One entry of get_fields_and_field_types(): 'sequence<float, 5>', 'double[9]', 'string<10>',
     'geometry_msgs/Vector3' -> a Field in protocol.msgdefs terms."""
     array_len: int | None = None
     bound = 0
@@ -48,9 +51,9 @@ def parse_idl_type(name: str, idl: str) -> Field:
         text, _, size = text[:-1].rpartition('[')
         array_len = int(size)
     string_bound = 0
-    if '<=' in text:
-        text, _, sb = text.partition('<=')
-        string_bound = int(sb)
+    bounded = BOUNDED_STRING.match(text)
+    if bounded:
+        text, string_bound = bounded[1], int(bounded[2])
     if '/' in text:
         base = normalize(text, 'msg')
     else:
@@ -75,6 +78,8 @@ def constants_of(cls) -> tuple[tuple[str, str, object], ...]:
             type_ = 'float64'
         elif isinstance(value, str):
             type_ = 'string'
+        elif isinstance(value, bytes) and len(value) == 1:
+            type_, value = 'byte', value[0]
         else:
             continue  # array defaults of fields, not constants
         out.append((key, type_, value))

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import hashlib
 import hmac
+import re
 import time
 import tomllib
 from collections import OrderedDict
@@ -23,6 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 ROLES = ('viewer', 'operator', 'admin')
+TOKEN_CHARS = re.compile(r'[A-Za-z0-9._~-]{8,}')
 
 
 @dataclass(frozen=True)
@@ -85,8 +87,9 @@ class TokenStore:
             name = str(item.get('name') or f'{role}{i + 1}')
             if 'token' in item:
                 token = str(item['token'])
-                if len(token) < 8:
-                    raise ValueError(f'{where}: tokens need at least 8 characters')
+                if not TOKEN_CHARS.fullmatch(token):
+                    raise ValueError(f'{where}: a token is 8 or more of A-Z a-z 0-9 . _ ~ - '
+                                     '(safe in URLs and cookies), e.g. from secrets.token_urlsafe()')
                 digest = _digest(token)
             elif 'sha256' in item:
                 try:

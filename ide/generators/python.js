@@ -83,11 +83,14 @@ class RosPythonGenerator extends python.PythonGenerator {
       'Needs only roslibpy (pip install roslibpy). Run it against any rosbridge server:\n' +
       '    python3 this_file.py --url ws://localhost:9090/\n' +
       '(or set ROSBRIDGE_URL). Ctrl-C stops it and the robot.\n"""\n';
-    return doc + runtimeSource.trimEnd() + '\n\n' +
-      (own.length ? own.join('\n') + '\n\n' : '') +
-      (defs.length ? defs.join('\n\n').replace(/\n*$/, '\n\n\n') : '') +
-      `def main():\n${this.globalLine()}${handlers}${body.trim() ? body : this.PASS}\n\n` +
-      "if __name__ == '__main__':\n    run(main)\n";
+    const parts = [
+      runtimeSource.trimEnd(),
+      own.join('\n'),
+      defs.join('\n\n').trim(),
+      `def main():\n${this.globalLine()}${handlers}${body.trim() ? body : this.PASS}`.trimEnd(),
+      "if __name__ == '__main__':\n    run(main)",
+    ].filter(Boolean);
+    return `${doc}${parts.join('\n\n\n')}\n`;
   }
 
   msgArg(block, name) { return this.valueToCode(block, name, Order.NONE) || '{}'; }

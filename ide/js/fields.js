@@ -97,6 +97,15 @@ Blockly.Extensions.register('ros_typed_name', function () {
     setTimeout(() => fillType(block, kind, name), 0);
     return undefined;
   });
+  // a block dragged out of the toolbox gets a message block of its type
+  const inputName = MSG_INPUT[kind];
+  if (block.getInput(inputName) && !block.workspace.isFlyout) {
+    setTimeout(() => {
+      const type = block.getFieldValue('TYPE');
+      if (block.disposed || !type || !g()?.connected || block.getInputTargetBlock(inputName)) return;
+      attachMessage(block, inputName, DETAIL_KIND[kind], type);
+    }, 0);
+  }
 });
 
 async function fillType(block, kind, name) {

@@ -100,7 +100,7 @@ async function start() {
 
   const consoleView = new Console($('#console-lines'), (id) => {
     const b = workspace.getBlockById(id);
-    if (b) { workspace.centerOnBlock(id); b.select(); }
+    if (b) { workspace.centerOnBlock(id); Blockly.common.setSelected(b); }
   });
   ide.console = consoleView;
 

@@ -86,7 +86,7 @@ export class Runner extends EventTarget {
       const icon = block.getIcon?.(Blockly.icons.IconType.WARNING);
       icon?.setBubbleVisible?.(true);
       this.workspace.centerOnBlock?.(blockId);
-      block.select?.();
+      Blockly.common.setSelected(block);
     }
     this._finish(rt, '■ stopped after an error (robot stopped)');
   }

@@ -72,10 +72,15 @@ export class Runtime {
     if (this.stopped) throw new StopSignal();
     this.current = blockId;
     this.hooks.highlight?.(blockId);
-    if (this.paused) {
-      await this._track((resolve, reject, entry) => { this._gate = { resolve, entry }; });
-    }
+    await this._hold();
     await this.tick();
+  }
+
+  // While paused: the robot stands still and the program waits for Resume or Step.
+  async _hold() {
+    if (!this.paused) return;
+    this.stopRobot();
+    await this._track((resolve) => { this._gate = { resolve }; });
   }
 
   // Loop trap: lets the page breathe inside tight loops.
@@ -269,6 +274,7 @@ export class Runtime {
     const end = performance.now() + Math.max(0, Number(seconds) || 0) * 1000;
     try {
       while (performance.now() < end) {
+        await this._hold();
         this.publish(topic, type, msg);
         await this.sleep(Math.min(0.1, (end - performance.now()) / 1000));
       }
@@ -286,6 +292,7 @@ export class Runtime {
     const type = spec.type ?? 'geometry_msgs/msg/Twist';
     try {
       for (;;) {
+        await this._hold();
         const p = poseOf(await this.latest(spec.pose, spec.pose_type), spec.pose_type);
         const remaining = goal - Math.hypot(p.x - start.x, p.y - start.y);
         if (remaining <= 0.01) break;
@@ -307,6 +314,7 @@ export class Runtime {
     let turned = 0;
     try {
       for (;;) {
+        await this._hold();
         const th = poseOf(await this.latest(spec.pose, spec.pose_type), spec.pose_type).theta;
         turned += angleDiff(th, last);
         last = th;

@@ -12,6 +12,7 @@ import uuid
 from dataclasses import dataclass
 
 import pytest
+import pytest_asyncio
 
 from .support import until
 
@@ -67,8 +68,9 @@ def rclpy_helpers():
     helpers.stop()
 
 
-@pytest.fixture(params=['sim', 'rclpy'])
+@pytest_asyncio.fixture(scope='session', loop_scope='session', params=['sim', 'rclpy'])
 async def world(request):
+    """One started backend per kind, shared by the suite (tests use fresh names)."""
     if request.param == 'sim':
         from gateway.backends.sim import SimBackend
         backend = SimBackend(demo=True, talker=True, fibonacci_interval=SIM_STEP)
@@ -80,7 +82,7 @@ async def world(request):
             pytest.skip(f'rclpy does not import here: {missing}')
         helpers = request.getfixturevalue('rclpy_helpers')
         from gateway.backends.rclpy_backend import RclpyBackend
-        backend = RclpyBackend(args=[], service_timeout=5.0)
+        backend = RclpyBackend(ros_args=[], service_timeout=5.0)
         await backend.start()
         w = World(backend, helpers.add_type, helpers.fib_type, helpers)
         nodes = {'/talker', '/add_two_ints_server', '/fibonacci_action_server'}

@@ -12,6 +12,8 @@ from gateway.backends.base import (
 
 from .support import until
 
+pytestmark = pytest.mark.asyncio(loop_scope='session')
+
 
 async def test_fibonacci_with_feedback(world):
     feedback: list = []
@@ -85,6 +87,22 @@ async def test_advertise_action(world, topic):
     result = await asyncio.wait_for(client_goal.result(), 5)
     assert result.status == STATUS_ABORTED
     await until(lambda: action not in dict(backend.actions()), what='action gone')
+
+    # the name is free again at once
+    again = Served()
+    handle = backend.advertise_action(action, world.fib_type, again.callbacks)
+    try:
+        client_goal = await backend.send_goal(action, world.fib_type, {'order': 1}, None)
+        (await asyncio.wait_for(again.goals.get(), 5)).finish(STATUS_SUCCEEDED, {'sequence': [0, 1]})
+        result = await asyncio.wait_for(client_goal.result(), 5)
+        assert (result.status, result.result) == (STATUS_SUCCEEDED, {'sequence': [0, 1]})
+    finally:
+        handle.destroy()
+
+
+async def test_advertise_taken_action(world):
+    with pytest.raises(BackendError, match='/fibonacci'):
+        world.backend.advertise_action('/fibonacci', world.fib_type, Served().callbacks)
 
 
 async def test_advertise_action_twice(world, topic):

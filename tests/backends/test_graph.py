@@ -10,6 +10,8 @@ from gateway.backends.base import BackendError, QoS
 
 from .support import until
 
+pytestmark = pytest.mark.asyncio(loop_scope='session')
+
 
 async def test_nodes(world):
     nodes = world.backend.nodes()
@@ -18,20 +20,21 @@ async def test_nodes(world):
 
 
 async def test_topic_endpoints_follow_create_and_destroy(world, topic):
+    """The graph follows creation and destruction (eventually: a ROS graph is discovered)."""
     backend, me = world.backend, world.backend.node_name
     pub = backend.create_publisher(topic, 'std_msgs/msg/String', QoS())
     await until(lambda: (topic, 'std_msgs/msg/String') in backend.topics(), what='topic listed')
-    assert backend.publishers(topic) == [me]
-    assert topic in backend.node_info(me).publishing
+    await until(lambda: backend.publishers(topic) == [me], what='publisher listed')
+    await until(lambda: topic in backend.node_info(me).publishing, what='node publishing')
     sub = backend.subscribe(topic, 'std_msgs/msg/String', lambda msg: None)
     await until(lambda: backend.subscribers(topic) == [me], what='subscriber listed')
-    assert topic in backend.node_info(me).subscribing
+    await until(lambda: topic in backend.node_info(me).subscribing, what='node subscribing')
     pub.destroy()
     await until(lambda: backend.publishers(topic) == [], what='publisher gone')
-    assert topic not in backend.node_info(me).publishing
+    await until(lambda: topic not in backend.node_info(me).publishing, what='node not publishing')
     sub.destroy()
     await until(lambda: topic not in dict(backend.topics()), what='topic gone')
-    assert topic not in backend.node_info(me).subscribing
+    await until(lambda: topic not in backend.node_info(me).subscribing, what='node not subscribing')
 
 
 async def test_services_and_providers(world):

@@ -6,6 +6,8 @@ import pytest
 
 from gateway.backends.base import BackendError
 
+pytestmark = pytest.mark.asyncio(loop_scope='session')
+
 NODE = '/fibonacci_action_server'
 
 

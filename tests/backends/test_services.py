@@ -11,6 +11,8 @@ from gateway.backends.base import BackendError, ServiceTimeout
 
 from .support import until
 
+pytestmark = pytest.mark.asyncio(loop_scope='session')
+
 
 async def test_call_add_two_ints(world):
     response = await world.backend.call_service('/add_two_ints', world.add_type, world.add_request(2, 3), 5.0)
@@ -75,3 +77,30 @@ async def test_unknown_service(world):
     assert not isinstance(e.value, ServiceTimeout)
     assert '/no_such_service' in str(e.value)
     assert time.monotonic() - started < 1
+
+
+async def test_advertise_taken_name(world):
+    async def handler(request):
+        return world.add_response(0)
+
+    with pytest.raises(BackendError, match='/add_two_ints_server'):
+        world.backend.advertise_service('/add_two_ints', world.add_type, handler)
+
+
+async def test_readvertise_replaces(world, topic):
+    backend, service = world.backend, topic + '/svc'
+
+    def answering(total):
+        async def handler(request):
+            return world.add_response(total)
+        return handler
+
+    first = backend.advertise_service(service, world.add_type, answering(1))
+    second = backend.advertise_service(service, world.add_type, answering(2))
+    try:
+        await until(lambda: service in dict(backend.services()), what='service in graph')
+        response = await backend.call_service(service, world.add_type, world.add_request(0, 0), 5.0)
+        assert world.add_sum(response) == 2
+    finally:
+        second.destroy()
+        first.destroy()

@@ -12,6 +12,8 @@ from protocol.msgdefs import Definitions
 
 from .support import roundtrip, same, until
 
+pytestmark = pytest.mark.asyncio(loop_scope='session')
+
 
 async def _roundtrip(world, topic, type, partial):
     backend = world.backend
@@ -62,6 +64,7 @@ async def test_latched_reaches_late_subscriber(world, topic):
     pub = backend.create_publisher(topic, 'std_msgs/msg/String', QoS(depth=1, transient_local=True))
     pub.publish({'data': 'first'})
     pub.publish({'data': 'kept'})
+    await until(lambda: backend.latched(topic), what='topic latched')
     queue: asyncio.Queue = asyncio.Queue()
     sub = backend.subscribe(topic, 'std_msgs/msg/String', queue.put_nowait)   # qos adapts
     try:
@@ -75,6 +78,7 @@ async def test_volatile_not_replayed(world, topic):
     backend = world.backend
     pub = backend.create_publisher(topic, 'std_msgs/msg/String', QoS())
     pub.publish({'data': 'gone'})
+    assert not backend.latched(topic)
     queue: asyncio.Queue = asyncio.Queue()
     sub = backend.subscribe(topic, 'std_msgs/msg/String', queue.put_nowait)
     try:

@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import base64
+import ctypes
 import signal
 
 import orjson
@@ -24,14 +25,16 @@ from tornado import httpserver, web, websocket
 from tornado.netutil import bind_sockets
 
 # A client whose unsent frames exceed this many bytes loses new topic frames
-# (replies are never dropped), so a stalled reader cannot grow the server.
-MAX_PENDING_BYTES = 8 * 1024 * 1024
+# (replies are never dropped), so a stalled reader cannot grow the server
+# without bound; the default is rosgate's --send-buffer-limit.
+SEND_BUFFER_LIMIT = 64 * 2**20
 
 
 class Hub:
     """Routing state shared by all connections."""
 
-    def __init__(self) -> None:
+    def __init__(self, send_buffer_limit: int = SEND_BUFFER_LIMIT) -> None:
+        self.send_buffer_limit = send_buffer_limit
         self.subscribers: dict[str, dict[CeilingHandler, str]] = {}
         self.frames: dict[tuple[str, str], bytes] = {}
         self.replies: dict[str, tuple[str, str]] = {}
@@ -114,7 +117,7 @@ class CeilingHandler(websocket.WebSocketHandler):
         # advertise, unadvertise and anything else need no work here
 
     def send(self, frame: str | bytes, binary: bool, droppable: bool) -> None:
-        if droppable and self.pending_bytes > MAX_PENDING_BYTES:
+        if droppable and self.pending_bytes > self.hub.send_buffer_limit:
             self.dropped += 1
             return
         try:
@@ -129,6 +132,22 @@ class CeilingHandler(websocket.WebSocketHandler):
         self.pending_bytes -= size
 
 
+def tune_malloc() -> bool:
+    """Keep large frames on the heap instead of a fresh mmap (and page faults) per frame.
+
+    glibc serves allocations above its mmap threshold (dynamic, from 128 KiB) with
+    mmap and trims the heap top eagerly; with frames of 100 KiB and more each copy
+    then pays page faults. Raising both thresholds makes the copies plain memcpy.
+    """
+    try:
+        libc = ctypes.CDLL("libc.so.6")
+    except OSError:
+        return False
+    m_trim_threshold, m_mmap_threshold = -1, -3
+    return bool(libc.mallopt(m_mmap_threshold, 32 * 2**20)) and \
+        bool(libc.mallopt(m_trim_threshold, 128 * 2**20))
+
+
 def make_app(hub: Hub | None = None) -> web.Application:
     return web.Application(
         [(r"/", CeilingHandler, {"hub": hub or Hub()})],
@@ -136,9 +155,9 @@ def make_app(hub: Hub | None = None) -> web.Application:
     )
 
 
-async def serve(address: str, port: int) -> None:
+async def serve(address: str, port: int, send_buffer_limit: int) -> None:
     sockets = bind_sockets(port, address)
-    server = httpserver.HTTPServer(make_app())
+    server = httpserver.HTTPServer(make_app(Hub(send_buffer_limit)))
     server.add_sockets(sockets)
     host, bound = sockets[0].getsockname()[:2]
     print(f"ceiling: websocket ws://{host}:{bound}/", flush=True)
@@ -154,8 +173,14 @@ def main() -> None:
     parser = argparse.ArgumentParser(prog="python -m tests.bench.ceiling")
     parser.add_argument("--address", default="127.0.0.1")
     parser.add_argument("--port", type=int, default=0)
+    parser.add_argument("--send-buffer-limit", type=int, default=SEND_BUFFER_LIMIT,
+                        help="bytes queued per client before its topic frames are dropped")
+    parser.add_argument("--no-malloc-tune", action="store_true",
+                        help="leave glibc's malloc thresholds at their defaults")
     args = parser.parse_args()
-    asyncio.run(serve(args.address, args.port))
+    if not args.no_malloc_tune:
+        tune_malloc()
+    asyncio.run(serve(args.address, args.port, args.send_buffer_limit))
 
 
 if __name__ == "__main__":

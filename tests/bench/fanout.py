@@ -7,6 +7,7 @@ import multiprocessing
 import time
 from collections import Counter
 
+from .ceiling import tune_malloc
 from .client import StringFrames, advertise, close_quietly, open_ws, percentile, read_stamp, subscribe
 from .flow import publish_at, read_frames, unique_topic
 from .servers import ProcMeter, Target, Window
@@ -14,7 +15,9 @@ from .servers import ProcMeter, Target, Window
 STRING = "std_msgs/msg/String"
 
 
-def worker_main(url: str, topic: str, count: int, conn) -> None:
+def worker_main(url: str, topic: str, count: int, conn, malloc_tune: bool) -> None:
+    if malloc_tune:
+        tune_malloc()
     asyncio.run(_worker(url, topic, count, conn))
 
 
@@ -76,7 +79,7 @@ async def _worker(url: str, topic: str, count: int, conn) -> None:
 class Workers:
     """Subscriber processes and their pipes, read from the event loop."""
 
-    def __init__(self, url: str, topic: str, total: int, procs: int) -> None:
+    def __init__(self, url: str, topic: str, total: int, procs: int, malloc_tune: bool) -> None:
         ctx = multiprocessing.get_context("spawn")
         procs = max(1, min(procs, total))
         sizes = [total // procs + (1 if i < total % procs else 0) for i in range(procs)]
@@ -86,7 +89,7 @@ class Workers:
         loop = asyncio.get_running_loop()
         for size in sizes:
             parent, child = ctx.Pipe()
-            proc = ctx.Process(target=worker_main, args=(url, topic, size, child), daemon=True)
+            proc = ctx.Process(target=worker_main, args=(url, topic, size, child, malloc_tune), daemon=True)
             proc.start()
             child.close()
             queue: asyncio.Queue = asyncio.Queue()
@@ -139,7 +142,7 @@ class Workers:
 
 
 async def fanout(target: Target, subscribers: int, rate: float, size: int, duration: float,
-                 repeats: int, procs: int) -> list[dict]:
+                 repeats: int, procs: int, malloc_tune: bool = True) -> list[dict]:
     """One run per repeat, all over the same connections."""
     topic = unique_topic("fan")
     frames = StringFrames(topic, size)
@@ -148,7 +151,7 @@ async def fanout(target: Target, subscribers: int, rate: float, size: int, durat
     runs = []
     try:
         await advertise(pub, topic, STRING)
-        workers = Workers(target.url, topic, subscribers, procs)
+        workers = Workers(target.url, topic, subscribers, procs, malloc_tune)
         await workers.expect("ready", 60)
         seq = 0
         deadline = time.monotonic() + 20
@@ -196,6 +199,7 @@ async def fanout(target: Target, subscribers: int, rate: float, size: int, durat
                 "lat_p95_ms": None if not lat else percentile(lat, 95) / 1e6,
                 "published_hz": (last - first + 1) / duration,
                 "client_cpu_pct": figures["client_cpu_pct"],
+                "other_cpu_pct": figures["other_cpu_pct"],
             })
     finally:
         if workers is not None:

@@ -9,36 +9,38 @@ COLUMNS = {
     "throughput": [
         ("msg_per_s", "msg/s"), ("lat_p50_ms", "p50 ms"), ("lat_p95_ms", "p95 ms"),
         ("lat_p99_ms", "p99 ms"), ("delivered_pct", "deliv%"), ("server_us_per_msg", "srv us/msg"),
-        ("server_cpu_pct", "srv CPU%"), ("client_cpu_pct", "cli CPU%"),
+        ("server_cpu_pct", "srv CPU%"), ("client_cpu_pct", "cli CPU%"), ("other_cpu_pct", "other%"),
     ],
     "fanout": [
         ("delivered_pct", "deliv%"), ("server_cpu_pct", "srv CPU%"),
         ("server_cpu_s_per_1000", "srv CPU s/1000"), ("lat_p50_ms", "p50 ms"),
-        ("lat_p95_ms", "p95 ms"), ("client_cpu_pct", "cli CPU%"),
+        ("lat_p95_ms", "p95 ms"), ("client_cpu_pct", "cli CPU%"), ("other_cpu_pct", "other%"),
     ],
     "encodings": [
         ("hz", "max Hz"), ("wire_kib", "wire KiB"), ("publish_kib", "in KiB"),
         ("server_ms_per_msg", "srv ms/msg"), ("delivered_pct", "deliv%"),
-        ("server_cpu_pct", "srv CPU%"), ("client_cpu_pct", "cli CPU%"),
+        ("server_cpu_pct", "srv CPU%"), ("client_cpu_pct", "cli CPU%"), ("other_cpu_pct", "other%"),
     ],
     "encodings_rate": [
         ("published_hz", "pub Hz"), ("delivered_pct", "deliv%"),
         ("server_ms_per_msg", "srv ms/msg"), ("server_cores", "srv cores"),
-        ("client_cpu_pct", "cli CPU%"),
+        ("client_cpu_pct", "cli CPU%"), ("other_cpu_pct", "other%"),
     ],
     "services": [
         ("calls_per_s", "calls/s"), ("lat_p50_ms", "p50 ms"), ("lat_p95_ms", "p95 ms"),
         ("lat_p99_ms", "p99 ms"), ("failed", "failed"), ("server_us_per_call", "srv us/call"),
-        ("server_cpu_pct", "srv CPU%"), ("client_cpu_pct", "cli CPU%"),
+        ("server_cpu_pct", "srv CPU%"), ("client_cpu_pct", "cli CPU%"), ("other_cpu_pct", "other%"),
     ],
     "slow_consumer": [
         ("published_hz", "pub Hz"), ("healthy_hz_before", "others Hz before"),
         ("healthy_hz_stalled", "others Hz stalled"), ("healthy_loss_pct", "others loss%"),
         ("rss_at_stall_mb", "RSS MB at stall"), ("rss_max_mb", "RSS MB max"),
         ("rss_growth_mb", "RSS growth MB"), ("server_cpu_pct", "srv CPU%"),
-        ("client_cpu_pct", "cli CPU%"),
+        ("client_cpu_pct", "cli CPU%"), ("other_cpu_pct", "other%"),
     ],
 }
+
+NO_RATIO = {"other_cpu_pct", "failed"}  # load from elsewhere, and counts: no ratio
 
 TITLES = {
     "throughput": "1. Throughput and one-way latency: std_msgs/String, 1 publisher + 1 subscriber, W in flight",
@@ -76,6 +78,8 @@ def finish_point(entry: dict) -> None:
             continue
         ratios = {}
         for key, stats in summary.items():
+            if key in NO_RATIO:
+                continue
             base = ceiling.get(key, {}).get("median")
             if base:
                 ratios[key] = stats["median"] / base

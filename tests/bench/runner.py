@@ -21,7 +21,9 @@ import tornado
 import websockets
 
 from . import payloads, report
+from .ceiling import tune_malloc
 from .fanout import fanout
+from .profile import PySpy
 from .servers import ProcMeter, Target, rosgate_available, start_ceiling, start_rosgate
 from .services import services
 from .topics import encoding_max, encoding_rate, slow_consumer, throughput
@@ -41,6 +43,7 @@ class Config:
     fanout_size: int = KIB
     fanout_s: float = 2.5
     fanout_procs: int = 2
+    malloc_tune: bool = True
     encodings: list[str] = field(default_factory=lambda: ["none", "cbor", "cbor-raw"])
     encoding_window: int = 2
     rate_s: float = 2.0
@@ -74,7 +77,7 @@ def plan(cfg: Config):
                 yield (scenario, f"N={n} {cfg.fanout_rate:g}Hz {size_label(cfg.fanout_size)}",
                        {"subscribers": n, "rate": cfg.fanout_rate, "size": cfg.fanout_size},
                        lambda t, n=n: fanout(t, n, cfg.fanout_rate, cfg.fanout_size, cfg.fanout_s,
-                                             cfg.repeats, cfg.fanout_procs), False)
+                                             cfg.repeats, cfg.fanout_procs, cfg.malloc_tune), False)
         elif scenario == "encodings":
             for payload in (image, cloud):
                 for enc in cfg.encodings:
@@ -164,10 +167,17 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--repeats", type=int, help="repeats per point (default 3)")
     p.add_argument("--duration", type=float, help="seconds per measured point (default 1.5)")
     p.add_argument("--slow-seconds", type=float, help="slow-consumer duration (default 60)")
+    p.add_argument("--sizes", help="throughput payload sizes in bytes, comma-separated "
+                                   "(default 64,1024,65536,1048576)")
     p.add_argument("--fanout-rate", type=float, help="fan-out publish rate in Hz (default 10)")
     p.add_argument("--fanout-procs", type=int, help="subscriber worker processes (default 2)")
+    p.add_argument("--no-malloc-tune", action="store_true",
+                   help="leave glibc malloc thresholds alone in the clients and the ceiling")
     p.add_argument("--scenarios", help=f"comma-separated subset of {','.join(SCENARIOS)}")
     p.add_argument("--out", help="write the figures as JSON to this file")
+    p.add_argument("--py-spy", metavar="FILE",
+                   help="sample the server under test with py-spy for the whole run: collapsed "
+                        "stacks (and a summary printed) or, for FILE.svg, a flame graph")
     return p.parse_args(argv)
 
 
@@ -179,12 +189,15 @@ def make_config(args: argparse.Namespace) -> Config:
         cfg.point_s = args.duration
         cfg.fanout_s = max(args.duration, 0.5)
         cfg.rate_s = max(args.duration, 0.5)
+    if args.sizes:
+        cfg.sizes = [int(v) for v in args.sizes.split(",") if v.strip()]
     if args.slow_seconds:
         cfg.slow_s = args.slow_seconds
     if args.fanout_rate:
         cfg.fanout_rate = args.fanout_rate
     if args.fanout_procs:
         cfg.fanout_procs = args.fanout_procs
+    cfg.malloc_tune = not args.no_malloc_tune
     if args.scenarios:
         wanted = [s.strip() for s in args.scenarios.split(",") if s.strip()]
         unknown = set(wanted) - set(SCENARIOS)
@@ -202,7 +215,7 @@ def start_targets(args: argparse.Namespace) -> list[Target]:
     targets = []
     try:
         if not args.no_ceiling:
-            targets.append(start_ceiling())
+            targets.append(start_ceiling(malloc_tune=not args.no_malloc_tune))
         if args.target:
             targets.append(Target(name=args.target_name, url=args.target, pid=args.server_pid))
         elif not args.no_rosgate:
@@ -222,14 +235,24 @@ def start_targets(args: argparse.Namespace) -> list[Target]:
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     cfg = make_config(args)
+    if cfg.malloc_tune:
+        tune_malloc()
     started = time.monotonic()
     targets = start_targets(args)
+    spy = None
     try:
         for t in targets:
             log(f"{t.name}: {t.url} pid {t.pid if t.pid else 'unknown (no CPU/RSS figures)'}")
         idle = {t.name: asyncio.run(idle_cpu(t, 0.3 if args.quick else 1.0)) for t in targets}
+        if args.py_spy:
+            profiled = next((t for t in targets if t.kind != "ceiling" and t.pid), None)
+            if profiled is None:
+                raise SystemExit("--py-spy needs rosgate or --target with --server-pid")
+            spy = PySpy(profiled.pid, args.py_spy)
         results = asyncio.run(run_all(cfg, targets, log))
     finally:
+        if spy is not None:
+            log(spy.stop())
         for t in targets:
             t.stop()
     primary = next((t.name for t in targets if t.kind != "ceiling"), None)

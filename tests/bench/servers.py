@@ -68,8 +68,9 @@ def _start(name: str, kind: str, argv: list[str], timeout: float = 30.0) -> Targ
     return Target(name=name, url=match.group(0), pid=proc.pid, kind=kind, process=proc, log=log)
 
 
-def start_ceiling() -> Target:
-    return _start("ceiling", "ceiling", [sys.executable, "-m", "tests.bench.ceiling", "--port", "0"])
+def start_ceiling(malloc_tune: bool = True) -> Target:
+    argv = [sys.executable, "-m", "tests.bench.ceiling", "--port", "0"]
+    return _start("ceiling", "ceiling", argv + ([] if malloc_tune else ["--no-malloc-tune"]))
 
 
 def default_rosgate_args() -> list[str]:
@@ -152,8 +153,20 @@ class ProcMeter:
         return None
 
 
+def machine_busy_s() -> float:
+    """CPU seconds all cores spent busy since boot (/proc/stat)."""
+    with open("/proc/stat") as f:
+        fields = [int(v) for v in f.readline().split()[1:]]
+    idle = fields[3] + fields[4]  # idle, iowait
+    return (sum(fields[:8]) - idle) / ProcMeter.TICK
+
+
 class Window:
-    """Elapsed time, server CPU and this process's CPU over one measurement window."""
+    """Elapsed time, server CPU and this process's CPU over one measurement window.
+
+    `other_cpu_pct` is what the rest of the machine used meanwhile (100 = one
+    core): a busy neighbour makes figures of the same run incomparable.
+    """
 
     def __init__(self, meter: ProcMeter) -> None:
         self.meter = meter
@@ -163,14 +176,17 @@ class Window:
         self.t0 = time.monotonic()
         self.client0 = time.process_time()
         self.server0 = self.meter.sample()
+        self.busy0 = machine_busy_s()
 
     def stop(self, extra_client_cpu: float = 0.0) -> dict[str, float | None]:
         elapsed = time.monotonic() - self.t0
         server = ProcMeter.cpu_between(self.server0, self.meter.sample())
         client = time.process_time() - self.client0 + extra_client_cpu
+        other = machine_busy_s() - self.busy0 - client - (server or 0.0)
         return {
             "elapsed_s": elapsed,
             "server_cpu_s": server,
             "server_cpu_pct": None if server is None else 100 * server / elapsed,
             "client_cpu_pct": 100 * client / elapsed,
+            "other_cpu_pct": max(0.0, 100 * other / elapsed),
         }

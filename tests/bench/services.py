@@ -97,5 +97,6 @@ async def services(target: Target, concurrency: int, duration: float) -> dict:
         else figures["server_cpu_s"] / len(lat) * 1e6,
         "server_cpu_pct": figures["server_cpu_pct"],
         "client_cpu_pct": figures["client_cpu_pct"],
+        "other_cpu_pct": figures["other_cpu_pct"],
         **({"statuses": statuses} if statuses else {}),
     }

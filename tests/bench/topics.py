@@ -103,6 +103,7 @@ async def throughput(target: Target, size: int, window: int, duration: float) ->
         "server_us_per_msg": _per(figures["server_cpu_s"], len(lat), 1e6),
         "server_cpu_pct": figures["server_cpu_pct"],
         "client_cpu_pct": figures["client_cpu_pct"],
+        "other_cpu_pct": figures["other_cpu_pct"],
         **({"statuses": statuses} if statuses else {}),
     }
 
@@ -171,6 +172,7 @@ async def encoding_max(target: Target, payload: payloads.Payload, compression: s
         "delivered_pct": 100 * count / sent if sent else None,
         "server_cpu_pct": figures["server_cpu_pct"],
         "client_cpu_pct": figures["client_cpu_pct"],
+        "other_cpu_pct": figures["other_cpu_pct"],
         **({"statuses": statuses} if statuses else {}),
     }
 
@@ -215,6 +217,7 @@ async def encoding_rate(target: Target, payload: payloads.Payload, compression: 
         "server_cores": None if figures["server_cpu_pct"] is None else figures["server_cpu_pct"] / 100,
         "server_cpu_pct": figures["server_cpu_pct"],
         "client_cpu_pct": figures["client_cpu_pct"],
+        "other_cpu_pct": figures["other_cpu_pct"],
     }
 
 
@@ -288,6 +291,7 @@ async def slow_consumer(target: Target, duration: float, rate: float = 30.0, hea
         "rss_end_mb": _mb(rss[-1][1]) if rss else None,
         "server_cpu_pct": figures["server_cpu_pct"],
         "client_cpu_pct": figures["client_cpu_pct"],
+        "other_cpu_pct": figures["other_cpu_pct"],
         "rss_series_mb": [[round(t, 1), round(v / 2**20, 1)] for t, v in rss],
     }
 

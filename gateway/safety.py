@@ -1,0 +1,224 @@
+"""Safety of live control: velocity clamps, and a zero command when a driving client goes away.
+
+Velocity topics are those whose type is in ``types`` (Twist and TwistStamped by default). For
+each client and velocity topic the gateway remembers the last command. When that client
+disconnects or errors out while its last command was not zero, the zero command (the type's
+default message; a header keeps its frame_id and gets the current stamp) is published at once.
+A *stream* is three or more commands each within ``cmd_timeout`` of the one before (teleop,
+a program loop); when a moving stream then goes silent for ``cmd_timeout``, zero is published
+too. On shutdown every moving topic gets its zero before clients are closed.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import math
+import tomllib
+from dataclasses import dataclass, field
+from fnmatch import fnmatchcase
+
+from protocol.convert import from_json
+from protocol.errors import ProtocolError
+
+from .backends.base import QoS
+
+log = logging.getLogger('rosgate.safety')
+DEFAULT_TYPES = ('geometry_msgs/msg/Twist', 'geometry_msgs/msg/TwistStamped')
+STREAM_MIN = 3           # commands in a row that make a stream
+SHUTDOWN_FLUSH = 0.5     # s at most to let stop commands reach subscribers before clients close
+
+
+@dataclass(frozen=True)
+class Clamp:
+    max_linear: float | None = None    # m/s, on the length of the linear vector
+    max_angular: float | None = None   # rad/s, on the length of the angular vector
+
+
+@dataclass
+class VelocityLimits:
+    default: Clamp = Clamp()
+    topics: list[tuple[str, Clamp]] = field(default_factory=list)   # (topic glob, clamp), first match wins
+
+    @classmethod
+    def load(cls, path, default: Clamp = Clamp()) -> VelocityLimits:
+        """[[limits]] tables with topic (a glob), max_linear and/or max_angular."""
+        with open(path, 'rb') as f:
+            data = tomllib.load(f)
+        topics = []
+        for i, item in enumerate(data.get('limits', [])):
+            if not isinstance(item, dict) or not isinstance(item.get('topic'), str):
+                raise ValueError(f'{path}: limits[{i}] needs a topic')
+            values = {k: float(item[k]) for k in ('max_linear', 'max_angular') if k in item}
+            if any(v < 0 for v in values.values()):
+                raise ValueError(f'{path}: limits[{i}]: limits are not negative')
+            topics.append((item['topic'], Clamp(**values)))
+        return cls(default, topics)
+
+    def for_topic(self, topic: str) -> Clamp:
+        for glob, clamp in self.topics:
+            if fnmatchcase(topic, glob):
+                return clamp
+        return self.default
+
+
+def twist_part(msg: dict) -> dict | None:
+    if 'linear' in msg and 'angular' in msg:
+        return msg
+    inner = msg.get('twist')
+    return inner if isinstance(inner, dict) and 'linear' in inner else None
+
+
+def _scale(vector: dict, limit: float | None, where: str) -> None:
+    values = [vector.get(k, 0.0) for k in 'xyz']
+    for k, v in zip('xyz', values):
+        if not math.isfinite(v):
+            raise ProtocolError(f'{where}.{k} is {v}: velocity commands must be finite')
+    if limit is None:
+        return
+    length = math.sqrt(sum(v * v for v in values))
+    if length > limit:
+        factor = limit / length
+        for k, v in zip('xyz', values):
+            vector[k] = v * factor
+
+
+def _moving(value, key: str = '') -> bool:
+    """Any non-zero number outside the header."""
+    if key == 'header':
+        return False
+    if isinstance(value, dict):
+        return any(_moving(v, k) for k, v in value.items())
+    if isinstance(value, (list, tuple)):
+        return any(_moving(v) for v in value)
+    if isinstance(value, bool):
+        return value
+    if isinstance(value, (int, float)):
+        return value != 0
+    return False
+
+
+class Stream:
+    __slots__ = ('type', 'msgdef', 'last', 'count', 'moving', 'frame_id', 'timer')
+
+    def __init__(self, type: str, msgdef):
+        self.type, self.msgdef = type, msgdef
+        self.last, self.count, self.moving = -math.inf, 0, False
+        self.frame_id = None
+        self.timer: asyncio.TimerHandle | None = None
+
+
+class Safety:
+    def __init__(self, gateway, *, types=DEFAULT_TYPES, stop_on_disconnect: bool = True,
+                 cmd_timeout: float = 1.0, limits: VelocityLimits | None = None):
+        self.gateway = gateway
+        self.types = frozenset(types)
+        self.stop_on_disconnect, self.cmd_timeout = stop_on_disconnect, cmd_timeout
+        self.limits = limits or VelocityLimits()
+        self.streams: dict[int, dict[str, Stream]] = {}   # session id -> topic -> Stream
+        self.stopped = False                              # set at shutdown
+        self.stops = 0                                    # zero commands published
+
+    # --- the publish hook ---------------------------------------------------------------------
+
+    def publish_hook(self, session, pub, msg):
+        if pub.type not in self.types:
+            return msg
+        part = twist_part(msg)
+        if part is not None:
+            clamp = self.limits.for_topic(pub.topic)
+            _scale(part['linear'], clamp.max_linear, 'linear')
+            _scale(part['angular'], clamp.max_angular, 'angular')
+        if self.stop_on_disconnect or self.cmd_timeout > 0:
+            self._track(session, pub, msg)
+        return msg
+
+    def _track(self, session, pub, msg) -> None:
+        topics = self.streams.setdefault(session.id, {})
+        stream = topics.get(pub.topic)
+        if stream is None or stream.type != pub.type:
+            stream = topics[pub.topic] = Stream(pub.type, pub.msgdef)
+        now = asyncio.get_running_loop().time()
+        stream.count = stream.count + 1 if now - stream.last <= self.cmd_timeout else 1
+        stream.last = now
+        stream.moving = _moving(msg)
+        header = msg.get('header')
+        if isinstance(header, dict):
+            stream.frame_id = header.get('frame_id')
+        if stream.moving and self.cmd_timeout > 0 and stream.count >= STREAM_MIN and stream.timer is None:
+            self._arm(session, pub.topic, stream, self.cmd_timeout)
+
+    def _arm(self, session, topic: str, stream: Stream, delay: float) -> None:
+        stream.timer = asyncio.get_running_loop().call_later(delay, self._silence, session, topic, stream)
+
+    def _silence(self, session, topic: str, stream: Stream) -> None:
+        stream.timer = None
+        if not stream.moving or session.closed or self.stopped:
+            return
+        left = stream.last + self.cmd_timeout - asyncio.get_running_loop().time()
+        if left > 0.001:
+            self._arm(session, topic, stream, left)
+            return
+        log.info('no command on %s for %.3g s from client %d: stopping', topic, self.cmd_timeout, session.id)
+        self._stop(topic, stream)
+
+    # --- stopping -----------------------------------------------------------------------------
+
+    def zero(self, stream: Stream) -> dict:
+        value: dict = {}
+        if any(f.name == 'header' for f in stream.msgdef.fields):
+            sec, nanosec = self.gateway.backend.now()
+            value['header'] = {'stamp': {'sec': sec, 'nanosec': nanosec}, 'frame_id': stream.frame_id or ''}
+        return from_json(self.gateway.backend.defs, stream.msgdef, value)
+
+    def _stop(self, topic: str, stream: Stream) -> None:
+        stream.moving, stream.count = False, 0
+        if stream.timer is not None:
+            stream.timer.cancel()
+            stream.timer = None
+        gw = self.gateway
+        pub = gw.publishers.get(topic)
+        temporary = pub is None
+        if temporary:   # the client's publisher is already gone: publish through a short-lived one
+            pub = gw.publisher(topic, stream.type, QoS())
+            pub.attach(0)
+        try:
+            pub.publisher.publish(self.zero(stream))
+            self.stops += 1
+        finally:
+            if temporary:
+                pub.detach(0)
+
+    def stop_session(self, session) -> int:
+        """Zero every velocity topic this client left moving; returns how many."""
+        count = 0
+        for topic, stream in self.streams.get(session.id, {}).items():
+            if stream.moving:
+                self._stop(topic, stream)
+                count += 1
+        return count
+
+    # --- gateway hooks ------------------------------------------------------------------------
+
+    def on_close(self, session) -> None:
+        if self.stopped:
+            return
+        if self.stop_on_disconnect and self.stop_session(session):
+            log.info('client %d went away while driving: stop commands published', session.id)
+        for stream in self.streams.pop(session.id, {}).values():
+            if stream.timer is not None:
+                stream.timer.cancel()
+
+    async def on_shutdown(self) -> None:
+        count = 0
+        for session in list(self.gateway.sessions.values()):
+            count += self.stop_session(session)
+        self.stopped = True
+        if not count:
+            return
+        log.info('shutdown: %d stop commands published', count)
+        loop = asyncio.get_running_loop()
+        deadline = loop.time() + SHUTDOWN_FLUSH
+        await asyncio.sleep(0)   # deliveries that hop through the loop (rclpy) land first
+        while loop.time() < deadline and any(s.outbox.queued_bytes for s in self.gateway.sessions.values()):
+            await asyncio.sleep(0.005)

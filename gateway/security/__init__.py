@@ -1,0 +1,107 @@
+"""Access control and live-control safety: flags, and wiring into the gateway.
+
+``add_arguments(parser)`` adds the flags; ``install(gateway, app)`` replaces the gateway's policy
+with a SecurePolicy, adds the publish and close hooks of the safety layer and the driver lease,
+the login page, and the admin guard of the program library.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+
+from ..policy import parse_globs
+from ..safety import DEFAULT_TYPES, Clamp, Safety, VelocityLimits
+from .http import guarded_program_routes, login_routes
+from .lease import Lease
+from .policy import Limits, SecurePolicy
+from .tokens import Authenticator, Brake, TokenStore
+
+log = logging.getLogger('rosgate.security')
+
+
+def _positive(kind):
+    def parse(text: str):
+        value = kind(text)
+        if value < 0:
+            raise argparse.ArgumentTypeError(f'{text} is negative')
+        return value
+    return parse
+
+
+def _loaded(load):
+    """Read a config file while parsing flags, so a mistake is a usage error naming the file."""
+    def parse(path: str):
+        try:
+            return load(path)
+        except (OSError, ValueError) as e:   # tomllib.TOMLDecodeError is a ValueError
+            raise argparse.ArgumentTypeError(str(e)) from None
+    return parse
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    d = Limits()
+    g = parser.add_argument_group('access control')
+    g.add_argument('--auth', metavar='TOKENS.toml', type=_loaded(TokenStore.load),
+                   help='require a token: a TOML file mapping tokens to roles viewer/operator/admin')
+    g.add_argument('--auth-backoff', type=_positive(float), default=0.5, metavar='S',
+                   help='after 3 failed attempts from an address, wait this long, doubling each failure '
+                        '(up to 30 s) [%(default)s]')
+    g.add_argument('--max-subscriptions', type=_positive(int), default=d.max_subscriptions,
+                   help='topics one client may subscribe to [%(default)s]')
+    g.add_argument('--max-publishers', type=_positive(int), default=d.max_publishers,
+                   help='topics one client may advertise [%(default)s]')
+    g.add_argument('--max-pending-calls', type=_positive(int), default=d.max_pending_calls,
+                   help='service calls and action goals one client may have in flight [%(default)s]')
+    g.add_argument('--max-op-rate', type=_positive(float), default=d.max_op_rate, metavar='OPS',
+                   help='incoming ops per second per client, 0 for no limit [%(default)s]')
+    s = parser.add_argument_group('safety of live control')
+    s.add_argument('--stop-on-disconnect', action=argparse.BooleanOptionalAction, default=True,
+                   help='publish a zero command when a client that was driving goes away [on]')
+    s.add_argument('--stop-types', default=','.join(DEFAULT_TYPES),
+                   help='velocity command types [%(default)s]')
+    s.add_argument('--cmd-timeout', type=_positive(float), default=1.0, metavar='S',
+                   help='zero a command stream that goes silent this long, 0 for never [%(default)s]')
+    s.add_argument('--max-linear', type=_positive(float), metavar='M/S', help='clamp linear velocity')
+    s.add_argument('--max-angular', type=_positive(float), metavar='RAD/S', help='clamp angular velocity')
+    s.add_argument('--velocity-limits', metavar='LIMITS.toml', type=_loaded(VelocityLimits.load), help='per-topic clamps ([[limits]] tables)')
+    s.add_argument('--exclusive-control', action='store_true',
+                   help='one client at a time drives; see /rosgate/driver and /rosgate/control')
+    s.add_argument('--control-glob', help='more names under the driver lease besides velocity topics, '
+                                          'e.g. "[\'/turtle1/*\']"')
+
+
+def install(gateway, app) -> None:
+    settings, extra = gateway.settings, gateway.settings.extra
+    types = tuple(t.strip() for t in (extra.get('stop_types') or ','.join(DEFAULT_TYPES)).split(',') if t.strip())
+    velocity = extra.get('velocity_limits') or VelocityLimits()
+    velocity.default = Clamp(extra.get('max_linear'), extra.get('max_angular'))
+    safety = Safety(gateway, types=types, stop_on_disconnect=extra.get('stop_on_disconnect', True),
+                    cmd_timeout=extra.get('cmd_timeout', 1.0), limits=velocity)
+
+    auth = None
+    if extra.get('auth'):
+        store = extra['auth'] if isinstance(extra['auth'], TokenStore) else TokenStore.load(extra['auth'])
+        auth = Authenticator(store, Brake(base=extra.get('auth_backoff', 0.5)))
+    lease = None
+    if extra.get('exclusive_control'):
+        lease = Lease(gateway, types=frozenset(types), globs=parse_globs(extra.get('control_glob')),
+                      takeover_role='admin' if auth else None, on_lost=safety.stop_session)
+    d = Limits()
+    limits = Limits(*(extra.get(k, getattr(d, k)) for k in
+                      ('max_subscriptions', 'max_publishers', 'max_pending_calls', 'max_op_rate')))
+    gateway.policy = SecurePolicy(settings, auth=auth, limits=limits, lease=lease)
+
+    if lease is not None:
+        gateway.publish_hooks.append(lease.publish_hook)
+        gateway.hooks.append(lease)
+    gateway.publish_hooks.append(safety.publish_hook)
+    gateway.hooks.append(safety)
+
+    tls = bool(settings.certfile and settings.keyfile)
+    routes = login_routes(gateway.policy, secure_cookie=tls)
+    if settings.programs_dir is not None:
+        routes += guarded_program_routes(gateway.policy, settings.programs_dir)
+    app.add_handlers(r'.*$', routes)
+    log.info('security: auth %s, exclusive control %s, stop on disconnect %s, cmd timeout %s s',
+             'on' if auth else 'off', 'on' if lease else 'off', safety.stop_on_disconnect, safety.cmd_timeout)

@@ -1,0 +1,132 @@
+"""HTTP side of access control: a small login page that sets the token cookie, and the admin
+guard in front of the program library (/api/programs)."""
+
+from __future__ import annotations
+
+import html
+
+import tornado.web
+
+from .policy import COOKIE, PERMISSIONS, token_from_request
+from .tokens import AuthError
+
+PAGE = """<!doctype html>
+<html lang="en"><head><meta charset="utf-8"><meta name="viewport" content="width=device-width">
+<title>rosgate sign in</title>
+<style>body{{font:16px system-ui,sans-serif;max-width:22rem;margin:4rem auto;padding:0 1rem}}
+input,button{{font:inherit;width:100%;box-sizing:border-box;padding:.5rem;margin:.3rem 0}}
+.msg{{color:#a00}}</style></head>
+<body><h1>rosgate</h1><p>{intro}</p><p class="msg">{message}</p>
+<form method="post" action="/login"><input type="hidden" name="next" value="{next}">
+<label>Token <input name="token" type="password" autocomplete="current-password" autofocus></label>
+<button type="submit">Sign in</button></form></body></html>
+"""
+
+
+def _safe_next(value: str) -> str:
+    """Only paths on this server, never another site."""
+    return value if value.startswith('/') and not value.startswith('//') and '\\' not in value else '/'
+
+
+class LoginHandler(tornado.web.RequestHandler):
+    def initialize(self, policy, secure_cookie: bool) -> None:
+        self.policy, self.secure_cookie = policy, secure_cookie
+
+    def set_default_headers(self) -> None:
+        self.set_header('Cache-Control', 'no-store')
+        self.set_header('Content-Security-Policy', "default-src 'none'; style-src 'unsafe-inline'; form-action 'self'")
+
+    def _page(self, message: str = '', status: int = 200) -> None:
+        self.set_status(status)
+        intro = ('Sign in with your token.' if self.policy.auth is not None
+                 else 'This gateway does not require a token.')
+        nxt = _safe_next(self.get_argument('next', '/'))
+        self.finish(PAGE.format(intro=intro, message=html.escape(message), next=html.escape(nxt)))
+
+    def get(self) -> None:
+        self._page()
+
+    def post(self) -> None:
+        auth = self.policy.auth
+        if auth is None:
+            self.redirect(_safe_next(self.get_argument('next', '/')))
+            return
+        try:
+            identity = auth.token(self.request.remote_ip or '?', self.get_argument('token', ''))
+        except AuthError as e:
+            self._page(str(e), 429 if str(e).startswith('too many') else 401)
+            return
+        self.set_cookie(COOKIE, self.get_argument('token'), httponly=True, secure=self.secure_cookie,
+                        samesite='Strict', expires_days=30)
+        self.set_header('X-Rosgate-Role', identity.role)
+        self.redirect(_safe_next(self.get_argument('next', '/')), status=303)
+
+
+class LogoutHandler(tornado.web.RequestHandler):
+    def get(self) -> None:
+        self.clear_cookie(COOKIE)
+        self.redirect('/login', status=303)
+
+    post = get
+
+
+class WhoAmIHandler(tornado.web.RequestHandler):
+    """{"auth": bool, "name", "role"} for the token this browser holds (the IDE hides what the
+    role may not use); 401 when auth is on and no valid token came with the request."""
+
+    def initialize(self, policy) -> None:
+        self.policy = policy
+
+    def get(self) -> None:
+        self.set_header('Cache-Control', 'no-store')
+        if self.policy.auth is None:
+            self.finish({'auth': False, 'name': None, 'role': 'admin'})
+            return
+        identity = require(self, self.policy, 'read')
+        self.finish({'auth': True, 'name': identity.name, 'role': identity.role})
+
+    def write_error(self, status_code: int, **kwargs) -> None:
+        exc = kwargs.get('exc_info')
+        reason = exc[1].log_message if exc and isinstance(exc[1], tornado.web.HTTPError) else self._reason
+        self.finish({'error': reason, 'status': status_code})
+
+
+def login_routes(policy, *, secure_cookie: bool) -> list:
+    kw = {'policy': policy, 'secure_cookie': secure_cookie}
+    return [(r'/login/?', LoginHandler, kw), (r'/logout/?', LogoutHandler),
+            (r'/whoami', WhoAmIHandler, {'policy': policy})]
+
+
+def require(handler: tornado.web.RequestHandler, policy, permission: str):
+    """The caller's Identity (None when auth is off); raise 401 (no or bad token), 429 (too many
+    failures) or 403 (role too low)."""
+    auth = policy.auth
+    if auth is None:
+        return None
+    token = token_from_request(handler.request)
+    if not token:
+        raise tornado.web.HTTPError(401, 'a token is required: sign in at /login or send Authorization: Bearer')
+    try:
+        identity = auth.token(handler.request.remote_ip or '?', token)
+    except AuthError as e:
+        raise tornado.web.HTTPError(429 if str(e).startswith('too many') else 401, str(e)) from None
+    if permission not in PERMISSIONS[identity.role]:
+        raise tornado.web.HTTPError(403, f'role {identity.role} may not use this; it needs admin')
+    return identity
+
+
+def guarded_program_routes(policy, programs_dir) -> list:
+    """The program library's own routes, each handler requiring the admin role when auth is on."""
+    from ..programs import program_routes
+
+    routes = []
+    for spec in program_routes(programs_dir):
+        base = spec.handler_class
+
+        def prepare(self, _base=base):
+            require(self, policy, 'programs')
+            return _base.prepare(self)
+
+        guarded = type(f'Admin{base.__name__}', (base,), {'prepare': prepare})
+        routes.append(tornado.web.url(spec.regex.pattern, guarded, spec.kwargs))
+    return routes

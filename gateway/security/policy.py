@@ -1,0 +1,213 @@
+"""SecurePolicy: roles, the auth gate, per-client caps and op rate, on top of the name globs."""
+
+from __future__ import annotations
+
+import asyncio
+import re
+from dataclasses import dataclass
+
+from protocol import ops
+from protocol.errors import ProtocolError
+
+from .. import rosapi
+from ..policy import Policy
+from .tokens import AuthError, Authenticator
+
+COOKIE = 'rosgate_token'
+PERMISSIONS = {
+    'viewer': frozenset({'subscribe', 'read'}),
+    'operator': frozenset({'subscribe', 'read', 'publish', 'call', 'send_goal'}),
+    'admin': frozenset({'subscribe', 'read', 'publish', 'call', 'send_goal',
+                        'advertise_service', 'advertise_action', 'param', 'programs'}),
+}
+VERBS = {'subscribe': 'subscribe to', 'read': 'call', 'publish': 'publish to', 'call': 'call',
+         'send_goal': 'send goals to', 'advertise_service': 'advertise', 'advertise_action': 'advertise',
+         'param': 'change parameters through', 'programs': 'use'}
+WRITING_ROSAPI = ('/rosapi/set_param', '/rosapi/delete_param')
+NOT_AUTHENTICATED = ('not authenticated: send {"op": "auth", "token": ...} first '
+                     '(or connect with ?token=, an Authorization: Bearer header, or the /login cookie)')
+_NAME = re.compile(r'[^A-Za-z0-9 _.@-]')
+
+
+def permission(action: str, name: str) -> str:
+    """The permission an action needs; rosapi calls are reads, except the parameter writes."""
+    if action == 'call' and rosapi.handles(name):
+        return 'param' if name in WRITING_ROSAPI else 'read'
+    return action
+
+
+def _absolute(name: str) -> str:
+    return name if name.startswith('/') else '/' + name
+
+
+def target(op) -> tuple[str, str] | None:
+    """(action, name) that an incoming op asks for, or None for ops that need no check."""
+    if isinstance(op, ops.Subscribe):
+        return 'subscribe', _absolute(op.topic)
+    if isinstance(op, (ops.Publish, ops.Advertise)):
+        return 'publish', _absolute(op.topic)
+    if isinstance(op, ops.CallService):
+        return 'call', _absolute(op.service)
+    if isinstance(op, ops.SendActionGoal):
+        return 'send_goal', _absolute(op.action)
+    if isinstance(op, ops.AdvertiseService):
+        return 'advertise_service', _absolute(op.service)
+    if isinstance(op, ops.AdvertiseAction):
+        return 'advertise_action', _absolute(op.action)
+    return None
+
+
+def token_from_request(request) -> str | None:
+    """A token given at connect: ?token=, Authorization: Bearer, or the login cookie."""
+    values = request.query_arguments.get('token')
+    if values:
+        return values[-1].decode('utf-8', 'replace')
+    header = request.headers.get('Authorization', '')
+    if header[:7].lower() == 'bearer ':
+        return header[7:].strip()
+    cookie = request.cookies.get(COOKIE)
+    return cookie.value if cookie is not None else None
+
+
+@dataclass(frozen=True)
+class Limits:
+    max_subscriptions: int = 1000
+    max_publishers: int = 1000
+    max_pending_calls: int = 256
+    max_op_rate: float = 0.0          # ops per second per client; 0: unlimited
+
+
+class SecurePolicy(Policy):
+    def __init__(self, settings, *, auth: Authenticator | None = None, limits: Limits = Limits(), lease=None):
+        super().__init__(settings)
+        self.auth, self.limits, self.lease = auth, limits, lease
+
+    # --- the gate in front of every op -------------------------------------------------------
+
+    def admit(self, session, op) -> bool:
+        if not self._rate(session, op):
+            return False
+        if isinstance(op, (ops.Auth, ops.SetLevel)):
+            return True
+        if self.auth is not None and 'role' not in session.attrs:
+            reason = session.attrs.get('auth_error')
+            _refuse(session, op, f'{NOT_AUTHENTICATED}{f" (the token given at connect: {reason})" if reason else ""}')
+        wanted = target(op)
+        if wanted is None:
+            return True
+        action, name = wanted
+        try:
+            self.check(session, action, name, op.OP, op.id)
+        except ProtocolError as e:
+            _refuse(session, op, e.message)
+        self._caps(session, op, name)
+        return True
+
+    def _rate(self, session, op) -> bool:
+        """A token bucket per client (burst: one second's worth). Each op over the rate is refused
+        with a status; a client still flooding after that many refusals in a row is closed (1008)
+        once those statuses are sent, and its further ops are dropped."""
+        rate = self.limits.max_op_rate
+        if rate <= 0:
+            return True
+        now = asyncio.get_running_loop().time()
+        tokens, last, refused = session.attrs.get('_rate', (rate, now, 0))
+        tokens = min(rate, tokens + (now - last) * rate)
+        if tokens >= 1:
+            session.attrs['_rate'] = (tokens - 1, now, 0)
+            return True
+        refused += 1
+        session.attrs['_rate'] = (tokens, now, refused)
+        threshold = max(100, int(rate))
+        if refused > threshold:
+            if refused == threshold + 1:
+                asyncio.ensure_future(_hang_up(session, 1008, 'op rate limit exceeded'))
+            return False
+        _refuse(session, op, f'op rate limit of {rate:g} per second exceeded; slow down')
+
+    def _caps(self, session, op, name: str) -> None:
+        lim = self.limits
+        if isinstance(op, ops.Subscribe):
+            if name not in session.subscriptions and len(session.subscriptions) >= lim.max_subscriptions:
+                _refuse(session, op, f'{name}: this client already has {lim.max_subscriptions} subscriptions '
+                                     '(--max-subscriptions)')
+        elif isinstance(op, (ops.Publish, ops.Advertise)):
+            if name not in session.publishers and len(session.publishers) >= lim.max_publishers:
+                _refuse(session, op, f'{name}: this client already advertises {lim.max_publishers} topics '
+                                     '(--max-publishers)')
+        elif isinstance(op, (ops.CallService, ops.SendActionGoal)):
+            if len(session.tasks) >= lim.max_pending_calls:
+                _refuse(session, op, f'{name}: this client already has {lim.max_pending_calls} calls and goals '
+                                     'pending (--max-pending-calls)')
+
+    # --- Policy hooks ------------------------------------------------------------------------
+
+    def check(self, session, action: str, name: str, op: str, id: str | None) -> None:
+        if self.auth is not None:
+            role = session.attrs.get('role')
+            if role is None:
+                raise ProtocolError(NOT_AUTHENTICATED, op=op, id=id)
+            need = permission(action, name)
+            if need not in PERMISSIONS[role]:
+                raise ProtocolError(f'role {role} may not {VERBS[need]} {name}', op=op, id=id)
+        super().check(session, action, name, op, id)
+        if self.lease is not None and action in ('call', 'send_goal'):
+            self.lease.require(session, name)
+
+    def authenticate(self, session, op) -> None:
+        if self.auth is None:
+            super().authenticate(session, op)
+            return
+        remote = session.remote or '?'
+        try:
+            if op.token is not None:
+                identity = self.auth.token(remote, op.token)
+            elif op.mac is not None:
+                identity = self.auth.rosauth(remote, op)
+            else:
+                raise ProtocolError('give a token (or the rosauth fields mac, client, dest, rand, t, level, end)',
+                                    op=op.OP, id=op.id)
+        except AuthError as e:
+            raise ProtocolError(str(e), op=op.OP, id=op.id) from None
+        session.attrs.update(role=identity.role, name=identity.name)
+        session.attrs.pop('auth_error', None)
+        session.status('info', f'authenticated as {identity.name} ({identity.role})', op.OP, op.id)
+
+    def connect_attrs(self, request) -> dict:
+        attrs: dict = {}
+        label = request.query_arguments.get('name')
+        if label:
+            attrs['name'] = _NAME.sub('', label[-1].decode('utf-8', 'replace'))[:32]
+        if self.auth is None:
+            return attrs
+        token = token_from_request(request)
+        if token:
+            try:
+                identity = self.auth.token(request.remote_ip or '?', token)
+            except AuthError as e:
+                attrs['auth_error'] = str(e)
+            else:
+                attrs.update(role=identity.role, name=identity.name)
+        return attrs
+
+
+async def _hang_up(session, code: int, reason: str, flush: float = 1.0) -> None:
+    """Close after what is queued for the client went out (at most ``flush`` s)."""
+    loop = asyncio.get_running_loop()
+    deadline = loop.time() + flush
+    while session.outbox.queued_bytes and not session.closed and loop.time() < deadline:
+        await asyncio.sleep(0.01)
+    if not session.closed:
+        session.close_connection(code, reason)
+
+
+def _refuse(session, op, message: str) -> None:
+    """A status error naming op and id; calls and goals also get their failed reply so clients
+    waiting on them (roslibjs, roslibpy) fail at once instead of timing out."""
+    if isinstance(op, ops.CallService):
+        session.reply({'op': 'service_response', 'service': op.service, 'id': op.id,
+                       'values': message, 'result': False})
+    elif isinstance(op, ops.SendActionGoal):
+        session.reply({'op': 'action_result', 'action': op.action, 'id': op.id,
+                       'values': message, 'status': 0, 'result': False})
+    raise ProtocolError(message, op=op.OP, id=op.id)

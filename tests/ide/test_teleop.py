@@ -1,0 +1,131 @@
+"""The teleop page on a tablet-sized touch screen, driving the simulated rover."""
+
+from __future__ import annotations
+
+import statistics
+import time
+
+import pytest
+
+from .conftest import ARTIFACTS, RosClient, wait_for
+
+
+@pytest.fixture
+def rover():
+    from tests.conftest import GatewayProcess
+    gw = GatewayProcess("--robot", "rover")
+    client = RosClient(gw)
+    yield gw, client
+    client.close()
+    gw.stop()
+
+
+def open_teleop(chromium, gw, **ctx_args):
+    ctx = chromium.new_context(**ctx_args)
+    page = ctx.new_page()
+    errors = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    page.goto(gw.http_url + "teleop")
+    page.wait_for_function("document.body.dataset.ready === 'true'")
+    page.wait_for_function("document.body.dataset.connection === 'connected'")
+    return ctx, page, errors
+
+
+def drag(cdp, x0, y0, dx, dy, steps=8):
+    cdp.send("Input.dispatchTouchEvent", {"type": "touchStart", "touchPoints": [{"x": x0, "y": y0}]})
+    for i in range(1, steps + 1):
+        cdp.send("Input.dispatchTouchEvent", {"type": "touchMove", "touchPoints": [
+            {"x": x0 + dx * i / steps, "y": y0 + dy * i / steps}]})
+
+
+def release(cdp):
+    cdp.send("Input.dispatchTouchEvent", {"type": "touchEnd", "touchPoints": []})
+
+
+def test_joystick_drives_at_10_hz_and_release_stops(chromium, rover):
+    gw, ros = rover
+    cmd = ros.watch("/cmd_vel", "geometry_msgs/msg/Twist")
+    odom = ros.watch("/odom", "nav_msgs/msg/Odometry")
+    ctx, page, errors = open_teleop(chromium, gw, viewport={"width": 1024, "height": 768},
+                                    has_touch=True, is_mobile=True)
+    try:
+        page.wait_for_function("document.querySelector('#topic').value === '/cmd_vel'")
+        cdp = ctx.new_cdp_session(page)
+        box = page.locator("#joystick").bounding_box()
+        cx, cy = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+
+        # forward: drag up
+        t0 = time.monotonic()
+        drag(cdp, cx, cy, 0, -box["height"] / 2)
+        wait_for(lambda: len([m for t, m in cmd.since(t0) if m["linear"]["x"] > 0]) >= 16, timeout=5,
+                 what="16 forward commands")
+        page.screenshot(path=str(ARTIFACTS / "teleop-tablet-driving.png"))
+        t_release = time.monotonic()
+        release(cdp)
+        wait_for(lambda: any(m["linear"]["x"] == 0 and m["angular"]["z"] == 0 for t, m in cmd.since(t_release)),
+                 timeout=1, what="zero on release")
+        forward = [(t, m) for t, m in cmd.since(t0) if t < t_release]
+        assert all(m["linear"]["x"] > 0.3 for t, m in forward[1:]), forward
+        assert all(abs(m["angular"]["z"]) < 0.05 for t, m in forward[1:]), forward
+        max_speed = float(page.input_value("#maxspeed"))
+        assert max(m["linear"]["x"] for t, m in forward) <= max_speed + 1e-9
+        intervals = [b[0] - a[0] for a, b in zip(forward, forward[1:])]
+        rate = 1 / statistics.median(intervals)
+        assert 8 <= rate <= 12.5, f"{rate:.1f} Hz"
+
+        # nothing but the zero after the release
+        zero_at = next(t for t, m in cmd.since(t_release) if m["linear"]["x"] == 0)
+        wait_for(lambda: len(odom.since(zero_at)) >= 5, what="five odometry messages after the release")
+        assert len(cmd.since(zero_at)) == 1
+
+        # left: drag left turns counter-clockwise (angular.z > 0); right the other way
+        for dx, sign in ((-1, 1), (1, -1)):
+            t1 = time.monotonic()
+            drag(cdp, cx, cy, dx * box["width"] / 2, 0)
+            wait_for(lambda: len(cmd.since(t1)) >= 3, what="turn commands")
+            release(cdp)
+            turning = [m for t, m in cmd.since(t1)][1:-1] or [m for t, m in cmd.since(t1)][:1]
+            assert all(m["angular"]["z"] * sign > 0.3 and abs(m["linear"]["x"]) < 0.05 for m in turning), turning
+            wait_for(lambda: cmd.latest()["angular"]["z"] == 0, timeout=1, what="zero after the turn")
+        assert not errors, errors
+    finally:
+        ctx.close()
+
+
+def test_keys_slider_and_widgets(chromium, rover):
+    gw, ros = rover
+    cmd = ros.watch("/cmd_vel", "geometry_msgs/msg/Twist")
+    ctx, page, errors = open_teleop(chromium, gw, viewport={"width": 1024, "height": 768}, has_touch=True)
+    try:
+        # battery gauge and camera view update from the rover
+        page.wait_for_function("window.teleop.battery && /%/.test(document.querySelector('#battery-text').textContent)")
+        page.wait_for_function("window.teleop.frames >= 2 && document.querySelector('#camera').naturalWidth > 0",
+                               timeout=10000)
+        pct = float(page.inner_text("#battery-text").split()[0])
+        assert 0 <= pct <= 100
+        # plots receive numbers
+        page.wait_for_function("window.teleop && document.querySelectorAll('#plot canvas').length > 0")
+
+        page.fill("#maxspeed", "0.2")
+        page.dispatch_event("#maxspeed", "input")
+        t0 = time.monotonic()
+        page.keyboard.down("ArrowUp")
+        wait_for(lambda: len(cmd.since(t0)) >= 3, what="commands while a key is held")
+        page.keyboard.up("ArrowUp")
+        wait_for(lambda: cmd.latest()["linear"]["x"] == 0, timeout=1, what="zero after the key is released")
+        held = [m for t, m in cmd.since(t0)][:-1]
+        assert all(abs(m["linear"]["x"] - 0.2) < 1e-9 for m in held), held
+
+        t1 = time.monotonic()
+        page.locator("#keys [data-key=right]").dispatch_event("pointerdown", {"pointerId": 1})
+        wait_for(lambda: len(cmd.since(t1)) >= 2, what="commands from the on-screen key")
+        page.locator("#keys [data-key=right]").dispatch_event("pointerup", {"pointerId": 1})
+        wait_for(lambda: cmd.latest()["angular"]["z"] == 0, timeout=1, what="zero after the on-screen key")
+        assert all(m["angular"]["z"] < 0 for t, m in cmd.since(t1)[:-1])
+        page.screenshot(path=str(ARTIFACTS / "teleop-tablet.png"))
+        page.set_viewport_size({"width": 390, "height": 844})
+        page.wait_for_function("document.querySelector('#drive').getBoundingClientRect().width < 400")
+        page.screenshot(path=str(ARTIFACTS / "teleop-phone.png"), full_page=True)
+        assert not errors, errors
+    finally:
+        ctx.close()

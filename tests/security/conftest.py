@@ -1,0 +1,79 @@
+"""Fixtures for the security tests: token files, certificates, and gateways started with them."""
+
+from __future__ import annotations
+
+import hashlib
+import subprocess
+
+import pytest
+
+TOKENS = {
+    'viewer': 'viewer-token-0a1b2c',
+    'operator': 'operator-token-3d4e5f',
+    'operator2': 'operator-token-6a7b8c',
+    'admin': 'admin-token-9d0e1f',
+}
+ROSAUTH_SECRET = 'rosauth-shared-secret-42'
+
+
+def tokens_toml() -> str:
+    sha = hashlib.sha256(TOKENS['admin'].encode()).hexdigest()
+    return f'''
+[[tokens]]
+name = "vera"
+role = "viewer"
+token = "{TOKENS['viewer']}"
+
+[[tokens]]
+name = "alice"
+role = "operator"
+token = "{TOKENS['operator']}"
+
+[[tokens]]
+name = "bob"
+role = "operator"
+token = "{TOKENS['operator2']}"
+
+[[tokens]]
+name = "teacher"
+role = "admin"
+sha256 = "{sha}"
+
+[rosauth]
+secret = "{ROSAUTH_SECRET}"
+role = "viewer"
+'''
+
+
+@pytest.fixture(scope='session')
+def tokens_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp('auth') / 'tokens.toml'
+    path.write_text(tokens_toml())
+    return str(path)
+
+
+@pytest.fixture(scope='session')
+def certificate(tmp_path_factory):
+    """A self-signed certificate for 127.0.0.1, made here with the openssl command."""
+    folder = tmp_path_factory.mktemp('tls')
+    cert, key = folder / 'cert.pem', folder / 'key.pem'
+    subprocess.run(['openssl', 'req', '-x509', '-newkey', 'ec', '-pkeyopt', 'ec_paramgen_curve:prime256v1',
+                    '-nodes', '-keyout', str(key), '-out', str(cert), '-days', '1', '-subj', '/CN=127.0.0.1',
+                    '-addext', 'subjectAltName=IP:127.0.0.1'],
+                   check=True, capture_output=True, timeout=30)
+    return str(cert), str(key)
+
+
+@pytest.fixture(scope='module')
+def launch(start_gateway):
+    """start_gateway(*flags) for this module: every gateway it started is stopped at module end."""
+    started = []
+
+    def start(*flags: str):
+        gw = start_gateway(*flags)
+        started.append(gw)
+        return gw
+
+    yield start
+    for gw in started:
+        gw.stop()

@@ -1,0 +1,258 @@
+"""Access control over real websockets: origins, tokens and roles, the login page, rosauth."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import time
+import urllib.error
+import urllib.parse
+import urllib.request
+
+import pytest
+from websockets.exceptions import InvalidStatus
+
+from tests.security.client import Client
+from tests.security.conftest import ROSAUTH_SECRET, TOKENS
+
+ROLES = ('viewer', 'operator', 'admin')
+
+
+@pytest.fixture(scope='module')
+def secured(launch, tokens_file):
+    return launch('--auth', tokens_file, '--fibonacci-interval', '0.01')
+
+
+def connect(gw, role: str, how: str = 'query') -> Client:
+    """A client of the given role; the token travels as a query parameter, a header or an auth op."""
+    token = TOKENS[role]
+    if how == 'query':
+        return Client(gw.ws_url, token)
+    if how == 'header':
+        return Client(gw.ws_url, additional_headers={'Authorization': f'Bearer {token}'})
+    client = Client(gw.ws_url)
+    client.send({'op': 'auth', 'token': token, 'id': 'auth'})
+    assert client.call('/rosapi/get_time')['result'] is True
+    return client
+
+
+def http(gw, path: str, *, method: str = 'GET', headers: dict | None = None, data: bytes | None = None):
+    """(status, headers, body) of an HTTP request that does not follow redirects."""
+    class NoRedirect(urllib.request.HTTPRedirectHandler):
+        def redirect_request(self, *args, **kw):
+            return None
+    opener = urllib.request.build_opener(NoRedirect)
+    request = urllib.request.Request(gw.http_url.rstrip('/') + path, data=data, method=method, headers=headers or {})
+    try:
+        with opener.open(request, timeout=5) as r:
+            return r.status, r.headers, r.read()
+    except urllib.error.HTTPError as e:
+        return e.code, e.headers, e.read()
+
+
+# --- origins ---------------------------------------------------------------------------------
+
+def test_foreign_origin_refused_with_403(gateway):
+    with pytest.raises(InvalidStatus) as info:
+        Client(gateway.ws_url, origin='http://evil.example.com')
+    assert info.value.response.status_code == 403
+    for origin in (f'http://127.0.0.1:{gateway.port}', 'http://localhost:8000'):
+        with Client(gateway.ws_url, origin=origin) as ok:
+            assert ok.call('/rosapi/get_time')['result'] is True
+
+
+# --- roles -------------------------------------------------------------------------------------
+
+def _subscribe(c: Client, role: str) -> bool:
+    return c.refusal({'op': 'subscribe', 'topic': '/sec/news', 'type': 'std_msgs/msg/String'}) is None
+
+
+def _read_rosapi(c: Client, role: str) -> bool:
+    return c.call('/rosapi/topics')['result']
+
+
+def _publish(c: Client, role: str) -> bool:
+    topic = f'/sec/pub_{role}'
+    c.subscribe(topic, 'std_msgs/msg/String')
+    c.publish(topic, {'data': role}, 'std_msgs/msg/String', id='pub')
+    got = c.expect(lambda m: (m.get('op') == 'publish' and m['topic'] == topic)
+                   or (m.get('op') == 'status' and m.get('id') == 'pub'))
+    if got['op'] == 'status':
+        assert got['msg'].startswith('publish (id pub): ') and f'role {role} may not publish' in got['msg']
+        return False
+    return True
+
+
+def _call_service(c: Client, role: str) -> bool:
+    reply = c.call('/add_two_ints', {'a': 2, 'b': 3})
+    if reply['result']:
+        return reply['values'] == {'sum': 5}
+    assert 'may not call /add_two_ints' in reply['values']
+    return False
+
+
+def _send_goal(c: Client, role: str) -> bool:
+    c.send({'op': 'send_action_goal', 'action': '/fibonacci', 'action_type': 'example_interfaces/action/Fibonacci',
+            'args': {'order': 3}, 'id': 'goal'})
+    result = c.expect(lambda m: m.get('op') == 'action_result' and m.get('id') == 'goal')
+    if result['result']:
+        return result['values'] == {'sequence': [0, 1, 1, 2]}
+    c.status('goal')   # the refusal is also a status naming op and id
+    return False
+
+
+def _set_param(c: Client, role: str) -> bool:
+    reply = c.call('/rosapi/set_param', {'name': '/fibonacci_action_server:step_interval', 'value': '0.01'})
+    return reply['result'] and reply['values']['successful']
+
+
+def _advertise_service(c: Client, role: str) -> bool:
+    name = f'/sec/svc_{role}'
+    if c.refusal({'op': 'advertise_service', 'service': name, 'type': 'std_srvs/srv/Trigger'}) is not None:
+        return False
+    return name in c.call('/rosapi/services')['values']['services']
+
+
+def _advertise_action(c: Client, role: str) -> bool:
+    name = f'/sec/act_{role}'
+    if c.refusal({'op': 'advertise_action', 'action': name, 'type': 'example_interfaces/action/Fibonacci'}):
+        return False
+    return name in c.call('/rosapi/action_servers')['values']['action_servers']
+
+
+CASES = {   # what a role may do: exactly the roles listed
+    _subscribe: ROLES,
+    _read_rosapi: ROLES,
+    _publish: ('operator', 'admin'),
+    _call_service: ('operator', 'admin'),
+    _send_goal: ('operator', 'admin'),
+    _set_param: ('admin',),
+    _advertise_service: ('admin',),
+    _advertise_action: ('admin',),
+}
+
+
+@pytest.mark.parametrize('role, how', [('viewer', 'auth-op'), ('operator', 'header'), ('admin', 'query')])
+def test_each_role_allowed_and_refused_exactly(secured, role, how):
+    with connect(secured, role, how) as c:
+        outcome = {case.__name__.lstrip('_'): case(c, role) for case in CASES}
+    expected = {case.__name__.lstrip('_'): role in roles for case, roles in CASES.items()}
+    assert outcome == expected
+
+
+def test_program_library_needs_admin(secured):
+    assert http(secured, '/api/programs')[0] == 401
+    for role, code in (('viewer', 403), ('operator', 403), ('admin', 200)):
+        status, _, body = http(secured, '/api/programs', headers={'Authorization': f'Bearer {TOKENS[role]}'})
+        assert status == code, body
+    status, _, _ = http(secured, '/api/programs/demo', method='PUT', data=b'{"blocks": []}',
+                        headers={'Authorization': f'Bearer {TOKENS["operator"]}'})
+    assert status == 403
+
+
+def test_before_auth_only_auth_is_accepted(secured):
+    with Client(secured.ws_url) as c:
+        refused = c.refusal({'op': 'subscribe', 'topic': '/sec/news', 'type': 'std_msgs/msg/String', 'id': 's1'})
+        assert refused['msg'].startswith('subscribe (id s1): not authenticated')
+        reply = c.call('/rosapi/get_time')
+        assert reply['result'] is False and 'not authenticated' in reply['values']
+        c.send({'op': 'auth', 'token': 'not-a-token-at-all', 'id': 'a1'})
+        assert c.status('a1')['msg'] == 'auth (id a1): invalid token'
+        c.send({'op': 'auth', 'token': TOKENS['viewer'], 'id': 'a2'})
+        assert c.call('/rosapi/get_time')['result'] is True
+
+
+def test_login_page_sets_the_cookie_the_websocket_accepts(secured):
+    status, _, body = http(secured, '/login')
+    assert status == 200 and b'<form method="post" action="/login">' in body
+    form = urllib.parse.urlencode({'token': TOKENS['admin'], 'next': '/?x=1'}).encode()
+    status, headers, _ = http(secured, '/login', method='POST', data=form)
+    assert status == 303 and headers['Location'] == '/?x=1'
+    cookie = headers['Set-Cookie']
+    assert 'httponly' in cookie.lower() and 'samesite=strict' in cookie.lower()
+    pair = cookie.split(';', 1)[0]
+    with Client(secured.ws_url, additional_headers={'Cookie': pair}) as c:
+        assert _set_param(c, 'admin')
+    assert http(secured, '/api/programs', headers={'Cookie': pair})[0] == 200
+    status, _, body = http(secured, '/whoami', headers={'Cookie': pair})
+    assert status == 200 and json.loads(body) == {'auth': True, 'name': 'teacher', 'role': 'admin'}
+    assert http(secured, '/whoami')[0] == 401
+
+
+def rosauth_op(client: str, level: str, t: int, secret: str = ROSAUTH_SECRET) -> dict:
+    dest, rand, end = '127.0.0.1', 'r4nd0m', t + 60
+    mac = hashlib.sha512(f'{secret}{client}{dest}{rand}{t}{level}{end}'.encode()).hexdigest()
+    return {'op': 'auth', 'mac': mac, 'client': client, 'dest': dest, 'rand': rand,
+            't': {'secs': t, 'nsecs': 0}, 'level': level, 'end': {'secs': end, 'nsecs': 0}}
+
+
+def test_rosauth_mac_accepted_once(secured):
+    op = rosauth_op('10.0.0.7', 'operator', int(time.time()))
+    with Client(secured.ws_url) as c:
+        c.send({**op, 'id': 'ra'})
+        assert _call_service(c, 'operator')
+    with Client(secured.ws_url) as replay:
+        replay.send({**op, 'id': 'ra'})
+        assert replay.status('ra')['msg'] == 'auth (id ra): invalid rosauth MAC'
+
+
+# --- brute force -----------------------------------------------------------------------------
+
+def test_brute_force_is_slowed(launch, tokens_file):
+    gw = launch('--auth', tokens_file)
+    verdicts = {'invalid token': 0, 'too many failed attempts': 0}
+    with Client(gw.ws_url) as attacker:
+        start = time.monotonic()
+        n = 0
+        while time.monotonic() - start < 2.0:
+            n += 1
+            attacker.send({'op': 'auth', 'token': f'guess-{n:06d}', 'id': f'g{n}'})
+            msg = attacker.status(f'g{n}')['msg']
+            verdicts[next(v for v in verdicts if v in msg)] += 1
+        elapsed = time.monotonic() - start
+        # during the lockout even the right token is refused unchecked, from any connection
+        attacker.send({'op': 'auth', 'token': TOKENS['admin'], 'id': 'right'})
+        assert 'too many failed attempts' in attacker.status('right')['msg']
+        with Client(gw.ws_url, TOKENS['admin']) as other:
+            assert 'too many failed attempts' in other.call('/rosapi/get_time')['values']
+        assert http(gw, '/login', method='POST', data=b'token=whatever')[0] == 429
+    checked = verdicts['invalid token']
+    print(f'\nbrute force: {n} guesses in {elapsed:.2f} s, {checked} checked '
+          f'({checked / elapsed:.1f}/s), {n - checked} refused unchecked')
+    assert checked <= 6 and n >= 50
+    # the lockout ends: the right token gets through again
+    deadline = time.monotonic() + 10
+
+    def admitted() -> bool:
+        with Client(gw.ws_url, TOKENS['viewer']) as c:
+            return c.call('/rosapi/get_time')['result']
+
+    while not admitted():
+        assert time.monotonic() < deadline, 'the lockout did not end'
+        time.sleep(0.1)
+
+
+# --- TLS ---------------------------------------------------------------------------------------
+
+def test_wss_with_self_signed_certificate(launch, tokens_file, certificate):
+    import ssl
+    cert, key = certificate
+    gw = launch('--certfile', cert, '--keyfile', key, '--auth', tokens_file)
+    assert gw.ws_url.startswith('wss://127.0.0.1:')
+    ctx = ssl.create_default_context(cafile=cert)
+    with Client(gw.ws_url, TOKENS['operator'], ssl=ctx) as c:
+        assert _call_service(c, 'operator')
+        assert not _set_param(c, 'operator')
+    with pytest.raises(Exception):
+        Client(gw.ws_url.replace('wss://', 'ws://'), TOKENS['operator'])
+    form = urllib.parse.urlencode({'token': TOKENS['viewer']}).encode()
+    request = urllib.request.Request(gw.http_url + 'login', data=form, method='POST')
+
+    class NoRedirect(urllib.request.HTTPRedirectHandler):
+        def redirect_request(self, *args, **kw):
+            return None
+    opener = urllib.request.build_opener(urllib.request.HTTPSHandler(context=ctx), NoRedirect)
+    with pytest.raises(urllib.error.HTTPError) as info:
+        opener.open(request, timeout=5)
+    assert info.value.code == 303
+    assert '; secure' in info.value.headers['Set-Cookie'].lower()
