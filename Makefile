@@ -4,7 +4,13 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 ARGS   ?=
 
-.PHONY: run test bench install install-test ide clean
+.PHONY: run test test-rclpy bench install install-test ide clean
+
+# The rclpy backend's contract suite runs against real rclpy (Jazzy builds from PyPI) in a separate
+# environment, inside a network namespace with only loopback: DDS discovery stays on this machine.
+ROSVENV  := .venv-ros
+ROS_PKGS := ros-rclpy==7.1.6 ros-rmw-fastrtps-cpp==8.4.3 ros-std-msgs==5.3.6 ros-geometry-msgs==5.3.6 \
+            ros-sensor-msgs==5.3.6 ros-test-msgs==2.0.3
 
 $(PY):
 	$(PYTHON) -m venv $(VENV) || { echo "python3 -m venv failed: install python3-venv (apt-get install python3-venv)"; exit 1; }
@@ -34,12 +40,21 @@ ide: ide/vendor/.built
 run: install ide
 	$(PY) -m gateway --robot turtlesim $(ARGS)
 
-test: install-test ide tests/node/node_modules/.installed
+test: install-test ide tests/node/node_modules/.installed $(ROSVENV)/.installed
 	$(PY) -m pytest -q tests
 	cd tests/node && node --test
+	$(MAKE) --no-print-directory test-rclpy
+
+$(ROSVENV)/.installed: pyproject.toml
+	$(PYTHON) -m venv $(ROSVENV)
+	$(ROSVENV)/bin/pip install -q $(ROS_PKGS) -e . pytest pytest-asyncio pytest-timeout hypothesis
+	touch $@
+
+test-rclpy: $(ROSVENV)/.installed
+	unshare -rn sh -c 'ip link set lo up && $(ROSVENV)/bin/python -m pytest -q tests/backends'
 
 bench: install-test
 	$(PY) -m tests.bench $(ARGS)
 
 clean:
-	rm -rf $(VENV) ide/node_modules ide/vendor
+	rm -rf $(VENV) $(ROSVENV) ide/node_modules ide/vendor tests/node/node_modules

@@ -64,7 +64,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                    help='zero a command stream that goes silent this long, 0 for never [%(default)s]')
     s.add_argument('--max-linear', type=_positive(float), metavar='M/S', help='clamp linear velocity')
     s.add_argument('--max-angular', type=_positive(float), metavar='RAD/S', help='clamp angular velocity')
-    s.add_argument('--velocity-limits', metavar='LIMITS.toml', type=_loaded(VelocityLimits.load), help='per-topic clamps ([[limits]] tables)')
+    s.add_argument('--velocity-limits', metavar='LIMITS.toml', type=_loaded(VelocityLimits.load),
+                   help='per-topic clamps ([[limits]] tables with topic, max_linear, max_angular)')
     s.add_argument('--exclusive-control', action='store_true',
                    help='one client at a time drives; see /rosgate/driver and /rosgate/control')
     s.add_argument('--control-glob', help='more names under the driver lease besides velocity topics, '
@@ -74,8 +75,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def install(gateway, app) -> None:
     settings, extra = gateway.settings, gateway.settings.extra
     types = tuple(t.strip() for t in (extra.get('stop_types') or ','.join(DEFAULT_TYPES)).split(',') if t.strip())
-    velocity = extra.get('velocity_limits') or VelocityLimits()
-    velocity.default = Clamp(extra.get('max_linear'), extra.get('max_angular'))
+    per_topic = extra.get('velocity_limits')
+    velocity = VelocityLimits(Clamp(extra.get('max_linear'), extra.get('max_angular')),
+                              per_topic.topics if per_topic else [])
     safety = Safety(gateway, types=types, stop_on_disconnect=extra.get('stop_on_disconnect', True),
                     cmd_timeout=extra.get('cmd_timeout', 1.0), limits=velocity)
 
@@ -88,8 +90,8 @@ def install(gateway, app) -> None:
         lease = Lease(gateway, types=frozenset(types), globs=parse_globs(extra.get('control_glob')),
                       takeover_role='admin' if auth else None, on_lost=safety.stop_session)
     d = Limits()
-    limits = Limits(*(extra.get(k, getattr(d, k)) for k in
-                      ('max_subscriptions', 'max_publishers', 'max_pending_calls', 'max_op_rate')))
+    limits = Limits(**{k: extra.get(k, getattr(d, k)) for k in
+                       ('max_subscriptions', 'max_publishers', 'max_pending_calls', 'max_op_rate')})
     gateway.policy = SecurePolicy(settings, auth=auth, limits=limits, lease=lease)
 
     if lease is not None:

@@ -3,9 +3,10 @@
 Command names are topics of the velocity types plus anything matching ``--control-glob``
 (topics, services, actions). The first client to command takes the lease; others are refused
 with a status error and can watch. The holder gives it back by disconnecting or by publishing
-"release" to /rosgate/control (either way its motion is stopped first); "take" takes a free lease, and an admin (anyone, when --auth is
-off) takes it over from its holder. Who drives is published, latched, on /rosgate/driver as a
-JSON text: {"driver": null} or {"driver": {"client", "name", "role", "remote", "since"}}.
+"release" to /rosgate/control (its motion is stopped first); "take" takes a free lease, and an
+admin (anyone, when --auth is off) takes it over from its holder, whose motion is stopped. Who
+drives is published, latched, on /rosgate/driver as a JSON text: {"driver": null} or
+{"driver": {"client", "name", "role", "remote", "since"}}.
 """
 
 from __future__ import annotations

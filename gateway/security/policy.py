@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import re
 from dataclasses import dataclass
+from typing import NoReturn
 
 from protocol import ops
 from protocol.errors import ProtocolError
@@ -104,15 +105,16 @@ class SecurePolicy(Policy):
         return True
 
     def _rate(self, session, op) -> bool:
-        """A token bucket per client (burst: one second's worth). Each op over the rate is refused
+        """A token bucket per client (burst: one second's worth, at least one op). Each op over the rate is refused
         with a status; a client still flooding after that many refusals in a row is closed (1008)
         once those statuses are sent, and its further ops are dropped."""
         rate = self.limits.max_op_rate
         if rate <= 0:
             return True
+        burst = max(1.0, rate)
         now = asyncio.get_running_loop().time()
-        tokens, last, refused = session.attrs.get('_rate', (rate, now, 0))
-        tokens = min(rate, tokens + (now - last) * rate)
+        tokens, last, refused = session.attrs.get('_rate', (burst, now, 0))
+        tokens = min(burst, tokens + (now - last) * rate)
         if tokens >= 1:
             session.attrs['_rate'] = (tokens - 1, now, 0)
             return True
@@ -201,7 +203,7 @@ async def _hang_up(session, code: int, reason: str, flush: float = 1.0) -> None:
         session.close_connection(code, reason)
 
 
-def _refuse(session, op, message: str) -> None:
+def _refuse(session, op, message: str) -> NoReturn:
     """A status error naming op and id; calls and goals also get their failed reply so clients
     waiting on them (roslibjs, roslibpy) fail at once instead of timing out."""
     if isinstance(op, ops.CallService):

@@ -53,8 +53,8 @@ class Config:
 
 
 def quick_config() -> Config:
-    return Config(repeats=1, sizes=[64, KIB, 64 * KIB], point_s=0.25, fanout_ns=[1, 10],
-                  fanout_rate=20.0, fanout_s=0.5, rate_s=0.5, slow_s=3.0)
+    return Config(repeats=1, sizes=[64, KIB, 64 * KIB], point_s=0.15, fanout_ns=[1, 10],
+                  fanout_rate=20.0, fanout_s=0.3, rate_s=0.3, slow_s=1.5)
 
 
 def size_label(size: int) -> str:

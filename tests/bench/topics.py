@@ -273,7 +273,8 @@ async def slow_consumer(target: Target, duration: float, rate: float = 30.0, hea
         return sum(1 for t in times if a <= t < b) / (b - a)
 
     before = [rate_between(arrivals[i], t0, stall_at) for i in range(healthy)]
-    after = [rate_between(arrivals[i], stall_at + 1.0, end) for i in range(healthy)]
+    settled = stall_at + min(1.0, (end - stall_at) / 4)  # frames in flight at the stall
+    after = [rate_between(arrivals[i], settled, end) for i in range(healthy)]
     healthy_before = sum(before) / healthy
     healthy_after = sum(after) / healthy
     published_hz = sent / (end - t0)

@@ -79,6 +79,7 @@ class Turtle:
             self.goal = None
 
     def on_set_pen(self, req: dict) -> dict:
+        self.pen_marker()  # segments drawn so far keep the old pen
         self.pen_on = not req.get('off', 0)
         if req.get('off', 0):
             return {}
