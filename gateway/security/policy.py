@@ -105,9 +105,9 @@ class SecurePolicy(Policy):
         return True
 
     def _rate(self, session, op) -> bool:
-        """A token bucket per client (burst: one second's worth, at least one op). Each op over the rate is refused
-        with a status; a client still flooding after that many refusals in a row is closed (1008)
-        once those statuses are sent, and its further ops are dropped."""
+        """A token bucket per client (burst: one second's worth, at least one op). Each op over
+        the rate is refused with a status; a client still flooding after that many refusals in a
+        row is closed (1008) once those statuses are sent, and its further ops are dropped."""
         rate = self.limits.max_op_rate
         if rate <= 0:
             return True

@@ -1,6 +1,6 @@
 """Command line and orchestration of the benchmark.
 
-    .venv/bin/python -m tests.bench [--quick] [--out FILE] [--target ws://HOST:PORT --server-pid PID]
+    .venv/bin/python -m tests.bench [--quick] [--out FILE] [--target ws://HOST:PORT --server-pid PID]...
 
 By default it starts the ceiling server and rosgate (sim backend), runs every
 scenario against both, repeat by repeat, and prints each rosgate figure next
@@ -155,9 +155,14 @@ async def run_all(cfg: Config, targets: list[Target], log) -> dict:
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p = argparse.ArgumentParser(prog="python -m tests.bench", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--target", help="a running rosbridge server, ws://HOST:PORT/ (replaces rosgate)")
-    p.add_argument("--target-name", default="target", help="its name in the tables")
-    p.add_argument("--server-pid", type=int, help="pid of --target, for its CPU and RSS")
+    p.add_argument("--target", action="append", default=[],
+                   help="a running rosbridge server, ws://HOST:PORT/; repeatable; "
+                        "rosgate is then not started unless --with-rosgate")
+    p.add_argument("--target-name", action="append", default=[],
+                   help="name of each --target in the tables, in order (default target, target2, ...)")
+    p.add_argument("--server-pid", action="append", type=int, default=[],
+                   help="pid of each --target, in order, for its CPU and RSS")
+    p.add_argument("--with-rosgate", action="store_true", help="start rosgate as well as the --target(s)")
     p.add_argument("--no-ceiling", action="store_true", help="skip the ceiling server (no ratios)")
     p.add_argument("--no-rosgate", action="store_true", help="do not start rosgate")
     p.add_argument("--rosgate-arg", action="append", default=None,
@@ -216,13 +221,15 @@ def start_targets(args: argparse.Namespace) -> list[Target]:
     try:
         if not args.no_ceiling:
             targets.append(start_ceiling(malloc_tune=not args.no_malloc_tune))
-        if args.target:
-            targets.append(Target(name=args.target_name, url=args.target, pid=args.server_pid))
-        elif not args.no_rosgate:
+        for i, url in enumerate(args.target):
+            name = args.target_name[i] if i < len(args.target_name) else f"target{i + 1 if i else ''}"
+            pid = args.server_pid[i] if i < len(args.server_pid) else None
+            targets.append(Target(name=name, url=url, pid=pid))
+        if (args.with_rosgate or not args.target) and not args.no_rosgate:
             if not rosgate_available():
                 raise SystemExit("rosgate is not there yet (no gateway/__main__.py): "
                                  "use --no-rosgate or --target")
-            targets.append(start_rosgate(args.rosgate_arg))
+            targets.insert(1 if not args.no_ceiling else 0, start_rosgate(args.rosgate_arg))
     except BaseException:
         for target in targets:
             target.stop()

@@ -71,6 +71,11 @@ class MarkerHub:
         self.pending: list[Message] = []
         self._ids = iter(range(1, HISTORY_ID_BASE))
         self._history_ids = iter(range(HISTORY_ID_BASE, 2**31 - 1))
+        self._robot_ids: dict[str, int] = {}
+
+    def robot_id(self, key: str) -> int:
+        """A stable marker id per robot (key: node name and robot name)."""
+        return self._robot_ids.setdefault(key, len(self._robot_ids) + 1)
 
     def next_pen_id(self) -> int:
         return next(self._ids)

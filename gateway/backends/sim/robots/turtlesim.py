@@ -190,8 +190,8 @@ class Turtle:
 
     def robot_marker(self) -> dict:
         r, g, b = TURTLE_COLORS[self.index % len(TURTLE_COLORS)]
-        return mk.marker('robots', self.sim.robot_id(self.name), mk.ARROW, pose=mk.pose(self.x, self.y, self.theta),
-                         scale=(0.5, 0.25, 0.25), rgba=mk.color(r, g, b), text=self.name)
+        rid = self.sim.hub.robot_id(f'{self.sim.node.name}/{self.name}')
+        return mk.marker('robots', rid, mk.ARROW, pose=mk.pose(self.x, self.y, self.theta), scale=(0.5, 0.25, 0.25), rgba=mk.color(r, g, b), text=self.name)
 
 
 class Turtlesim:
@@ -205,7 +205,6 @@ class Turtlesim:
         self.id_counter = 0
         self.spawned = 0
         self.ticks = 0
-        self._robot_ids: dict[str, int] = {}
         self.background = DEFAULT_BG
         self.path = Image.new('RGBA', (PIXELS, PIXELS), (255, 255, 255, 0))
         self.painter = ImageDraw.Draw(self.path)
@@ -250,9 +249,6 @@ class Turtlesim:
                 self.hub.update(turtle.robot_marker())
         self.hub.flush()
 
-    def robot_id(self, name: str) -> int:
-        return self._robot_ids.setdefault(name, len(self._robot_ids) + 1)
-
     def bounds_marker(self) -> dict:
         r, g, b = (c / 255 for c in self.background)
         return mk.marker('bounds', 0, mk.CUBE, pose=mk.pose(SIZE / 2, SIZE / 2, 0.0, z=-0.01),
@@ -260,8 +256,8 @@ class Turtlesim:
 
     def draw_line(self, a: tuple[float, float], b: tuple[float, float], pen: tuple) -> None:
         r, g, bl, width = pen
-        self.painter.line([(a[0] * METER, (SIZE - a[1]) * METER), (b[0] * METER, (SIZE - b[1]) * METER)],
-                          fill=(r, g, bl, 255), width=width)
+        ends = [(round(x * METER), round((SIZE - y) * METER)) for x, y in (a, b)]
+        self.painter.line(ends, fill=(r, g, bl, 255), width=width)
 
     def color_at(self, x: float, y: float) -> tuple[int, int, int]:
         px = min(max(round(x * METER), 0), PIXELS - 1)
@@ -301,7 +297,8 @@ class Turtlesim:
         for m in turtle.pen_batch:
             self.hub.add_pen(m)
         turtle.destroy()
-        self.hub.update(mk.marker('robots', self.robot_id(name), mk.ARROW, action=mk.DELETE))
+        rid = self.hub.robot_id(f'{self.node.name}/{name}')
+        self.hub.update(mk.marker('robots', rid, mk.ARROW, action=mk.DELETE))
 
     def on_spawn(self, req: dict) -> dict:
         name = self.spawn(req.get('name', ''), float(req.get('x', 0.0)), float(req.get('y', 0.0)),
