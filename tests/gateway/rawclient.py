@@ -43,6 +43,24 @@ class Raw:
     def status(self, id=None, timeout: float = 5.0) -> dict:
         return self.expect(lambda m: m.get('op') == 'status' and (id is None or m.get('id') == id), timeout)
 
+    def call(self, service: str, args: dict | None = None, timeout: float = 5.0) -> dict:
+        self._calls = getattr(self, '_calls', 0) + 1
+        id = f'raw-call-{self._calls}'
+        self.send({'op': 'call_service', 'id': id, 'service': service, 'args': args or {}})
+        return self.expect(lambda m: m.get('id') == id, timeout)
+
+    def sync(self) -> None:
+        """A round trip: every op this client sent before has been handled."""
+        self.call('/rosapi/get_time')
+
+    def wait_listed(self, service: str, field: str, name: str, timeout: float = 5.0) -> None:
+        """Until a rosapi listing (e.g. '/rosapi/services', 'services') shows name."""
+        deadline = time.monotonic() + timeout
+        while name not in self.call(service)['values'][field]:
+            if time.monotonic() > deadline:
+                raise AssertionError(f'{name} never appeared in {service}')
+            time.sleep(0.01)
+
     def close(self) -> None:
         self.ws.close()
 

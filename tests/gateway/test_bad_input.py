@@ -27,6 +27,7 @@ def bystander(gateway):
     got: list[int] = []
     with Raw(gateway.ws_url) as pub, Raw(gateway.ws_url) as sub:
         sub.send({'op': 'subscribe', 'topic': '/bystander', 'type': 'std_msgs/msg/Int32'})
+        sub.sync()
         pub.send({'op': 'advertise', 'topic': '/bystander', 'type': 'std_msgs/msg/Int32'})
 
         def pump():
@@ -120,6 +121,7 @@ def test_client_served_service_that_never_answers(start_gateway):
     gw = start_gateway('--default-call-service-timeout', '0.5', '--robot', 'none')
     with Raw(gw.ws_url) as server, Raw(gw.ws_url) as caller:
         server.send({'op': 'advertise_service', 'service': '/silent', 'type': 'std_srvs/srv/Trigger'})
+        caller.wait_listed('/rosapi/services', 'services', '/silent')
         caller.send({'op': 'call_service', 'id': 'c', 'service': '/silent', 'timeout': 5})
         started = time.monotonic()
         reply = caller.expect(lambda m: m.get('id') == 'c', timeout=5)
@@ -175,6 +177,7 @@ def test_slow_client_does_not_stall_others(start_gateway):
         slow.send(json.dumps({'op': 'subscribe', 'topic': '/flood', 'type': 'std_msgs/msg/String'}))
         with Raw(gw.ws_url) as fast, Raw(gw.ws_url) as pub:
             fast.send({'op': 'subscribe', 'topic': '/flood', 'type': 'std_msgs/msg/String'})
+            fast.sync()
             pub.send({'op': 'advertise', 'topic': '/flood', 'type': 'std_msgs/msg/String'})
             count = 300   # 30 MB through a client that never reads
             received = 0

@@ -32,6 +32,7 @@ def test_multiple_subscribers_with_cbor_raw(gateway, raw):
         for i, sub in enumerate(subs):
             sub.send({'op': 'subscribe', 'id': f'raw{i}', 'topic': '/raw/twist',
                       'type': 'geometry_msgs/msg/Twist', 'compression': 'cbor-raw'})
+            sub.sync()
         raw.send({'op': 'advertise', 'topic': '/raw/twist', 'type': 'geometry_msgs/msg/Twist'})
         raw.send({'op': 'publish', 'topic': '/raw/twist',
                   'msg': {'linear': {'x': 1.5}, 'angular': {'z': -0.25}}})
@@ -52,6 +53,8 @@ def test_cbor_typed_arrays_and_json_nan(gateway, raw):
         raw.send({'op': 'subscribe', 'topic': '/raw/scan', 'type': 'sensor_msgs/msg/LaserScan',
                   'compression': 'cbor'})
         as_json.send({'op': 'subscribe', 'topic': '/raw/scan', 'type': 'sensor_msgs/msg/LaserScan'})
+        raw.sync()
+        as_json.sync()
         with Raw(gateway.ws_url) as pub:
             pub.send({'op': 'publish', 'topic': '/raw/scan', 'type': 'sensor_msgs/msg/LaserScan',
                       'msg': {'ranges': [1.0, None, 2.5], 'range_max': 10.0}})
@@ -122,8 +125,7 @@ def test_best_effort_and_transient_local_qos(gateway, raw):
 def test_client_served_action_with_feedback(gateway, raw):
     raw.send({'op': 'advertise_action', 'action': '/raw/count', 'type': 'example_interfaces/action/Fibonacci'})
     with Raw(gateway.ws_url) as caller:
-        caller.send({'op': 'call_service', 'id': 'list', 'service': '/rosapi/action_servers'})
-        assert '/raw/count' in caller.expect(lambda m: m.get('id') == 'list')['values']['action_servers']
+        caller.wait_listed('/rosapi/action_servers', 'action_servers', '/raw/count')
         caller.send({'op': 'send_action_goal', 'id': 'g1', 'action': '/raw/count',
                      'action_type': 'example_interfaces/action/Fibonacci', 'args': {'order': 3}, 'feedback': True})
         goal = raw.expect(lambda m: m.get('op') == 'send_action_goal')
@@ -159,6 +161,7 @@ def test_client_served_action_with_feedback(gateway, raw):
 def test_client_served_service_without_values_does_not_hang(gateway, raw):
     raw.send({'op': 'advertise_service', 'service': '/raw/trigger', 'type': 'std_srvs/srv/Trigger'})
     with Raw(gateway.ws_url) as caller:
+        caller.wait_listed('/rosapi/services', 'services', '/raw/trigger')
         caller.send({'op': 'call_service', 'id': 'c1', 'service': '/raw/trigger'})
         request = raw.expect(lambda m: m.get('op') == 'call_service')
         assert request['id'].startswith('service_request:/raw/trigger:')
