@@ -211,8 +211,8 @@ def wall_follower() -> dict:
 
 def pid_goal() -> dict:
     p = Program("pid_goal", "rover", "rover PID go-to-goal",
-                "Drives the rover to (goal x, goal y): a PID on the heading error steers, "
-                "a P on the distance sets the speed.")
+                "Drives the rover to (goal x, goal y) in odometry coordinates (it starts at 0, 0 facing x): "
+                "a PID on the heading error steers, a P on the distance sets the speed.")
     gx, gy = 4.0, 2.5
 
     def v(name):

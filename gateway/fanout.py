@@ -98,10 +98,16 @@ class TopicFanout:
     # --- the hot path -----------------------------------------------------------------------
 
     def replay_latched(self, sub: Subscriber) -> None:
-        """A client joining a shared subscription still gets a latched topic's last message."""
-        if self.last is not None and self.gateway.backend.latched(self.topic):
+        """A client joining a shared subscription still gets a latched topic's retained messages
+        (what the backend holds for late subscribers when it can tell, else the last message)."""
+        backend = self.gateway.backend
+        if not backend.latched(self.topic):
+            return
+        retained = getattr(backend, 'latched_messages', None)
+        messages = retained(self.topic) if retained else [self.last] if self.last is not None else []
+        for msg in messages:
             sub.last_sent = time.monotonic()
-            sub.deliver(self._encode(self.last, sub.compression, sub.fragment_size))
+            sub.deliver(self._encode(msg, sub.compression, sub.fragment_size))
 
     def _on_message(self, msg: dict) -> None:
         self.last = msg

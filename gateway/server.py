@@ -74,6 +74,20 @@ class HealthHandler(tornado.web.RequestHandler):
         }))
 
 
+class TeleopHandler(tornado.web.RequestHandler):
+    """GET /teleop: the teleop page (its relative asset paths resolve from the root)."""
+
+    def initialize(self, page) -> None:
+        self.page = page
+
+    def get(self) -> None:
+        if not self.page.is_file():
+            raise tornado.web.HTTPError(404)
+        self.set_header('Content-Type', 'text/html; charset=UTF-8')
+        self.set_header('Cache-Control', 'no-cache')
+        self.write(self.page.read_bytes())
+
+
 class IdeFileHandler(tornado.web.StaticFileHandler):
     """The static IDE; vendored files may change between installs, so revalidate them."""
 
@@ -87,7 +101,8 @@ def make_app(settings: Settings, backend) -> tuple[tornado.web.Application, Gate
     routes: list = [(ws_path if ws_path == '/' else ws_path + '/?', RosbridgeHandler, {'gateway': gateway})]
     routes += [
         (r'/health', HealthHandler, {'gateway': gateway}),
-        (r'/teleop/?', IdeFileHandler, {'path': str(settings.ide_dir), 'default_filename': 'teleop.html'}),
+        (r'/teleop/', tornado.web.RedirectHandler, {'url': '/teleop'}),
+        (r'/teleop', TeleopHandler, {'page': settings.ide_dir / 'teleop.html'}),
         (r'/examples/(.*)', IdeFileHandler, {'path': str(settings.examples_dir)}),
     ]
     if settings.programs_dir is not None:

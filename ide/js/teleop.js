@@ -139,14 +139,14 @@ function setupJoystick() {
     zone: $('#joystick'), mode: 'static', position: { left: '50%', top: '50%' },
     size: Math.min(220, $('#joystick').clientWidth * 0.7 || 200), color: '#8fb3ff', restOpacity: 0.8,
   });
-  joy.on('start', () => { state.joy.active = true; update(); });
+  // publishing starts with the first deflection, not with the touch
   joy.on('move', (e) => {
     const v = e.data.vector ?? { x: 0, y: 0 };
     const f = Math.min(1, e.data.force ?? 1);
     const n = Math.hypot(v.x, v.y) || 1;
     state.joy.x = (v.x / n) * f;
     state.joy.y = (v.y / n) * f;
-    state.joy.active = true;
+    if (f > 0.05) state.joy.active = true;      // the touch itself is no command
     update();
   });
   joy.on('end', () => { state.joy = { x: 0, y: 0, active: false }; update(); });
@@ -156,7 +156,7 @@ const KEYMAP = { ArrowUp: 'up', KeyW: 'up', ArrowDown: 'down', KeyS: 'down', Arr
 
 function setupKeys() {
   addEventListener('keydown', (e) => {
-    if (e.target.closest?.('input, select')) return;
+    if (e.target.matches?.('input:not([type=range]), select, textarea')) return;   // typing, not driving
     if (e.code === 'Space') { stopAll(); e.preventDefault(); return; }
     const k = KEYMAP[e.code];
     if (!k) return;

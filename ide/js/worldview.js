@@ -5,6 +5,7 @@ import { yaw } from '../runtime/util.js';
 const ARROW = 0, CUBE = 1, SPHERE = 2, CYLINDER = 3, LINE_STRIP = 4, LINE_LIST = 5,
   CUBE_LIST = 6, SPHERE_LIST = 7, POINTS = 8, TEXT = 9;
 const DELETE = 2, DELETEALL = 3;
+const FLOOR = '#c7c2b8';   // an outline-only world gets a neutral floor
 const LAYER = { bounds: 0, walls: 1, pen: 2, scan: 3, robots: 5 };
 
 const rgba = (c, fallback = 'rgba(200,200,200,1)') => (c
@@ -101,7 +102,7 @@ export class WorldView {
     const px = 1 / s;
     const sorted = [...this.markers.values()].sort((a, b) => (LAYER[a.ns] ?? 4) - (LAYER[b.ns] ?? 4));
     if (!sorted.some((m) => m.ns === 'bounds')) {
-      ctx.fillStyle = '#4556ff';
+      ctx.fillStyle = '#2a3146';
       ctx.fillRect(e.x0, e.y0, e.x1 - e.x0, e.y1 - e.y0);
     }
     for (const m of sorted) this.drawMarker(ctx, m, px);
@@ -141,7 +142,7 @@ export class WorldView {
           } else if (i === 0) ctx.moveTo(pts[i].x, pts[i].y);
           else ctx.lineTo(pts[i].x, pts[i].y);
         }
-        if (m.ns === 'bounds') { ctx.fillStyle = '#4556ff'; ctx.fill(); ctx.lineWidth = 2 * px; }
+        if (m.ns === 'bounds') { ctx.fillStyle = FLOOR; ctx.fill(); ctx.lineWidth = Math.max(2 * px, m.scale?.x || 0); }
         ctx.stroke();
         break;
       }

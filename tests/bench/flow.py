@@ -98,14 +98,6 @@ async def read_frames(ws: ClientConnection, on_frame, statuses: list | None = No
         pass
 
 
-async def wait_until(predicate, timeout: float, what: str, step: float = 0.01) -> None:
-    deadline = time.monotonic() + timeout
-    while not predicate():
-        if time.monotonic() > deadline:
-            raise TimeoutError(f"timed out after {timeout:.0f} s waiting for {what}")
-        await asyncio.sleep(step)
-
-
 async def settle(predicate, timeout: float, step: float = 0.01) -> bool:
     """Wait until predicate() holds or timeout passes; whether it held."""
     deadline = time.monotonic() + timeout

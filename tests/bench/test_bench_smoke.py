@@ -13,7 +13,7 @@ import pytest
 
 from tests.bench.client import StringFrames, is_publish, read_stamp
 from tests.bench.report import finish_point, goals
-from tests.bench.servers import REPO, rosgate_available
+from tests.bench.servers import REPO, rosgate_available, start_ceiling
 
 # scenario -> metrics that must be positive numbers for every server
 REQUIRED = {
@@ -103,3 +103,26 @@ def test_ratio_and_goal_from_runs():
     rows = {g["goal"]: g for g in goals({"throughput": [entry]}, "rosgate")}
     assert rows[">= 60% of ceiling msg/s at 64 B, W=1"]["met"] is False
     assert rows["p95 one-way latency < 0.5 ms at 64 B, W=1 (ms)"]["met"] is False
+
+
+def test_target_and_server_pid_measure_a_running_server(tmp_path):
+    """--target with --server-pid: the harness measures a server it did not start."""
+    server = start_ceiling()
+    try:
+        out = tmp_path / "target.json"
+        proc = subprocess.run(
+            [sys.executable, "-m", "tests.bench", "--quick", "--no-ceiling", "--scenarios", "throughput",
+             "--target", server.url, "--server-pid", str(server.pid), "--target-name", "other",
+             "--out", str(out)],
+            cwd=REPO, capture_output=True, text=True, timeout=60,
+        )
+        assert proc.returncode == 0, proc.stderr[-3000:]
+        doc = json.loads(out.read_text())
+    finally:
+        server.stop()
+    assert [t["name"] for t in doc["meta"]["targets"]] == ["other"]
+    assert doc["meta"]["targets"][0]["pid"] == server.pid
+    for entry in doc["results"]["throughput"]:
+        summary = entry["summary"]["other"]
+        assert summary["msg_per_s"]["median"] > 0
+        assert summary["server_cpu_pct"]["median"] > 0

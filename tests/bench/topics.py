@@ -222,7 +222,7 @@ async def encoding_rate(target: Target, payload: payloads.Payload, compression: 
 
 
 async def slow_consumer(target: Target, duration: float, rate: float = 30.0, healthy: int = 2) -> dict:
-    """One of healthy+1 cbor image subscribers stops reading; the others keep going?"""
+    """healthy+1 cbor image subscribers; one stops reading its socket part way through."""
     payload = payloads.image()
     topic = unique_topic("slow")
     frame = payload.publish_frame(topic)

@@ -174,7 +174,7 @@ def ide_factory(chromium):
 
 @pytest.fixture(scope="module")
 def turtle_gateway(start_gateway):
-    return start_gateway(*([] if os.environ.get("TMP_NOROBOT") else ["--robot", "turtlesim"]), "--fibonacci-interval", "0.05")
+    return start_gateway("--robot", "turtlesim", "--fibonacci-interval", "0.05")
 
 
 @pytest.fixture(scope="module")

@@ -57,14 +57,18 @@ def test_joystick_drives_at_10_hz_and_release_stops(chromium, rover):
         # forward: drag up
         t0 = time.monotonic()
         drag(cdp, cx, cy, 0, -box["height"] / 2)
-        wait_for(lambda: len([m for t, m in cmd.since(t0) if m["linear"]["x"] > 0]) >= 16, timeout=5,
+        wait_for(lambda: len([m for t, m in cmd.since(t0) if m["linear"]["x"] > 0.3]) >= 16, timeout=5,
                  what="16 forward commands")
         page.screenshot(path=str(ARTIFACTS / "teleop-tablet-driving.png"))
         t_release = time.monotonic()
         release(cdp)
         wait_for(lambda: any(m["linear"]["x"] == 0 and m["angular"]["z"] == 0 for t, m in cmd.since(t_release)),
                  timeout=1, what="zero on release")
-        forward = [(t, m) for t, m in cmd.since(t0) if t < t_release]
+        sent = [(t, m) for t, m in cmd.since(t0) if t < t_release]
+        assert all(m["linear"]["x"] >= 0 for t, m in sent)           # never backwards
+        first = next(i for i, (t, m) in enumerate(sent) if m["linear"]["x"] > 0.3)   # full deflection
+        assert sent[first][0] - t0 < 1.0
+        forward = sent[first:]
         assert all(m["linear"]["x"] > 0.3 for t, m in forward[1:]), forward
         assert all(abs(m["angular"]["z"]) < 0.05 for t, m in forward[1:]), forward
         max_speed = float(page.input_value("#maxspeed"))

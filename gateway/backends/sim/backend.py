@@ -82,6 +82,11 @@ class SimBackend:
         t = self.graph._topics.get(topic)
         return bool(t and t.publishers and all(p.qos.transient_local for p in t.publishers))
 
+    def latched_messages(self, topic: str) -> list[Message]:
+        """What a new transient-local subscriber receives now (the topic's retained messages)."""
+        t = self.graph._topics.get(topic)
+        return list(t.latched) if t else []
+
     # --- services ----------------------------------------------------------------------------
     async def call_service(self, service: str, type: str, request: Message, timeout: float) -> Message:
         return await self.graph.call_service(resolve(service), request, timeout)

@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 
 from .fleet import Fleet, Station
+from .rover import RADIUS as ROVER_RADIUS
 from .world import World, WorldError
 
 KINDS = ('turtlesim', 'rover', 'none')
@@ -52,6 +53,8 @@ def specs_from_args(args) -> tuple:
             world = World.load(args.world)
         except WorldError as e:
             raise SystemExit(f'rosgate: {e}') from None
+        if world.clearance(*world.start[:2]) < ROVER_RADIUS:
+            raise SystemExit(f'rosgate: the start of world {world.name!r} is inside or too close to a wall')
     options = {'speed': args.sim_speed, 'twist_stamped': args.twist_stamped}
 
     def station(namespace: str):

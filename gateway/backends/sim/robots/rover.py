@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from ...base import QoS
+from ...base import BackendError, QoS
 from . import markers as mk
 from .camera import Camera
 from .msgs import RosLog, has_subscribers, header, normalize_angle, stamp, transform, vector3, yaw_quaternion
@@ -45,17 +45,17 @@ class Rover:
         self.hub, self.world, self.speed, self.twist_stamped = hub, world, speed, twist_stamped
         self.log = RosLog(node, node.name.lstrip('/').replace('/', '.'))
         self.camera = Camera(world)
+        self.limits = dict(PARAMS)
         for key, value in PARAMS.items():
-            node.declare_parameter(key, value)
+            node.declare_parameter(key, value, on_set=lambda v, key=key: self.check_limit(key, v))
         node.declare_parameter('use_sim_time', False)
         cmd_type = 'geometry_msgs/msg/TwistStamped' if twist_stamped else 'geometry_msgs/msg/Twist'
         node.create_subscription('cmd_vel', cmd_type, self.on_cmd_vel, QoS(depth=10))
         node.create_service('reset_world', 'std_srvs/srv/Empty', self.on_reset_world)
         pub = node.create_publisher
         self.odom_pub = pub('odom', 'nav_msgs/msg/Odometry', QoS(depth=10))
-        self.tf_pub = pub('/tf' if namespace == '/' else 'tf', 'tf2_msgs/msg/TFMessage', QoS(depth=100))
-        self.tf_static_pub = pub('/tf_static' if namespace == '/' else 'tf_static', 'tf2_msgs/msg/TFMessage',
-                                 QoS(depth=1, transient_local=True))
+        self.tf_pub = pub('tf', 'tf2_msgs/msg/TFMessage', QoS(depth=100))
+        self.tf_static_pub = pub('tf_static', 'tf2_msgs/msg/TFMessage', QoS(depth=1, transient_local=True))
         self.scan_pub = pub('scan', 'sensor_msgs/msg/LaserScan', SENSOR)
         self.imu_pub = pub('imu', 'sensor_msgs/msg/Imu', SENSOR)
         self.battery_pub = pub('battery_state', 'sensor_msgs/msg/BatteryState', SENSOR)
@@ -81,6 +81,12 @@ class Rover:
     def destroy(self) -> None:
         self.node.destroy()
 
+    def check_limit(self, key: str, value) -> None:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 < value < 100:
+            self.node.params[key] = self.limits[key]
+            raise BackendError(f'{key} must be a positive number (below 100)')
+        self.limits[key] = float(value)
+
     def reset(self) -> None:
         self.x, self.y, self.yaw = self.world.start
         self.v = self.w = self.accel = 0.0
@@ -90,7 +96,7 @@ class Rover:
         self.current = IDLE_CURRENT
         self.temps = [AMBIENT, AMBIENT]
         self.loads = [0.0, 0.0]
-        self.bumper = False
+        self.bumper = self.bump_logged = False
         self.empty_logged = False
         self.last_marker_pose = None
         self.ranges = None
@@ -107,6 +113,7 @@ class Rover:
         self.publish_odom()
         self.publish_bumper()
         self.publish_slow()
+        self.publish_markers()
         return {}
 
     # --- physics --------------------------------------------------------------------------
@@ -151,7 +158,8 @@ class Rover:
                 frac = self.free_fraction(nx, ny)
                 nx, ny = self.x + frac * (nx - self.x), self.y + frac * (ny - self.y)
                 stalled = True
-                if not self.bumper:
+                if not self.bump_logged:  # once per contact
+                    self.bump_logged = True
                     self.log.warn(f'Bumped into a wall at x={nx:.2f}, y={ny:.2f}: stopping')
                 self.v = self.cmd_v = 0.0
         self.x, self.y, self.yaw = nx, ny, normalize_angle(yaw)
@@ -159,6 +167,7 @@ class Rover:
         bumper = self.world.clearance(self.x, self.y) < RADIUS + 0.01
         if bumper != self.bumper:
             self.bumper = bumper
+            self.bump_logged = self.bump_logged and bumper
             self.publish_bumper()
         self.heat_and_drain(dt, stalled)
 
@@ -183,9 +192,8 @@ class Rover:
         if self.charge <= 0 and not self.empty_logged:
             self.empty_logged = True
             self.log.error('Battery empty: motors disabled until /reset_world')
-        wheel_max = vmax + wmax * TRACK / 2
         for i, wheel in enumerate((self.v - self.w * TRACK / 2, self.v + self.w * TRACK / 2)):
-            load = min(1.0, abs(wheel) / wheel_max + 0.3 * effort + stalled)
+            load = min(1.0, abs(wheel) / vmax + 0.3 * effort + stalled)
             self.loads[i] = load
             target = AMBIENT + HEAT_RISE * load * load
             self.temps[i] += (target - self.temps[i]) * (1 - math.exp(-dt / HEAT_TAU))

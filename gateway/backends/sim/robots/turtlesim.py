@@ -3,9 +3,11 @@
 Node ``turtlesim`` (in the station's namespace). Services ``spawn``, ``kill``, ``clear``,
 ``reset``; per turtle ``<name>/cmd_vel`` (in), ``<name>/pose``, ``<name>/color_sensor``,
 ``<name>/set_pen``, ``<name>/teleport_absolute``, ``<name>/teleport_relative`` and the action
-``<name>/rotate_absolute``. Parameters ``background_r/g/b``. A QTimer-like 16 ms tick integrates
-every turtle with dt = 0.016 s, as the real node does. The pen draws into a 500x500 raster
-(45 px per metre) that the colour sensor reads, and into pen markers for the world view.
+``<name>/rotate_absolute``. Parameters ``background_r/g/b`` and ``holonomic`` (linear.y is
+honoured only when true). A QTimer-like 16 ms tick integrates every turtle with dt = 0.016 s, as
+the real node does. The pen draws into a transparent 500x500 raster (45 px per metre) that the
+colour sensor reads (unpainted pixels read as white, as in the real node), and into pen markers
+for the world view.
 """
 
 from __future__ import annotations
@@ -71,7 +73,7 @@ class Turtle:
     def on_cmd_vel(self, msg: dict) -> None:
         self.last_command = self.sim.time
         self.lin_x = float(msg['linear']['x'])
-        self.lin_y = float(msg['linear']['y'])
+        self.lin_y = float(msg['linear']['y']) if self.sim.node.params.get('holonomic') is True else 0.0
         self.ang = float(msg['angular']['z'])
         if self.goal is not None:
             self.sim.log.warn('Velocity command received during rotation goal. Aborting goal')
@@ -191,7 +193,8 @@ class Turtle:
     def robot_marker(self) -> dict:
         r, g, b = TURTLE_COLORS[self.index % len(TURTLE_COLORS)]
         rid = self.sim.hub.robot_id(f'{self.sim.node.name}/{self.name}')
-        return mk.marker('robots', rid, mk.ARROW, pose=mk.pose(self.x, self.y, self.theta), scale=(0.5, 0.25, 0.25), rgba=mk.color(r, g, b), text=self.name)
+        return mk.marker('robots', rid, mk.ARROW, pose=mk.pose(self.x, self.y, self.theta),
+                         scale=(0.5, 0.25, 0.25), rgba=mk.color(r, g, b), text=self.name)
 
 
 class Turtlesim:
@@ -211,6 +214,7 @@ class Turtlesim:
         for i, channel in enumerate('rgb'):
             self.node.declare_parameter(f'background_{channel}', DEFAULT_BG[i],
                                         on_set=lambda v, i=i: self.on_background(i, v))
+        self.node.declare_parameter('holonomic', False)
         self.node.declare_parameter('use_sim_time', False)
         self.node.create_service('spawn', 'turtlesim/srv/Spawn', self.on_spawn)
         self.node.create_service('kill', 'turtlesim/srv/Kill', self.on_kill)
@@ -262,8 +266,8 @@ class Turtlesim:
     def color_at(self, x: float, y: float) -> tuple[int, int, int]:
         px = min(max(round(x * METER), 0), PIXELS - 1)
         py = min(max(round((SIZE - y) * METER), 0), PIXELS - 1)
-        r, g, b, a = self.path.getpixel((px, py))
-        return (r, g, b) if a else self.background
+        r, g, b, _ = self.path.getpixel((px, py))  # unpainted: transparent white, as in the real node
+        return r, g, b
 
     def on_background(self, index: int, value) -> None:
         if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= 255:
