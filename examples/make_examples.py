@@ -138,11 +138,11 @@ def spiral() -> dict:
     p.top(seq(
         pen("255 0 0", 3),
         block("controls_for", {"VAR": p.var("i")}, {
-            "FROM": num(1), "TO": num(10), "BY": num(1),
+            "FROM": num(1), "TO": num(8), "BY": num(1),
             "DO": seq(
                 if_(compare("EQ", block("math_modulo", inputs={"DIVIDEND": get(p, "i"), "DIVISOR": num(2)}), number(0)),
                     pen("255 0 0", 3), else_=pen("255 220 0", 3)),
-                move(arith("MULTIPLY", get(p, "i"), num(0.3))),
+                move(arith("MULTIPLY", get(p, "i"), num(0.4))),
                 turn(num(60)),
             )}),
         log(block("text_join", extraState={"itemCount": 2},

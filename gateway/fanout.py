@@ -101,11 +101,10 @@ class TopicFanout:
         """A client joining a shared subscription still gets a latched topic's retained messages
         (what the backend holds for late subscribers when it can tell, else the last message)."""
         backend = self.gateway.backend
-        if not backend.latched(self.topic):
-            return
+        if self.last is None or not backend.latched(self.topic):
+            return   # a new shared subscription: the backend delivers the retained messages itself
         retained = getattr(backend, 'latched_messages', None)
-        messages = retained(self.topic) if retained else [self.last] if self.last is not None else []
-        for msg in messages:
+        for msg in (retained(self.topic) if retained else None) or [self.last]:
             sub.last_sent = time.monotonic()
             sub.deliver(self._encode(msg, sub.compression, sub.fragment_size))
 

@@ -40,7 +40,6 @@ export class Runtime {
     this.statusIds = new Set();
     this.lastYield = performance.now();
     this._gate = null;
-    this._onStatus = (m) => this._status(m);
   }
 
   _id(op, name) { return `${op}:${name}:rosgate${this.run}.${++this.n}`; }
@@ -334,10 +333,6 @@ export class Runtime {
   rangeAt(scan, degrees, window) { return rangeAt(scan, degrees, window); }
 
   // ---- errors and the end --------------------------------------------
-  _status(m) {
-    if (m.level === 'error') this.hooks.log?.(`[gateway] ${m.msg}`, 'error');
-  }
-
   _fail(err, blockId = this.current) {
     if (this.stopped) return;
     const e = err instanceof Error ? err : new RosError(String(err));

@@ -249,7 +249,8 @@ def main(argv: list[str] | None = None) -> int:
     spy = None
     try:
         for t in targets:
-            log(f"{t.name}: {t.url} pid {t.pid if t.pid else 'unknown (no CPU/RSS figures)'}")
+            log(f"{t.name}: {t.url} pid {t.pid if t.pid else 'unknown (no CPU/RSS figures)'}"
+                + (f" ({' '.join(t.argv)})" if t.argv else ""))
         idle = {t.name: asyncio.run(idle_cpu(t, 0.3 if args.quick else 1.0)) for t in targets}
         if args.py_spy:
             profiled = next((t for t in targets if t.kind != "ceiling" and t.pid), None)
@@ -275,7 +276,8 @@ def main(argv: list[str] | None = None) -> int:
                 "python": platform.python_version(), "cpus": _cpus(), "cpu_model": _cpu_model(),
                 "client": f"websockets {websockets.__version__}", "tornado": tornado.version,
                 "config": asdict(cfg), "total_s": total, "idle_server_cpu_pct": idle,
-                "targets": [{"name": t.name, "url": t.url, "pid": t.pid, "kind": t.kind} for t in targets],
+                "targets": [{"name": t.name, "url": t.url, "pid": t.pid, "kind": t.kind, "argv": t.argv}
+                            for t in targets],
             },
             "results": results,
             "goals": goal_rows,

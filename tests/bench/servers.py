@@ -25,6 +25,7 @@ class Target:
     kind: str = "rosbridge"  # or "ceiling": gets preloaded frames
     process: subprocess.Popen | None = field(default=None, repr=False)
     log: Path | None = None
+    argv: list[str] = field(default_factory=list)
 
     def stop(self) -> None:
         proc = self.process
@@ -65,7 +66,8 @@ def _start(name: str, kind: str, argv: list[str], timeout: float = 30.0) -> Targ
             f"{name} did not print its websocket address within {timeout:.0f} s: "
             f"{''.join(lines)!r}; stderr in {log}: {log.read_text()[-2000:]}"
         )
-    return Target(name=name, url=match.group(0), pid=proc.pid, kind=kind, process=proc, log=log)
+    return Target(name=name, url=match.group(0), pid=proc.pid, kind=kind, process=proc, log=log,
+                  argv=argv[1:])
 
 
 def start_ceiling(malloc_tune: bool = True) -> Target:

@@ -75,9 +75,9 @@ def check_square(ros, pose, cmd):
 def expected_spiral():
     x = y = START
     th = 0.0
-    for i in range(1, 11):
-        x += 0.3 * i * math.cos(th)
-        y += 0.3 * i * math.sin(th)
+    for i in range(1, 9):
+        x += 0.4 * i * math.cos(th)
+        y += 0.4 * i * math.sin(th)
         th += math.radians(60)
     return x, y, th
 

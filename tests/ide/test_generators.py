@@ -26,8 +26,8 @@ EXPECT = {
         ("rt.log('square done');", "rt.log('square done')"),
     ],
     "spiral.json": [
-        ("for (i = 1; i <= 10; i++) {", "for i in range(1, 11):"),
-        ("i * 0.3, 2);", "i * 0.3, 2)"),
+        ("for (i = 1; i <= 8; i++) {", "for i in range(1, 9):"),
+        ("i * 0.4, 2);", "i * 0.4, 2)"),
         ("60, 180);", "60, 180)"),
     ],
     "three_turtles.json": [

@@ -256,3 +256,36 @@ def test_make_a_block_from_a_live_service(turtle_gateway, ide_factory):
     other = ide_factory(turtle_gateway, url=link)
     assert other.js("rosgateIde.workspace.getAllBlocks(false).some(b => b.type === 'my_service_add_two_ints')")
     assert "my_service_add_two_ints" in other.js("JSON.stringify(rosgateIde.workspace.getToolbox().getToolboxItems().map(i => i.getContents?.()))")
+
+
+def test_step_pause_and_resume(turtle_gateway, turtle_ros, ide_factory):
+    ide = ide_factory(turtle_gateway)
+    ide.js("(p) => rosgateIde.loadProgram(p)", program(ex.seq(
+        {**ex.log(ex.text("a")), "id": "A"}, {**ex.log(ex.text("b")), "id": "B"}, {**ex.log(ex.text("c")), "id": "C"})))
+    highlighted = "rosgateIde.runner.rt && rosgateIde.runner.rt.current"
+    ide.page.click("#step")
+    ide.page.wait_for_function(f"{highlighted} === 'A'")
+    assert ide.js("document.body.dataset.run") == "paused" and ide.logs() == []
+    ide.page.click("#step")
+    ide.page.wait_for_function(f"{highlighted} === 'B'")
+    assert ide.logs() == ["a"]
+    ide.page.click("#run")                      # resume
+    ide.wait_idle(timeout=5)
+    assert ide.logs() == ["a", "b", "c"]
+
+    # pausing a driving program stops the robot; resuming drives on
+    cmd = turtle_ros.watch("/turtle1/cmd_vel", "geometry_msgs/msg/Twist")
+    ide.js("(p) => rosgateIde.loadProgram(p)", program(drive()))
+    ide.run()
+    wait_for(lambda: moving(cmd), what="driving")
+    t0 = time.monotonic()
+    ide.page.click("#pause")
+    zero_at = wait_for(lambda: next((t for t, m in cmd.since(t0) if m["linear"]["x"] == 0), None),
+                       timeout=1, what="zero on Pause")
+    assert ide.js("document.body.dataset.run") == "paused"
+    t1 = time.monotonic()
+    assert not any(m["linear"]["x"] != 0 for t, m in cmd.since(zero_at) if t < t1)
+    ide.page.click("#run")
+    wait_for(lambda: moving(cmd, t1), timeout=2, what="driving again after Resume")
+    ide.page.click("#stop")
+    ide.wait_idle(timeout=2)

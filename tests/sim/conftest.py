@@ -38,7 +38,7 @@ def rover_gw(start_gateway, tmp_path_factory):
 @pytest.fixture(scope='module')
 def fleet_gw(start_gateway):
     gw = start_gateway('--fleet', '3', '--robot', 'turtlesim', '--robot', 'rover', '--world', 'maze',
-                       '--twist-stamped')
+                       '--twist-stamped', '--sim-speed', '2')
     yield gw
     gw.stop()
 

@@ -1,4 +1,7 @@
-"""A fleet of namespaced stations (--fleet 3) with a turtle and a rover each, and claiming one."""
+"""A fleet of namespaced stations (--fleet 3) with a turtle and a rover each, and claiming one.
+
+This gateway runs at --sim-speed 2: two simulated seconds per real second.
+"""
 
 from __future__ import annotations
 
@@ -76,8 +79,11 @@ def test_stations_move_independently(ros):
                          'twist': twist(0.5)}, 0.6)
         moved = odom2.wait(lambda m: m['pose']['pose']['position']['x'] > 0.1)
         assert moved['header']['frame_id'] == 's02/odom' and moved['child_frame_id'] == 's02/base_link'
-        turtle2.wait(lambda m: m['x'] > CENTRE + 0.5)
-        time.sleep(0.2)
+        stopped = turtle2.wait(lambda m: m['x'] > CENTRE and m['linear_velocity'] == 0.0)
+        assert stopped['x'] == pytest.approx(CENTRE + 1.0, abs=0.05)   # 1 m/s until 1 simulated second
+        started = next(t for t, m in turtle2.items if m['linear_velocity'] > 0)
+        halted = next(t for t, m in turtle2.items if m is stopped)
+        assert 0.35 < halted - started < 0.7                            # half a real second
         assert turtle1.last['x'] == pytest.approx(CENTRE, abs=1e-4)
         assert odom1.last['pose']['pose']['position']['x'] == 0.0
     finally:

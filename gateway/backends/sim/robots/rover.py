@@ -95,7 +95,6 @@ class Rover:
         self.charge = CAPACITY
         self.current = IDLE_CURRENT
         self.temps = [AMBIENT, AMBIENT]
-        self.loads = [0.0, 0.0]
         self.bumper = self.bump_logged = False
         self.empty_logged = False
         self.last_marker_pose = None
@@ -194,7 +193,6 @@ class Rover:
             self.log.error('Battery empty: motors disabled until /reset_world')
         for i, wheel in enumerate((self.v - self.w * TRACK / 2, self.v + self.w * TRACK / 2)):
             load = min(1.0, abs(wheel) / vmax + 0.3 * effort + stalled)
-            self.loads[i] = load
             target = AMBIENT + HEAT_RISE * load * load
             self.temps[i] += (target - self.temps[i]) * (1 - math.exp(-dt / HEAT_TAU))
 

@@ -61,6 +61,10 @@ class World:
         self.e = arr[:, 2:] - arr[:, :2]
         self.ee = np.einsum('ij,ij->i', self.e, self.e)
         self.colors = np.array(colors, dtype=np.float64)
+        # boxes as centre, rotation and half sizes, for inside tests
+        self.box_frames = np.array([(b.x, b.y, math.cos(b.yaw), math.sin(b.yaw), b.sx / 2, b.sy / 2)
+                                    for b in boxes], dtype=np.float64).reshape(-1, 6)
+        self.deepest = float(np.minimum(self.box_frames[:, 4], self.box_frames[:, 5]).max(initial=0.0))
         # segment direction parity, for side shading in the camera
         self.side = (np.abs(self.e[:, 0]) < np.abs(self.e[:, 1])).astype(np.float64)
 
@@ -105,12 +109,21 @@ class World:
         return world
 
     def clearance(self, x: float, y: float) -> float:
-        """Distance from a point to the nearest wall."""
+        """Distance from a point to the nearest wall; negative inside a wall or outside the world."""
         px, py = x - self.a[:, 0], y - self.a[:, 1]
         t = np.clip((px * self.e[:, 0] + py * self.e[:, 1]) / self.ee, 0.0, 1.0)
         dx, dy = px - t * self.e[:, 0], py - t * self.e[:, 1]
         d = float(np.sqrt((dx * dx + dy * dy).min()))
-        return d if 0 <= x <= self.width and 0 <= y <= self.height else -d
+        outside = not (0 <= x <= self.width and 0 <= y <= self.height)
+        # a point inside a box is closer to its edges than the box's half width
+        return -d if outside or (d <= self.deepest and self.inside_wall(x, y)) else d
+
+    def inside_wall(self, x: float, y: float) -> bool:
+        if not (0 <= x <= self.width and 0 <= y <= self.height):
+            return True
+        cx, cy, c, s, hx, hy = self.box_frames.T
+        dx, dy = x - cx, y - cy
+        return bool(np.any((np.abs(c * dx + s * dy) < hx) & (np.abs(-s * dx + c * dy) < hy)))
 
     def cast(self, x: float, y: float, angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Distance along each ray to the first wall, and the index of the segment hit."""
