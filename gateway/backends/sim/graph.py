@@ -63,6 +63,15 @@ class SimPublisher:
             except Exception:  # a faulty subscriber must not break the publisher
                 log.exception('subscription callback on %s failed', topic.name)
 
+    @property
+    def subscription_count(self) -> int:
+        """How many subscriptions the topic has (costly messages can be skipped at 0)."""
+        return len(self._topic.subscriptions)
+
+    def retain(self, msg: Message) -> None:
+        """Replace what late subscribers of a latched topic receive, without sending it now."""
+        self._topic.latched.append(msg)
+
     def destroy(self) -> None:
         self.node.graph._remove_endpoint(self._topic, self, 'publishers')
         self.node._owned.discard(self)
@@ -370,6 +379,10 @@ class Graph:
 
     def topics(self) -> list[tuple[str, str]]:
         return sorted((t.name, t.type) for t in self._topics.values())
+
+    def topic_entries(self) -> list[Topic]:
+        """Every topic with its publishers and subscriptions (each has a .node)."""
+        return list(self._topics.values())
 
     def services(self) -> list[tuple[str, str]]:
         return sorted((s.name, s.type) for s in self._services.values())

@@ -80,7 +80,7 @@ class Fleet:
         one (other than the world view, which an overview of all stations watches)."""
         prefix = namespace + '/'
         view = prefix + 'world/markers'
-        for topic in self.graph._topics.values():
+        for topic in self.graph.topic_entries():
             if topic.name.startswith(prefix):
                 endpoints = topic.publishers if topic.name == view else (*topic.publishers, *topic.subscriptions)
                 if any(not e.node.name.startswith(prefix) for e in endpoints):

@@ -42,12 +42,12 @@ def normalize_angle(a: float) -> float:
 
 def has_subscribers(pub) -> bool:
     """Whether anything listens to a publisher's topic (so costly messages can be skipped)."""
-    return bool(pub._topic.subscriptions)
+    return pub.subscription_count > 0
 
 
 def set_latched(pub, msg: Message) -> None:
     """Replace what late subscribers of a transient-local publisher receive, without sending it now."""
-    pub._topic.latched.append(msg)
+    pub.retain(msg)
 
 
 class RosLog:
