@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import weakref
 
-from .msgdefs import FLOATS, Definitions, Field, MsgDef
+from .msgdefs import Definitions, Field, MsgDef, scalar_default
 
 B64_TYPES = frozenset({'uint8', 'char'})  # uint8[]/char[] are base64 in JSON; byte[] is a list (as rclpy)
 # non-zero defaults declared in .msg files that the rosbags typestore does not carry
@@ -40,14 +40,6 @@ def compiled(defs: Definitions, kind: str, msgdef: MsgDef, make):
     return fn
 
 
-def scalar_default(f: Field):
-    if f.type in FLOATS:
-        return 0.0
-    if f.type == 'bool':
-        return False
-    if f.type in ('string', 'wstring'):
-        return ''
-    return 0
 
 
 def field_default(defs: Definitions, f: Field, owner: str = ''):

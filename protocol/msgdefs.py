@@ -254,8 +254,11 @@ def typedef(msg: MsgDef) -> dict:
 
 
 def example_value(f: Field):
-    if not f.primitive:
-        return {}
+    return scalar_default(f) if f.primitive else {}
+
+
+def scalar_default(f: Field):
+    """The default of a primitive field: 0, 0.0, False or ''."""
     if f.type in FLOATS:
         return 0.0
     if f.type == 'bool':

@@ -41,26 +41,19 @@ class Session:
 
     def receive_text(self, data: str | bytes, now: float) -> list[Op | ProtocolError]:
         """Handle one text frame: the ops it completes and the errors it causes, in order."""
-        out: list[Op | ProtocolError] = []
-        self._expire(now, out)
-        if self._oversize(data, out):
-            return out
-        try:
-            obj = decode_text(data)
-        except ProtocolError as e:
-            out.append(e)
-            return out
-        self._handle(obj, now, out)
-        return out
+        return self._receive(data, now, decode_text)
 
     def receive_bytes(self, data: bytes, now: float) -> list[Op | ProtocolError]:
         """Handle one binary (CBOR) frame."""
+        return self._receive(data, now, decode_binary)
+
+    def _receive(self, data, now: float, decode) -> list[Op | ProtocolError]:
         out: list[Op | ProtocolError] = []
         self._expire(now, out)
         if self._oversize(data, out):
             return out
         try:
-            obj = decode_binary(data)
+            obj = decode(data)
         except ProtocolError as e:
             out.append(e)
             return out
