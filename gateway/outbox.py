@@ -27,7 +27,7 @@ class Entry:
 
 class Outbox:
     def __init__(self, write: Callable[[bytes, bool], Awaitable[None] | None], *,
-                 byte_limit: int = 64 * 2**20, on_overflow: Callable[[int], None] | None = None,
+                 byte_limit: int = 16 * 2**20, on_overflow: Callable[[int], None] | None = None,
                  warn_interval: float = 5.0):
         self._write = write          # ws.write_message(frame, binary=...) -> Future
         self._queue: deque[Entry] = deque()
@@ -42,6 +42,7 @@ class Outbox:
         self._wakeup = asyncio.Event()
         self._closed = False
         self._task: asyncio.Task | None = None
+        self._last_write = None      # Future of the latest write: done once the socket took it
 
     def start(self) -> None:
         self._task = asyncio.ensure_future(self._run())
@@ -59,6 +60,8 @@ class Outbox:
         """Queue a frame that must not be dropped."""
         if self._closed:
             return
+        if self._write_now(frame, binary):
+            return
         entry = Entry(frame, binary, None)
         self._queue.append(entry)
         self.queued_bytes += entry.size
@@ -71,6 +74,8 @@ class Outbox:
         if self.queued_bytes + len(frame) > self.byte_limit and self.queued_bytes:
             self._drop_warning()
             return False
+        if self._write_now(frame, binary):
+            return True
         entry = Entry(frame, binary, key)
         per = self._per_key.get(key)
         if per is None:
@@ -85,6 +90,16 @@ class Outbox:
         self._queue.append(entry)
         self.queued_bytes += entry.size
         self._wakeup.set()
+        return True
+
+    def _write_now(self, frame: bytes, binary: bool) -> bool:
+        """Write at once, skipping the pump task, while nothing is queued or being written."""
+        if self._queue or (self._last_write is not None and not self._last_write.done()):
+            return False
+        try:
+            self._last_write = self._write(frame, binary)
+        except Exception:   # the connection went away; the handler cleans up
+            self._closed = True
         return True
 
     def forget(self, key: object) -> None:
@@ -118,6 +133,9 @@ class Outbox:
                 self._wakeup.clear()
                 await self._wakeup.wait()
                 continue
+            if self._last_write is not None and not self._last_write.done():
+                await self._last_write   # a direct write still owns the socket
+                continue
             batch = 0
             pending = None
             while queue and batch < BATCH_BYTES:
@@ -130,7 +148,7 @@ class Outbox:
                     per = self._per_key.get(entry.key)
                     if per and per[0] is entry:
                         per.popleft()
-                pending = self._write(entry.frame, entry.binary)
+                pending = self._last_write = self._write(entry.frame, entry.binary)
                 batch += entry.size
             if pending is not None:
                 await pending   # flow control: wait until the socket took the batch

@@ -22,7 +22,7 @@ class Settings:
     default_call_service_timeout: float = 5.0
     websocket_ping_interval: float = 0.0
     websocket_ping_timeout: float = 30.0
-    send_buffer_limit: int = 64 * 2**20        # per-client queued bytes before topic messages drop
+    send_buffer_limit: int = 16 * 2**20        # per-client queued bytes before topic messages drop
     default_queue_length: int = 100            # per-subscription queued messages when queue_length is 0
     allowed_origins: str | None = None       # globs of browser origins besides our own and localhost
     topics_glob: str | None = None

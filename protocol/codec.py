@@ -11,6 +11,7 @@ import sys
 
 import cbor2
 import orjson
+from pybase64 import b64encode_as_string
 
 from .errors import ProtocolError, json_type
 from .ops import Fragment
@@ -38,7 +39,7 @@ TYPED_ARRAY_TAGS = {tag: _CODE_OF[key] for key, tag in _TAGS.items()}
 
 def _json_default(value):
     if isinstance(value, (bytes, bytearray, memoryview)):
-        return binascii.b2a_base64(value, newline=False).decode('ascii')
+        return b64encode_as_string(value)
     if isinstance(value, array.array):
         return value.tolist()
     tolist = getattr(value, 'tolist', None)  # numpy arrays and scalars orjson declined

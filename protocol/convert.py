@@ -14,6 +14,7 @@ import operator
 import sys
 
 import cbor2
+from pybase64 import b64decode   # SIMD base64: images are megabytes of it
 
 from .cdr import from_cdr, to_cdr
 from .compiled import B64_TYPES, MISSING, compiled, default_message, field_default
@@ -175,8 +176,8 @@ def _bytes_check(f: Field, as_list: bool):
         t = type(v)
         if t is str:
             try:
-                b = binascii.a2b_base64(v, strict_mode=True)
-            except binascii.Error as e:
+                b = b64decode(v, validate=True)
+            except (binascii.Error, ValueError) as e:
                 raise _Bad(f'{what}, got a string that is not base64 ({e})') from None
         elif t is bytes:
             b = v

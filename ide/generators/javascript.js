@@ -23,6 +23,7 @@ export const lang = {
   stmt: (name, args, isAsync) => `${isAsync ? 'await ' : ''}rt.${name}(${args.join(', ')});\n`,
   helper: (name, args) => `rt.${name}(${args.join(', ')})`,
   field: (obj, path) => `rt.field(${obj}, ${path})`,
+  ns: (name) => `rt.ns(${name})`,
   parseLiteral(code) {
     if (/^-?\d+(\.\d+)?$/.test(code)) return Number(code);
     if (/^\(-\d+(\.\d+)?\)$/.test(code)) return Number(code.slice(1, -1));

@@ -28,6 +28,7 @@ export const lang = {
   stmt: (name, args) => `rt.${SNAKE[name]}(${args.join(', ')})\n`,
   helper: (name, args) => `${SNAKE[name]}(${args.join(', ')})`,
   field: (obj, path) => `field(${obj}, ${path})`,
+  ns: (name) => `rt.ns(${name})`,
   parseLiteral(code) {
     if (/^-?\d+(\.\d+)?$/.test(code)) return Number(code);
     const m = /^'((?:[^'\\]|\\.)*)'$/.exec(code);
@@ -44,8 +45,10 @@ class RosPythonGenerator extends python.PythonGenerator {
     super('Python');
     Object.assign(this.forBlock, python.pythonGenerator.forBlock);
     this.addReservedWords('rt,run,main,field,fmt,yaw,range_at,angle_diff,pose_of,roslibpy,Runtime,' +
-      'StopProgram,RosError,argparse,json,math,os,random,signal,sys,threading,time,traceback,message,queue,GAIN,is_velocity_type,zero_velocity');
+      'StopProgram,RosError,argparse,json,math,os,random,signal,sys,threading,time,traceback,message,queue,GAIN,is_velocity_type,zero_velocity,' +
+      'norm_namespace,with_namespace,re');
     this.programName = 'program';
+    this.namespace = '';      // the robot namespace the file runs in unless --ns says otherwise
   }
 
   init(workspace) {
@@ -81,14 +84,15 @@ class RosPythonGenerator extends python.PythonGenerator {
     const own = imports.filter((i) => !/^import (math|random|time|json|sys|os)$/.test(i.trim()));
     const doc = `"""${this.programName.replace(/"""/g, "'''")}: a rosgate block program.\n\n` +
       'Needs only roslibpy (pip install roslibpy). Run it against any rosbridge server:\n' +
-      '    python3 this_file.py --url ws://localhost:9090/\n' +
-      '(or set ROSBRIDGE_URL). Ctrl-C stops it and the robot.\n"""\n';
+      '    python3 this_file.py --url ws://localhost:9090/ [--ns /s07]\n' +
+      '(or set ROSBRIDGE_URL and ROSGATE_NS). --ns puts the robot blocks\' topics, services\n' +
+      'and actions in that robot namespace. Ctrl-C stops the program and the robot.\n"""\n';
     const parts = [
       runtimeSource.trimEnd(),
       own.join('\n'),
       defs.join('\n\n').trim(),
       `def main():\n${this.globalLine()}${handlers}${body.trim() ? body : this.PASS}`.trimEnd(),
-      "if __name__ == '__main__':\n    run(main)",
+      `if __name__ == '__main__':\n    run(main${this.namespace ? `, namespace=${this.quote_(this.namespace)}` : ''})`,
     ].filter(Boolean);
     return `${doc}${parts.join('\n\n\n')}\n`;
   }

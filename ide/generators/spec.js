@@ -6,6 +6,7 @@
 //   {"$mul": [a, b]}, {"$deg2rad": a}
 //   numbers, booleans, null, objects and arrays as themselves
 // `lang` adapts the output to one language (see javascript.js and python.js).
+// A spec with `namespaced` (the robot sets) puts its names in the robot namespace: rt.ns(name).
 
 const WHOLE = /^\$([A-Za-z_][A-Za-z0-9_]*)(?::(\d+))?$/;
 const SPLICE = /\$\{([A-Za-z_][A-Za-z0-9_]*)\}/g;
@@ -80,32 +81,33 @@ const v = (gen, block, tpl, lang) => value(gen, block, tpl, lang).code;
 export function specToCode(gen, block, spec, lang) {
   const isValue = !!block.outputConnection;
   const V = (t) => v(gen, block, t, lang);
+  const N = (t) => (spec.namespaced ? lang.ns(V(t)) : V(t));    // a topic, service or action name
   const robotSpec = () => lang.obj([
-    ['cmd', V(spec.cmd)], ['type', V(spec.type ?? 'geometry_msgs/msg/Twist')],
-    ['pose', V(spec.pose)], ['pose_type', V(spec.pose_type)],
+    ['cmd', N(spec.cmd)], ['type', V(spec.type ?? 'geometry_msgs/msg/Twist')],
+    ['pose', N(spec.pose)], ['pose_type', V(spec.pose_type)],
   ]);
   switch (spec.kind) {
     case 'publish':
-      return lang.stmt('publish', [V(spec.topic), V(spec.type), V(spec.msg ?? {})], false);
+      return lang.stmt('publish', [N(spec.topic), V(spec.type), V(spec.msg ?? {})], false);
     case 'drive':
-      return lang.stmt('drive', [V(spec.topic), V(spec.type), V(spec.msg ?? {}), V(spec.seconds ?? 1)], true);
+      return lang.stmt('drive', [N(spec.topic), V(spec.type), V(spec.msg ?? {}), V(spec.seconds ?? 1)], true);
     case 'move':
       return lang.stmt('move', [robotSpec(), V(spec.distance), V(spec.speed ?? 1)], true);
     case 'turn':
       return lang.stmt('turn', [robotSpec(), V(spec.degrees), V(spec.speed ?? 90)], true);
     case 'call': {
-      const args = [V(spec.service), V(spec.type), V(spec.args ?? {})];
+      const args = [N(spec.service), V(spec.type), V(spec.args ?? {})];
       if (!isValue) return lang.stmt('callService', args, true);
       const call = lang.call('callService', args, true);
       return spec.field ? [lang.field(call, V(spec.field)), lang.order.CALL] : [call, lang.order.CALL];
     }
     case 'goal': {
-      const args = [V(spec.action), V(spec.type), V(spec.args ?? {})];
+      const args = [N(spec.action), V(spec.type), V(spec.args ?? {})];
       if (!isValue) return lang.stmt('sendGoal', args, true);
       return [lang.call('sendGoal', args, true), lang.order.CALL];
     }
     case 'latest': {
-      const topic = V(spec.topic);
+      const topic = N(spec.topic);
       const type = V(spec.type);
       if (spec.fn === 'range_at') {
         const scan = lang.call('latest', [topic, type], true);

@@ -12,6 +12,9 @@ import { Console } from './console.js';
 import { WorldView } from './worldview.js';
 import * as storage from './storage.js';
 import { MakeBlockDialog } from './makeblock.js';
+import { DriverLease, bindDriverBadge, DRIVER_TOPIC } from './driver.js';
+import { bindNamespace, CLAIM_SERVICE } from './robotns.js';
+import { withNamespace } from '../runtime/util.js';
 
 const $ = (sel) => document.querySelector(sel);
 const getJson = async (url) => {
@@ -21,10 +24,11 @@ const getJson = async (url) => {
 };
 
 // ---- blocks ----------------------------------------------------------------
-function defineBlock(def, colour) {
-  const { rosgate: spec, ...json } = def;
+function defineBlock(def, colour, namespaced = false) {
+  const { rosgate: found, ...json } = def;
   if (json.colour === undefined) json.colour = colour;
   Blockly.common.defineBlocksWithJsonArray([json]);
+  const spec = found && namespaced ? { ...found, namespaced } : found;
   if (spec) { registerJs(json.type, spec); registerPy(json.type, spec); }
 }
 
@@ -85,7 +89,7 @@ async function start() {
   ide.sets = { ros: ros_, turtlesim, rover };
   ide.baseToolbox = base;
   setRuntimeSource(runtimePy);
-  for (const set of Object.values(ide.sets)) for (const def of set.blocks) defineBlock(def, set.colour);
+  for (const set of Object.values(ide.sets)) for (const def of set.blocks) defineBlock(def, set.colour, set.namespaced);
 
   const workspace = Blockly.inject($('#blockly'), {
     toolbox: buildToolbox(base),
@@ -108,11 +112,35 @@ async function start() {
   const graph = new RosGraph();
   shared.graph = graph;
   ide.graph = graph;
-  const world = new WorldView($('#world'));
+  const robotNs = bindNamespace({
+    call: (service, args) => graph.call(service, args),
+    onError: (text) => consoleView.error(text),
+    onChange: (ns) => {
+      ide.ns = ns;
+      world.setTopic(withNamespace(ns, '/world/markers'));
+      updateCode();
+      consoleView.info(`robot namespace: ${ns || 'none'}`);
+    },
+  });
+  ide.ns = robotNs.get();
+  ide.robotNs = robotNs;
+  const world = new WorldView($('#world'), withNamespace(ide.ns, '/world/markers'));
   ide.world = world;
+  const lease = new DriverLease();
+  ide.lease = lease;
+  bindDriverBadge(lease);
+  lease.addEventListener('refused', () => {
+    $('#driver').classList.add('refused');
+    setTimeout(() => $('#driver').classList.remove('refused'), 3000);
+  });
+  graph.addEventListener('change', () => {
+    if (graph.topics.has(DRIVER_TOPIC)) lease.watch();
+    robotNs.claimable(graph.services.has(CLAIM_SERVICE));
+  });
   const url = $('#url');
-  url.value = new URLSearchParams(location.search).get('url')
-    || `${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/`;
+  const params = new URLSearchParams(location.search);
+  url.value = params.get('url') || `${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/`
+    + (params.get('name') ? `?name=${encodeURIComponent(params.get('name'))}` : '');
   let retry = null;
   const setStatus = (s, text) => {
     const el = $('#status');
@@ -129,6 +157,7 @@ async function start() {
     ros.on('connection', () => {
       setStatus('connected', 'connected');
       graph.setRos(ros);
+      lease.attach(ros);
       world.attach(ros);
       graph.refresh().catch((e) => consoleView.error(`rosapi: ${e.message}`));
     });
@@ -145,7 +174,7 @@ async function start() {
   url.addEventListener('change', connect);
 
   // running
-  const runner = new Runner(workspace, () => ide.ros, consoleView);
+  const runner = new Runner(workspace, () => ide.ros, consoleView, () => ide.ns);
   ide.runner = runner;
   runner.addEventListener('state', (e) => { document.body.dataset.run = e.detail; });
   document.body.dataset.run = 'idle';
@@ -158,10 +187,15 @@ async function start() {
   let codeTimer = null;
   const updateCode = () => {
     pyGen.programName = ide.programName;
+    pyGen.namespace = ide.ns;
     try { $('#code-python').textContent = foldRuntime(pyGen.workspaceToCode(workspace)); } catch (e) { $('#code-python').textContent = `# ${e.message}`; }
     try { $('#code-js').textContent = jsGen.generate(workspace); } catch (e) { $('#code-js').textContent = `// ${e.message}`; }
   };
-  ide.generatePython = () => { pyGen.programName = ide.programName; return pyGen.workspaceToCode(workspace); };
+  ide.generatePython = () => {
+    pyGen.programName = ide.programName;
+    pyGen.namespace = ide.ns;
+    return pyGen.workspaceToCode(workspace);
+  };
   ide.generateJs = (instrument = false) => jsGen.generate(workspace, { instrument });
   for (const btn of document.querySelectorAll('[data-tab]')) {
     btn.onclick = () => {

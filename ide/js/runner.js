@@ -7,10 +7,11 @@ import { gen as jsGen } from '../generators/javascript.js';
 const AsyncFunction = Object.getPrototypeOf(async () => {}).constructor;
 
 export class Runner extends EventTarget {
-  constructor(workspace, getRos, console_) {
+  constructor(workspace, getRos, console_, getNamespace = () => '') {
     super();
     this.workspace = workspace;
     this.getRos = getRos;
+    this.getNamespace = getNamespace;
     this.console = console_;
     this.rt = null;
     this.state = 'idle';         // idle | running | paused
@@ -49,7 +50,7 @@ export class Runner extends EventTarget {
       log: (text, level) => this.console.log(text, level),
       highlight: (id) => { if (this.rt === rt) this.workspace.highlightBlock(id); },
       error: (e, id) => this._error(rt, e, id),
-    });
+    }, { namespace: this.getNamespace() });
     this.rt = rt;
     if (paused) rt.pause();
     this._setState(paused ? 'paused' : 'running');

@@ -3,7 +3,9 @@
 import { Ros } from 'roslib';
 import nipplejs from 'nipplejs';
 import uPlot from 'uplot';
-import { field, zeroVelocity } from '../runtime/util.js';
+import { field, zeroVelocity, withNamespace } from '../runtime/util.js';
+import { DriverLease, bindDriverBadge, DRIVER_TOPIC } from './driver.js';
+import { bindNamespace, CLAIM_SERVICE } from './robotns.js';
 
 const $ = (s) => document.querySelector(s);
 const params = new URLSearchParams(location.search);
@@ -19,6 +21,8 @@ const state = {
   subs: [],
 };
 window.teleop = state;
+const lease = new DriverLease();
+state.lease = lease;
 
 // ---- connection -----------------------------------------------------------
 function setStatus(s, text) { const el = $('#status'); el.dataset.state = s; el.textContent = text; document.body.dataset.connection = s; }
@@ -29,7 +33,7 @@ function connect() {
   state.ros = ros;
   state.advertised = '';
   setStatus('connecting', 'connecting…');
-  ros.on('connection', () => { setStatus('connected', 'connected'); onConnected(); });
+  ros.on('connection', () => { setStatus('connected', 'connected'); lease.attach(ros); onConnected(); });
   ros.on('close', () => {
     if (state.ros !== ros) return;
     setStatus('closed', 'disconnected');
@@ -63,14 +67,20 @@ function callRosapi(service, args = {}) {
 async function onConnected() {
   try {
     const { topics, types } = await callRosapi('/rosapi/topics');
-    const vel = topics.filter((t, i) => /geometry_msgs\/(msg\/)?Twist(Stamped)?$/.test(types[i]));
+    if (topics.includes(DRIVER_TOPIC)) lease.watch();
+    const ns = state.robotNs.get();
+    const vel = topics.filter((t, i) => /geometry_msgs\/(msg\/)?Twist(Stamped)?$/.test(types[i])
+      && (!ns || t.startsWith(`${ns}/`)));
     $('#topics').replaceChildren(...topics.map((t) => new Option(t, t)));
     const topicEl = $('#topic');
     if (!params.get('topic') && !vel.includes(topicEl.value) && vel.length) {
-      topicEl.value = vel.includes('/cmd_vel') ? '/cmd_vel' : vel[0];
+      const preferred = withNamespace(ns, '/cmd_vel');
+      topicEl.value = vel.includes(preferred) ? preferred : vel[0];
     }
     const t = types[topics.indexOf(topicEl.value)];
     if (t) $('#msgtype').value = /Stamped$/.test(t) ? 'geometry_msgs/msg/TwistStamped' : 'geometry_msgs/msg/Twist';
+    const { services } = await callRosapi('/rosapi/services');
+    state.robotNs.claimable(services.includes(CLAIM_SERVICE));
   } catch { /* rosapi unavailable: keep the defaults */ }
   resubscribe();
 }
@@ -267,9 +277,10 @@ function buildChart() {
 }
 
 function setupPlots() {
-  addSeries('/motor/left/temperature', 'temperature', 'sensor_msgs/msg/Temperature');
-  addSeries('/motor/right/temperature', 'temperature', 'sensor_msgs/msg/Temperature');
-  addSeries('/odom', 'twist.twist.linear.x', 'nav_msgs/msg/Odometry');
+  const ns = (name) => withNamespace(state.robotNs.get(), name);
+  addSeries(ns('/motor/left/temperature'), 'temperature', 'sensor_msgs/msg/Temperature');
+  addSeries(ns('/motor/right/temperature'), 'temperature', 'sensor_msgs/msg/Temperature');
+  addSeries(ns('/odom'), 'twist.twist.linear.x', 'nav_msgs/msg/Odometry');
   setInterval(sample, 200);
   new ResizeObserver(() => plot.chart?.setSize({ width: Math.max(240, $('#plot').clientWidth), height: 200 })).observe($('#plot'));
   $('#plot-add').addEventListener('submit', (e) => {
@@ -281,6 +292,27 @@ function setupPlots() {
   $('#camera-topic').addEventListener('change', resubscribe);
 }
 
+// The robot namespace and the driver lease: a change of robot reloads the page under it.
+function setupRobot() {
+  state.robotNs = bindNamespace({
+    call: callRosapi,
+    onChange: () => { stopAll(); location.reload(); },
+    onError: (text) => showNotice(text),
+  });
+  const ns = (name) => withNamespace(state.robotNs.get(), name);
+  for (const el of ['#topic', '#battery-topic', '#camera-topic']) $(el).value = ns($(el).value);
+  bindDriverBadge(lease);
+  lease.addEventListener('refused', (e) => showNotice(`Your commands are refused: ${e.detail}`));
+  lease.addEventListener('change', () => { if (lease.state !== 'other') showNotice(''); });
+}
+
+function showNotice(text) {
+  $('#notice').textContent = text;
+  $('#notice').hidden = !text;
+  state.notice = text;
+}
+
+setupRobot();
 if (params.get('topic')) $('#topic').value = params.get('topic');
 setupKeys();
 setupJoystick();

@@ -38,6 +38,21 @@ export class WorldView {
     });
   }
 
+  // Draws another topic (the world of another robot namespace).
+  setTopic(topic) {
+    if (topic === this.topic) return;
+    const ros = this.ros;
+    if (ros) {
+      ros.off(this.topic, this.listener);
+      ros.callOnConnection({ op: 'unsubscribe', id: `subscribe:${this.topic}:worldview`, topic: this.topic });
+    }
+    this.ros = null;
+    this.topic = topic;
+    this.markers.clear();
+    this.dirty = true;
+    if (ros?.isConnected) this.attach(ros);
+  }
+
   receive(msg) {
     this.count += 1;
     for (const m of msg?.markers ?? []) {

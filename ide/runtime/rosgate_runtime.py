@@ -5,6 +5,7 @@ import math
 import os
 import queue
 import random
+import re
 import signal
 import sys
 import threading
@@ -110,6 +111,18 @@ def zero_velocity(t):
     return _twist(t, 0.0, 0.0)
 
 
+def norm_namespace(text):
+    """A robot namespace as typed ('s07', '/s07/') -> '/s07', or '' for none."""
+    parts = [p.strip() for p in str(text or "").split("/") if p.strip()]
+    return "/" + "/".join(parts) if parts else ""
+
+
+def with_namespace(ns, name):
+    """A robot block's name in a namespace: ('/s07', '/turtle1/cmd_vel') -> '/s07/turtle1/cmd_vel'."""
+    n, name = norm_namespace(ns), str(name)
+    return n + ("" if name.startswith("/") else "/") + name if n else name
+
+
 def pose_of(msg, t=""):
     if "turtlesim" in t or "theta" in msg:
         return msg["x"], msg["y"], msg["theta"]
@@ -130,7 +143,8 @@ class _Sub:
 
 
 class Runtime:
-    def __init__(self, url):
+    def __init__(self, url, namespace=""):
+        self.namespace = norm_namespace(namespace)
         self.ros = roslibpy.Ros(url)
         self.ros.run(timeout=10)
         self.stopped = threading.Event()
@@ -143,6 +157,23 @@ class Runtime:
         self._actions = {}
         self._goals = {}
         self.handlers = 0
+        self.ros.factory.on_ready(self._take_status)
+
+    def ns(self, name):
+        """A robot block's name in the robot namespace (--ns)."""
+        return with_namespace(self.namespace, name)
+
+    def _take_status(self, proto):
+        # roslibpy drops rosbridge status ops; a refused publish has to end the program
+        handlers = getattr(proto, "_message_handlers", None)
+        if isinstance(handlers, dict):
+            handlers["status"] = self._on_status
+
+    def _on_status(self, message):
+        text = str(message.get("msg", ""))
+        refused = re.match(r"publish(?: \(id [^)]*\))?: ([^:\s]+):", text)
+        if message.get("level") == "error" and refused and refused.group(1) in self._topics:
+            self.fail(RosError(text))
 
     def _check(self):
         if self.stopped.is_set():
@@ -415,15 +446,17 @@ class Runtime:
 rt = None
 
 
-def run(main):
+def run(main, namespace=""):
     """Connects, runs main(), keeps message handlers alive until Ctrl-C, stops the robot."""
     global rt
-    parser = argparse.ArgumentParser(description=__doc__)
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--url", default=os.environ.get("ROSBRIDGE_URL", "ws://localhost:9090/"),
                         help="rosbridge websocket URL (default: $ROSBRIDGE_URL or ws://localhost:9090/)")
+    parser.add_argument("--ns", default=os.environ.get("ROSGATE_NS", namespace),
+                        help="robot namespace of the robot blocks, e.g. /s07 (default: $ROSGATE_NS or %r)" % namespace)
     args = parser.parse_args()
     signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
-    rt = Runtime(args.url)
+    rt = Runtime(args.url, args.ns)
     code = 0
     try:
         main()

@@ -2,8 +2,8 @@
 // Promise that rejects on a rosbridge `status` error or a failed result. stop()
 // ends the program: pending waits reject, subscriptions end, goals are cancelled
 // and every velocity topic the program drove gets a zero command.
-import { fmt, field, yaw, rangeAt, zeroVelocity, isVelocityType, poseOf, angleDiff }
-  from './util.js';
+import { fmt, field, yaw, rangeAt, zeroVelocity, isVelocityType, poseOf, angleDiff,
+  normNamespace, withNamespace } from './util.js';
 
 export { fmt, field, yaw, rangeAt };
 
@@ -22,10 +22,12 @@ export class Runtime {
   /**
    * @param ros a connected roslib Ros
    * @param hooks {log(text), highlight(blockId), error(err, blockId), idle()}
+   * @param options {namespace}: the robot namespace robot blocks' names go in (rt.ns)
    */
-  constructor(ros, hooks = {}) {
+  constructor(ros, hooks = {}, { namespace = '' } = {}) {
     this.ros = ros;
     this.hooks = hooks;
+    this.namespace = normNamespace(namespace);
     this.run = ++runCounter;
     this.n = 0;
     this.stopped = false;
@@ -40,7 +42,16 @@ export class Runtime {
     this.statusIds = new Set();
     this.lastYield = performance.now();
     this._gate = null;
+    // a refused publish (no id, e.g. someone else holds the driver lease) ends the program
+    this._onStatus = (m) => {
+      const topic = /^publish(?: \(id [^)]*\))?: ([^:\s]+):/.exec(m.msg ?? '')?.[1];
+      if (m.level === 'error' && this.advertised.has(topic)) this._fail(m.msg);
+    };
+    ros.on('status', this._onStatus);
   }
+
+  // A robot block's name in the robot namespace.
+  ns(name) { return withNamespace(this.namespace, name); }
 
   _id(op, name) { return `${op}:${name}:rosgate${this.run}.${++this.n}`; }
 
@@ -344,6 +355,7 @@ export class Runtime {
     if (this.stopped) return;
     this.stopped = true;
     this.stopRobot();
+    this.ros.off('status', this._onStatus);
     this.cancel();
     for (const [topic, sub] of this.subs) {
       this.ros.off(topic, sub.listener);

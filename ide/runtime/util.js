@@ -84,3 +84,16 @@ export function poseOf(msg, type = '') {
   else if (p?.pose) p = p.pose;            // PoseStamped
   return { x: p.position.x, y: p.position.y, theta: yaw(p.orientation) };
 }
+
+// A robot namespace as typed ('s07', '/s07/', ' / ') -> '/s07', or '' for none.
+export function normNamespace(text) {
+  const parts = String(text ?? '').split('/').map((s) => s.trim()).filter(Boolean);
+  return parts.length ? `/${parts.join('/')}` : '';
+}
+
+// A robot block's name in a namespace: ('/s07', '/turtle1/cmd_vel') -> '/s07/turtle1/cmd_vel'.
+export function withNamespace(ns, name) {
+  const n = normNamespace(ns);
+  name = String(name);
+  return n ? `${n}${name.startsWith('/') ? '' : '/'}${name}` : name;
+}

@@ -27,7 +27,7 @@ from tornado.netutil import bind_sockets
 # A client whose unsent frames exceed this many bytes loses new topic frames
 # (replies are never dropped), so a stalled reader cannot grow the server
 # without bound; the default is rosgate's --send-buffer-limit.
-SEND_BUFFER_LIMIT = 64 * 2**20
+SEND_BUFFER_LIMIT = 16 * 2**20
 
 
 class Hub:

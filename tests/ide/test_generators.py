@@ -15,12 +15,12 @@ INDEX = json.loads((EXAMPLES / "index.json").read_text())["examples"]
 # What each program must do, in both languages: (javascript, python) fragments.
 EXPECT = {
     "drive_square.json": [
-        ("await rt.callService('/turtle1/set_pen', 'turtlesim/srv/SetPen', {r: 255, g: 220, b: 0, width: 4, off: 0});",
-         "rt.call_service('/turtle1/set_pen', 'turtlesim/srv/SetPen', {'r': 255, 'g': 220, 'b': 0, 'width': 4, 'off': 0})"),
+        ("await rt.callService(rt.ns('/turtle1/set_pen'), 'turtlesim/srv/SetPen', {r: 255, g: 220, b: 0, width: 4, off: 0});",
+         "rt.call_service(rt.ns('/turtle1/set_pen'), 'turtlesim/srv/SetPen', {'r': 255, 'g': 220, 'b': 0, 'width': 4, 'off': 0})"),
         ("for (var count = 0; count < 4; count++) {", "for count in range(4):"),
-        ("await rt.move({cmd: '/turtle1/cmd_vel', type: 'geometry_msgs/msg/Twist', pose: '/turtle1/pose', "
+        ("await rt.move({cmd: rt.ns('/turtle1/cmd_vel'), type: 'geometry_msgs/msg/Twist', pose: rt.ns('/turtle1/pose'), "
          "pose_type: 'turtlesim/msg/Pose'}, 3, 2);",
-         "rt.move({'cmd': '/turtle1/cmd_vel', 'type': 'geometry_msgs/msg/Twist', 'pose': '/turtle1/pose', "
+         "rt.move({'cmd': rt.ns('/turtle1/cmd_vel'), 'type': 'geometry_msgs/msg/Twist', 'pose': rt.ns('/turtle1/pose'), "
          "'pose_type': 'turtlesim/msg/Pose'}, 3, 2)"),
         ("await rt.turn(", "rt.turn("),
         ("rt.log('square done');", "rt.log('square done')"),
@@ -31,22 +31,22 @@ EXPECT = {
         ("60, 180);", "60, 180)"),
     ],
     "three_turtles.json": [
-        ("await rt.callService('/spawn', 'turtlesim/srv/Spawn', {x: i * 2.5, y: 2, theta: (90) * Math.PI / 180, name: name2});",
-         "rt.call_service('/spawn', 'turtlesim/srv/Spawn', {'x': i * 2.5, 'y': 2, 'theta': math.radians(90), 'name': name})"),
-        ("cmd: '/' + name2 + '/cmd_vel'", "'cmd': '/' + str(name) + '/cmd_vel'"),
+        ("await rt.callService(rt.ns('/spawn'), 'turtlesim/srv/Spawn', {x: i * 2.5, y: 2, theta: (90) * Math.PI / 180, name: name2});",
+         "rt.call_service(rt.ns('/spawn'), 'turtlesim/srv/Spawn', {'x': i * 2.5, 'y': 2, 'theta': math.radians(90), 'name': name})"),
+        ("cmd: rt.ns('/' + name2 + '/cmd_vel')", "'cmd': rt.ns('/' + str(name) + '/cmd_vel')"),
     ],
     "wall_follower.json": [
-        ("rt.rangeAt((await rt.latest('/scan', 'sensor_msgs/msg/LaserScan')), (-90), 30)",
-         "range_at(rt.latest('/scan', 'sensor_msgs/msg/LaserScan'), -90, 30)"),
-        ("rt.publish('/cmd_vel', 'geometry_msgs/msg/Twist', {linear: {x: 0.3, y: 0, z: 0}, angular: {x: 0, y: 0, z: (25) * Math.PI / 180}});",
-         "rt.publish('/cmd_vel', 'geometry_msgs/msg/Twist', {'linear': {'x': 0.3, 'y': 0, 'z': 0}, 'angular': {'x': 0, 'y': 0, 'z': math.radians(25)}})"),
+        ("rt.rangeAt((await rt.latest(rt.ns('/scan'), 'sensor_msgs/msg/LaserScan')), (-90), 30)",
+         "range_at(rt.latest(rt.ns('/scan'), 'sensor_msgs/msg/LaserScan'), -90, 30)"),
+        ("rt.publish(rt.ns('/cmd_vel'), 'geometry_msgs/msg/Twist', {linear: {x: 0.3, y: 0, z: 0}, angular: {x: 0, y: 0, z: (25) * Math.PI / 180}});",
+         "rt.publish(rt.ns('/cmd_vel'), 'geometry_msgs/msg/Twist', {'linear': {'x': 0.3, 'y': 0, 'z': 0}, 'angular': {'x': 0, 'y': 0, 'z': math.radians(25)}})"),
         ("await rt.sleep(0.1);", "rt.sleep(0.1)"),
     ],
     "pid_goal.json": [
-        ("(await rt.latest('/odom', 'nav_msgs/msg/Odometry', 'pose.pose.position.x'))",
-         "rt.latest('/odom', 'nav_msgs/msg/Odometry', 'pose.pose.position.x')"),
-        ("rt.yaw((await rt.latest('/odom', 'nav_msgs/msg/Odometry', 'pose.pose.orientation'))) * 180 / Math.PI",
-         "math.degrees(yaw(rt.latest('/odom', 'nav_msgs/msg/Odometry', 'pose.pose.orientation')))"),
+        ("(await rt.latest(rt.ns('/odom'), 'nav_msgs/msg/Odometry', 'pose.pose.position.x'))",
+         "rt.latest(rt.ns('/odom'), 'nav_msgs/msg/Odometry', 'pose.pose.position.x')"),
+        ("rt.yaw((await rt.latest(rt.ns('/odom'), 'nav_msgs/msg/Odometry', 'pose.pose.orientation'))) * 180 / Math.PI",
+         "math.degrees(yaw(rt.latest(rt.ns('/odom'), 'nav_msgs/msg/Odometry', 'pose.pose.orientation')))"),
         ("while (distance > 0.1) {", "while distance > 0.1:"),
     ],
     "fibonacci.json": [

@@ -78,3 +78,13 @@ def test_velocity_types(page, py_runtime):
         assert js(page, f"u.isVelocityType({t!r})") == py_runtime.is_velocity_type(t), t
         if py_runtime.is_velocity_type(t):
             assert js(page, f"u.zeroVelocity({t!r})") == py_runtime.zero_velocity(t)
+
+
+def test_robot_namespace(page, py_runtime):
+    typed = ["", "/", " / ", "s07", "/s07", "/s07/", "//s07//x/", " s07 "]
+    assert js(page, "arg.map(u.normNamespace)", typed) == [py_runtime.norm_namespace(t) for t in typed]
+    assert py_runtime.norm_namespace("s07/") == "/s07" and py_runtime.norm_namespace(" / ") == ""
+    cases = [["", "/turtle1/cmd_vel"], ["/s07", "/turtle1/cmd_vel"], ["s07/", "/spawn"], ["/s07", "odom"]]
+    assert js(page, "arg.map(([n, x]) => u.withNamespace(n, x))", cases) == [
+        py_runtime.with_namespace(n, x) for n, x in cases]
+    assert py_runtime.with_namespace("s07/", "/spawn") == "/s07/spawn"
