@@ -9,7 +9,7 @@ import orjson
 import tornado.web
 import tornado.websocket
 
-from .backends.base import QoS
+from .backends.base import BackendError, QoS
 from .core import Gateway
 from .session import ClientSession
 from .settings import Settings
@@ -121,6 +121,19 @@ def make_app(settings: Settings, backend) -> tuple[tornado.web.Application, Gate
 
 
 def client_count_publisher(gateway: Gateway):
-    """rosbridge publishes the number of connected clients, latched, on /client_count."""
-    pub = gateway.backend.create_publisher('/client_count', 'std_msgs/msg/Int32', QoS(depth=1, transient_local=True))
-    return lambda: pub.publish({'data': len(gateway.sessions)})
+    """As rosbridge: /client_count (std_msgs/Int32) and /connected_clients, both latched."""
+    latched = QoS(depth=1, transient_local=True)
+    count = gateway.backend.create_publisher('/client_count', 'std_msgs/msg/Int32', latched)
+    try:
+        clients = gateway.backend.create_publisher('/connected_clients', 'rosbridge_msgs/msg/ConnectedClients', latched)
+    except (LookupError, BackendError):   # a ROS install without rosbridge_msgs
+        clients = None
+
+    def publish() -> None:
+        count.publish({'data': len(gateway.sessions)})
+        if clients is not None:
+            clients.publish({'clients': [
+                {'ip_address': s.remote, 'connection_time': {'sec': s.connected_at[0], 'nanosec': s.connected_at[1]}}
+                for s in gateway.sessions.values()]})
+
+    return publish

@@ -44,6 +44,7 @@ class ClientSession:
         self.tasks: set[asyncio.Task] = set()
         self.attrs: dict[str, Any] = {}                # role, lease, ... for policy hooks
         self.closed = False
+        self.connected_at = gateway.backend.now()
         self._counter = itertools.count(1)
 
     def open(self) -> None:

@@ -141,6 +141,7 @@ async function start() {
   const params = new URLSearchParams(location.search);
   url.value = params.get('url') || `${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/`
     + (params.get('name') ? `?name=${encodeURIComponent(params.get('name'))}` : '');
+  if (params.get('name')) $('.teleop-link').href = `teleop?name=${encodeURIComponent(params.get('name'))}`;
   let retry = null;
   const setStatus = (s, text) => {
     const el = $('#status');

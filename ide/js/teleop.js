@@ -28,7 +28,8 @@ state.lease = lease;
 function setStatus(s, text) { const el = $('#status'); el.dataset.state = s; el.textContent = text; document.body.dataset.connection = s; }
 
 function connect() {
-  const url = params.get('url') || `${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/`;
+  const url = params.get('url') || `${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/`
+    + (params.get('name') ? `?name=${encodeURIComponent(params.get('name'))}` : '');
   const ros = new Ros({});
   state.ros = ros;
   state.advertised = '';
