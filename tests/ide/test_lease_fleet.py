@@ -134,6 +134,7 @@ def test_fleet_claim_runs_the_program_on_the_claimed_robot(start_gateway, ide_fa
         teleop.wait_for_function("document.querySelector('#topic').value === '/s01/turtle1/cmd_vel'")
         teleop.wait_for_function("!document.querySelector('#claim').hidden")
         assert teleop.input_value("#ns") == "/s01"
+        teleop.screenshot(path=str(ARTIFACTS / "teleop-fleet.png"))
         assert not ide.errors, ide.errors
     finally:
         ros.close()
