@@ -3,6 +3,8 @@ PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
 ARGS   ?=
+# In a shell where ROS 2 is sourced, the venv sees the system's rclpy (the gateway then picks it).
+VENV_FLAGS := $(if $(ROS_DISTRO),--system-site-packages,)
 
 .PHONY: run test test-rclpy bench install install-test ide clean
 
@@ -13,7 +15,7 @@ ROS_PKGS := ros-rclpy==7.1.6 ros-rmw-fastrtps-cpp==8.4.3 ros-std-msgs==5.3.6 ros
             ros-sensor-msgs==5.3.6 ros-test-msgs==2.0.3
 
 $(PY):
-	$(PYTHON) -m venv $(VENV) || { echo "python3 -m venv failed: install python3-venv (apt-get install python3-venv)"; exit 1; }
+	$(PYTHON) -m venv $(VENV_FLAGS) $(VENV) || { echo "python3 -m venv failed: install python3-venv (apt-get install python3-venv)"; exit 1; }
 	$(PY) -m pip install -q --upgrade pip
 
 $(VENV)/.installed: pyproject.toml | $(PY)
