@@ -13,6 +13,7 @@ from protocol.msgdefs import UnknownType
 from protocol.session import Session
 
 from . import encode
+from .capabilities import HANDLERS
 from .backends.base import BackendError
 from .outbox import Outbox
 
@@ -64,7 +65,6 @@ class ClientSession:
             items = self.proto.receive_bytes(data, now)
         else:
             items = self.proto.receive_text(data, now)
-        from .capabilities import HANDLERS
         for item in items:
             if isinstance(item, ProtocolError):
                 self.report(item.op, item.id, item)

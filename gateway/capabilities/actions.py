@@ -3,6 +3,8 @@ unadvertise_action."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import asyncio
 
 from protocol.convert import from_args, from_json
@@ -15,8 +17,10 @@ from protocol.ops import (
 from ..backends.base import (
     STATUS_ABORTED, STATUS_CANCELED, STATUS_SUCCEEDED, STATUS_UNKNOWN, ActionServerCallbacks, BackendError,
 )
-from ..session import ClientSession
 from .topics import absolute
+
+if TYPE_CHECKING:
+    from ..session import ClientSession
 
 TERMINAL = (STATUS_SUCCEEDED, STATUS_CANCELED, STATUS_ABORTED)
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import asyncio
 
 from protocol.convert import from_args, from_json
@@ -11,8 +13,10 @@ from protocol.ops import AdvertiseService, CallService, ServiceResponse, Unadver
 
 from .. import rosapi
 from ..backends.base import BackendError
-from ..session import ClientSession
 from .topics import absolute
+
+if TYPE_CHECKING:
+    from ..session import ClientSession
 
 
 def call_service(s: ClientSession, op: CallService) -> None:

@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from protocol.convert import from_json
 from protocol.errors import ProtocolError
 from protocol.msgdefs import normalize
 from protocol.ops import Advertise, Publish, Subscribe, Unadvertise, Unsubscribe
 
 from ..backends.base import QoS
-from ..session import ClientSession
+
+if TYPE_CHECKING:
+    from ..session import ClientSession
 
 
 def qos_for(latch: bool, queue_size: int, qos: dict | None) -> QoS:

@@ -183,19 +183,22 @@ def test_rapid_disconnect_smoke(gateway):
     assert gateway.alive
 
 
-def test_client_count_and_connected_clients(ros, gateway):
-    counts, clients = [], []
-    roslibpy.Topic(ros, '/client_count', 'std_msgs/msg/Int32').subscribe(counts.append)
-    roslibpy.Topic(ros, '/connected_clients', 'rosbridge_msgs/msg/ConnectedClients').subscribe(clients.append)
-    wait_for(lambda: counts and clients)
-    before = counts[-1]['data']
-    assert len(clients[-1]['clients']) == before and before >= 1
-    other = roslibpy.Ros(gateway.host, gateway.port)
-    other.run(timeout=10)
+def test_client_count_and_connected_clients(start_gateway):
+    gw = start_gateway('--robot', 'none')   # its own gateway: no other test's clients come and go
+    ros = roslibpy.Ros(gw.host, gw.port)
+    ros.run(timeout=10)
     try:
-        wait_for(lambda: counts[-1]['data'] == before + 1)
-        wait_for(lambda: len(clients[-1]['clients']) == before + 1)
-        assert all(c['ip_address'] == '127.0.0.1' for c in clients[-1]['clients'])
+        counts, clients = [], []
+        roslibpy.Topic(ros, '/client_count', 'std_msgs/msg/Int32').subscribe(counts.append)
+        roslibpy.Topic(ros, '/connected_clients', 'rosbridge_msgs/msg/ConnectedClients').subscribe(clients.append)
+        wait_for(lambda: counts and counts[-1]['data'] == 1 and clients and len(clients[-1]['clients']) == 1)
+        other = roslibpy.Ros(gw.host, gw.port)
+        other.run(timeout=10)
+        try:
+            wait_for(lambda: counts[-1]['data'] == 2 and len(clients[-1]['clients']) == 2)
+            assert all(c['ip_address'] == '127.0.0.1' for c in clients[-1]['clients'])
+        finally:
+            other.close()
+        wait_for(lambda: counts[-1]['data'] == 1 and len(clients[-1]['clients']) == 1)
     finally:
-        other.close()
-    wait_for(lambda: counts[-1]['data'] == before)
+        ros.close()
