@@ -109,7 +109,8 @@ def test_multiple_subscribers(ros, gateway):
             inboxes.append(box)
         pub = roslibpy.Topic(ros, '/multi', 'std_msgs/msg/Int32')
         pub.advertise()
-        wait_for(lambda: _published_until_all(pub, inboxes))
+        sent = iter(range(10**6))
+        wait_for(lambda: _published_until_all(pub, inboxes, next(sent)))
         for box in inboxes:
             values = [m['data'] for m in box]
             assert values == sorted(values)
@@ -118,8 +119,8 @@ def test_multiple_subscribers(ros, gateway):
             o.close()
 
 
-def _published_until_all(pub, inboxes) -> bool:
-    pub.publish(roslibpy.Message({'data': int(time.monotonic() * 1000) % 2**31}))
+def _published_until_all(pub, inboxes, value: int) -> bool:
+    pub.publish(roslibpy.Message({'data': value}))
     time.sleep(0.02)
     return all(inboxes)
 

@@ -5,7 +5,6 @@ This gateway runs at --sim-speed 2: two simulated seconds per real second.
 
 from __future__ import annotations
 
-import time
 
 import pytest
 import roslibpy
