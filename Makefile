@@ -6,7 +6,7 @@ ARGS   ?=
 # In a shell where ROS 2 is sourced, the venv sees the system's rclpy (the gateway then picks it).
 VENV_FLAGS := $(if $(ROS_DISTRO),--system-site-packages,)
 
-.PHONY: run test test-rclpy bench install install-test ide clean
+.PHONY: run test test-rclpy bench install install-test ide clean system system-test
 
 # The rclpy backend's contract suite runs against real rclpy (Jazzy builds from PyPI) in a separate
 # environment, inside a network namespace with only loopback: DDS discovery stays on this machine.
@@ -14,7 +14,13 @@ ROSVENV  := .venv-ros
 ROS_PKGS := ros-rclpy==7.1.6 ros-rmw-fastrtps-cpp==8.4.3 ros-std-msgs==5.3.6 ros-geometry-msgs==5.3.6 \
             ros-sensor-msgs==5.3.6 ros-test-msgs==2.0.3
 
-$(PY):
+system:
+	@tools/system-packages run
+
+system-test:
+	@tools/system-packages test
+
+$(PY): | system
 	$(PYTHON) -m venv $(VENV_FLAGS) $(VENV) || { echo "python3 -m venv failed: install python3-venv (apt-get install python3-venv)"; exit 1; }
 	$(PY) -m pip install -q --upgrade pip
 
@@ -26,8 +32,7 @@ $(VENV)/.installed-test: pyproject.toml $(VENV)/.installed
 	$(PY) -m pip install -q -e '.[test,bench]'
 	touch $@
 
-ide/vendor/.built: ide/package.json ide/package-lock.json
-	@command -v npm >/dev/null || { echo "npm is missing: install nodejs and npm (apt-get install nodejs npm)"; exit 1; }
+ide/vendor/.built: ide/package.json ide/package-lock.json | system
 	cd ide && npm ci --no-audit --no-fund && npm run build
 	touch $@
 
@@ -42,7 +47,7 @@ ide: ide/vendor/.built
 run: install ide
 	$(PY) -m gateway --robot turtlesim $(ARGS)
 
-test: install-test ide tests/node/node_modules/.installed $(ROSVENV)/.installed
+test: system-test install-test ide tests/node/node_modules/.installed $(ROSVENV)/.installed
 	$(PY) -m pytest -q tests
 	cd tests/node && node --test
 	$(MAKE) --no-print-directory test-rclpy
