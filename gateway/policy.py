@@ -5,6 +5,9 @@ from __future__ import annotations
 from fnmatch import fnmatchcase
 from urllib.parse import urlsplit
 
+from typing import NoReturn
+
+from protocol import ops
 from protocol.errors import ProtocolError
 
 # what each checked action needs: (glob kinds that must all match)
@@ -49,7 +52,14 @@ class Policy:
 
     def admit(self, session, op) -> bool:
         """Called before every incoming op is handled: raise ProtocolError to refuse it with a
-        status; return False to drop it silently (a client already being disconnected)."""
+        status; return False to drop it silently (a client already being disconnected).
+        Here every op that names a topic, service or action is checked, once."""
+        wanted = target(op)
+        if wanted is not None:
+            try:
+                self.check(session, *wanted, op.OP, op.id)
+            except ProtocolError as e:
+                refuse(session, op, e.message)
         return True
 
     def check(self, session, action: str, name: str, op: str, id: str | None) -> None:
@@ -80,3 +90,36 @@ class Policy:
 
     def http_routes(self) -> list:
         return []
+
+
+def _absolute(name: str) -> str:
+    return name if name.startswith('/') else '/' + name
+
+
+def target(op) -> tuple[str, str] | None:
+    """(action, name) that an incoming op asks for, or None for ops that need no check."""
+    if isinstance(op, ops.Subscribe):
+        return 'subscribe', _absolute(op.topic)
+    if isinstance(op, (ops.Publish, ops.Advertise)):
+        return 'publish', _absolute(op.topic)
+    if isinstance(op, ops.CallService):
+        return 'call', _absolute(op.service)
+    if isinstance(op, ops.SendActionGoal):
+        return 'send_goal', _absolute(op.action)
+    if isinstance(op, ops.AdvertiseService):
+        return 'advertise_service', _absolute(op.service)
+    if isinstance(op, ops.AdvertiseAction):
+        return 'advertise_action', _absolute(op.action)
+    return None
+
+
+def refuse(session, op, message: str) -> NoReturn:
+    """A status error naming op and id; calls and goals also get their failed reply so clients
+    waiting on them (roslibjs, roslibpy) fail at once instead of timing out."""
+    if isinstance(op, ops.CallService):
+        session.reply({'op': 'service_response', 'service': op.service, 'id': op.id,
+                       'values': message, 'result': False})
+    elif isinstance(op, ops.SendActionGoal):
+        session.reply({'op': 'action_result', 'action': op.action, 'id': op.id,
+                       'values': message, 'status': 0, 'result': False})
+    raise ProtocolError(message, op=op.OP, id=op.id)

@@ -34,7 +34,6 @@ async def _send_goal(s: ClientSession, op: SendActionGoal, id: str) -> None:
     reply = {'op': 'action_result', 'action': op.action, 'id': id}
     adef = None
     try:
-        s.gateway.policy.check(s, 'send_goal', name, op.OP, id)
         type = normalize(op.action_type, 'action')
         adef = s.backend.action_def(type)
         goal = from_args(s.backend.defs, adef.goal, op.args)
@@ -69,7 +68,6 @@ def cancel_action_goal(s: ClientSession, op: CancelActionGoal) -> None:
 
 def advertise_action(s: ClientSession, op: AdvertiseAction) -> None:
     name = absolute(op.action)
-    s.gateway.policy.check(s, 'advertise_action', name, op.OP, op.id)
     type = normalize(op.type, 'action')
     adef = s.backend.action_def(type)
     if name in s.actions:

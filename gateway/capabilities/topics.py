@@ -40,7 +40,6 @@ def _resolve_type(s: ClientSession, topic: str, type: str | None, op: str, id: s
 
 
 def _advertise(s: ClientSession, topic: str, type: str, qos: QoS, op: str, id: str | None):
-    s.gateway.policy.check(s, 'publish', topic, op, id)
     pub = s.publishers.get(topic)
     if pub is not None:
         if pub.type != type:
@@ -83,7 +82,6 @@ def publish(s: ClientSession, op: Publish) -> None:
 
 def subscribe(s: ClientSession, op: Subscribe) -> None:
     topic = absolute(op.topic)
-    s.gateway.policy.check(s, 'subscribe', topic, op.OP, op.id)
     type = _resolve_type(s, topic, op.type, op.OP, op.id)
     existing = s.subscriptions.get(topic)
     if existing is not None and existing.fanout.type != type:

@@ -5,13 +5,12 @@ from __future__ import annotations
 import asyncio
 import re
 from dataclasses import dataclass
-from typing import NoReturn
 
 from protocol import ops
 from protocol.errors import ProtocolError
 
 from .. import rosapi
-from ..policy import Policy
+from ..policy import Policy, refuse, target
 from .tokens import AuthError, Authenticator
 
 COOKIE = 'rosgate_token'
@@ -36,26 +35,6 @@ def permission(action: str, name: str) -> str:
         return 'param' if name in WRITING_ROSAPI else 'read'
     return action
 
-
-def _absolute(name: str) -> str:
-    return name if name.startswith('/') else '/' + name
-
-
-def target(op) -> tuple[str, str] | None:
-    """(action, name) that an incoming op asks for, or None for ops that need no check."""
-    if isinstance(op, ops.Subscribe):
-        return 'subscribe', _absolute(op.topic)
-    if isinstance(op, (ops.Publish, ops.Advertise)):
-        return 'publish', _absolute(op.topic)
-    if isinstance(op, ops.CallService):
-        return 'call', _absolute(op.service)
-    if isinstance(op, ops.SendActionGoal):
-        return 'send_goal', _absolute(op.action)
-    if isinstance(op, ops.AdvertiseService):
-        return 'advertise_service', _absolute(op.service)
-    if isinstance(op, ops.AdvertiseAction):
-        return 'advertise_action', _absolute(op.action)
-    return None
 
 
 def token_from_request(request) -> str | None:
@@ -92,7 +71,7 @@ class SecurePolicy(Policy):
             return True
         if self.auth is not None and 'role' not in session.attrs:
             reason = session.attrs.get('auth_error')
-            _refuse(session, op, f'{NOT_AUTHENTICATED}{f" (the token given at connect: {reason})" if reason else ""}')
+            refuse(session, op, f'{NOT_AUTHENTICATED}{f" (the token given at connect: {reason})" if reason else ""}')
         wanted = target(op)
         if wanted is None:
             return True
@@ -100,7 +79,7 @@ class SecurePolicy(Policy):
         try:
             self.check(session, action, name, op.OP, op.id)
         except ProtocolError as e:
-            _refuse(session, op, e.message)
+            refuse(session, op, e.message)
         self._caps(session, op, name)
         return True
 
@@ -125,21 +104,21 @@ class SecurePolicy(Policy):
             if refused == threshold + 1:
                 asyncio.ensure_future(_hang_up(session, 1008, 'op rate limit exceeded'))
             return False
-        _refuse(session, op, f'op rate limit of {rate:g} per second exceeded; slow down')
+        refuse(session, op, f'op rate limit of {rate:g} per second exceeded; slow down')
 
     def _caps(self, session, op, name: str) -> None:
         lim = self.limits
         if isinstance(op, ops.Subscribe):
             if name not in session.subscriptions and len(session.subscriptions) >= lim.max_subscriptions:
-                _refuse(session, op, f'{name}: this client already has {lim.max_subscriptions} subscriptions '
+                refuse(session, op, f'{name}: this client already has {lim.max_subscriptions} subscriptions '
                                      '(--max-subscriptions)')
         elif isinstance(op, (ops.Publish, ops.Advertise)):
             if name not in session.publishers and len(session.publishers) >= lim.max_publishers:
-                _refuse(session, op, f'{name}: this client already advertises {lim.max_publishers} topics '
+                refuse(session, op, f'{name}: this client already advertises {lim.max_publishers} topics '
                                      '(--max-publishers)')
         elif isinstance(op, (ops.CallService, ops.SendActionGoal)):
             if len(session.tasks) >= lim.max_pending_calls:
-                _refuse(session, op, f'{name}: this client already has {lim.max_pending_calls} calls and goals '
+                refuse(session, op, f'{name}: this client already has {lim.max_pending_calls} calls and goals '
                                      'pending (--max-pending-calls)')
 
     # --- Policy hooks ------------------------------------------------------------------------
@@ -203,13 +182,3 @@ async def _hang_up(session, code: int, reason: str, flush: float = 1.0) -> None:
         session.close_connection(code, reason)
 
 
-def _refuse(session, op, message: str) -> NoReturn:
-    """A status error naming op and id; calls and goals also get their failed reply so clients
-    waiting on them (roslibjs, roslibpy) fail at once instead of timing out."""
-    if isinstance(op, ops.CallService):
-        session.reply({'op': 'service_response', 'service': op.service, 'id': op.id,
-                       'values': message, 'result': False})
-    elif isinstance(op, ops.SendActionGoal):
-        session.reply({'op': 'action_result', 'action': op.action, 'id': op.id,
-                       'values': message, 'status': 0, 'result': False})
-    raise ProtocolError(message, op=op.OP, id=op.id)
