@@ -194,6 +194,18 @@ class Runtime:
             print("error: %s" % exc, file=sys.stderr, flush=True)
             self.stopped.set()
 
+    def _handled(self, handler, value):
+        """Run a handler on a worker thread; False once the program stops or the handler fails."""
+        try:
+            handler(value)
+            return True
+        except StopProgram:
+            return False
+        except Exception as e:
+            traceback.print_exc()
+            self.fail(e)
+            return False
+
     # ---- program control
     def elapsed(self):
         return time.monotonic() - self.t0
@@ -252,13 +264,7 @@ class Runtime:
                     if self.stopped.is_set():
                         return
                     msg, slot["has"] = slot["msg"], False
-                try:
-                    handler(msg)
-                except StopProgram:
-                    return
-                except Exception as e:
-                    traceback.print_exc()
-                    self.fail(e)
+                if not self._handled(handler, msg):
                     return
 
         def offer(msg):
@@ -326,13 +332,7 @@ class Runtime:
                 values = feedbacks.get()
                 if values is None or self.stopped.is_set():
                     return
-                try:
-                    on_feedback(values)
-                except StopProgram:
-                    return
-                except Exception as e:
-                    traceback.print_exc()
-                    self.fail(e)
+                if not self._handled(on_feedback, values):
                     return
 
         thread = None
