@@ -103,8 +103,7 @@ class TopicFanout:
         backend = self.gateway.backend
         if self.last is None or not backend.latched(self.topic):
             return   # a new shared subscription: the backend delivers the retained messages itself
-        retained = getattr(backend, 'latched_messages', None)
-        for msg in (retained(self.topic) if retained else None) or [self.last]:
+        for msg in backend.latched_messages(self.topic) or [self.last]:
             sub.last_sent = time.monotonic()
             sub.deliver(self._encode(msg, sub.compression, sub.fragment_size))
 

@@ -114,6 +114,9 @@ class Backend(Protocol):
     def latched(self, topic: str) -> bool:
         """True when every publisher of the topic is transient-local (a latched topic)."""
 
+    def latched_messages(self, topic: str) -> list[Message] | None:
+        """What a new transient-local subscriber would receive now, or None if unknown."""
+
     # services
     async def call_service(self, service: str, type: str, request: Message, timeout: float) -> Message:
         """Raises BackendError (no such service, the server failed) or ServiceTimeout."""

@@ -298,6 +298,10 @@ class RclpyBackend:
         return bool(infos) and all(i.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
                                    for i in infos)
 
+    def latched_messages(self, topic: str) -> None:
+        """DDS keeps what transient-local publishers retain; the gateway cannot read it back."""
+        return None
+
     # --- services -----------------------------------------------------------------------------
 
     def _client(self, service: str, type: str, cls):
