@@ -13,8 +13,8 @@ import cbor2
 import orjson
 from pybase64 import b64encode_as_string
 
-from .errors import ProtocolError, json_type
-from .ops import Fragment
+from .errors import ProtocolError, json_type, shown
+from .ops import Fragment, peek_id
 
 _DUMPS_OPTIONS = orjson.OPT_SERIALIZE_NUMPY
 _LITTLE = sys.byteorder == 'little'
@@ -58,18 +58,73 @@ def _constant(token: str) -> float:
 
 
 def decode_text(data: str | bytes) -> dict:
-    """A JSON text frame as an op object; ProtocolError on bad JSON or a non-object."""
+    """A JSON text frame as an op object; ProtocolError on bad JSON or a non-object.
+
+    Errors are raised outside of except blocks: an exception's context would keep the parser's
+    error, whose .doc is the whole frame, alive with it.
+    """
+    error = None
     try:
         obj = orjson.loads(data)
     except orjson.JSONDecodeError as e:
-        # Python clients (json.dumps) send NaN/Infinity tokens that strict JSON parsers refuse
-        try:
-            obj = json.loads(data, parse_constant=_constant)
-        except (ValueError, RecursionError):
-            raise ProtocolError(f'invalid JSON: {e}') from None
+        error = str(e)
+    if error is not None:
+        obj = _lenient(data, error)
     if type(obj) is not dict:
         raise ProtocolError(f'expected a JSON object, got {json_type(obj)}')
     return obj
+
+
+_INVALID = object()
+
+
+def _lenient(data: str | bytes, error: str):
+    """What orjson refused, parsed again as Python's json does: Python clients (json.dumps) send
+    NaN/Infinity tokens. That parser also lets escaped lone surrogates ("\\ud800") through, which
+    no encoder can write back and no ROS string may hold: those are refused here, at the edge."""
+    try:
+        obj = json.loads(data, parse_constant=_constant)
+    except (ValueError, RecursionError):
+        obj = _INVALID
+    if obj is _INVALID:
+        raise ProtocolError(f'invalid JSON: {error}')
+    bad = _not_unicode(obj)
+    if bad is not None:
+        op = obj.get('op') if type(obj) is dict else None
+        op = op if type(op) is str and _unicode(op) else None
+        id = peek_id(obj) if bad != 'id' else None
+        raise ProtocolError(f"field '{bad}' is not valid Unicode (it holds a lone surrogate); "
+                            'strings must be UTF-8', op=op, id=id)
+    return obj
+
+
+def _unicode(text: str) -> bool:
+    if text.isascii():
+        return True
+    try:
+        text.encode('utf-8')
+    except UnicodeEncodeError:
+        return False
+    return True
+
+
+def _not_unicode(obj) -> str | None:
+    """The path of the first string (value or key) in obj that is not valid Unicode, or None."""
+    stack = [(obj, '')]
+    while stack:
+        value, path = stack.pop()
+        t = type(value)
+        if t is str:
+            if not _unicode(value):
+                return path or '(the message)'
+        elif t is dict:
+            for key, item in value.items():
+                if not _unicode(key):
+                    return f'{path}.{shown(key)}' if path else shown(key)
+                stack.append((item, f'{path}.{key}' if path else key))
+        elif t is list:
+            stack.extend((item, f'{path}[{i}]') for i, item in enumerate(value))
+    return None
 
 
 # --- CBOR ---------------------------------------------------------------------------------------
@@ -94,10 +149,13 @@ def _tag_hook(*args):
 
 def decode_binary(data: bytes) -> dict:
     """A CBOR binary frame as an op object (typed arrays become lists); ProtocolError otherwise."""
+    error = None
     try:
         obj = cbor2.loads(data, tag_hook=_tag_hook, max_depth=100, strict_hashable_types=True)
-    except (cbor2.CBORError, ValueError, TypeError, OverflowError, RecursionError) as e:
-        raise ProtocolError(f'invalid CBOR: {e}') from None
+    except Exception as e:   # whatever the decoder or its semantic tags raise: the bytes were bad
+        error = f'invalid CBOR: {shown(str(e), 200)}'
+    if error is not None:
+        raise ProtocolError(error)
     if type(obj) is not dict:
         raise ProtocolError(f'expected a CBOR map, got {json_type(obj)}')
     return obj
@@ -172,17 +230,27 @@ def png_ops(frame: bytes | str, max_size: int | None = None, id: str | None = No
 
 
 def decode_png(data_b64: str, max_bytes: int = 64 * 2**20) -> dict:
-    """The op object inside a png op's data (the whole data, pieces already joined)."""
-    from PIL import Image, UnidentifiedImageError
+    """The op object inside a png op's data (the whole data, pieces already joined).
 
+    The image is refused by its header, before decoding, when its pixels would exceed max_bytes
+    (the gateway passes its frame limit): a small png can inflate to gigabytes.
+    """
+    from PIL import Image
+
+    error = None
     try:
         raw = binascii.a2b_base64(data_b64, strict_mode=True)
         with Image.open(io.BytesIO(raw)) as img:
-            if img.width * img.height * 3 > max_bytes:
-                raise ProtocolError(f'png: image of {img.width}x{img.height} pixels is too large', op='png')
-            pixels = img.convert('RGB').tobytes()
-    except (binascii.Error, UnidentifiedImageError, Image.DecompressionBombError, OSError, ValueError) as e:
-        raise ProtocolError(f'png: cannot decode data: {e}', op='png') from None
+            size = img.width * img.height * 3
+            if size > max_bytes:
+                error = (f'png: image of {img.width}x{img.height} pixels is too large: {size} bytes, over the '
+                         f'limit of {max_bytes} bytes')
+            else:
+                pixels = img.convert('RGB').tobytes()
+    except Exception as e:   # base64, PIL and zlib errors alike: the data was bad
+        error = f'png: cannot decode data: {shown(str(e), 200)}'
+    if error is not None:
+        raise ProtocolError(error, op='png')
     return decode_text(pixels.rstrip(b'\n'))
 
 

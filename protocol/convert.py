@@ -18,7 +18,7 @@ from pybase64 import b64decode   # SIMD base64: images are megabytes of it
 
 from .cdr import from_cdr, to_cdr
 from .compiled import B64_TYPES, MISSING, compiled, default_message, field_default
-from .errors import ConversionError, json_type
+from .errors import ConversionError, json_type, shown
 from .msgdefs import FLOATS, INTEGERS, Definitions, Field, MsgDef
 
 __all__ = ['default_message', 'from_args', 'from_cdr', 'from_json', 'to_cbor', 'to_cdr']
@@ -68,7 +68,7 @@ def _float64(v):
         try:
             return float(v)
         except OverflowError:
-            raise _Bad(f'is out of range for float64, got {v}') from None
+            raise _Bad(f'is out of range for float64, got {shown(v)}') from None
         except (TypeError, ValueError):
             pass
     raise _Bad(f'must be a number, got {json_type(v)}')
@@ -82,7 +82,7 @@ def _float32(v):
     x = _float64(v)
     if _in_f32(x):
         return x
-    raise _Bad(f'is out of range for float32, got {v}')
+    raise _Bad(f'is out of range for float32, got {shown(v)}')
 
 
 def _boolean(v):
@@ -102,7 +102,7 @@ def _integer(typ: str):
             v = operator.index(v)  # numpy integers, IntEnum
         if lo <= v <= hi:
             return v
-        raise _Bad(f'must be {article} {typ} ({lo}..{hi}), got {v}')
+        raise _Bad(f'must be {article} {typ} ({lo}..{hi}), got {shown(v)}')
     return check
 
 

@@ -53,3 +53,25 @@ def json_type(value: object) -> str:
     if isinstance(value, (bytes, bytearray, memoryview)):
         return 'bytes'
     return type(value).__name__
+
+
+def shown(value: object, limit: int = 80) -> str:
+    """A value for an error sentence: short, and safe for any value a client can send (a
+    5,000-digit integer cannot even be printed: Python refuses to convert it to text)."""
+    if type(value) is int:
+        bits = value.bit_length()
+        return str(value) if bits <= 128 else f'{"a negative" if value < 0 else "an"} integer of {bits} bits'
+    try:
+        text = repr(value)
+    except Exception:   # a value whose repr fails is still an answerable mistake
+        return json_type(value)
+    return text if len(text) <= limit else text[:limit - 3] + '...'
+
+
+def detached(error: ProtocolError) -> ProtocolError:
+    """The error without its traceback and context, which hold the frames of the parser and with
+    them the whole client frame (a JSONDecodeError's .doc), often in a reference cycle."""
+    error.__traceback__ = None
+    error.__context__ = None
+    error.__cause__ = None
+    return error

@@ -5,10 +5,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
-from .errors import ProtocolError, json_type
+from .errors import ProtocolError, json_type, shown
 
 COMPRESSIONS = ('none', 'png', 'cbor', 'cbor-raw')
 LEVELS = ('info', 'warning', 'error', 'none')
+MAX_INT = 2**31 - 1            # counts, sizes and milliseconds in op fields
+MAX_SECONDS = 10.0**9          # timeouts
 
 
 class _Bad(Exception):
@@ -34,7 +36,7 @@ def _string(v):
 def _ident(v):
     if type(v) is str:
         return v
-    if type(v) is int:
+    if type(v) is int and v.bit_length() <= 64:
         return str(v)
     raise _Bad('must be a string')
 
@@ -45,23 +47,27 @@ def _boolean(v):
     raise _Bad('must be a boolean')
 
 
-def _integer(minimum: int | None = None):
+def _integer(minimum: int = -MAX_INT - 1, maximum: int = MAX_INT):
     def check(v):
         if type(v) is not int:
             raise _Bad('must be an integer')
-        if minimum is not None and v < minimum:
+        if v < minimum:
             raise _Bad(f'must be >= {minimum}', v)
+        if v > maximum:
+            raise _Bad(f'must be <= {maximum}', v)
         return v
     return check
 
 
-def _number(minimum: float | None = None):
+def _number(minimum: float | None = None, maximum: float = MAX_SECONDS):
     def check(v):
         if type(v) is not int and type(v) is not float:
             raise _Bad('must be a number')
         if minimum is not None and not v >= minimum:
             raise _Bad(f'must be >= {minimum}', v)
-        return v
+        if not v <= maximum:
+            raise _Bad(f'must be <= {maximum:g}', v)
+        return float(v)
     return check
 
 
@@ -325,7 +331,7 @@ def peek_id(obj: object) -> str | None:
         v = obj.get('id')
         if type(v) is str:
             return v
-        if type(v) is int:
+        if type(v) is int and v.bit_length() <= 64:
             return str(v)
     return None
 
@@ -342,7 +348,7 @@ def parse_op(obj: object) -> Op:
         raise ProtocolError(f"field 'op' must be a string, got {json_type(op)}", id=mid)
     cls = OPS.get(op)
     if cls is None:
-        raise ProtocolError(f'unknown op {op!r}', op=op, id=mid)
+        raise ProtocolError(f'unknown op {shown(op)}', op=op, id=mid)
     kwargs = {}
     for name, spec in cls.SPEC.items():
         value = obj.get(name)
@@ -355,6 +361,6 @@ def parse_op(obj: object) -> Op:
         try:
             kwargs[name] = spec.check(value)
         except _Bad as e:
-            shown = f'got {json_type(value)}' if len(e.args) == 1 else f'got {e.args[1]!r}'
-            raise ProtocolError(f"{op}: field '{name}' {e.args[0]}, {shown}", op=op, id=mid) from None
+            got = json_type(value) if len(e.args) == 1 else shown(e.args[1])
+            raise ProtocolError(f"{op}: field '{name}' {e.args[0]}, got {got}", op=op, id=mid) from None
     return cls(**kwargs)

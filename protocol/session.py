@@ -5,7 +5,7 @@ from __future__ import annotations
 import re
 
 from .codec import Reassembler, decode_binary, decode_png, decode_text
-from .errors import ProtocolError
+from .errors import ProtocolError, detached
 from .ops import Fragment, Op, Png, SetLevel, parse_op, peek_id
 
 LEVEL_RANK = {'info': 0, 'warning': 1, 'warn': 1, 'error': 2, 'none': 3}
@@ -55,7 +55,7 @@ class Session:
         try:
             obj = decode(data)
         except ProtocolError as e:
-            out.append(e)
+            out.append(detached(e))
             return out
         self._handle(obj, now, out)
         return out
@@ -122,14 +122,17 @@ class Session:
                     raise ProtocolError('png: a png op may not carry another png op', op='png', id=op.id)
                 if op.total not in (None, 1):
                     raise ProtocolError('png: fragmented png input is not supported', op='png', id=op.id)
-                self._handle(decode_png(op.data), now, out, op)
+                limit = self.max_message_size or 64 * 2**20
+                self._handle(decode_png(op.data, limit), now, out, op)
                 return
             if isinstance(op, SetLevel):
                 self.level = op.level
             out.append(op)
         except ProtocolError as e:
-            if e.id is None and e.op is None:
-                e.id = peek_id(obj)
-                if e.id is None and outer is not None:
+            if e.id is None:   # name the op the client can match: its own id, else the carrier's
+                own = peek_id(obj) if e.op is None or e.op == obj.get('op') else None
+                if own is not None:
+                    e.id = own
+                elif outer is not None:
                     e.op, e.id = outer.OP, outer.id
-            out.append(e)
+            out.append(detached(e))

@@ -143,7 +143,7 @@ def test_error_path_prefix(defs):
     ('small', True, "field 'small' must be an integer, got boolean"),
     ('small', '1', "field 'small' must be an integer, got string"),
     ('single', 1e39, "field 'single' is out of range for float32, got 1e+39"),
-    ('single', 10**400, f"field 'single' is out of range for float64, got {10**400}"),
+    ('single', 10**400, "field 'single' is out of range for float64, got an integer of 1329 bits"),
     ('short', 'abcdef', "field 'short' must be at most 5 characters, got 6"),
     ('short', 5, "field 'short' must be a string, got number"),
 ])
