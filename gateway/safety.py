@@ -189,11 +189,12 @@ class Safety:
             if temporary:
                 pub.detach(0)
 
-    def stop_session(self, session) -> int:
-        """Zero every velocity topic this client left moving; returns how many."""
+    def stop_session(self, session, where=None) -> int:
+        """Zero every velocity topic this client left moving (those ``where(topic)`` accepts,
+        when given); returns how many."""
         count = 0
         for topic, stream in self.streams.get(session.id, {}).items():
-            if stream.moving:
+            if stream.moving and (where is None or where(topic)):
                 self._stop(topic, stream)
                 count += 1
         return count

@@ -67,9 +67,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     s.add_argument('--velocity-limits', metavar='LIMITS.toml', type=_loaded(VelocityLimits.load),
                    help='per-topic clamps ([[limits]] tables with topic, max_linear, max_angular)')
     s.add_argument('--exclusive-control', action='store_true',
-                   help='one client at a time drives; see /rosgate/driver and /rosgate/control')
-    s.add_argument('--control-glob', help='more names under the driver lease besides velocity topics, '
-                                          'e.g. "[\'/turtle1/*\']"')
+                   help='one client at a time drives each robot (fleet station, robot namespace or '
+                        '--control-glob group); see /rosgate/driver and /rosgate/control')
+    s.add_argument('--control-glob', help='more names under the driver lease besides velocity topics, each '
+                                          'glob its own lease, e.g. "[\'/turtle1/*\', \'/turtle2/*\']"')
 
 
 def install(gateway, app) -> None:
@@ -87,8 +88,17 @@ def install(gateway, app) -> None:
         auth = Authenticator(store, Brake(base=extra.get('auth_backoff', 0.5)))
     lease = None
     if extra.get('exclusive_control'):
+        def in_group(group):
+            return lambda topic: lease.group(topic) == group
+
+        def stop_group(group):
+            for session in list(gateway.sessions.values()):
+                safety.stop_session(session, in_group(group))
+
         lease = Lease(gateway, types=frozenset(types), globs=parse_globs(extra.get('control_glob')),
-                      takeover_role='admin' if auth else None, on_lost=safety.stop_session)
+                      takeover_role='admin' if auth else None,
+                      on_lost=lambda session, group: safety.stop_session(session, in_group(group)),
+                      stop_group=stop_group)
     d = Limits()
     limits = Limits(**{k: extra.get(k, getattr(d, k)) for k in
                        ('max_subscriptions', 'max_publishers', 'max_pending_calls', 'max_op_rate')})
