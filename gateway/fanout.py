@@ -64,11 +64,21 @@ class TopicFanout:
         self.handle = backend.subscribe(topic, type, self._on_message)
 
     def add(self, session: ClientSession, sid: str | None, options: tuple) -> Subscriber:
-        sub = self.subscribers.get(session.id)
-        if sub is None:
-            sub = self.subscribers[session.id] = Subscriber(session, self)
+        """Add or change one subscribe id; on failure the subscriber is as it was (or absent)."""
+        sub = self.subscribers.get(session.id) or Subscriber(session, self)
+        before = sub.options.get(sid)
         sub.options[sid] = options
-        sub.update(self.gateway.settings.default_queue_length)
+        try:
+            sub.update(self.gateway.settings.default_queue_length)
+        except BaseException:
+            if before is None:
+                del sub.options[sid]
+            else:
+                sub.options[sid] = before
+            if sub.options:
+                sub.update(self.gateway.settings.default_queue_length)
+            raise
+        self.subscribers[session.id] = sub
         return sub
 
     def remove(self, session: ClientSession, sid: str | None) -> bool:

@@ -9,10 +9,9 @@ from collections.abc import Callable, Coroutine
 from typing import TYPE_CHECKING, Any
 
 from protocol.errors import ProtocolError
-from protocol.msgdefs import UnknownType
 from protocol.session import Session
 
-from . import encode
+from . import blame, encode
 from .capabilities import HANDLERS
 from .backends.base import BackendError
 from .outbox import Outbox
@@ -22,7 +21,6 @@ if TYPE_CHECKING:
 
 log = logging.getLogger('rosgate')
 _session_ids = itertools.count(1)
-CLIENT_ERRORS = (ProtocolError, BackendError, UnknownType, ValueError, TypeError)
 
 
 class ClientSession:
@@ -61,10 +59,14 @@ class ClientSession:
         if self.closed:
             return
         now = asyncio.get_running_loop().time()
-        if isinstance(data, bytes):
-            items = self.proto.receive_bytes(data, now)
-        else:
-            items = self.proto.receive_text(data, now)
+        try:
+            if isinstance(data, bytes):
+                items = self.proto.receive_bytes(data, now)
+            else:
+                items = self.proto.receive_text(data, now)
+        except Exception as e:   # a bug in decoding: the frame is lost, the connection is not
+            self.report(None, None, e)
+            return
         for item in items:
             if isinstance(item, ProtocolError):
                 self.report(item.op, item.id, item)
@@ -109,18 +111,13 @@ class ClientSession:
             self.reply(status)
 
     def report(self, op: str | None, id: str | None, exc: BaseException) -> None:
-        if isinstance(exc, ProtocolError):
-            message = exc.message
-            if op and message.startswith(f'{op}:'):
-                message = message[len(op) + 1:].lstrip()
-            self.status(exc.level, message, op, id)
-        elif isinstance(exc, CLIENT_ERRORS):
-            self.status('error', str(exc) or type(exc).__name__, op, id)
-        elif isinstance(exc, KeyError):
-            self.status('error', f'not found: {exc.args[0] if exc.args else exc}', op, id)
-        else:
+        """The status for a failed op; errors that are nobody's but ours are logged (blame.py)."""
+        message = blame.sentence(exc)
+        if not blame.answerable(exc):
             log.error('internal error handling %s (id %s)', op, id, exc_info=exc)
-            self.status('error', f'internal error ({type(exc).__name__}); the server carries on', op, id)
+        elif op and message.startswith(f'{op}:'):
+            message = message[len(op) + 1:].lstrip()
+        self.status(getattr(exc, 'level', 'error'), message, op, id)
 
     def _overflow(self, dropped: int) -> None:
         status = self.proto.status(

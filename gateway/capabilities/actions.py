@@ -14,6 +14,7 @@ from protocol.ops import (
     ActionFeedback, ActionResult, AdvertiseAction, CancelActionGoal, SendActionGoal, UnadvertiseAction,
 )
 
+from .. import blame
 from ..backends.base import (
     STATUS_ABORTED, STATUS_CANCELED, STATUS_SUCCEEDED, STATUS_UNKNOWN, ActionServerCallbacks, BackendError,
 )
@@ -50,9 +51,10 @@ async def _send_goal(s: ClientSession, op: SendActionGoal, id: str) -> None:
             s.client_goals.pop(id, None)
     except asyncio.CancelledError:
         raise
-    except (ProtocolError, BackendError, LookupError, ValueError, TypeError) as e:
-        message = getattr(e, 'message', None) or str(e)
-        s.reply({**reply, 'values': message, 'status': STATUS_UNKNOWN, 'result': False})
+    except Exception as e:   # the caller always gets its result; bugs are also logged
+        s.reply({**reply, 'values': blame.sentence(e), 'status': STATUS_UNKNOWN, 'result': False})
+        if not blame.answerable(e):
+            s.report(op.OP, op.id, e)
         return
     s.reply({**reply, 'values': outcome.result, 'status': outcome.status, 'result': True},
             op.compression, op.fragment_size, msgdef=adef.result, defs=s.backend.defs, body='values')

@@ -11,7 +11,7 @@ from protocol.errors import ProtocolError
 from protocol.msgdefs import normalize
 from protocol.ops import AdvertiseService, CallService, ServiceResponse, UnadvertiseService
 
-from .. import rosapi
+from .. import blame, rosapi
 from ..backends.base import BackendError
 from .topics import absolute
 
@@ -38,15 +38,13 @@ async def _call(s: ClientSession, op: CallService) -> None:
             values = await s.backend.call_service(name, type, request, timeout if timeout > 0 else None)
     except asyncio.CancelledError:
         raise
-    except (ProtocolError, BackendError, LookupError, ValueError, TypeError) as e:
-        s.reply({**reply, 'values': _sentence(e), 'result': False})
+    except Exception as e:   # the caller always gets its reply; bugs are also logged
+        s.reply({**reply, 'values': blame.sentence(e), 'result': False})
+        if not blame.answerable(e):
+            s.report(op.OP, op.id, e)
         return
     s.reply({**reply, 'values': values, 'result': True}, op.compression, op.fragment_size,
             msgdef=srv.response if srv else None, defs=s.backend.defs, body='values')
-
-
-def _sentence(e: Exception) -> str:
-    return getattr(e, 'message', None) or str(e) or type(e).__name__
 
 
 def service_type(s: ClientSession, name: str) -> str:
@@ -58,6 +56,8 @@ def service_type(s: ClientSession, name: str) -> str:
 
 def advertise_service(s: ClientSession, op: AdvertiseService) -> None:
     name = absolute(op.service)
+    if rosapi.handles(name):   # calls would still reach the gateway; listings would show it twice
+        raise ProtocolError(f'{name} is served by the gateway itself', op=op.OP, id=op.id)
     type = normalize(op.type, 'srv')
     srv = s.backend.srv_def(type)
     owner = s.gateway.service_owners.get(name)

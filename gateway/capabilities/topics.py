@@ -5,9 +5,9 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from protocol.convert import from_json
-from protocol.errors import ProtocolError
+from protocol.errors import ProtocolError, json_type, shown
 from protocol.msgdefs import normalize
-from protocol.ops import Advertise, Publish, Subscribe, Unadvertise, Unsubscribe
+from protocol.ops import MAX_INT, MAX_SECONDS, Advertise, Publish, Subscribe, Unadvertise, Unsubscribe
 
 from ..backends.base import QoS
 
@@ -18,13 +18,30 @@ if TYPE_CHECKING:
 def qos_for(latch: bool, queue_size: int, qos: dict | None) -> QoS:
     """rosbridge's latch/queue_size, refined by the optional qos object of newer clients."""
     q = qos or {}
-    depth = q.get('depth', queue_size if queue_size and queue_size > 0 else 10)
+    depth = _qos_number(q, 'depth', queue_size if queue_size and queue_size > 0 else 10, MAX_INT)
     return QoS(
         depth=max(1, int(depth)),
-        reliable=str(q.get('reliability', 'reliable')).lower() != 'best_effort',
-        transient_local=latch or str(q.get('durability', '')).lower() == 'transient_local',
-        history_keep_all=str(q.get('history', '')).lower() == 'keep_all',
-        deadline=q.get('deadline'), lifespan=q.get('lifespan'))
+        reliable=_qos_word(q, 'reliability', 'reliable') != 'best_effort',
+        transient_local=latch or _qos_word(q, 'durability', '') == 'transient_local',
+        history_keep_all=_qos_word(q, 'history', '') == 'keep_all',
+        deadline=_qos_number(q, 'deadline', None, MAX_SECONDS),
+        lifespan=_qos_number(q, 'lifespan', None, MAX_SECONDS))
+
+
+def _qos_number(q: dict, key: str, default, maximum: float):
+    value = q.get(key)
+    if value is None:
+        return default
+    if type(value) not in (int, float) or not 0 <= value <= maximum:
+        raise ProtocolError(f"field 'qos.{key}' must be a number in 0..{maximum:g}, got {shown(value)}")
+    return value
+
+
+def _qos_word(q: dict, key: str, default: str) -> str:
+    value = q.get(key, default)
+    if type(value) is not str:
+        raise ProtocolError(f"field 'qos.{key}' must be a string, got {json_type(value)}")
+    return value.lower()
 
 
 def _resolve_type(s: ClientSession, topic: str, type: str | None, op: str, id: str | None) -> str:
@@ -88,7 +105,12 @@ def subscribe(s: ClientSession, op: Subscribe) -> None:
         raise ProtocolError(f'{topic} is already subscribed with type {existing.fanout.type}', op=op.OP, id=op.id)
     fan = s.gateway.fanout(topic, type)
     fresh = s.id not in fan.subscribers
-    sub = fan.add(s, op.id, (op.throttle_rate, op.queue_length, op.compression, op.fragment_size))
+    try:
+        sub = fan.add(s, op.id, (op.throttle_rate, op.queue_length, op.compression, op.fragment_size))
+    except BaseException:   # release next to creation: a failed subscribe leaves no subscription
+        if not fan.subscribers:
+            s.gateway.drop_fanout(fan)
+        raise
     s.subscriptions[topic] = sub
     if fresh:
         fan.replay_latched(sub)
