@@ -62,6 +62,15 @@ def build_parser() -> argparse.ArgumentParser:
                    help='sim: seconds between /fibonacci steps [%(default)s]')
     b.add_argument('--programs-dir', type=Path, default=default_programs_dir(),
                    help='where the IDE program library is stored [%(default)s]')
+    r = p.add_argument_group('robot-side runs and recordings')
+    r.add_argument('--allow-runs', action='store_true',
+                   help='let operators run programs as processes on this machine (POST /api/runs): '
+                        'this executes code sent over the network')
+    r.add_argument('--runs-dir', type=Path, help='where runs get their working directories '
+                                                 '[$XDG_DATA_HOME/rosgate/runs]')
+    r.add_argument('--record', type=Path, metavar='DIR',
+                   help='record from start-up into DIR (also where /api/recordings keeps its files)')
+    r.add_argument('--record-topics', metavar='GLOBS', help='topics --record takes, e.g. "[\'/turtle1/*\']" [all]')
     b.add_argument('--log-level', default='info', choices=('debug', 'info', 'warning', 'error'))
     for extension in _extensions():
         extension.add_arguments(p)

@@ -46,6 +46,10 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
         self.session = ClientSession(self.gateway, self._send, self.close, self.request.remote_ip or '')
         self.session.attrs.update(self.gateway.policy.connect_attrs(self.request))
         self.session.open()
+        for hook in self.gateway.hooks:   # e.g. a robot-side run knowing its own connection
+            on_connect = getattr(hook, 'on_connect', None)
+            if on_connect:
+                on_connect(self.session, self.request)
         self.gateway.client_count_changed()
 
     def _send(self, payload: bytes, binary: bool):
@@ -108,6 +112,9 @@ def make_app(settings: Settings, backend) -> tuple[tornado.web.Application, Gate
     if settings.programs_dir is not None:
         from .programs import program_routes
         routes += program_routes(settings.programs_dir)
+    from .recordings import recording_routes
+    from .runs import run_routes
+    routes += run_routes(gateway) + recording_routes(gateway)
     routes += gateway.policy.http_routes()
     routes.append((r'/(.*)', IdeFileHandler, {'path': str(settings.ide_dir), 'default_filename': 'index.html'}))
     app = tornado.web.Application(

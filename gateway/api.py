@@ -1,0 +1,58 @@
+"""Shared parts of the JSON HTTP API (/api/runs, /api/recordings): errors as JSON, who is asking,
+and the checks in front of every request that changes something."""
+
+from __future__ import annotations
+
+import json
+
+import tornado.web
+
+
+class JsonHandler(tornado.web.RequestHandler):
+    def set_default_headers(self) -> None:
+        self.set_header('Content-Type', 'application/json; charset=utf-8')
+        self.set_header('Cache-Control', 'no-store')
+
+    def write_error(self, status_code: int, **kwargs) -> None:
+        reason = self._reason
+        exc = kwargs.get('exc_info')
+        if exc and isinstance(exc[1], tornado.web.HTTPError) and exc[1].log_message:
+            reason = exc[1].log_message
+        self.finish(json.dumps({'error': reason, 'status': status_code}))
+
+
+def caller(handler: tornado.web.RequestHandler, gateway, *, change: bool = False, roles=None):
+    """The caller's Identity (None when auth is off). Anyone with a valid token may read; a
+    request that changes something must come from an allowed browser origin (or no browser) and,
+    with auth, from one of ``roles``."""
+    from .security.http import require
+
+    policy = gateway.policy
+    if change:
+        origin = handler.request.headers.get('Origin')
+        if origin and not policy.origin_allowed(origin, handler.request):
+            raise tornado.web.HTTPError(403, f'requests from {origin} are not allowed (--allowed-origins)')
+    if getattr(policy, 'auth', None) is None:
+        return None
+    identity = require(handler, policy, 'read')
+    if roles is not None and identity.role not in roles:
+        raise tornado.web.HTTPError(403, f'role {identity.role} may not do this; it needs {" or ".join(roles)}')
+    return identity
+
+
+def body_json(handler: tornado.web.RequestHandler, limit: int) -> dict:
+    """The request body as a JSON object (sent as application/json, so browsers of other
+    origins cannot send it without a preflight that this server never grants)."""
+    body = handler.request.body
+    if len(body) > limit:
+        raise tornado.web.HTTPError(413, f'body larger than {limit} bytes')
+    kind = handler.request.headers.get('Content-Type', '').split(';')[0].strip().lower()
+    if kind != 'application/json':
+        raise tornado.web.HTTPError(415, 'send the body as application/json')
+    try:
+        value = json.loads(body)
+    except ValueError as e:
+        raise tornado.web.HTTPError(400, f'body is not JSON: {e}') from None
+    if not isinstance(value, dict):
+        raise tornado.web.HTTPError(400, 'the body is a JSON object')
+    return value

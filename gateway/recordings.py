@@ -1,0 +1,370 @@
+"""Recordings: topics over time, written as ROS 2 bags in MCAP storage, and played back.
+
+POST   /api/recordings              {"topics": ["/turtle1/pose", "/scan*"], "max_seconds": 600} -> 201 {"id", ...}
+GET    /api/recordings              -> {"recordings": [summary, ...]} (this run's and those on disk)
+GET    /api/recordings/ID           -> summary
+DELETE /api/recordings/ID           -> stops a recording (a finished one: deletes it)
+GET    /api/recordings/ID.mcap      -> the MCAP file (once it is finished)
+POST   /api/recordings/ID/play      {"rate": 1.0, "prefix": "/replay"} -> 202; republishes with the original timing
+DELETE /api/recordings/ID/play      -> stops playing
+
+Each recording is a rosbag2 directory (metadata.yaml and ID.mcap) written by rosbags' writer:
+CDR messages with their definitions, which ``ros2 bag``, Foxglove and the rosbags/mcap readers
+open. The recorder is one more subscriber of each topic's shared fan-out, asking for cbor-raw
+(the CDR bytes the backend makes once for every cbor-raw client), so it adds no backend
+subscription and no per-message work beyond appending bytes to the writer.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import itertools
+import logging
+import os
+import re
+import secrets
+import shutil
+import time
+from dataclasses import dataclass
+from fnmatch import fnmatchcase
+from pathlib import Path
+
+import cbor2
+import tornado.web
+
+from .api import JsonHandler, body_json, caller
+from .backends.base import BackendError, QoS
+
+log = logging.getLogger('rosgate.recordings')
+_ID = re.compile(r'rec-\d{8}-\d{6}-[0-9a-f]{4}')
+_tap_ids = itertools.count(-1, -1)   # fan-out keys of recorders: negative, never a client's
+RECORD_OVERHEAD = 31                 # bytes of an MCAP message record besides the data
+POLL = 0.5                           # s between looks for new topics matching a recording's globs
+
+
+@dataclass(frozen=True)
+class RecordingLimits:
+    max_concurrent: int = 4
+    max_bytes: int = 256 * 2**20
+    max_seconds: float = 3600.0
+    default_seconds: float = 600.0
+    disk_reserve: int = 256 * 2**20   # free space left on the disk, besides the cap
+
+
+class _Tap:
+    """Stands where a client session would in a topic's fan-out: its 'outbox' gets the cbor-raw
+    frames ({'op': 'publish', 'topic', 'msg': {'secs', 'nsecs', 'bytes'}})."""
+
+    closed = False
+
+    def __init__(self, recording: Recording, topic: str):
+        self.id = next(_tap_ids)
+        self.recording, self.topic = recording, topic
+        self.outbox = self
+
+    def message(self, frame: bytes, binary: bool, key: object, queue_length: int) -> bool:
+        self.recording.write(self.topic, cbor2.loads(frame)['msg']['bytes'])
+        return True
+
+    def forget(self, key: object) -> None:
+        pass
+
+
+class Recording:
+    def __init__(self, manager: RecordingManager, id: str, globs: tuple[str, ...], max_seconds: float | None):
+        from rosbags.rosbag2 import StoragePlugin, Writer
+
+        self.manager, self.id, self.globs, self.max_seconds = manager, id, globs, max_seconds
+        self.path = manager.dir / id
+        self.writer = Writer(self.path, version=9, storage_plugin=StoragePlugin.MCAP)
+        self.writer.open()
+        self.state, self.reason = 'recording', None
+        self.started, self.ended = time.time(), None
+        self.messages, self.bytes = 0, 0
+        self.connections: dict[str, object] = {}   # topic -> rosbags Connection
+        self.taps: dict[str, tuple] = {}            # topic -> (fanout, _Tap)
+        self.timer: asyncio.TimerHandle | None = None
+        self.poller: asyncio.Task | None = None
+
+    @property
+    def file(self) -> Path:
+        return self.path / f'{self.id}.mcap'
+
+    def summary(self) -> dict:
+        return {'id': self.id, 'state': self.state, 'reason': self.reason, 'topics': sorted(self.connections),
+                'requested': list(self.globs), 'started': self.started, 'ended': self.ended,
+                'messages': self.messages, 'bytes': self.bytes, 'max_seconds': self.max_seconds,
+                'file': f'{self.id}.mcap'}
+
+    def wants(self, topic: str) -> bool:
+        return any(fnmatchcase(topic, g) for g in self.globs)
+
+    def add_topic(self, topic: str, type: str) -> None:
+        gw = self.manager.gateway
+        msgdef = gw.backend.msg_def(type)
+        text, rihs01 = definition(gw.backend, type, msgdef)
+        self.connections[topic] = self.writer.add_connection(topic, type, msgdef=text, rihs01=rihs01)
+        fan = gw.fanout(topic, type)
+        tap = _Tap(self, topic)
+        self.taps[topic] = (fan, tap)
+        sub = fan.add(tap, None, (0, 0, 'cbor-raw', None))
+        fan.replay_latched(sub)
+
+    def write(self, topic: str, data: bytes) -> None:
+        if self.state != 'recording':
+            return
+        size = len(data) + RECORD_OVERHEAD
+        if self.bytes + size > self.manager.limits.max_bytes:
+            self.manager.stop(self, f'size cap of {self.manager.limits.max_bytes} bytes reached')
+            return
+        self.writer.write(self.connections[topic], time.time_ns(), data)
+        self.messages += 1
+        self.bytes += size
+
+    def close(self, state: str, reason: str | None) -> None:
+        for fan, tap in self.taps.values():
+            fan.remove(tap, None)
+        self.taps.clear()
+        if self.timer is not None:
+            self.timer.cancel()
+        if self.poller is not None:
+            self.poller.cancel()
+        self.state, self.reason, self.ended = state, reason, time.time()
+        self.writer.close()
+        self.bytes = self.file.stat().st_size
+
+
+def definition(backend, type: str, msgdef) -> tuple[str, str]:
+    """The definition text (with its dependencies, as ROS 2 stores it) and its RIHS01 hash."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    text = backend.full_text(msgdef)
+    store = get_typestore(Stores.EMPTY)
+    store.register(get_types_from_msg(text, type))
+    return text, store.hash_rihs01(type)
+
+
+class RecordingManager:
+    def __init__(self, gateway, dir: Path, limits: RecordingLimits = RecordingLimits()):
+        self.gateway, self.dir, self.limits = gateway, Path(dir), limits
+        self.recordings: dict[str, Recording] = {}
+        self.plays: dict[str, asyncio.Task] = {}
+
+    def active(self) -> list[Recording]:
+        return [r for r in self.recordings.values() if r.state == 'recording']
+
+    def start(self, globs: tuple[str, ...], max_seconds: float | None) -> Recording:
+        lim = self.limits
+        if len(self.active()) >= lim.max_concurrent:
+            raise tornado.web.HTTPError(409, f'{lim.max_concurrent} recordings are already running; stop one first')
+        self.dir.mkdir(parents=True, exist_ok=True)
+        free = shutil.disk_usage(self.dir).free
+        if free < lim.max_bytes + lim.disk_reserve:
+            raise tornado.web.HTTPError(507, f'only {free // 2**20} MiB free in {self.dir}; a recording needs '
+                                             f'{(lim.max_bytes + lim.disk_reserve) // 2**20} MiB')
+        rec_id = f"rec-{time.strftime('%Y%m%d-%H%M%S')}-{secrets.token_hex(2)}"
+        rec = Recording(self, rec_id, globs, max_seconds)
+        self.recordings[rec_id] = rec
+        try:
+            self._match(rec)
+        except Exception:
+            self.stop(rec, 'could not subscribe')
+            raise
+        loop = asyncio.get_running_loop()
+        if max_seconds:
+            rec.timer = loop.call_later(max_seconds, self.stop, rec, f'max_seconds of {max_seconds:g} s reached')
+        rec.poller = asyncio.ensure_future(self._poll(rec))
+        log.info('recording %s started: %s', rec_id, ', '.join(globs))
+        return rec
+
+    def _match(self, rec: Recording) -> None:
+        for topic, type in self.gateway.backend.topics():
+            if topic not in rec.connections and rec.wants(topic):
+                try:
+                    rec.add_topic(topic, type)
+                except (BackendError, LookupError, ValueError) as e:
+                    log.warning('recording %s: cannot record %s (%s): %s', rec.id, topic, type, e)
+                    rec.connections.setdefault(topic, None)
+
+    async def _poll(self, rec: Recording) -> None:
+        while rec.state == 'recording':
+            await asyncio.sleep(POLL)
+            if rec.state == 'recording':
+                self._match(rec)
+
+    def stop(self, rec: Recording, reason: str | None = None) -> None:
+        if rec.state != 'recording':
+            return
+        try:
+            rec.close('done', reason)
+        except Exception as e:   # a full disk, ...: say so, keep serving
+            log.exception('recording %s could not be closed', rec.id)
+            rec.state, rec.reason, rec.ended = 'failed', f'could not finish the file: {e}', time.time()
+        log.info('recording %s %s: %d messages, %d bytes%s', rec.id, rec.state, rec.messages, rec.bytes,
+                 f' ({reason})' if reason else '')
+
+    def listing(self) -> list[dict]:
+        out = {r.id: r.summary() for r in self.recordings.values()}
+        if self.dir.is_dir():
+            for path in sorted(self.dir.iterdir()):
+                mcap = path / f'{path.name}.mcap'
+                if path.name not in out and _ID.fullmatch(path.name) and mcap.is_file():
+                    st = mcap.stat()
+                    out[path.name] = {'id': path.name, 'state': 'done', 'bytes': st.st_size,
+                                      'ended': st.st_mtime, 'file': mcap.name}
+        return sorted(out.values(), key=lambda r: r['id'])
+
+    def path(self, rec_id: str) -> Path:
+        if not _ID.fullmatch(rec_id):
+            raise tornado.web.HTTPError(404, f'no recording {rec_id[:80]!r}')
+        rec = self.recordings.get(rec_id)
+        if rec is not None and rec.state == 'recording':
+            raise tornado.web.HTTPError(409, f'recording {rec_id} is still running; stop it first')
+        path = self.dir / rec_id
+        if not (path / f'{rec_id}.mcap').is_file():
+            raise tornado.web.HTTPError(404, f'no recording {rec_id!r}')
+        return path
+
+    # --- playback -----------------------------------------------------------------------------
+
+    def play(self, rec_id: str, rate: float, prefix: str) -> dict:
+        from .playback import Playback
+
+        if rec_id in self.plays and not self.plays[rec_id].done():
+            raise tornado.web.HTTPError(409, f'recording {rec_id} is already playing')
+        playback = Playback(self.gateway.backend, self.path(rec_id), rate, prefix)
+        self.plays[rec_id] = asyncio.ensure_future(playback.run())
+        return playback.summary()
+
+    def stop_playing(self, rec_id: str) -> bool:
+        task = self.plays.pop(rec_id, None)
+        if task is None or task.done():
+            return False
+        task.cancel()
+        return True
+
+    # --- gateway hooks ------------------------------------------------------------------------
+
+    async def on_shutdown(self) -> None:
+        for rec in self.active():
+            self.stop(rec, 'the gateway shut down')
+        for task in self.plays.values():
+            task.cancel()
+
+
+# --- HTTP ---------------------------------------------------------------------------------------
+
+class _Handler(JsonHandler):
+    def initialize(self, manager: RecordingManager) -> None:
+        self.manager = manager
+
+
+class RecordingListHandler(_Handler):
+    def get(self) -> None:
+        caller(self, self.manager.gateway)
+        self.finish({'recordings': self.manager.listing(), 'max_concurrent': self.manager.limits.max_concurrent})
+
+    def post(self) -> None:
+        m = self.manager
+        caller(self, m.gateway, change=True, roles=('operator', 'admin'))
+        body = body_json(self, 64 * 1024)
+        topics = body.get('topics')
+        if not isinstance(topics, list) or not topics or not all(isinstance(t, str) and t.startswith('/') for t in topics):
+            raise tornado.web.HTTPError(400, '"topics" is a list of topic names or globs, like ["/turtle1/pose"]')
+        seconds = body.get('max_seconds', m.limits.default_seconds)
+        if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not 0 < seconds <= m.limits.max_seconds:
+            raise tornado.web.HTTPError(400, f'"max_seconds" is a number, 0 < max_seconds <= {m.limits.max_seconds:g}')
+        rec = m.start(tuple(topics), float(seconds))
+        self.set_status(201)
+        self.finish(rec.summary())
+
+
+class RecordingHandler(_Handler):
+    def get(self, rec_id: str) -> None:
+        caller(self, self.manager.gateway)
+        rec = self.manager.recordings.get(rec_id)
+        if rec is not None:
+            self.finish(rec.summary())
+            return
+        self.manager.path(rec_id)
+        self.finish(next(r for r in self.manager.listing() if r['id'] == rec_id))
+
+    def delete(self, rec_id: str) -> None:
+        m = self.manager
+        caller(self, m.gateway, change=True, roles=('operator', 'admin'))
+        rec = m.recordings.get(rec_id)
+        if rec is not None and rec.state == 'recording':
+            m.stop(rec, 'stopped')
+            self.finish(rec.summary())
+            return
+        path = m.path(rec_id)
+        m.stop_playing(rec_id)
+        shutil.rmtree(path)
+        m.recordings.pop(rec_id, None)
+        self.set_status(204)
+        self.clear_header('Content-Type')
+        self.finish()
+
+
+class RecordingFileHandler(_Handler):
+    async def get(self, rec_id: str) -> None:
+        caller(self, self.manager.gateway)
+        file = self.manager.path(rec_id) / f'{rec_id}.mcap'
+        self.set_header('Content-Type', 'application/octet-stream')
+        self.set_header('Content-Disposition', f'attachment; filename="{rec_id}.mcap"')
+        self.set_header('Content-Length', str(file.stat().st_size))
+        with open(file, 'rb') as f:
+            while chunk := f.read(256 * 1024):
+                self.write(chunk)
+                await self.flush()
+        self.finish()
+
+
+class PlayHandler(_Handler):
+    def post(self, rec_id: str) -> None:
+        m = self.manager
+        caller(self, m.gateway, change=True, roles=('operator', 'admin'))
+        body = body_json(self, 4096) if self.request.body else {}
+        rate = body.get('rate', 1.0)
+        if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not 0.01 <= rate <= 100:
+            raise tornado.web.HTTPError(400, '"rate" is a number from 0.01 to 100')
+        prefix = body.get('prefix') or ''
+        if not isinstance(prefix, str) or (prefix and not re.fullmatch(r'(/[A-Za-z][A-Za-z0-9_]*)+', prefix)):
+            raise tornado.web.HTTPError(400, '"prefix" is a namespace like /replay')
+        self.set_status(202)
+        self.finish(m.play(rec_id, float(rate), prefix))
+
+    def delete(self, rec_id: str) -> None:
+        caller(self, self.manager.gateway, change=True, roles=('operator', 'admin'))
+        self.finish({'stopped': self.manager.stop_playing(rec_id)})
+
+
+def recording_routes(gateway) -> list:
+    """The /api/recordings routes; with --record, the start-up recording begins here."""
+    settings = gateway.settings
+    record = getattr(settings, 'record', None)
+    manager = RecordingManager(gateway, Path(record) if record else default_recordings_dir())
+    gateway.hooks.append(manager)
+    if record:
+        from .policy import parse_globs
+        globs = parse_globs(getattr(settings, 'record_topics', None)) or ('/*',)
+        asyncio.get_running_loop().call_soon(_start_up, manager, globs)
+    kw = {'manager': manager}
+    return [(r'/api/recordings/?', RecordingListHandler, kw),
+            (r'/api/recordings/([^/]+)\.mcap', RecordingFileHandler, kw),
+            (r'/api/recordings/([^/]+)/play', PlayHandler, kw),
+            (r'/api/recordings/([^/.]+)', RecordingHandler, kw)]
+
+
+def _start_up(manager: RecordingManager, globs: tuple[str, ...]) -> None:
+    try:
+        rec = manager.start(globs, None)
+    except tornado.web.HTTPError as e:
+        log.error('--record: %s', e.log_message)
+        return
+    log.info('--record: recording %s into %s', ', '.join(globs), rec.path)
+
+
+def default_recordings_dir() -> Path:
+    base = os.environ.get('XDG_DATA_HOME') or os.path.join(os.path.expanduser('~'), '.local', 'share')
+    return Path(base) / 'rosgate' / 'recordings'

@@ -1,0 +1,431 @@
+"""Robot-side runs: a program sent over HTTP runs as a process next to the robot (``--allow-runs``).
+
+POST   /api/runs       {"source": "<python>", "name", "ns", "timeout"} or {"program": "<library name>", ...}
+                       -> 201 {"id"}; 409 naming the run already going in that namespace
+GET    /api/runs       -> {"allowed": bool, "runs": [summary, ...]}
+GET    /api/runs/ID    -> {"id", "name", "ns", "state", "exit_code", "reason", "started", "ended", "output"}
+DELETE /api/runs/ID    -> stops it: zero on every velocity topic it drove, SIGINT, SIGKILL after 2 s
+
+The process is a fresh interpreter (the gateway's, where roslibpy is installed) in its own
+process group and working directory, with a clean environment and resource limits set by a
+tiny launcher right before it execs the program. The program connects back to the gateway as an
+ordinary rosbridge client, with a per-run key in its URL: the gateway knows that connection as
+the run's, so the safety layer can stop what it drove and the driver lease can be the run's.
+Each line of its output is published on /rosgate/runs/ID/output (std_msgs/msg/String), and its
+state (a JSON text) on /rosgate/runs/ID/state, latched.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import hmac
+import json
+import logging
+import os
+import secrets
+import shutil
+import signal
+import sys
+import time
+from collections import deque
+from dataclasses import dataclass
+from pathlib import Path
+
+import tornado.web
+
+from protocol.errors import ProtocolError
+
+from .api import JsonHandler, body_json, caller
+from .backends.base import QoS
+from .safety import Safety, _moving
+
+log = logging.getLogger('rosgate.runs')
+STRING = 'std_msgs/msg/String'
+OUTPUT_TAIL = 64 * 1024        # bytes of output kept for GET /api/runs/ID
+LINE_LIMIT = 4096              # longer lines are cut
+KEEP_ENDED = 50                # ended runs kept (with their directories) before the oldest goes
+KILL_AFTER = 2.0               # s between SIGINT and SIGKILL
+MAX_SOURCE = 1024 * 1024
+
+# Runs between fork and exec of the program: limits first, then the program replaces it.
+# (A preexec_fn would do the same in the gateway's forked child, which is unsafe with the
+# threads of the rclpy backend.)
+LAUNCHER = '''import os, resource, sys
+cpu, mem, files, procs = (int(v) for v in sys.argv[1].split(","))
+if cpu: resource.setrlimit(resource.RLIMIT_CPU, (cpu, cpu + 5))
+if mem: resource.setrlimit(resource.RLIMIT_AS, (mem, mem))
+if files: resource.setrlimit(resource.RLIMIT_NOFILE, (files, files))
+if procs: resource.setrlimit(resource.RLIMIT_NPROC, (procs, procs))
+os.execv(sys.executable, [sys.executable, "-u", *sys.argv[2:]])
+'''
+
+
+@dataclass(frozen=True)
+class RunLimits:
+    timeout: float = 600.0          # s, when the request gives none
+    max_timeout: float = 3600.0
+    cpu_seconds: int = 600
+    memory_mb: int = 1024           # address space; Python with roslibpy needs a few hundred MiB
+    open_files: int = 256
+    processes: int = 4096           # counts every thread of the user (root is exempt)
+    output_bytes: int = 4 * 2**20   # published per run; past it output is read and dropped
+
+
+class Run:
+    def __init__(self, id: str, name: str, ns: str, timeout: float, workdir: Path):
+        self.id, self.name, self.ns, self.timeout, self.workdir = id, name, ns, timeout, workdir
+        self.key = secrets.token_urlsafe(24)
+        self.state, self.exit_code, self.reason = 'starting', None, None
+        self.started, self.ended = time.time(), None
+        self.tail: deque[str] = deque()
+        self.tail_bytes = 0
+        self.published = 0
+        self.sessions: list = []
+        self.ending: str | None = None     # 'stopped' or 'timed_out' once we end it
+        self.proc: asyncio.subprocess.Process | None = None
+        self.timers: list[asyncio.TimerHandle] = []
+        self.output_pub = self.state_pub = None
+        self.memory_error = False
+        self.role: str | None = None         # the starter's role, given to the run's connection
+
+    def summary(self) -> dict:
+        return {'id': self.id, 'name': self.name, 'ns': self.ns, 'state': self.state,
+                'exit_code': self.exit_code, 'reason': self.reason, 'started': self.started,
+                'ended': self.ended, 'timeout': self.timeout}
+
+    def detail(self) -> dict:
+        return {**self.summary(), 'output': ''.join(self.tail)}
+
+    def keep(self, line: str) -> None:
+        self.tail.append(line)
+        self.tail_bytes += len(line)
+        while self.tail_bytes > OUTPUT_TAIL and len(self.tail) > 1:
+            self.tail_bytes -= len(self.tail.popleft())
+
+
+class RunManager:
+    def __init__(self, gateway, *, allowed: bool, runs_dir: Path | None, limits: RunLimits = RunLimits()):
+        self.gateway, self.allowed, self.limits = gateway, allowed, limits
+        self.runs_dir = runs_dir
+        self.runs: dict[str, Run] = {}
+
+    # --- starting -----------------------------------------------------------------------------
+
+    def start(self, source: str, name: str, ns: str, timeout: float, role: str | None, port: tuple[str, int, bool]):
+        """A new Run, its process being started; raises HTTPError 409 when the namespace is busy."""
+        busy = next((r for r in self.runs.values() if r.ns == ns and r.state in ('starting', 'running')), None)
+        if busy is not None:
+            where = f'namespace {ns}' if ns else 'the root namespace'
+            raise tornado.web.HTTPError(409, f'run {busy.id} ({busy.name}) is already running in {where}; '
+                                             f'stop it first (DELETE /api/runs/{busy.id})')
+        self._lease_free_for(role)
+        run_id = 'r' + secrets.token_hex(4)
+        workdir = self.runs_dir / run_id
+        workdir.mkdir(parents=True, mode=0o700)
+        (workdir / 'program.py').write_text(source)
+        run = Run(run_id, name, ns, timeout, workdir)
+        run.role = role
+        latched = QoS(depth=1, transient_local=True)
+        backend = self.gateway.backend
+        run.state_pub = backend.create_publisher(f'/rosgate/runs/{run_id}/state', STRING, latched)
+        run.output_pub = backend.create_publisher(f'/rosgate/runs/{run_id}/output', STRING, QoS(depth=100))
+        self.runs[run_id] = run
+        self._forget_old()
+        self._announce(run)
+        asyncio.ensure_future(self._supervise(run, port))
+        return run
+
+    def _lease_free_for(self, role: str | None) -> None:
+        lease = getattr(self.gateway.policy, 'lease', None)
+        if lease is None or lease.holder is None or lease.takeover_role is None or role == lease.takeover_role:
+            return
+        if any(lease.holder in r.sessions for r in self.runs.values()):
+            return
+        from .security.lease import who
+        raise tornado.web.HTTPError(409, f'{who(lease.holder)} holds the driver lease (exclusive control); '
+                                         'a run needs it: wait for "release" or ask an admin')
+
+    def _env(self, run: Run, url: str) -> dict:
+        """Only what a Python program needs: none of the gateway's own environment (tokens, keys)."""
+        return {'PATH': os.defpath, 'HOME': str(run.workdir), 'LANG': 'C.UTF-8', 'PYTHONUNBUFFERED': '1',
+                'PYTHONDONTWRITEBYTECODE': '1', 'ROSBRIDGE_URL': url, 'ROSGATE_NS': run.ns,
+                'ROSGATE_RUN': run.id}
+
+    async def _supervise(self, run: Run, port: tuple[str, int, bool]) -> None:
+        host, number, tls = port
+        host = f'[{host}]' if ':' in host else host
+        path = self.gateway.settings.url_path
+        path = path if path.startswith('/') else '/' + path
+        # the key goes in the environment, not argv: other users of the machine can read argv
+        url = f"{'wss' if tls else 'ws'}://{host}:{number}{path}?run_key={run.key}&name=run-{run.id}"
+        lim = self.limits
+        limits = f'{lim.cpu_seconds},{lim.memory_mb * 2**20},{lim.open_files},{lim.processes}'
+        argv = [sys.executable, '-I', '-c', LAUNCHER, limits, 'program.py']
+        if run.ns:
+            argv += ['--ns', run.ns]
+        try:
+            run.proc = await asyncio.create_subprocess_exec(
+                *argv, cwd=run.workdir, env=self._env(run, url), stdin=asyncio.subprocess.DEVNULL,
+                stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.STDOUT, start_new_session=True)
+        except OSError as e:
+            self._line(run, f'could not start the program: {e}\n')
+            self._ended(run, None, f'could not start: {e}')
+            return
+        run.state = 'running'
+        self._announce(run)
+        loop = asyncio.get_running_loop()
+        run.timers.append(loop.call_later(run.timeout, self.stop, run, 'timed_out'))
+        await self._read(run)
+        code = await run.proc.wait()
+        self._signal(run, signal.SIGKILL)   # whatever it left behind in its group
+        self._ended(run, code, None)
+
+    async def _read(self, run: Run) -> None:
+        pending = b''
+        while True:
+            chunk = await run.proc.stdout.read(65536)
+            if not chunk:
+                break
+            pending += chunk
+            *lines, pending = pending.split(b'\n')
+            for line in lines:
+                self._line(run, line[:LINE_LIMIT].decode('utf-8', 'replace') + '\n')
+            if len(pending) > LINE_LIMIT:
+                self._line(run, pending[:LINE_LIMIT].decode('utf-8', 'replace') + '\n')
+                pending = b''
+        if pending:
+            self._line(run, pending.decode('utf-8', 'replace') + '\n')
+
+    def _line(self, run: Run, line: str) -> None:
+        if 'MemoryError' in line:
+            run.memory_error = True
+        if run.published > self.limits.output_bytes:
+            return
+        run.published += len(line)
+        if run.published > self.limits.output_bytes:
+            line = f'[output limit of {self.limits.output_bytes} bytes reached: further output is dropped]\n'
+        run.keep(line)
+        run.output_pub.publish({'data': line.rstrip('\n')})
+
+    # --- ending -------------------------------------------------------------------------------
+
+    def stop(self, run: Run, why: str = 'stopped') -> None:
+        """Zero what the run drives at once, then SIGINT; SIGKILL if it is still there after 2 s."""
+        if run.state not in ('starting', 'running') or run.ending:
+            return
+        run.ending = why
+        if why == 'timed_out':
+            self._line(run, f'[timeout of {run.timeout:g} s: stopping]\n')
+        self.halt(run)
+        self._signal(run, signal.SIGINT)
+        run.timers.append(asyncio.get_running_loop().call_later(KILL_AFTER, self._signal, run, signal.SIGKILL))
+
+    def halt(self, run: Run) -> int:
+        safety = next((h for h in self.gateway.hooks if isinstance(h, Safety)), None)
+        if safety is None:
+            return 0
+        return sum(safety.stop_session(s) for s in run.sessions)
+
+    def _signal(self, run: Run, sig: int) -> None:
+        if run.proc is None:
+            return
+        try:
+            os.killpg(run.proc.pid, sig)
+        except (ProcessLookupError, PermissionError):
+            pass
+
+    def _ended(self, run: Run, code: int | None, reason: str | None) -> None:
+        for timer in run.timers:
+            timer.cancel()
+        run.timers.clear()
+        run.exit_code, run.ended = code, time.time()
+        if run.ending:
+            run.state = run.ending
+            if run.ending == 'timed_out':
+                reason = f'timeout of {run.timeout:g} s'
+        elif code == 0:
+            run.state = 'finished'
+        else:
+            run.state = 'failed'
+            reason = reason or self._why(run, code)
+        run.reason = reason
+        self._line(run, f'[run {run.state}{f": {reason}" if reason else ""}]\n')
+        self._announce(run)
+        log.info('run %s (%s) %s%s', run.id, run.name, run.state, f': {reason}' if reason else '')
+
+    def _why(self, run: Run, code: int | None) -> str:
+        if run.memory_error:
+            return f'memory limit of {self.limits.memory_mb} MiB exceeded (MemoryError)'
+        if code is not None and code < 0:
+            sig = signal.Signals(-code)
+            if sig == signal.SIGXCPU:
+                return f'CPU time limit of {self.limits.cpu_seconds} s exceeded'
+            if sig in (signal.SIGKILL, signal.SIGSEGV):
+                return f'killed by {sig.name} (perhaps the memory limit of {self.limits.memory_mb} MiB)'
+            return f'killed by {sig.name}'
+        return f'exit code {code}'
+
+    def _announce(self, run: Run) -> None:
+        run.state_pub.publish({'data': json.dumps(run.summary())})
+
+    def _forget_old(self) -> None:
+        ended = [r for r in self.runs.values() if r.ended is not None]
+        for run in ended[:max(0, len(ended) - KEEP_ENDED)]:
+            del self.runs[run.id]
+            run.output_pub.destroy()
+            run.state_pub.destroy()
+            shutil.rmtree(run.workdir, ignore_errors=True)
+
+    # --- gateway hooks ------------------------------------------------------------------------
+
+    def on_connect(self, session, request) -> None:
+        """A run's own connection (its key in the URL) becomes one of the run's sessions."""
+        key = request.query_arguments.get('run_key')
+        if not key:
+            return
+        key = key[-1].decode('ascii', 'replace')
+        run = next((r for r in self.runs.values() if hmac.compare_digest(r.key, key)), None)
+        if run is None or run.state not in ('starting', 'running'):
+            return
+        run.sessions.append(session)
+        session.attrs.update(run=run.id, name=f'run {run.id}')
+        if run.role is not None:
+            session.attrs['role'] = run.role
+            session.attrs.pop('auth_error', None)
+        lease = getattr(self.gateway.policy, 'lease', None)
+        if lease is not None:
+            try:
+                lease._command(session, 'take')   # as publishing "take" on /rosgate/control would
+            except ProtocolError as e:
+                self._line(run, f'[driver lease: {e.message}]\n')
+
+    def publish_hook(self, session, pub, msg):
+        """A run being stopped may still send commands before its SIGINT lands: those that would
+        move the robot again are dropped."""
+        run_id = session.attrs.get('run')
+        if run_id is None:
+            return msg
+        run = self.runs.get(run_id)
+        if run is not None and run.ending and _moving(msg) and self._is_velocity(pub.type):
+            return None
+        return msg
+
+    def _is_velocity(self, type: str) -> bool:
+        safety = next((h for h in self.gateway.hooks if isinstance(h, Safety)), None)
+        return type in safety.types if safety is not None else type.startswith('geometry_msgs/msg/Twist')
+
+    def on_close(self, session) -> None:
+        run = self.runs.get(session.attrs.get('run'))
+        if run is not None and session in run.sessions:
+            run.sessions.remove(session)
+
+    async def on_shutdown(self) -> None:
+        running = [r for r in self.runs.values() if r.proc is not None and r.ended is None]
+        for run in running:
+            self.stop(run)
+        for run in running:
+            try:
+                await asyncio.wait_for(run.proc.wait(), KILL_AFTER + 1)
+            except asyncio.TimeoutError:
+                self._signal(run, signal.SIGKILL)
+
+
+# --- HTTP ---------------------------------------------------------------------------------------
+
+def _local_address(handler) -> tuple[str, int, bool]:
+    """Where this request reached us (the run connects back the same way, on this machine)."""
+    sock = handler.request.connection.stream.socket
+    host, port = sock.getsockname()[:2]
+    if host in ('0.0.0.0', '::'):
+        host = '127.0.0.1'
+    return host, port, handler.request.protocol == 'https'
+
+
+class RunListHandler(JsonHandler):
+    def initialize(self, manager: RunManager) -> None:
+        self.manager = manager
+
+    def get(self) -> None:
+        caller(self, self.manager.gateway)
+        runs = [r.summary() for r in self.manager.runs.values()]
+        self.finish({'allowed': self.manager.allowed, 'runs': runs})
+
+    def post(self) -> None:
+        m = self.manager
+        if not m.allowed:
+            raise tornado.web.HTTPError(403, 'runs are off on this gateway (start it with --allow-runs)')
+        identity = caller(self, m.gateway, change=True, roles=('operator', 'admin'))
+        body = body_json(self, MAX_SOURCE)
+        source = body.get('source')
+        if source is None and body.get('program') is not None:
+            source = self._library(str(body['program']))
+        if not isinstance(source, str) or not source.strip():
+            raise tornado.web.HTTPError(400, 'give "source" (the Python program) or "program" (a library name)')
+        name = body.get('name') or body.get('program') or 'program'
+        if not isinstance(name, str) or len(name) > 64:
+            raise tornado.web.HTTPError(400, '"name" is a text of at most 64 characters')
+        ns = body.get('ns') or ''
+        if not isinstance(ns, str) or not all(p.isidentifier() for p in ns.strip('/').split('/') if p):
+            raise tornado.web.HTTPError(400, f'"ns" is a robot namespace like /s07, not {ns!r}')
+        ns = '/' + '/'.join(p for p in ns.split('/') if p) if ns.strip('/') else ''
+        timeout = body.get('timeout', m.limits.timeout)
+        if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not 0 < timeout <= m.limits.max_timeout:
+            raise tornado.web.HTTPError(400, f'"timeout" is a number of seconds, 0 < timeout <= {m.limits.max_timeout:g}')
+        role = identity.role if identity is not None else None
+        run = m.start(source, name, ns, float(timeout), role, _local_address(self))
+        self.set_status(201)
+        self.finish({'id': run.id, **run.summary()})
+
+    def _library(self, name: str) -> str:
+        programs_dir = self.manager.gateway.settings.programs_dir
+        from .programs import _NAME
+        if programs_dir is None or not _NAME.fullmatch(name):
+            raise tornado.web.HTTPError(400, f'no program library entry {name!r}')
+        try:
+            stored = json.loads((Path(programs_dir) / f'{name}.json').read_bytes())
+        except FileNotFoundError:
+            raise tornado.web.HTTPError(404, f'no program named {name!r} in the library') from None
+        source = stored.get('python') if isinstance(stored, dict) else None
+        if not isinstance(source, str):
+            raise tornado.web.HTTPError(422, f'program {name!r} was saved without its Python; send "source"')
+        return source
+
+
+class RunHandler(JsonHandler):
+    def initialize(self, manager: RunManager) -> None:
+        self.manager = manager
+
+    def _run(self, run_id: str) -> Run:
+        run = self.manager.runs.get(run_id)
+        if run is None:
+            raise tornado.web.HTTPError(404, f'no run {run_id!r}')
+        return run
+
+    def get(self, run_id: str) -> None:
+        caller(self, self.manager.gateway)
+        self.finish(self._run(run_id).detail())
+
+    def delete(self, run_id: str) -> None:
+        caller(self, self.manager.gateway, change=True, roles=('operator', 'admin'))
+        run = self._run(run_id)
+        self.manager.stop(run)
+        self.set_status(202 if run.ended is None else 200)
+        self.finish(run.summary())
+
+
+def run_routes(gateway) -> list:
+    """The /api/runs routes; their manager joins the gateway's hooks."""
+    settings = gateway.settings
+    allowed = bool(getattr(settings, 'allow_runs', False))
+    runs_dir = getattr(settings, 'runs_dir', None) or default_runs_dir()
+    manager = RunManager(gateway, allowed=allowed, runs_dir=Path(runs_dir))
+    gateway.hooks.append(manager)
+    gateway.publish_hooks.insert(0, manager.publish_hook)
+    kw = {'manager': manager}
+    return [(r'/api/runs/?', RunListHandler, kw), (r'/api/runs/(r[0-9a-f]{8})/?', RunHandler, kw),
+            (r'/api/runs/([^/]+)', RunHandler, kw)]
+
+
+def default_runs_dir() -> Path:
+    base = os.environ.get('XDG_DATA_HOME') or os.path.join(os.path.expanduser('~'), '.local', 'share')
+    return Path(base) / 'rosgate' / 'runs'
