@@ -1,0 +1,236 @@
+"""Robot-side runs (/api/runs): real processes running the generated-Python runtime against a
+live gateway, followed over rosbridge with roslibpy."""
+
+from __future__ import annotations
+
+import json
+import queue
+import threading
+import time
+import urllib.error
+import urllib.request
+from pathlib import Path
+
+import pytest
+import roslibpy
+
+from tests.conftest import wait_for
+from tests.security.conftest import TOKENS, tokens_toml
+
+ROOT = Path(__file__).resolve().parents[2]
+RUNTIME = (ROOT / 'ide' / 'runtime' / 'rosgate_runtime.py').read_text()
+TWIST = 'geometry_msgs/msg/Twist'
+ENDED = ('finished', 'failed', 'stopped', 'timed_out')
+
+
+def program(body: str) -> str:
+    """A program as the IDE generates it: the runtime, then main()."""
+    lines = ''.join(f'    {line}\n' for line in body.strip().splitlines())
+    return f'{RUNTIME}\n\ndef main():\n{lines}\n\nif __name__ == "__main__":\n    run(main)\n'
+
+
+GO = 'rt.wait_for_message("/run_test/go", "std_msgs/msg/String")'
+
+
+def api(gw, method: str, path: str, body=None, token: str | None = None, headers=None):
+    req = urllib.request.Request(gw.http_url.rstrip('/') + path, method=method,
+                                 data=None if body is None else json.dumps(body).encode())
+    if body is not None:
+        req.add_header('Content-Type', 'application/json')
+    if token:
+        req.add_header('Authorization', f'Bearer {token}')
+    for k, v in (headers or {}).items():
+        req.add_header(k, v)
+    try:
+        with urllib.request.urlopen(req, timeout=10) as res:
+            raw = res.read()
+            return res.status, json.loads(raw) if raw else None
+    except urllib.error.HTTPError as e:
+        return e.code, json.loads(e.read() or b'null')
+
+
+@pytest.fixture(scope='module')
+def runs_gw(start_gateway, tmp_path_factory):
+    runs_dir = tmp_path_factory.mktemp('runs')
+    gw = start_gateway('--robot', 'turtlesim', '--allow-runs', '--runs-dir', str(runs_dir))
+    gw.runs_dir = runs_dir
+    return gw
+
+
+@pytest.fixture
+def client(runs_gw):
+    ros = roslibpy.Ros(runs_gw.host, runs_gw.port)
+    ros.run(timeout=10)
+    yield ros
+    ros.close()
+
+
+def follow(ros, topic: str, type: str = 'std_msgs/msg/String') -> queue.Queue:
+    """Messages of a topic as they arrive, in order, with their arrival time."""
+    q: queue.Queue = queue.Queue()
+    roslibpy.Topic(ros, topic, type).subscribe(lambda m: q.put((time.monotonic(), m)))
+    return q
+
+
+def state_of(gw, run_id: str, token: str | None = None) -> dict:
+    status, body = api(gw, 'GET', f'/api/runs/{run_id}', token=token)
+    assert status == 200, body
+    return body
+
+
+def ended(gw, run_id: str, timeout: float = 30, token: str | None = None) -> dict:
+    return wait_for(lambda: (lambda s: s if s['state'] in ENDED else None)(state_of(gw, run_id, token)), timeout, 0.05)
+
+
+def go(ros) -> None:
+    roslibpy.Topic(ros, '/run_test/go', 'std_msgs/msg/String').publish(roslibpy.Message({'data': 'go'}))
+
+
+def start(gw, source: str, ns: str, **kw) -> str:
+    status, body = api(gw, 'POST', '/api/runs', {'source': source, 'name': kw.pop('name', 'test'), 'ns': ns, **kw})
+    assert status == 201, body
+    return body['id']
+
+
+def wait_for_subscriber(ros, topic: str) -> None:
+    """The run is listening once the go topic has a subscriber (its process connected)."""
+    def has():
+        out = {}
+        done = threading.Event()
+        roslibpy.Service(ros, '/rosapi/subscribers', 'rosapi/Subscribers').call(
+            roslibpy.ServiceRequest({'topic': topic}), lambda r: (out.update(r), done.set()), lambda e: done.set())
+        done.wait(5)
+        return out.get('subscribers')
+    wait_for(has, 30, 0.1)
+
+
+def test_run_moves_the_turtle_and_streams_output_in_order(runs_gw, client):
+    pose = follow(client, '/turtle1/pose', 'turtlesim/msg/Pose')
+    x0 = pose.get(timeout=10)[1]['x']
+    run_id = start(runs_gw, program(f'''
+{GO}
+for i in range(20):
+    rt.log("line %d" % i)
+rt.drive("/turtle1/cmd_vel", "{TWIST}", {{"linear": {{"x": 2.0}}}}, 1.0)
+rt.log("done")
+'''), '/t1')
+    output = follow(client, f'/rosgate/runs/{run_id}/output')
+    states = follow(client, f'/rosgate/runs/{run_id}/state')
+    wait_for_subscriber(client, '/run_test/go')
+    go(client)
+    body = ended(runs_gw, run_id)
+    assert body['state'] == 'finished' and body['exit_code'] == 0, body
+    lines = []
+    wait_for(lambda: lines.extend(m['data'] for _, m in iter_queue(output)) or 'done' in lines, 10)
+    assert lines[:21] == [f'line {i}' for i in range(20)] + ['done']
+    assert body['output'].startswith(''.join(f'line {i}\n' for i in range(20)) + 'done\n')
+    seen = [json.loads(m['data'])['state'] for _, m in iter_queue(states)]
+    assert seen[-1] == 'finished' and 'running' in seen
+    latest = None
+    while not pose.empty():
+        latest = pose.get()[1]
+    assert latest['x'] > x0 + 1.0, (x0, latest)
+
+
+def iter_queue(q: queue.Queue):
+    while True:
+        try:
+            yield q.get_nowait()
+        except queue.Empty:
+            return
+
+
+def test_delete_stops_it_and_the_zero_twist_arrives_within_200_ms(runs_gw, client):
+    run_id = start(runs_gw, program(f'''
+rt.log("driving")
+while True:
+    rt.publish("/turtle1/cmd_vel", "{TWIST}", {{"angular": {{"z": 1.0}}}})
+    rt.sleep(0.05)
+'''), '/t2')
+    cmd = follow(client, '/turtle1/cmd_vel', TWIST)
+    moving = lambda m: m['angular']['z'] != 0 or m['linear']['x'] != 0   # noqa: E731
+    wait_for(lambda: any(moving(m) for _, m in iter_queue(cmd)), 30)
+    sent = time.monotonic()
+    status, body = api(runs_gw, 'DELETE', f'/api/runs/{run_id}')
+    assert status in (200, 202), body
+    while True:
+        at, m = cmd.get(timeout=5)
+        if at >= sent and not moving(m):
+            break
+    latency = at - sent
+    print(f'zero Twist {latency * 1000:.1f} ms after DELETE was sent')
+    assert latency < 0.2
+    final = ended(runs_gw, run_id)
+    assert final['state'] == 'stopped'
+    assert not any(moving(m) for t, m in iter_queue(cmd) if t > at), 'the run moved the robot after its stop'
+
+
+def test_timeout_ends_the_run_timed_out(runs_gw):
+    run_id = start(runs_gw, program('rt.log("waiting")\nrt.sleep(120)'), '/t3', timeout=1)
+    body = ended(runs_gw, run_id)
+    assert body['state'] == 'timed_out', body
+    assert 'timeout' in body['reason']
+
+
+def test_memory_limit_fails_the_run_with_the_reason(runs_gw):
+    run_id = start(runs_gw, program('rt.log("allocating")\nhog = bytearray(3 * 2**30)\nrt.log("got it")'), '/t4')
+    body = ended(runs_gw, run_id)
+    assert body['state'] == 'failed', body
+    assert 'memory limit' in body['reason'], body
+    assert 'got it' not in body['output']
+
+
+def test_second_run_in_a_namespace_is_refused_naming_the_first(runs_gw):
+    first = start(runs_gw, program('rt.sleep(60)'), '/t5', name='first one')
+    status, body = api(runs_gw, 'POST', '/api/runs', {'source': program('rt.sleep(1)'), 'ns': 't5'})
+    assert status == 409, body
+    assert first in body['error'] and 'first one' in body['error']
+    api(runs_gw, 'DELETE', f'/api/runs/{first}')
+    assert ended(runs_gw, first)['state'] == 'stopped'
+
+
+def test_bad_requests_are_refused_clearly(runs_gw):
+    for body, word in (({}, 'source'), ({'source': 'x', 'timeout': -1}, 'timeout'),
+                       ({'source': 'x', 'ns': '../etc'}, 'ns')):
+        status, reply = api(runs_gw, 'POST', '/api/runs', body)
+        assert status == 400 and word in reply['error'], reply
+    status, reply = api(runs_gw, 'POST', '/api/runs', {'source': 'x'}, headers={'Origin': 'http://evil.example'})
+    assert status == 403, reply
+    assert api(runs_gw, 'GET', '/api/runs/rnothere')[0] == 404
+
+
+def test_without_allow_runs_the_api_answers_403(gateway):
+    status, body = api(gateway, 'GET', '/api/runs')
+    assert status == 200 and body['allowed'] is False
+    status, body = api(gateway, 'POST', '/api/runs', {'source': program('rt.log(1)')})
+    assert status == 403 and '--allow-runs' in body['error']
+
+
+def test_viewer_refused_operator_runs_with_its_role(start_gateway, tmp_path):
+    tokens = tmp_path / 'tokens.toml'
+    tokens.write_text(tokens_toml())
+    gw = start_gateway('--robot', 'turtlesim', '--allow-runs', '--runs-dir', str(tmp_path / 'runs'),
+                       '--auth', str(tokens), '--exclusive-control')
+    source = program('rt.log("x=%.1f" % rt.latest("/turtle1/pose", "turtlesim/msg/Pose", "x"))\n'
+                     f'rt.drive("/turtle1/cmd_vel", "{TWIST}", {{"linear": {{"x": 0.5}}}}, 0.3)')
+    assert api(gw, 'POST', '/api/runs', {'source': source})[0] == 401
+    status, body = api(gw, 'POST', '/api/runs', {'source': source}, token=TOKENS['viewer'])
+    assert status == 403 and 'operator' in body['error']
+    assert api(gw, 'GET', '/api/runs', token=TOKENS['viewer'])[0] == 200
+
+    ros = roslibpy.Ros(gw.host, gw.port)
+    ros.run(timeout=10)
+    try:
+        ros.send_on_ready(roslibpy.Message({'op': 'auth', 'token': TOKENS['viewer']}))
+        drivers = follow(ros, '/rosgate/driver')
+        status, body = api(gw, 'POST', '/api/runs', {'source': source}, token=TOKENS['operator'])
+        assert status == 201, body
+        run_id = body['id']
+        final = ended(gw, run_id, token=TOKENS['viewer'])
+        assert final['state'] == 'finished', final
+        assert 'x=' in final['output']
+        names = []
+        wait_for(lambda: names.extend(json.loads(m['data'])['driver'] for _, m in iter_queue(drivers))
+                 or (any(d and d['name'] == f'run {run_id}' for d in names) and names[-1] is None), 10)
+    finally:
+        ros.close()
