@@ -92,13 +92,24 @@ def _extensions() -> list:
     return found
 
 
-def ros_style(argv: list[str]) -> list[str]:
-    """Turn ROS launch style ``port:=9090`` into ``--port 9090``; ``--ros-args`` and after are kept aside."""
+def ros_style(argv: list[str], parser: argparse.ArgumentParser | None = None) -> list[str]:
+    """Turn ROS launch style ``port:=9090`` into ``--port 9090``; ``--ros-args`` and after are kept aside.
+
+    With the parser, switches take ROS booleans: ``use_compression:=true`` is ``--use-compression``,
+    ``use_compression:=false`` is ``--no-use-compression`` (or nothing for a switch that is off by default).
+    """
+    switches = {s: a for s, a in (parser._option_string_actions.items() if parser else ()) if a.nargs == 0}
     out = []
     for arg in argv:
         if ':=' in arg and not arg.startswith('-'):
             key, value = arg.split(':=', 1)
-            out += [f"--{key.replace('_', '-')}", value]
+            flag = f"--{key.replace('_', '-')}"
+            if flag in switches:
+                off = '--no-' + flag[2:]
+                on = value.strip().lower() in ('true', '1', 'yes', 'on')
+                out += [flag] if on else [off] if off in switches else []
+            else:
+                out += [flag, value]
         else:
             out.append(arg)
     return out
@@ -157,7 +168,10 @@ async def serve(settings: Settings, backend, *, announce=print) -> None:
     host = f'[{host}]' if ':' in host else host
     http, ws = ('https', 'wss') if ssl_ctx else ('http', 'ws')
     path = settings.url_path if settings.url_path.startswith('/') else '/' + settings.url_path
-    announce(f'rosgate: IDE {http}://{host}:{port}/ websocket {ws}://{host}:{port}{path} backend {backend.name}')
+    from .assets import ide_problem
+    problem = ide_problem(settings.ide_dir)
+    ide = f'IDE {http}://{host}:{port}/' if problem is None else f'IDE unavailable ({problem})'
+    announce(f'rosgate: {ide} websocket {ws}://{host}:{port}{path} backend {backend.name}')
 
     stop = asyncio.Event()
     loop = asyncio.get_running_loop()
@@ -177,7 +191,8 @@ def main(argv: list[str] | None = None) -> int:
     if '--ros-args' in argv:
         i = argv.index('--ros-args')
         argv, ros_args = argv[:i], argv[i:]
-    args = build_parser().parse_args(ros_style(argv))
+    parser = build_parser()
+    args = parser.parse_args(ros_style(argv, parser))
     logging.basicConfig(level=args.log_level.upper(), format='%(asctime)s %(levelname)s %(name)s: %(message)s',
                         stream=sys.stderr)
     logging.getLogger('tornado.access').setLevel(logging.WARNING)

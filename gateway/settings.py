@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
+from . import assets
 
 
 @dataclass(frozen=True)
@@ -33,8 +33,8 @@ class Settings:
     topics_sub_glob: str | None = None
     backend: str = 'auto'
     node_name: str = 'rosgate'
-    ide_dir: Path = ROOT / 'ide'
-    examples_dir: Path = ROOT / 'examples'
+    ide_dir: Path = field(default_factory=assets.ide_dir)             # package data, or the checkout's ide/
+    examples_dir: Path = field(default_factory=assets.examples_dir)
     programs_dir: Path | None = None
     allow_runs: bool = False                   # POST /api/runs executes programs on this machine
     runs_dir: Path | None = None               # runs' working directories (None: the XDG data dir)
