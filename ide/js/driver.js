@@ -1,16 +1,31 @@
-// Who is driving: the gateway's driver lease (rosgate --exclusive-control). /rosgate/driver
-// (latched JSON) names the holder; "take" / "release" on /rosgate/control ask for it; the
-// holder learns its own client id from the status info the gateway sends it on grant.
+// Who is driving: the gateway's driver lease (rosgate --exclusive-control), one per robot (fleet
+// station, robot namespace or --control-glob group). /rosgate/driver (latched JSON) names the
+// holders; "take NS" / "release NS" on /rosgate/control ask for one; the holder learns its own
+// client id from the status info the gateway sends it on grant. When an admin stops this page's
+// station (/class), a 'stop' event tells the page to stop its program.
+import { normNamespace } from '../runtime/util.js';
+
 export const DRIVER_TOPIC = '/rosgate/driver';
 const CONTROL_TOPIC = '/rosgate/control';
 const STRING = 'std_msgs/msg/String';
 const HOLDER = /you hold the driver lease as client (\d+)/;
 const REFUSED = /^publish(?: \(id [^)]*\))?: [^:\s]+: (.* is driving .*)$/s;
 
+// The lease group of a robot namespace, given the gateway's announcement.
+export function groupOf(ns, info) {
+  const n = normNamespace(ns);
+  if (!n || !info) return '/';
+  const top = `/${n.split('/')[1]}`;
+  if (info.stations?.includes(top)) return top;
+  if (info.drivers && n in info.drivers) return n;
+  return '/';
+}
+
 export class DriverLease extends EventTarget {
   constructor() {
     super();
     this.ros = null;
+    this.ns = '';
   }
 
   // A new connection: nothing known until watch() finds the lease.
@@ -18,7 +33,8 @@ export class DriverLease extends EventTarget {
     if (this.ros) this.ros.off('status', this._onStatus);
     this.ros = ros;
     this.available = false;     // the gateway has a driver lease
-    this.driver = null;         // {client, name, role, remote, since} or null
+    this.info = null;           // the last announcement: {driver, drivers, stations, stopped}
+    this.driver = null;         // the holder of this page's group: {client, name, role, remote, since} or null
     this.me = null;             // this connection's client id, once it has held the lease
     this.advertised = false;
     this.watching = false;
@@ -28,6 +44,14 @@ export class DriverLease extends EventTarget {
     this._changed();
   }
 
+  // The robot namespace this page drives.
+  setNamespace(ns) {
+    this.ns = normNamespace(ns);
+    this._update();
+  }
+
+  get group() { return groupOf(this.ns, this.info); }
+
   // Subscribes to the driver topic (call it once the graph lists it).
   watch() {
     const ros = this.ros;
@@ -35,11 +59,23 @@ export class DriverLease extends EventTarget {
     this.watching = true;
     ros.on(DRIVER_TOPIC, (m) => {
       if (this.ros !== ros) return;
-      try { this.driver = JSON.parse(m.msg.data).driver ?? null; } catch { this.driver = null; }
+      let info;
+      try { info = JSON.parse(m.msg.data); } catch { info = { driver: null }; }
+      const before = this.info?.stopped?.[groupOf(this.ns, info)];
+      const first = !this.available;
+      this.info = info;
       this.available = true;
-      this._changed();
+      this._update();
+      const now = info.stopped?.[this.group];
+      if (!first && now && now !== before) this.dispatchEvent(new CustomEvent('stop', { detail: this.group }));
     });
     ros.callOnConnection({ op: 'subscribe', id: `subscribe:${DRIVER_TOPIC}:lease`, topic: DRIVER_TOPIC, type: STRING });
+  }
+
+  // The holder of a namespace's group (null: free).
+  holderOf(ns) {
+    const g = groupOf(ns, this.info);
+    return (g === '/' ? this.info?.driver : this.info?.drivers?.[g]) ?? null;
   }
 
   // 'off' (no lease on this gateway), 'nobody', 'you' or 'other'
@@ -53,10 +89,11 @@ export class DriverLease extends EventTarget {
     return { off: '', nobody: 'nobody', you: 'you' }[this.state] ?? this.driver.name ?? `client ${this.driver.client}`;
   }
 
-  take() { this._command('take'); }
-  release() { this._command('release'); }
+  take() { this.command(this.group === '/' ? 'take' : `take ${this.group}`); }
+  release() { this.command(this.group === '/' ? 'release' : `release ${this.group}`); }
 
-  _command(word) {
+  // Publishes one control word ("take /s01", "stop /s02", ...).
+  command(word) {
     const ros = this.ros;
     if (!ros?.isConnected) return;
     if (!this.advertised) {
@@ -64,6 +101,11 @@ export class DriverLease extends EventTarget {
       this.advertised = true;
     }
     ros.callOnConnection({ op: 'publish', topic: CONTROL_TOPIC, msg: { data: word } });
+  }
+
+  _update() {
+    if (this.available) this.driver = this.holderOf(this.ns);
+    this._changed();
   }
 
   _status(m) {
@@ -88,7 +130,8 @@ export function bindDriverBadge(lease, $ = (s) => document.querySelector(s)) {
     $('#driver').dataset.state = state;
     $('#driver-name').textContent = lease.label;
     const d = lease.driver;
-    $('#driver').title = d ? `client ${d.client}${d.role ? ` (${d.role})` : ''} from ${d.remote}, since ${new Date(d.since * 1000).toLocaleTimeString()}` : '';
+    const where = lease.group === '/' ? '' : ` ${lease.group}`;
+    $('#driver').title = d ? `client ${d.client}${d.role ? ` (${d.role})` : ''} from ${d.remote}, since ${new Date(d.since * 1000).toLocaleTimeString()}${where}` : where.trim();
     $('#take').hidden = state === 'you';
     $('#release').hidden = state !== 'you';
   };

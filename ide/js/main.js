@@ -14,6 +14,7 @@ import * as storage from './storage.js';
 import { MakeBlockDialog } from './makeblock.js';
 import { DriverLease, bindDriverBadge, DRIVER_TOPIC } from './driver.js';
 import { bindNamespace, CLAIM_SERVICE } from './robotns.js';
+import { reportProgram } from './report.js';
 import { withNamespace } from '../runtime/util.js';
 
 const $ = (sel) => document.querySelector(sel);
@@ -129,6 +130,7 @@ async function start() {
   const lease = new DriverLease();
   ide.lease = lease;
   bindDriverBadge(lease);
+  robotNs.follow(lease);
   lease.addEventListener('refused', () => {
     $('#driver').classList.add('refused');
     setTimeout(() => $('#driver').classList.remove('refused'), 3000);
@@ -178,6 +180,8 @@ async function start() {
   const runner = new Runner(workspace, () => ide.ros, consoleView, () => ide.ns);
   ide.runner = runner;
   runner.addEventListener('state', (e) => { document.body.dataset.run = e.detail; });
+  lease.addEventListener('stop', () => { runner.stop(); consoleView.error('The teacher stopped this robot.'); });
+  ide.report = reportProgram(ide, { workspace, runner, consoleEl: $('#console-lines') });
   document.body.dataset.run = 'idle';
   $('#run').onclick = () => (runner.state === 'paused' ? runner.resume() : runner.run());
   $('#pause').onclick = () => runner.pause();
