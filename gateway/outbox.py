@@ -1,19 +1,27 @@
 """A bounded per-client send queue.
 
-Replies (service responses, action results, status) are never dropped. Topic messages are:
-each subscription keeps at most ``queue_length`` queued messages (oldest dropped first), and once
-the whole queue holds more than ``byte_limit`` bytes, new topic messages are dropped and the
-client is warned (at most once per ``warn_interval``). A slow client therefore loses its own
-oldest messages; it never grows server memory without bound nor stalls anyone else.
+Replies (service responses, action results, status) are never dropped, but they are bounded
+too: a client with more than ``reply_limit`` replies or ``byte_limit`` bytes of them waiting is
+not reading what it asks for, and ``on_reply_overflow`` is told once (the session closes the
+connection with 1008). Topic messages are dropped: each subscription keeps at most
+``queue_length`` queued messages (oldest dropped first), and once the whole queue holds more
+than ``byte_limit`` bytes, new topic messages are dropped and the client is warned (at most once
+per ``warn_interval``). A slow client therefore loses its own oldest messages; it never grows
+server memory without bound nor stalls anyone else. An outbox that held a lot gives the memory
+back to the system when it closes.
 """
 
 from __future__ import annotations
 
 import asyncio
+import ctypes
+import ctypes.util
 from collections import deque
 from collections.abc import Awaitable, Callable
 
 BATCH_BYTES = 256 * 1024   # written to the socket before waiting for it to drain
+REPLY_LIMIT = 4096         # replies queued for a client that does not read them
+TRIM_AFTER = 4 * 2**20     # an outbox that held this many bytes returns memory when it closes
 
 
 class Entry:
@@ -28,12 +36,18 @@ class Entry:
 class Outbox:
     def __init__(self, write: Callable[[bytes, bool], Awaitable[None] | None], *,
                  byte_limit: int = 16 * 2**20, on_overflow: Callable[[int], None] | None = None,
-                 warn_interval: float = 5.0):
+                 warn_interval: float = 5.0, reply_limit: int = REPLY_LIMIT,
+                 on_reply_overflow: Callable[[int, int], None] | None = None):
         self._write = write          # ws.write_message(frame, binary=...) -> Future
         self._queue: deque[Entry] = deque()
         self._per_key: dict[object, deque[Entry]] = {}
         self.byte_limit = byte_limit
         self.queued_bytes = 0
+        self.peak_bytes = 0
+        self.reply_limit = reply_limit
+        self.reply_count = 0         # replies queued, not yet written
+        self.reply_bytes = 0
+        self._on_reply_overflow = on_reply_overflow
         self.dropped = 0
         self._on_overflow = on_overflow
         self._warn_interval = warn_interval
@@ -51,20 +65,31 @@ class Outbox:
         self._closed = True
         self._queue.clear()
         self._per_key.clear()
-        self.queued_bytes = 0
+        self.queued_bytes = self.reply_count = self.reply_bytes = 0
         self._wakeup.set()
         if self._task:
             self._task.cancel()
+        if self.peak_bytes >= TRIM_AFTER:
+            asyncio.get_running_loop().call_soon(release_memory)
 
     def reply(self, frame: bytes, binary: bool = False) -> None:
-        """Queue a frame that must not be dropped."""
+        """Queue a frame that must not be dropped (past the reply bound the client is given up)."""
         if self._closed:
             return
         if self._write_now(frame, binary):
             return
+        if self.reply_count >= self.reply_limit or (
+                self.reply_bytes and self.reply_bytes + len(frame) > self.byte_limit):
+            self._closed = True
+            if self._on_reply_overflow is not None:
+                self._on_reply_overflow(self.reply_count, self.reply_bytes)
+            return
         entry = Entry(frame, binary, None)
         self._queue.append(entry)
         self.queued_bytes += entry.size
+        self.reply_count += 1
+        self.reply_bytes += entry.size
+        self.peak_bytes = max(self.peak_bytes, self.queued_bytes)
         self._wakeup.set()
 
     def message(self, frame: bytes, binary: bool, key: object, queue_length: int) -> bool:
@@ -89,6 +114,7 @@ class Outbox:
                 self.dropped += 1
         self._queue.append(entry)
         self.queued_bytes += entry.size
+        self.peak_bytes = max(self.peak_bytes, self.queued_bytes)
         self._wakeup.set()
         return True
 
@@ -148,7 +174,28 @@ class Outbox:
                     per = self._per_key.get(entry.key)
                     if per and per[0] is entry:
                         per.popleft()
+                else:
+                    self.reply_count -= 1
+                    self.reply_bytes -= entry.size
                 pending = self._last_write = self._write(entry.frame, entry.binary)
                 batch += entry.size
             if pending is not None:
                 await pending   # flow control: wait until the socket took the batch
+
+
+def _malloc_trim():
+    path = ctypes.util.find_library('c')
+    try:
+        return ctypes.CDLL(path).malloc_trim if path else None
+    except (OSError, AttributeError):   # not glibc
+        return None
+
+
+_TRIM = _malloc_trim()
+
+
+def release_memory() -> None:
+    """Hand freed heap pages back to the system (glibc keeps them otherwise, so a burst of
+    queued frames would stay in the process's RSS long after the client left)."""
+    if _TRIM is not None:
+        _TRIM(0)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import ipaddress
+import socket
 from fnmatch import fnmatchcase
 from urllib.parse import urlsplit
 
@@ -35,9 +37,39 @@ def parse_globs(value: str | None) -> tuple[str, ...] | None:
 LOCAL_HOSTS = frozenset({'localhost', '127.0.0.1', '::1', '[::1]'})
 
 
+def host_name(host: str) -> str:
+    """The name in a Host header: no port, no brackets, no trailing dot, lower case."""
+    host = host.strip().lower()
+    if host.startswith('['):
+        host = host[1:].split(']', 1)[0]
+    elif host.count(':') == 1:
+        host = host.split(':', 1)[0]
+    return host.rstrip('.')
+
+
+def own_names() -> frozenset[str]:
+    """This machine's names: localhost and its host name, bare and as an mDNS .local name."""
+    names = {'localhost'}
+    full = socket.gethostname().lower().rstrip('.')
+    if full:
+        short = full.split('.', 1)[0]
+        names |= {full, short, f'{short}.local'}
+    return frozenset(names)
+
+
+def is_ip(name: str) -> bool:
+    try:
+        ipaddress.ip_address(name.split('%', 1)[0])
+    except ValueError:
+        return False
+    return True
+
+
 class Policy:
     def __init__(self, settings):
         self.allowed_origins = parse_globs(settings.allowed_origins)
+        self.allowed_hosts = parse_globs(getattr(settings, 'allowed_hosts', None))
+        self.own_names = own_names()
         self.globs = {
             kind: parse_globs(getattr(settings, f'{kind}_glob'))
             for kind in ('topics', 'topics_pub', 'topics_sub', 'services', 'params', 'actions')
@@ -75,6 +107,21 @@ class Policy:
 
     def authenticate(self, session, op) -> None:
         session.status('info', 'authentication is not required by this gateway', op.OP, op.id)
+
+    def host_allowed(self, host: str) -> bool:
+        """The Host header of any request (DNS rebinding: a page on evil.example that resolves to
+        this machine sends Host: evil.example). Passed: IP literals, this machine's names and
+        *.localhost, mDNS names (*.local: resolved on the local network only), --allowed-hosts."""
+        name = host_name(host)
+        if name in self.own_names or is_ip(name) or name.endswith(('.localhost', '.local')):
+            return True
+        return self.allowed_hosts is not None and any(
+            fnmatchcase(name, g.lower()) or fnmatchcase(host.lower(), g.lower()) for g in self.allowed_hosts)
+
+    def body_refusal(self, request, size: int) -> tuple[int, str] | None:
+        """(status, reason) to refuse an HTTP request body of this size (-1: chunked) by its
+        headers, before it is read; None to read it."""
+        return None
 
     def origin_allowed(self, origin: str, request) -> bool:
         """Browsers send Origin: the gateway's own origin and localhost pass, others only if listed."""

@@ -27,6 +27,7 @@ WRITING_ROSAPI = ('/rosapi/set_param', '/rosapi/delete_param')
 NOT_AUTHENTICATED = ('not authenticated: send {"op": "auth", "token": ...} first '
                      '(or connect with ?token=, an Authorization: Bearer header, or the /login cookie)')
 _NAME = re.compile(r'[^A-Za-z0-9 _.@-]')
+SMALL_BODY = 64 * 1024   # bodies up to this size are read without a token (the login form)
 
 
 def permission(action: str, name: str) -> str:
@@ -153,6 +154,19 @@ class SecurePolicy(Policy):
         session.attrs.update(role=identity.role, name=identity.name)
         session.attrs.pop('auth_error', None)
         session.status('info', f'authenticated as {identity.name} ({identity.role})', op.OP, op.id)
+
+    def body_refusal(self, request, size: int) -> tuple[int, str] | None:
+        """With auth on, only small bodies (the login form) come without a valid token."""
+        if self.auth is None or 0 <= size <= SMALL_BODY:
+            return None
+        token = token_from_request(request)
+        if not token:
+            return 401, 'a token is required to send this: sign in at /login or send Authorization: Bearer'
+        try:
+            self.auth.token(request.remote_ip or '?', token)
+        except AuthError as e:
+            return (429 if str(e).startswith('too many') else 401), str(e)
+        return None
 
     def connect_attrs(self, request) -> dict:
         attrs: dict = {}

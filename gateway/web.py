@@ -1,0 +1,94 @@
+"""What the HTTP side lets through, before any handler runs.
+
+- ``Application`` checks the ``Host`` header of every request, websocket upgrades included,
+  against ``Policy.host_allowed``: a page on a rebound domain (``evil.example`` resolving to this
+  machine) sends its own name as Host and is refused with 421, on every route.
+- Request bodies are judged by their headers before a byte of them is read: over
+  ``MAX_HTTP_BODY`` they get 413, and bodies the policy refuses (over ``SMALL_BODY`` without a
+  valid token, when auth is on) get 401; the connection is closed after the answer.
+- ``PublicFileHandler`` serves only what the pages load from the IDE directory: the pages, their
+  scripts, styles and block files, and the built ``vendor/`` bundles, never ``node_modules/``,
+  the build script or package files.
+"""
+
+from __future__ import annotations
+
+import os
+
+import tornado.web
+
+# Top-level entries of ide/ that the pages load (everything else there is for building them).
+PUBLIC_DIRS = frozenset({'blocks', 'css', 'generators', 'js', 'runtime', 'vendor'})
+PUBLIC_FILES = frozenset({'index.html', 'teleop.html', 'toolbox.json'})
+MAX_HTTP_BODY = 4 * 2**20   # the largest request body any route takes (a program is at most 2 MiB)
+
+
+@tornado.web.stream_request_body
+class RefusedHandler(tornado.web.RequestHandler):
+    """Answers from the headers alone; the body (if any) is discarded unread, then the connection closes."""
+
+    def initialize(self, status: int, reason: str) -> None:
+        self.status, self.reason = status, reason
+
+    def prepare(self) -> None:
+        self.set_status(self.status)
+        self.set_header('Content-Type', 'text/plain; charset=UTF-8')
+        self.finish(f'{self.status} {self._reason}: {self.reason}\n')
+
+    def data_received(self, chunk: bytes) -> None:
+        pass
+
+
+class Application(tornado.web.Application):
+    """A tornado Application that refuses requests whose Host the gateway's policy does not know."""
+
+    def __init__(self, gateway, *args, **kwargs) -> None:
+        self.gateway = gateway
+        super().__init__(*args, **kwargs)
+
+    def find_handler(self, request, **kwargs):
+        policy = self.gateway.policy
+        if not policy.host_allowed(request.host):
+            return self._refuse(request, 421, f'this gateway does not answer to the name {request.host[:100]!r}; '
+                                              'start it with --allowed-hosts to add names')
+        size = body_size(request)
+        if size is not None:
+            if size > MAX_HTTP_BODY:
+                return self._refuse(request, 413, f'request bodies are at most {MAX_HTTP_BODY} bytes')
+            refusal = policy.body_refusal(request, size)
+            if refusal is not None:
+                return self._refuse(request, *refusal)
+            request.connection.set_max_body_size(MAX_HTTP_BODY)   # chunked bodies too
+        return super().find_handler(request, **kwargs)
+
+    def _refuse(self, request, status: int, reason: str):
+        return self.get_handler_delegate(request, RefusedHandler, {'status': status, 'reason': reason})
+
+
+def body_size(request) -> int | None:
+    """The announced size of the request body: None when there is none, -1 when chunked."""
+    length = request.headers.get('Content-Length')
+    if length is not None:
+        try:
+            size = int(length)
+        except ValueError:
+            return MAX_HTTP_BODY + 1   # tornado would refuse it too
+        return size if size > 0 else None
+    if 'chunked' in request.headers.get('Transfer-Encoding', '').lower():
+        return -1
+    return None
+
+
+class PublicFileHandler(tornado.web.StaticFileHandler):
+    """The IDE's public files; vendored files may change between installs, so revalidate them."""
+
+    def validate_absolute_path(self, root: str, absolute_path: str) -> str | None:
+        relative = os.path.relpath(absolute_path, os.path.abspath(root))
+        top = relative.replace(os.sep, '/').split('/', 1)
+        if not (top[0] in PUBLIC_FILES if len(top) == 1 else top[0] in PUBLIC_DIRS):
+            if relative != '.':   # '.' is the root: StaticFileHandler redirects to index.html
+                raise tornado.web.HTTPError(404)
+        return super().validate_absolute_path(root, absolute_path)
+
+    def set_extra_headers(self, path: str) -> None:
+        self.set_header('Cache-Control', 'no-cache')
