@@ -1,11 +1,13 @@
 // The teleop page: joystick, keys and buttons publish a velocity at a fixed rate while
-// held and zero on release; battery, camera and plots show what the robot reports.
+// held and zero on release, within the robot's own limits (its node parameters); gauges,
+// camera and history plots show what the robot reports. On a fleet the page drives only a
+// station of its own (claimed, or picked and free).
 import { Ros } from 'roslib';
 import nipplejs from 'nipplejs';
-import uPlot from 'uplot';
 import { field, zeroVelocity, withNamespace } from '../runtime/util.js';
 import { DriverLease, bindDriverBadge, DRIVER_TOPIC } from './driver.js';
 import { bindNamespace, CLAIM_SERVICE } from './robotns.js';
+import { gauge, History, SAMPLE_EVERY } from './dashboard.js';
 
 const $ = (s) => document.querySelector(s);
 const params = new URLSearchParams(location.search);
@@ -19,6 +21,8 @@ const state = {
   battery: null,
   frames: 0,
   subs: [],
+  limits: { linear: null, angular: null },   // from the robot's node parameters, when it has them
+  blocked: '',                               // why this page may not drive now ('' : it may)
 };
 window.teleop = state;
 const lease = new DriverLease();
@@ -67,9 +71,17 @@ function callRosapi(service, args = {}) {
 
 async function onConnected() {
   try {
+    const { services } = await callRosapi('/rosapi/services');
+    const fleet = services.includes(CLAIM_SERVICE);
+    state.robotNs.claimable(fleet);          // on a fleet with no robot chosen this claims one
     const { topics, types } = await callRosapi('/rosapi/topics');
     if (topics.includes(DRIVER_TOPIC)) lease.watch();
     const ns = state.robotNs.get();
+    if (fleet && !ns) {
+      block('Claiming a robot of this fleet… (or type a station such as /s01 under "robot")');
+      resubscribe();
+      return;
+    }
     const vel = topics.filter((t, i) => /geometry_msgs\/(msg\/)?Twist(Stamped)?$/.test(types[i])
       && (!ns || t.startsWith(`${ns}/`)));
     $('#topics').replaceChildren(...topics.map((t) => new Option(t, t)));
@@ -80,10 +92,51 @@ async function onConnected() {
     }
     const t = types[topics.indexOf(topicEl.value)];
     if (t) $('#msgtype').value = /Stamped$/.test(t) ? 'geometry_msgs/msg/TwistStamped' : 'geometry_msgs/msg/Twist';
-    const { services } = await callRosapi('/rosapi/services');
-    state.robotNs.claimable(services.includes(CLAIM_SERVICE));
+    block('');
+    await applyLimits();
   } catch { /* rosapi unavailable: keep the defaults */ }
   resubscribe();
+}
+
+// ---- the robot's limits: the node that takes the velocity topic says them ------------------
+const LIMIT_PARAMS = {
+  linear: ['max_linear_velocity', 'max_vel_x', 'max_linear_speed'],
+  angular: ['max_angular_velocity', 'max_vel_theta', 'max_angular_speed'],
+};
+
+async function robotLimits(topic) {
+  const found = { linear: null, angular: null };
+  const { subscribers } = await callRosapi('/rosapi/subscribers', { topic });
+  for (const node of subscribers) {
+    for (const [kind, names] of Object.entries(LIMIT_PARAMS)) {
+      for (const name of names) {
+        if (found[kind] !== null) break;
+        try {
+          const v = JSON.parse((await callRosapi('/rosapi/get_param', { name: `${node}:${name}`, default_value: 'null' })).value);
+          if (typeof v === 'number' && v > 0) found[kind] = v;
+        } catch { /* not this one */ }
+      }
+    }
+  }
+  return found;
+}
+
+async function applyLimits() {
+  state.limits = await robotLimits($('#topic').value.trim()).catch(() => ({ linear: null, angular: null }));
+  const slider = $('#maxspeed');
+  const max = state.limits.linear ?? 1.0;
+  slider.max = String(max);
+  if (Number(slider.value) > max) slider.value = String(max);
+  $('#maxspeed-out').textContent = `${maxSpeed().toFixed(2)} m/s`;
+  $('#limits').textContent = state.limits.linear
+    ? `robot limits ${state.limits.linear} m/s${state.limits.angular ? `, ${state.limits.angular} rad/s` : ''}` : '';
+}
+
+// Stops and disables driving while this page has no robot of its own ('' enables it again).
+function block(reason) {
+  if (reason && state.timer) stopAll();
+  state.blocked = reason;
+  showNotice(reason);
 }
 
 // ---- driving ---------------------------------------------------------------------
@@ -97,8 +150,9 @@ function command() {
     lin = (k.has('up') ? 1 : 0) - (k.has('down') ? 1 : 0);
     ang = (k.has('left') ? 1 : 0) - (k.has('right') ? 1 : 0);
   }
-  const v = maxSpeed();
-  return { linear: lin * v, angular: ang * 2 * v };
+  const v = Math.min(maxSpeed(), state.limits.linear ?? Infinity);
+  const w = Math.min(2 * v, state.limits.angular ?? Infinity);
+  return { linear: lin * v, angular: ang * w };
 }
 
 function twist(lin, ang) {
@@ -116,7 +170,7 @@ function twist(lin, ang) {
 
 function publish(lin, ang) {
   const ros = state.ros;
-  if (!ros?.isConnected) return;
+  if (!ros?.isConnected || state.blocked) return;
   const topic = $('#topic').value.trim();
   const type = $('#msgtype').value;
   if (state.advertised !== `${topic} ${type}`) {
@@ -203,22 +257,21 @@ document.addEventListener('visibilitychange', () => { if (document.hidden && sta
 addEventListener('blur', () => { if (state.keys.size) { state.keys.clear(); update(); } });
 
 // ---- what the robot reports ----------------------------------------------------
-const plot = { series: [], data: [[]], chart: null, start: performance.now() / 1000 };
+const dash = { gauges: {}, history: null, series: {} };
 
 function resubscribe() {
   for (const s of state.subs) s.close();
   state.subs = [];
   subscribe($('#battery-topic').value, 'sensor_msgs/msg/BatteryState', showBattery, { throttle_rate: 500, queue_length: 1 });
   subscribe($('#camera-topic').value, 'sensor_msgs/msg/CompressedImage', showImage, { throttle_rate: 200, queue_length: 1 });
-  for (const s of plot.series) subscribePlot(s);
+  for (const s of dash.history.series) if (s.topic) subscribePlot(s);
 }
 
 function showBattery(msg) {
   state.battery = msg;
   const pct = Number.isFinite(msg.percentage) ? msg.percentage * 100 : null;
-  const el = $('#battery');
-  $('#battery-fill').style.width = `${Math.max(0, Math.min(100, pct ?? 0))}%`;
-  el.dataset.level = pct === null ? '' : pct < 20 ? 'low' : pct < 50 ? 'mid' : 'ok';
+  dash.gauges.battery.set(pct ?? NaN);
+  dash.series.battery.last = pct;
   $('#battery-text').textContent = pct === null ? '?' : `${pct.toFixed(0)} %`;
   const v = Number.isFinite(msg.voltage) ? `${msg.voltage.toFixed(2)} V` : '';
   const a = Number.isFinite(msg.current) ? ` · ${msg.current.toFixed(2)} A` : '';
@@ -233,12 +286,13 @@ function showImage(msg) {
   $('#camera-info').textContent = `${state.frames} frames · ${msg.format}`;
 }
 
-function addSeries(topic, path, type = '') {
-  const s = { topic, path, type, label: `${topic} ${path}`, idx: plot.series.length + 1, last: null };
-  plot.series.push(s);
-  plot.data.push(plot.data[0].map(() => null));
-  buildChart();
-  if (state.ros?.isConnected) subscribePlot(s);
+// A plotted field: {id, label, unit, topic, path, type, last}; also drives a gauge when named.
+function addSeries(spec) {
+  const s = { last: null, ...spec };
+  dash.series[s.id] = s;
+  dash.history.add(s);
+  if (s.topic && state.ros?.isConnected) subscribePlot(s);
+  return s;
 }
 
 async function subscribePlot(s) {
@@ -251,43 +305,31 @@ async function subscribePlot(s) {
     try { v = Number(field(msg, s.path)); } catch { return; }
     if (!Number.isFinite(v)) return;
     s.last = v;
+    dash.gauges[s.id]?.set(v);
   }, { throttle_rate: 100, queue_length: 1 });
 }
 
-// One sample row per 200 ms with each series' latest value; a 30 s window.
-function sample() {
-  if (!plot.chart) return;
-  const t = performance.now() / 1000 - plot.start;
-  plot.data[0].push(t);
-  plot.series.forEach((s, i) => plot.data[i + 1].push(s.last));
-  while (plot.data[0].length && plot.data[0][0] < t - 30) for (const col of plot.data) col.shift();
-  plot.chart.setData(plot.data);
-}
-
-function buildChart() {
-  const el = $('#plot');
-  plot.chart?.destroy();
-  const colours = ['#ff7043', '#42a5f5', '#66bb6a', '#ab47bc', '#ffca28', '#26c6da'];
-  plot.chart = new uPlot({
-    width: Math.max(240, el.clientWidth),
-    height: 200,
-    scales: { x: { time: false } },
-    axes: [{ stroke: '#aab3cc', grid: { stroke: '#2c3350' } }, { stroke: '#aab3cc', grid: { stroke: '#2c3350' } }],
-    series: [{ label: 's' }, ...plot.series.map((s, i) => ({ label: s.label, stroke: colours[i % colours.length], width: 2, spanGaps: true }))],
-  }, plot.data, el);
-}
-
-function setupPlots() {
+function setupDashboard() {
   const ns = (name) => withNamespace(state.robotNs.get(), name);
-  addSeries(ns('/motor/left/temperature'), 'temperature', 'sensor_msgs/msg/Temperature');
-  addSeries(ns('/motor/right/temperature'), 'temperature', 'sensor_msgs/msg/Temperature');
-  addSeries(ns('/odom'), 'twist.twist.linear.x', 'nav_msgs/msg/Odometry');
-  setInterval(sample, 200);
-  new ResizeObserver(() => plot.chart?.setSize({ width: Math.max(240, $('#plot').clientWidth), height: 200 })).observe($('#plot'));
+  dash.gauges.battery = gauge($('#g-battery'), { label: 'battery', unit: '%', min: 0, max: 100, warn: 50, danger: 20, low: true });
+  const temp = { unit: '°C', min: 20, max: 90, warn: 50, danger: 65, digits: 1 };
+  dash.gauges.left = gauge($('#g-left'), { label: 'left motor', ...temp });
+  dash.gauges.right = gauge($('#g-right'), { label: 'right motor', ...temp });
+  dash.history = new History($('#plot'), `rosgate.history:${state.robotNs.get() || '/'}`);
+  state.history = dash.history;
+  addSeries({ id: 'left', label: 'left motor', unit: '°C', topic: ns('/motor/left/temperature'), path: 'temperature', type: 'sensor_msgs/msg/Temperature' });
+  addSeries({ id: 'right', label: 'right motor', unit: '°C', topic: ns('/motor/right/temperature'), path: 'temperature', type: 'sensor_msgs/msg/Temperature' });
+  addSeries({ id: 'speed', label: 'speed', unit: 'm/s', topic: ns('/odom'), path: 'twist.twist.linear.x', type: 'nav_msgs/msg/Odometry' });
+  addSeries({ id: 'battery', label: 'battery', unit: '%' });
+  setInterval(() => dash.history.sample(), SAMPLE_EVERY);
+  setInterval(() => dash.history.save(), 5000);
+  addEventListener('pagehide', () => dash.history.save());
+  new ResizeObserver(() => dash.history.resize()).observe($('#plot'));
   $('#plot-add').addEventListener('submit', (e) => {
     e.preventDefault();
     const f = e.target;
-    if (f.topic.value && f.field.value) addSeries(f.topic.value.trim(), f.field.value.trim());
+    const topic = f.topic.value.trim(), path = f.field.value.trim();
+    if (topic && path) addSeries({ id: `${topic} ${path}`, label: `${topic} ${path}`, unit: '', topic, path });
   });
   $('#battery-topic').addEventListener('change', resubscribe);
   $('#camera-topic').addEventListener('change', resubscribe);
@@ -298,13 +340,15 @@ function setupRobot() {
   state.robotNs = bindNamespace({
     call: callRosapi,
     onChange: () => { stopAll(); location.reload(); },
-    onError: (text) => showNotice(text),
+    onError: (text) => { stopAll(); showNotice(text); },
   });
   const ns = (name) => withNamespace(state.robotNs.get(), name);
   for (const el of ['#topic', '#battery-topic', '#camera-topic']) $(el).value = ns($(el).value);
   bindDriverBadge(lease);
+  state.robotNs.follow(lease);
   lease.addEventListener('refused', (e) => showNotice(`Your commands are refused: ${e.detail}`));
-  lease.addEventListener('change', () => { if (lease.state !== 'other') showNotice(''); });
+  lease.addEventListener('change', () => { if (lease.state !== 'other' && !state.blocked) showNotice(''); });
+  lease.addEventListener('stop', () => { stopAll(); showNotice('The teacher stopped this robot.'); });
 }
 
 function showNotice(text) {
@@ -317,6 +361,6 @@ setupRobot();
 if (params.get('topic')) $('#topic').value = params.get('topic');
 setupKeys();
 setupJoystick();
-setupPlots();
+setupDashboard();
 connect();
 document.body.dataset.ready = 'true';

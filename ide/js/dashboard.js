@@ -1,0 +1,145 @@
+// The teleop page's dashboard, as robot apps have it: gauges with warning colours (battery,
+// motor temperatures) and history plots, one chart per unit with its own axis. The history of
+// the plotted fields is kept for ten minutes in this browser, per robot namespace, so a reload
+// keeps it.
+import uPlot from 'uplot';
+
+export const WINDOW = 600;         // s of history kept
+export const SAMPLE_EVERY = 1000;  // ms between history rows
+const ARC = Math.PI * 48;          // length of the gauge's half circle
+const COLOURS = ['#ff7043', '#42a5f5', '#66bb6a', '#ab47bc', '#ffca28', '#26c6da'];
+const SVG = 'http://www.w3.org/2000/svg';
+
+const svg = (tag, attrs) => {
+  const el = document.createElementNS(SVG, tag);
+  for (const [k, v] of Object.entries(attrs)) el.setAttribute(k, v);
+  return el;
+};
+
+/**
+ * A half-circle gauge in el. Levels: 'ok', 'warn', 'danger' (el.dataset.level), by `warn` and
+ * `danger` thresholds, rising (temperatures) or falling (`low: true`, a battery).
+ */
+export function gauge(el, { label, unit, min, max, warn, danger, low = false, digits = 0 }) {
+  const path = 'M12 60 A48 48 0 0 1 108 60';
+  const back = svg('path', { d: path, class: 'g-back' });
+  const fill = svg('path', { d: path, class: 'g-fill', 'stroke-dasharray': `0 ${ARC}` });
+  const text = svg('text', { x: 60, y: 56, class: 'g-value', 'text-anchor': 'middle' });
+  const name = svg('text', { x: 60, y: 76, class: 'g-label', 'text-anchor': 'middle' });
+  name.textContent = label;
+  text.textContent = '–';
+  const box = svg('svg', { viewBox: '0 0 120 80', role: 'img', 'aria-label': label });
+  box.append(back, fill, text, name);
+  el.classList.add('gauge');
+  el.replaceChildren(box);
+  el.dataset.level = '';
+  return {
+    set(v) {
+      if (!Number.isFinite(v)) { text.textContent = '?'; el.dataset.level = ''; return; }
+      const f = Math.max(0, Math.min(1, (v - min) / (max - min)));
+      fill.setAttribute('stroke-dasharray', `${f * ARC} ${ARC}`);
+      text.textContent = `${v.toFixed(digits)}${unit}`;
+      el.dataset.level = (low ? v <= danger : v >= danger) ? 'danger' : (low ? v <= warn : v >= warn) ? 'warn' : 'ok';
+      el.dataset.value = String(v);
+      box.setAttribute('aria-label', `${label} ${text.textContent}`);
+    },
+  };
+}
+
+/**
+ * History plots: series grouped into charts by unit; add(series) then sample() once a second.
+ * series: {id, label, unit, last} (last: the latest value, set by whoever receives it).
+ */
+export class History {
+  constructor(el, key) {
+    this.el = el;
+    this.key = key;
+    this.series = [];
+    this.charts = new Map();   // unit -> {div, readout, chart, series: [...]}
+    this.rows = this.load();   // {t: [...], [id]: [...]}
+  }
+
+  load() {
+    try {
+      const rows = JSON.parse(localStorage.getItem(this.key));
+      if (rows && Array.isArray(rows.t)) return this.trim(rows);
+    } catch { /* nothing kept, or storage off */ }
+    return { t: [] };
+  }
+
+  save() {
+    try { localStorage.setItem(this.key, JSON.stringify(this.rows)); } catch { /* storage full or off */ }
+  }
+
+  trim(rows, now = Date.now() / 1000) {
+    let drop = 0;
+    while (drop < rows.t.length && rows.t[drop] < now - WINDOW) drop += 1;
+    if (drop) for (const k of Object.keys(rows)) rows[k] = rows[k].slice(drop);
+    return rows;
+  }
+
+  add(s) {
+    this.series.push(s);
+    if (!this.rows[s.id]) this.rows[s.id] = this.rows.t.map(() => null);
+    const unit = s.unit ?? '';
+    if (!this.charts.has(unit)) {
+      const div = document.createElement('div');
+      div.className = 'chart';
+      div.dataset.unit = unit;
+      const readout = document.createElement('p');
+      readout.className = 'readout legend';
+      this.el.append(div, readout);
+      this.charts.set(unit, { div, readout, chart: null, series: [] });
+    }
+    const c = this.charts.get(unit);
+    c.series.push(s);
+    this.build(c);
+  }
+
+  build(c) {
+    c.chart?.destroy();
+    const unit = c.div.dataset.unit;
+    c.chart = new uPlot({
+      width: Math.max(220, this.el.clientWidth),
+      height: 110,
+      legend: { show: false },
+      cursor: { drag: { x: false, y: false } },
+      scales: { x: { time: true } },
+      axes: [
+        { stroke: '#aab3cc', grid: { stroke: '#2c3350' }, size: 28 },
+        { stroke: '#aab3cc', grid: { stroke: '#2c3350' }, size: 46, label: unit, labelSize: 14 },
+      ],
+      series: [{}, ...c.series.map((s) => ({
+        label: s.label, stroke: COLOURS[this.series.indexOf(s) % COLOURS.length], width: 2, spanGaps: true }))],
+    }, this.data(c), c.div);
+    this.legend(c);
+  }
+
+  data(c) { return [this.rows.t, ...c.series.map((s) => this.rows[s.id])]; }
+
+  // The latest values beside each series' name (not the cursor's: no "--" while nobody hovers).
+  legend(c) {
+    c.readout.replaceChildren(...c.series.map((s) => {
+      const span = document.createElement('span');
+      span.style.setProperty('--c', COLOURS[this.series.indexOf(s) % COLOURS.length]);
+      span.dataset.id = s.id;
+      const v = s.last ?? this.rows[s.id].findLast((x) => x !== null);
+      span.textContent = `${s.label} ${Number.isFinite(v) ? v.toFixed(2) : '–'}${c.div.dataset.unit ? ` ${c.div.dataset.unit}` : ''}`;
+      return span;
+    }));
+  }
+
+  sample(now = Date.now() / 1000) {
+    this.rows.t.push(now);
+    for (const s of this.series) this.rows[s.id].push(Number.isFinite(s.last) ? s.last : null);
+    for (const k of Object.keys(this.rows)) {   // series no longer shown stay aligned
+      if (this.rows[k].length < this.rows.t.length) this.rows[k].push(null);
+    }
+    this.trim(this.rows, now);
+    for (const c of this.charts.values()) { c.chart.setData(this.data(c)); this.legend(c); }
+  }
+
+  resize() {
+    for (const c of this.charts.values()) c.chart?.setSize({ width: Math.max(220, this.el.clientWidth), height: 110 });
+  }
+}
