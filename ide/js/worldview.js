@@ -1,5 +1,8 @@
 // Draws /world/markers (visualization_msgs/MarkerArray) from above, like a 2-D RViz:
 // bounds, walls, pen trails, laser hits and robots. Works for any robot that publishes it.
+// Markers in different frames are different worlds (turtlesim's square and the rover's arena):
+// one is drawn at a time, scaled to fill the canvas, with tabs to choose when there are several;
+// a tap on the view enlarges it (a tap or Escape brings it back).
 import { yaw } from '../runtime/util.js';
 
 const ARROW = 0, CUBE = 1, SPHERE = 2, CYLINDER = 3, LINE_STRIP = 4, LINE_LIST = 5,
@@ -7,22 +10,34 @@ const ARROW = 0, CUBE = 1, SPHERE = 2, CYLINDER = 3, LINE_STRIP = 4, LINE_LIST =
 const DELETE = 2, DELETEALL = 3;
 const FLOOR = '#c7c2b8';   // an outline-only world gets a neutral floor
 const LAYER = { bounds: 0, walls: 1, pen: 2, scan: 3, robots: 5 };
+const KEY = 'rosgate.world';
+const PAD = 8;
 
 const rgba = (c, fallback = 'rgba(200,200,200,1)') => (c
   ? `rgba(${Math.round(c.r * 255)},${Math.round(c.g * 255)},${Math.round(c.b * 255)},${c.a === 0 ? 1 : c.a ?? 1})`
   : fallback);
+const frameOf = (m) => m.header?.frame_id || 'world';
 
 export class WorldView {
-  constructor(canvas, topic = '/world/markers') {
+  constructor(canvas, topic = '/world/markers', { tabs = true, enlarge = true } = {}) {
     this.canvas = canvas;
     this.topic = topic;
     this.markers = new Map();   // 'ns/id' -> marker
     this.dirty = true;
     this.count = 0;             // MarkerArrays received
     this.ros = null;
+    this.frame = null;          // the chosen world (a frame id); null: the remembered or first one
+    try { this.frame = localStorage.getItem(KEY); } catch { /* storage off */ }
+    this.big = null;            // the enlarged view's canvas while it is open
+    this.fit = null;            // {w, h, scale, extent} of the last drawing, for tests
     this.listener = (m) => this.receive(m.msg);
+    if (tabs) this._makeTabs();
+    if (enlarge) canvas.addEventListener('click', () => this.enlarge(true));
     new ResizeObserver(() => { this.dirty = true; }).observe(canvas);
-    const loop = () => { if (this.dirty) this.draw(); requestAnimationFrame(loop); };
+    const loop = () => {
+      if (this.dirty) { this.dirty = false; this.draw(); if (this.big) this.draw(this.big); this._showTabs(); }
+      requestAnimationFrame(loop);
+    };
     requestAnimationFrame(loop);
   }
 
@@ -53,6 +68,93 @@ export class WorldView {
     if (ros?.isConnected) this.attach(ros);
   }
 
+  // The worlds (frames) markers came in, each with the names of the robots in it.
+  worlds() {
+    const out = new Map();
+    for (const m of this.markers.values()) {
+      const f = frameOf(m);
+      if (!out.has(f)) out.set(f, []);
+      if (m.ns === 'robots' && m.text) out.get(f).push(m.text);
+    }
+    return [...out].map(([frame, robots]) => ({ frame, robots: robots.sort() }))
+      .sort((a, b) => a.frame.localeCompare(b.frame));
+  }
+
+  // The world drawn: the chosen one when it exists, else 'world', else the first.
+  current() {
+    const frames = this.worlds().map((w) => w.frame);
+    if (frames.includes(this.frame)) return this.frame;
+    return frames.includes('world') ? 'world' : frames[0] ?? 'world';
+  }
+
+  choose(frame) {
+    this.frame = frame;
+    try { localStorage.setItem(KEY, frame); } catch { /* storage off */ }
+    this.dirty = true;
+  }
+
+  visible() {
+    const f = this.current();
+    return [...this.markers.values()].filter((m) => frameOf(m) === f);
+  }
+
+  _makeTabs() {
+    const bar = document.createElement('div');
+    bar.className = 'world-tabs';
+    bar.setAttribute('role', 'tablist');
+    bar.style.cssText = 'display:none;gap:4px;padding:4px;background:#1d2230;flex-wrap:wrap';
+    this.canvas.before(bar);
+    this.tabs = bar;
+  }
+
+  _showTabs() {
+    const bar = this.tabs;
+    if (!bar) return;
+    const worlds = this.worlds();
+    const current = this.current();
+    const key = worlds.map((w) => `${w.frame}:${w.robots.join('+')}`).join(',') + `|${current}`;
+    if (bar.dataset.key === key) return;
+    bar.dataset.key = key;
+    bar.style.display = worlds.length > 1 ? 'flex' : 'none';
+    bar.replaceChildren(...worlds.map((w) => {
+      const b = document.createElement('button');
+      b.type = 'button';
+      b.dataset.frame = w.frame;
+      b.setAttribute('role', 'tab');
+      b.setAttribute('aria-selected', String(w.frame === current));
+      b.textContent = w.robots.length ? w.robots.join(', ') : w.frame;
+      b.title = `world (frame ${w.frame})`;
+      b.style.cssText = `font:inherit;font-size:12px;min-height:28px;padding:2px 10px;border-radius:6px;cursor:pointer;
+        border:1px solid #3b4460;color:#e9ecf5;background:${w.frame === current ? '#3f6fd8' : '#2e3650'}`;
+      b.onclick = () => this.choose(w.frame);
+      return b;
+    }));
+  }
+
+  // Opens (or closes) the enlarged view over the page.
+  enlarge(open = !this.big) {
+    if (!open) {
+      this.big?.closest('.world-big')?.remove();
+      this.big = null;
+      return;
+    }
+    if (this.big) return;
+    const over = document.createElement('div');
+    over.className = 'world-big';
+    over.setAttribute('role', 'dialog');
+    over.setAttribute('aria-label', 'world view, enlarged: tap to close');
+    over.style.cssText = 'position:fixed;inset:0;z-index:1000;background:#000c;display:grid;place-items:center;cursor:zoom-out';
+    const big = document.createElement('canvas');
+    big.style.cssText = 'width:96vw;height:92vh;background:#1d2230;border-radius:8px';
+    over.append(big);
+    over.addEventListener('click', () => this.enlarge(false));
+    const esc = (e) => { if (e.key === 'Escape') { this.enlarge(false); removeEventListener('keydown', esc); } };
+    addEventListener('keydown', esc);
+    document.body.append(over);
+    this.big = big;
+    this.dirty = true;
+  }
+
   receive(msg) {
     this.count += 1;
     for (const m of msg?.markers ?? []) {
@@ -69,16 +171,17 @@ export class WorldView {
     this.dirty = true;
   }
 
-  // Counts per namespace, for status lines and tests.
+  // Counts per namespace in the world drawn, for status lines and tests.
   summary() {
     const out = {};
-    for (const m of this.markers.values()) out[m.ns] = (out[m.ns] ?? 0) + 1;
+    for (const m of this.visible()) out[m.ns] = (out[m.ns] ?? 0) + 1;
     return out;
   }
 
   extent() {
-    const b = [...this.markers.values()].filter((m) => m.ns === 'bounds');
-    const src = b.length ? b : [...this.markers.values()];
+    const shown = this.visible();
+    const b = shown.filter((m) => m.ns === 'bounds');
+    const src = b.length ? b : shown;
     let x0 = Infinity, y0 = Infinity, x1 = -Infinity, y1 = -Infinity;
     const add = (x, y) => { x0 = Math.min(x0, x); y0 = Math.min(y0, y); x1 = Math.max(x1, x); y1 = Math.max(y1, y); };
     for (const m of src) {
@@ -93,9 +196,7 @@ export class WorldView {
     return { x0, y0, x1, y1 };
   }
 
-  draw() {
-    this.dirty = false;
-    const c = this.canvas;
+  draw(c = this.canvas) {
     const dpr = window.devicePixelRatio || 1;
     const w = c.clientWidth, h = c.clientHeight;
     if (!w || !h) return;
@@ -108,14 +209,14 @@ export class WorldView {
     ctx.fillStyle = '#1d2230';
     ctx.fillRect(0, 0, w, h);
     const e = this.extent();
-    const pad = 8;
-    const s = Math.min((w - 2 * pad) / (e.x1 - e.x0), (h - 2 * pad) / (e.y1 - e.y0));
+    const s = Math.min((w - 2 * PAD) / (e.x1 - e.x0), (h - 2 * PAD) / (e.y1 - e.y0));
+    if (c === this.canvas) this.fit = { w, h, scale: s, extent: e };
     const ox = (w - s * (e.x1 - e.x0)) / 2 - s * e.x0;
     const oy = (h + s * (e.y1 - e.y0)) / 2 + s * e.y0;
     // world -> canvas: x right, y up
     ctx.setTransform(dpr * s, 0, 0, -dpr * s, dpr * ox, dpr * oy);
     const px = 1 / s;
-    const sorted = [...this.markers.values()].sort((a, b) => (LAYER[a.ns] ?? 4) - (LAYER[b.ns] ?? 4));
+    const sorted = this.visible().sort((a, b) => (LAYER[a.ns] ?? 4) - (LAYER[b.ns] ?? 4));
     if (!sorted.some((m) => m.ns === 'bounds')) {
       ctx.fillStyle = '#2a3146';
       ctx.fillRect(e.x0, e.y0, e.x1 - e.x0, e.y1 - e.y0);

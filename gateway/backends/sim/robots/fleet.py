@@ -7,8 +7,8 @@ its own copy of every selected robot (``/s07/turtle1/cmd_vel``, ``/s07/spawn``, 
 one neither claimed nor in use; ``success`` false when all are taken. It gives it back with
 ``<namespace>/fleet/release`` (std_srvs/srv/Trigger), or the teacher frees all with
 ``/fleet/release_all`` (std_srvs/srv/Empty). A station is "in use" while a client publishes on
-one of its topics or subscribes to one other than ``world/markers`` (an overview of all stations
-watches those); a claim lapses once its station has not been in use for ``CLAIM_GRACE`` seconds.
+one of its topics or subscribes to one other than ``world/markers`` and ``rosgate/program`` (the
+teacher's overview of all stations watches those); a claim lapses once its station has not been in use for ``CLAIM_GRACE`` seconds.
 The ``/fleet`` node's parameters ``namespaces`` and ``claimed`` list the stations and the claims.
 Nothing is enforced: the teacher (and anyone) sees and can drive every station.
 """
@@ -26,6 +26,31 @@ CLAIM_GRACE = 60.0
 CHECK_PERIOD = 5.0
 
 
+class FramedHub:
+    """A MarkerHub whose markers are in another frame: two robots of one station that live in
+    different worlds (turtlesim's square and the rover's arena) share one ``world/markers`` and
+    a viewer draws one frame at a time."""
+
+    def __init__(self, hub: mk.MarkerHub, frame: str):
+        self.hub, self.frame = hub, frame
+
+    def __getattr__(self, name):
+        return getattr(self.hub, name)
+
+    def _framed(self, m: dict) -> dict:
+        m['header'] = {**m['header'], 'frame_id': self.frame}
+        return m
+
+    def set_static(self, m: dict) -> None:
+        self.hub.set_static(self._framed(m))
+
+    def update(self, m: dict) -> None:
+        self.hub.update(self._framed(m))
+
+    def add_pen(self, m: dict) -> None:
+        self.hub.add_pen(self._framed(m))
+
+
 class Station:
     """The robots of one namespace sharing one world view (``world/markers``)."""
 
@@ -35,10 +60,12 @@ class Station:
         self.view = graph.node('world_view', namespace)
         self.hub = mk.MarkerHub(self.view)
         self.robots: list = []
+        several = len(kinds) > 1     # then each robot's world is its own frame: one world per view
         try:
             for kind in kinds:
                 if kind == 'turtlesim':
-                    self.robots.append(Turtlesim(graph, self.hub, namespace, speed=speed))
+                    hub = FramedHub(self.hub, 'turtlesim') if several else self.hub
+                    self.robots.append(Turtlesim(graph, hub, namespace, speed=speed))
                 elif kind == 'rover':
                     self.robots.append(Rover(graph, self.hub, world, namespace, speed=speed,
                                              twist_stamped=twist_stamped))
@@ -77,12 +104,12 @@ class Fleet:
 
     def in_use(self, namespace: str) -> bool:
         """Whether a node outside the station publishes on one of its topics or subscribes to
-        one (other than the world view, which an overview of all stations watches)."""
+        one (other than the world view and the program report, which the teacher's view watches)."""
         prefix = namespace + '/'
-        view = prefix + 'world/markers'
+        watched = (prefix + 'world/markers', prefix + 'rosgate/program')
         for topic in self.graph.topic_entries():
             if topic.name.startswith(prefix):
-                endpoints = topic.publishers if topic.name == view else (*topic.publishers, *topic.subscriptions)
+                endpoints = topic.publishers if topic.name in watched else (*topic.publishers, *topic.subscriptions)
                 if any(not e.node.name.startswith(prefix) for e in endpoints):
                     return True
         return False

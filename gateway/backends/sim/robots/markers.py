@@ -113,7 +113,8 @@ class MarkerHub:
             hist = self.pen_history.get(key)
             if hist is None:
                 hist = self.pen_history[key] = marker('pen', next(self._history_ids), LINE_LIST,
-                                                      scale=(m['scale']['x'], 0, 0), rgba=dict(c))
+                                                      scale=(m['scale']['x'], 0, 0), rgba=dict(c),
+                                                      frame_id=m['header']['frame_id'])
             hist['points'] = hist['points'] + m['points']
             self.history_segments += len(m['points']) // 2
         self.pen_batches.clear()
