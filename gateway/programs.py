@@ -11,6 +11,7 @@ Anything else is refused with 400 before the file system is touched.
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import pathlib
@@ -49,7 +50,7 @@ class ProgramListHandler(_Base):
         programs = []
         if self.programs_dir.is_dir():
             for p in sorted(self.programs_dir.glob("*.json")):
-                if not _NAME.fullmatch(p.stem):
+                if not _NAME.fullmatch(p.stem) or p.is_symlink():
                     continue
                 st = p.stat()
                 programs.append({"name": p.stem, "size": st.st_size, "modified": st.st_mtime})
@@ -60,8 +61,8 @@ class ProgramHandler(_Base):
     def get(self, name: str) -> None:
         path = self._path(name)
         try:
-            data = path.read_bytes()
-        except FileNotFoundError:
+            data = _read_no_follow(path)
+        except (FileNotFoundError, IsADirectoryError):
             raise tornado.web.HTTPError(404, "no program named %r" % name)
         self.finish(data)
 
@@ -99,6 +100,18 @@ class ProgramHandler(_Base):
         self.set_status(204)
         self.clear_header("Content-Type")
         self.finish()
+
+
+def _read_no_follow(path: pathlib.Path) -> bytes:
+    """A stored program's bytes; a symlink in the library is not a program (it could point anywhere)."""
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW)
+    except OSError as e:
+        if e.errno == errno.ELOOP:
+            raise FileNotFoundError(path) from None
+        raise
+    with os.fdopen(fd, "rb") as f:
+        return f.read(MAX_PROGRAM_BYTES + 1)
 
 
 def program_routes(programs_dir: pathlib.Path) -> list:
