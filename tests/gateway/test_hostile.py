@@ -1,0 +1,106 @@
+"""Hostile ops at a live gateway: each is refused with a status naming op and id, the connection
+and everyone else's service carry on, and nothing the failed op began is left behind."""
+
+from __future__ import annotations
+
+import cbor2
+import pytest
+
+from tests.gateway.rawclient import Raw
+
+
+@pytest.fixture
+def raw(gateway):
+    with Raw(gateway.ws_url) as client:
+        yield client
+
+
+def refusal(client: Raw, frame, id: str | None) -> dict:
+    """Send frame, then a round trip; the error status for it (which came first)."""
+    client.send(frame)
+    status = client.status(id)
+    assert status['level'] == 'error', status
+    client.sync()
+    return status
+
+
+def test_lone_surrogates_get_a_status_and_the_connection_stays(raw):
+    status = refusal(raw, '{"op": "subscribe", "topic": "/x\\ud800", "id": "s1"}', 's1')
+    assert "field 'topic' is not valid Unicode" in status['msg']
+    raw.send('{"op": "nope", "id": "a\\udc00"}')
+    status = raw.status()
+    assert 'id' not in status and "field 'id'" in status['msg']
+    raw.sync()
+
+
+def test_a_bad_name_cannot_break_rosapi_for_others(gateway):
+    with Raw(gateway.ws_url) as evil, Raw(gateway.ws_url) as other:
+        refusal(evil, '{"op": "advertise", "topic": "/evil\\ud800", "type": "std_msgs/msg/String", "id": "e"}', 'e')
+        for service in ('/rosapi/topics', '/rosapi/topics_and_raw_types'):
+            reply = other.call(service)
+            assert reply['op'] == 'service_response' and reply['result'] is True, reply
+
+
+def test_a_latched_message_with_a_bad_string_is_refused_and_late_subscribers_still_served(gateway):
+    with Raw(gateway.ws_url) as pub, Raw(gateway.ws_url) as late:
+        pub.send({'op': 'advertise', 'topic': '/hostile/latched', 'type': 'std_msgs/msg/String', 'latch': True})
+        pub.send({'op': 'publish', 'topic': '/hostile/latched', 'msg': {'data': 'good'}})
+        status = refusal(pub, '{"op": "publish", "topic": "/hostile/latched", "id": "bad", '
+                              '"msg": {"data": "\\ud800"}}', 'bad')
+        assert "field 'msg.data'" in status['msg']
+        late.send({'op': 'subscribe', 'topic': '/hostile/latched', 'type': 'std_msgs/msg/String'})
+        msg = late.expect(lambda m: m.get('op') == 'publish')
+        assert msg['msg'] == {'data': 'good'}
+
+
+@pytest.mark.parametrize('op', [
+    {'op': 'subscribe', 'topic': '/x', 'id': 'b1', 'queue_length': -(10**5000)},
+    {'op': 'call_service', 'service': '/add_two_ints', 'id': 'b2', 'timeout': 10**5000},
+])
+def test_cbor_bignums_get_a_status(raw, op):
+    status = refusal(raw, cbor2.dumps(op), op['id'])
+    assert 'integer of' in status['msg'] or 'must be <=' in status['msg']
+
+
+def test_a_failed_subscribe_leaves_no_subscription(gateway):
+    topic = '/hostile/leak'
+    with Raw(gateway.ws_url) as c:
+        frame = ('{"op": "subscribe", "id": "ov", "topic": "%s", "type": "std_msgs/msg/String", '
+                 '"throttle_rate": 1%s}' % (topic, '0' * 400))
+        assert 'throttle_rate' in refusal(c, frame, 'ov')['msg']
+        assert c.call('/rosapi/subscribers', {'topic': topic})['values']['subscribers'] == []
+    with Raw(gateway.ws_url) as c:
+        assert c.call('/rosapi/subscribers', {'topic': topic})['values']['subscribers'] == []
+
+
+def test_png_errors_carry_the_id(raw):
+    refusal(raw, '{"op": "png", "id": "T7", "data": "!!!!"}', 'T7')
+
+
+def test_rosapi_names_cannot_be_advertised(raw):
+    status = refusal(raw, {'op': 'advertise_service', 'service': '/rosapi/topics', 'id': 'dup',
+                           'type': 'rosapi_msgs/srv/Topics'}, 'dup')
+    assert 'served by the gateway itself' in status['msg']
+    services = raw.call('/rosapi/services')['values']['services']
+    assert services.count('/rosapi/topics') == 1
+
+
+def test_a_client_that_does_not_read_its_replies_is_closed_1008(start_gateway):
+    gw = start_gateway('--send-buffer-limit', '65536')
+    with Raw(gw.ws_url, max_queue=1) as lazy, Raw(gw.ws_url) as other:
+        code = reason = None
+        try:
+            for i in range(100_000):   # until the server gives up on this client
+                lazy.send({'op': 'call_service', 'service': '/rosapi/topics_and_raw_types', 'id': f'c{i}'})
+        except Exception:
+            pass
+        try:
+            while True:
+                lazy.recv(timeout=30)
+        except TimeoutError:
+            pytest.fail('the server never closed the connection of a client that does not read')
+        except Exception as e:   # ConnectionClosed
+            code, reason = e.rcvd.code, e.rcvd.reason
+        assert code == 1008 and 'not reading replies' in reason
+        assert other.call('/rosapi/get_time')['values']['time']['sec'] > 0
+    assert gw.alive
