@@ -15,6 +15,7 @@ import { MakeBlockDialog } from './makeblock.js';
 import { DriverLease, bindDriverBadge, DRIVER_TOPIC } from './driver.js';
 import { bindNamespace, CLAIM_SERVICE } from './robotns.js';
 import { reportProgram } from './report.js';
+import { RobotRuns } from './robotruns.js';
 import { withNamespace } from '../runtime/util.js';
 
 const $ = (sel) => document.querySelector(sel);
@@ -160,6 +161,7 @@ async function start() {
     ros.on('connection', () => {
       setStatus('connected', 'connected');
       graph.setRos(ros);
+      ide.robotRuns?.connected(ros);
       lease.attach(ros);
       world.attach(ros);
       graph.refresh().catch((e) => consoleView.error(`rosapi: ${e.message}`));
@@ -179,6 +181,8 @@ async function start() {
   // running
   const runner = new Runner(workspace, () => ide.ros, consoleView, () => ide.ns);
   ide.runner = runner;
+  ide.robotRuns = new RobotRuns(ide);
+  ide.robotRuns.init();
   runner.addEventListener('state', (e) => { document.body.dataset.run = e.detail; });
   lease.addEventListener('stop', () => { runner.stop(); consoleView.error('The teacher stopped this robot.'); });
   ide.report = reportProgram(ide, { workspace, runner, consoleEl: $('#console-lines') });

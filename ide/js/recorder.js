@@ -1,0 +1,137 @@
+// Recordings on the IDE and the teleop page: a record button that shows the elapsed time and
+// size while it records, and a dialog with the topics to record and the list of recordings
+// (download as .mcap, play back into the graph). HTTP only (/api/recordings), so the same
+// module serves both pages: it mounts itself into the page's #bar.
+
+export const formatBytes = (n) => (n < 1024 ? `${n} B` : n < 2 ** 20 ? `${(n / 1024).toFixed(1)} KB`
+  : `${(n / 2 ** 20).toFixed(1)} MB`);
+export const formatElapsed = (s) => `${Math.floor(s / 60)}:${String(Math.floor(s % 60)).padStart(2, '0')}`;
+
+async function api(path, options = {}) {
+  const headers = options.body ? { 'Content-Type': 'application/json' } : {};
+  const res = await fetch(`api/recordings${path}`, { ...options, headers });
+  const body = res.status === 204 ? null : await res.json().catch(() => null);
+  if (!res.ok) throw new Error(body?.error || `HTTP ${res.status}`);
+  return body;
+}
+
+const el = (tag, props = {}, ...children) => {
+  const e = Object.assign(document.createElement(tag), props);
+  e.append(...children);
+  return e;
+};
+
+export class Recorder {
+  constructor(bar) {
+    this.current = null;      // id of the recording this page shows in its button
+    this.timer = null;
+    this.button = el('button', { id: 'rec', className: 'rec', title: 'record topics to a bag file (MCAP)', textContent: '● Rec' });
+    this.listButton = el('button', { id: 'recordings', title: 'recordings on the gateway', textContent: 'Recordings' });
+    bar.append(el('span', { className: 'group recorder' }, this.button, this.listButton));
+    this.topics = el('input', { id: 'rec-topics', size: 28, value: localStorage.getItem('rosgate.recTopics') || '' });
+    this.message = el('p', { className: 'rec-msg' });
+    this.list = el('ul', { id: 'rec-list' });
+    const close = el('button', { textContent: 'Close', onclick: () => this.dialog.close() });
+    this.dialog = el('dialog', { id: 'dlg-recordings' },
+      el('h3', { textContent: 'Recordings' }),
+      el('label', {}, 'Topics to record (globs, space separated) ', this.topics),
+      this.message, this.list, el('p', {}, close));
+    document.body.append(this.dialog);
+    this.button.onclick = () => (this.current ? this.stop() : this.start());
+    this.listButton.onclick = () => { this.dialog.showModal(); this.refresh(); };
+    this.topics.onchange = () => localStorage.setItem('rosgate.recTopics', this.topics.value);
+  }
+
+  defaultTopics() {
+    const ns = (document.querySelector('#ns')?.value || '').trim().replace(/\/+$/, '');
+    return ns ? `${ns.startsWith('/') ? '' : '/'}${ns}/*` : '/*';
+  }
+
+  say(text, error = false) {
+    this.message.textContent = text;
+    this.message.classList.toggle('error', error);
+  }
+
+  async start() {
+    const topics = (this.topics.value.trim() || this.defaultTopics()).split(/[\s,]+/).filter(Boolean);
+    try {
+      const rec = await api('', { method: 'POST', body: JSON.stringify({ topics, max_seconds: 600 }) });
+      this.follow(rec);
+    } catch (e) {
+      this.say(`cannot record: ${e.message}`, true);
+      this.dialog.showModal();
+    }
+  }
+
+  async stop() {
+    if (!this.current) return;
+    try { this.show(await api(`/${this.current}`, { method: 'DELETE' })); } catch (e) { this.say(e.message, true); }
+  }
+
+  // Shows a running recording in the button until it ends (also one found when the page opens).
+  follow(rec) {
+    this.current = rec.id;
+    clearInterval(this.timer);
+    this.timer = setInterval(async () => {
+      try { this.show(await api(`/${rec.id}`)); } catch { /* the next tick tries again */ }
+    }, 1000);
+    this.show(rec);
+  }
+
+  show(rec) {
+    const recording = rec.state === 'recording';
+    document.body.dataset.recording = recording ? 'on' : 'off';
+    this.button.classList.toggle('on', recording);
+    if (recording) {
+      this.button.textContent = `■ ${formatElapsed(Date.now() / 1000 - rec.started)} · ${formatBytes(rec.bytes)}`;
+      this.button.title = `recording ${rec.topics.join(', ') || rec.requested.join(', ')}: press to stop`;
+      return;
+    }
+    clearInterval(this.timer);
+    this.current = null;
+    this.button.textContent = '● Rec';
+    this.button.title = 'record topics to a bag file (MCAP)';
+    this.say(`${rec.id}: ${rec.messages ?? '?'} messages, ${formatBytes(rec.bytes)}${rec.reason ? ` (${rec.reason})` : ''}`);
+    if (this.dialog.open) this.refresh();
+  }
+
+  async refresh() {
+    if (!this.topics.value) this.topics.placeholder = this.defaultTopics();
+    let items;
+    try { items = (await api('')).recordings; } catch (e) { this.list.textContent = `recordings unavailable: ${e.message}`; return; }
+    this.list.replaceChildren(...items.slice().reverse().map((rec) => {
+      const li = el('li', { id: `rec-${rec.id}` }, `${rec.id} · ${formatBytes(rec.bytes)} `);
+      if (rec.state === 'recording') {
+        li.append(el('b', { textContent: 'recording…' }));
+        return li;
+      }
+      li.append(el('a', { href: `api/recordings/${rec.id}.mcap`, download: `${rec.id}.mcap`, textContent: 'download' }), ' ');
+      li.append(el('button', {
+        textContent: 'play', title: 'publish it again on its topics, with the recorded timing',
+        onclick: async () => {
+          try {
+            const p = await api(`/${rec.id}/play`, { method: 'POST', body: JSON.stringify({ rate: 1 }) });
+            this.say(`playing ${p.messages} messages over ${p.duration.toFixed(1)} s`);
+          } catch (e) { this.say(e.message, true); }
+        },
+      }));
+      return li;
+    }));
+    if (!items.length) this.list.textContent = 'No recordings yet.';
+  }
+
+  async attach() {
+    try {
+      // a page's own kind of recording (not the gateway's --record one, which has no max_seconds)
+      const running = (await api('')).recordings.filter((r) => r.state === 'recording' && r.max_seconds);
+      if (running.length) this.follow(running[running.length - 1]);
+    } catch { /* no recordings API: the button still tries when pressed */ }
+  }
+}
+
+const bar = document.querySelector('#bar');
+if (bar) {
+  const recorder = new Recorder(bar);
+  window.rosgateRecorder = recorder;
+  recorder.attach();
+}

@@ -1,0 +1,98 @@
+"""The IDE's "Run on robot" button and the record button, in Chromium against live gateways."""
+
+from __future__ import annotations
+
+import time
+import urllib.request
+
+import pytest
+
+from .conftest import RosClient, wait_for
+from .test_ide_features import drive, ex, moving, program
+
+
+def log(text: str) -> dict:
+    return ex.block("ros_log", inputs={"VALUE": ex.text(text)})
+
+
+@pytest.fixture(scope="module")
+def runs_gateway(start_gateway, tmp_path_factory):
+    return start_gateway("--robot", "turtlesim", "--allow-runs",
+                         "--runs-dir", str(tmp_path_factory.mktemp("runs")),
+                         "--record", str(tmp_path_factory.mktemp("recordings")), "--record-topics", "/nothing")
+
+
+@pytest.fixture
+def runs_ros(runs_gateway):
+    client = RosClient(runs_gateway)
+    yield client
+    client.close()
+
+
+def console_has(ide, text: str) -> bool:
+    return text in ide.console_text()
+
+
+def test_run_on_robot_streams_output_and_stop_stops_it(runs_gateway, runs_ros, ide_factory):
+    ide = ide_factory(runs_gateway)
+    ide.page.wait_for_selector("#run-robot:not([hidden])", timeout=10000)
+    cmd = runs_ros.watch("/turtle1/cmd_vel", "geometry_msgs/msg/Twist")
+
+    ide.js("(p) => rosgateIde.loadProgram(p)", program(ex.seq(log("hello from the robot"), drive(0.5), log("bye"))))
+    ide.page.click("#run-robot")
+    wait_for(lambda: console_has(ide, "finished"), 60, what="the run to finish")
+    text = ide.console_text()
+    assert "no blocks are highlighted" in text
+    assert text.index("hello from the robot") < text.index("bye") < text.index("finished")
+    assert moving(cmd)
+    assert ide.js("document.querySelectorAll('.blocklyHighlighted, .blocklySelected').length") == 0
+
+    # a long one: Stop ends it and the robot gets its zero command at once
+    ide.js("(p) => rosgateIde.loadProgram(p)", program(ex.seq(log("driving"), drive(60))))
+    ide.page.click("#run-robot")
+    wait_for(lambda: console_has(ide, "driving"), 60, what="the long run's output")
+    t0 = time.monotonic()
+    wait_for(lambda: moving(cmd, t0), 10, what="the long run driving")
+
+    # a second page opened now shows the run and re-attaches to its output
+    other = ide_factory(runs_gateway)
+    wait_for(lambda: "is running on the robot" in other.console_text() and "driving" in other.console_text(), 20,
+             what="the reopened page re-attaching")
+
+    t1 = time.monotonic()
+    ide.page.click("#stop")
+    stopped = wait_for(lambda: next((t for t, m in cmd.since(t1) if m["linear"]["x"] == 0), None), 5,
+                       what="zero cmd_vel after Stop")
+    assert stopped - t1 < 0.5, f"zero {1000 * (stopped - t1):.0f} ms after Stop"
+    wait_for(lambda: console_has(ide, "stopped") and console_has(other, "stopped"), 20, what="both pages told")
+    assert ide.js("document.body.dataset.robotRun") == "idle"
+    assert not ide.errors and not other.errors, ide.errors + other.errors
+
+
+def test_button_hidden_without_allow_runs(turtle_gateway, ide_factory):
+    ide = ide_factory(turtle_gateway)
+    ide.page.wait_for_function("document.body.dataset.robotRuns === 'off'", timeout=10000)
+    assert ide.page.is_hidden("#run-robot")
+
+
+@pytest.mark.parametrize("page", ["ide", "teleop"])
+def test_record_button_shows_time_and_size_and_lists_the_download(runs_gateway, ide_factory, page):
+    ide = ide_factory(runs_gateway)
+    tab = ide.page
+    if page == "teleop":
+        tab = tab.context.new_page()
+        tab.on("pageerror", lambda e: ide.errors.append(str(e)))
+        tab.goto(runs_gateway.http_url + "teleop")
+    tab.wait_for_selector("#rec", timeout=10000)
+    tab.evaluate("rosgateRecorder.topics.value = '/turtle1/pose'")
+    tab.click("#rec")
+    tab.wait_for_function("document.querySelector('#rec').textContent.includes('KB')", timeout=15000)
+    label = tab.inner_text("#rec")
+    assert label.startswith("■ 0:0") and "·" in label, label
+    tab.click("#rec")
+    tab.wait_for_function("document.body.dataset.recording === 'off'", timeout=10000)
+    tab.click("#recordings")
+    link = tab.wait_for_selector("#rec-list a[download]", timeout=10000)
+    with urllib.request.urlopen(link.evaluate("a => a.href"), timeout=10) as res:
+        assert res.read(8) == b"\x89MCAP0\r\n"
+    assert not ide.errors, ide.errors
