@@ -26,6 +26,11 @@ COLUMNS = {
         ("server_ms_per_msg", "srv ms/msg"), ("server_cores", "srv cores"),
         ("client_cpu_pct", "cli CPU%"), ("other_cpu_pct", "other%"),
     ],
+    "images": [
+        ("sub_hz", "Hz each (min)"), ("published_hz", "pub Hz"), ("delivered_pct", "deliv%"),
+        ("server_ms_per_msg", "srv ms/msg"), ("server_cpu_pct", "srv CPU%"),
+        ("client_cpu_pct", "cli CPU%"), ("other_cpu_pct", "other%"),
+    ],
     "services": [
         ("calls_per_s", "calls/s"), ("lat_p50_ms", "p50 ms"), ("lat_p95_ms", "p95 ms"),
         ("lat_p99_ms", "p99 ms"), ("failed", "failed"), ("server_us_per_call", "srv us/call"),
@@ -51,6 +56,23 @@ TITLES = {
     "slow_consumer": "5. Slow consumer: 640x480 rgb8 at 30 Hz to 3 cbor subscribers, one stops reading",
 }
 
+# --backend rclpy: the ROS end is plain rclpy nodes; the rclpy ceiling runs the same traffic
+# between rclpy nodes in one process (its CPU is that process's)
+ROS_TITLES = dict(
+    TITLES,
+    fanout="2. Fan-out: 1 publisher, N subscribers (websocket clients in worker processes; "
+           "rclpy: N subscriptions in one node), fixed rate",
+    images="3. Images: a 30 Hz 640x480 rgb8 camera node (rclpy) to 3 clients of one encoding "
+           "(rclpy: 3 subscriber nodes)",
+    services="4. Services: /add_two_ints served by an rclpy node (SingleThreadedExecutor) as "
+             "test_msgs/srv/BasicTypes (example_interfaces is not on PyPI), C calls in flight",
+    slow_consumer="5. Slow consumer: the camera node's images to 3 cbor subscribers, one stops reading",
+)
+
+
+def title(scenario: str, ros: bool = False) -> str:
+    return (ROS_TITLES if ros else TITLES)[scenario]
+
 
 def summarize(runs: list[dict]) -> dict:
     out = {}
@@ -66,24 +88,30 @@ def summarize(runs: list[dict]) -> dict:
     return out
 
 
-def finish_point(entry: dict) -> None:
-    """Add summary and ratio-to-ceiling to one point's entry in place."""
+def finish_point(entry: dict, bases: tuple[str, ...] = ("ceiling",)) -> None:
+    """Add summary and ratios to one point's entry in place.
+
+    `ratios[base][name]` is each other server's figure over the base's (the ceiling, or in
+    `--backend rclpy` the Rust server and the rclpy ceiling); `ratio` is the first base's."""
     entry["summary"] = {name: summarize(runs) for name, runs in entry["runs"].items() if runs}
-    ceiling = entry["summary"].get("ceiling")
-    entry["ratio"] = {}
-    if not ceiling:
-        return
-    for name, summary in entry["summary"].items():
-        if name == "ceiling":
+    entry["ratios"] = {}
+    for base in bases:
+        reference = entry["summary"].get(base)
+        if not reference:
             continue
-        ratios = {}
-        for key, stats in summary.items():
-            if key in NO_RATIO:
+        entry["ratios"][base] = {}
+        for name, summary in entry["summary"].items():
+            if name in bases:
                 continue
-            base = ceiling.get(key, {}).get("median")
-            if base:
-                ratios[key] = stats["median"] / base
-        entry["ratio"][name] = ratios
+            ratios = {}
+            for key, stats in summary.items():
+                if key in NO_RATIO:
+                    continue
+                value = reference.get(key, {}).get("median")
+                if value:
+                    ratios[key] = stats["median"] / value
+            entry["ratios"][base][name] = ratios
+    entry["ratio"] = entry["ratios"].get(bases[0], {})
 
 
 def fmt(value) -> str:
@@ -130,10 +158,11 @@ def table(scenario: str, entries: list[dict], targets: list[str]) -> str:
                     cells.append(fmt(stats["median"]))
             rows.append([label, name] + cells)
             label = ""
-        for name, ratios in entry.get("ratio", {}).items():
-            if ratios:
-                rows.append(["", f"{name}/ceil"] + [
-                    "-" if key not in ratios else f"{ratios[key]:.2f}x" for key, _t in columns])
+        for base, per_name in entry.get("ratios", {}).items():
+            for name, ratios in per_name.items():
+                if ratios:
+                    rows.append(["", f"{name}/{'ceil' if base == 'ceiling' else base}"] + [
+                        "-" if key not in ratios else f"{ratios[key]:.2f}x" for key, _t in columns])
     return _render(rows)
 
 
@@ -197,6 +226,49 @@ def goals(results: dict, target: str) -> list[dict]:
     v = _median(results, "slow_consumer", {}, target, "rss_growth_mb")
     add("slow_consumer", "a stalled client costs the server < 50 MB (RSS growth MB)", v,
         v is not None and v < 50)
+    return out
+
+
+def goals_rclpy(results: dict, target: str) -> list[dict]:
+    """The goals of issue 16 (rosgate on rclpy with Fast DDS), against the same run's figures."""
+    out = []
+
+    def add(scenario: str, goal: str, value, ok) -> None:
+        if scenario in results:
+            out.append({"goal": goal, "value": value, "met": None if value is None else bool(ok(value))})
+
+    def vs(scenario: str, match: dict, key: str, base: str):
+        for entry in results.get(scenario, []):
+            if all(entry["point"].get(k) == v for k, v in match.items()):
+                return entry.get("ratios", {}).get(base, {}).get(target, {}).get(key)
+        return None
+
+    for size in (64, 1024):
+        r = vs("throughput", {"size": size, "window": 32}, "msg_per_s", "rust")
+        add("throughput", f">= 0.8x the Rust server's msg/s at {size} B, W=32", r, lambda v: v >= 0.8)
+    r = vs("throughput", {"size": 65536, "window": 32}, "msg_per_s", "rust")
+    add("throughput", ">= the Rust server's msg/s at 64 KiB, W=32", r, lambda v: v >= 1)
+    v = _median(results, "throughput", {"size": 64, "window": 1}, target, "lat_p50_ms")
+    add("throughput", "p50 one-way latency <= 0.5 ms at 64 B, W=1 (ms)", v, lambda v: v <= 0.5)
+    r = vs("services", {"concurrency": 32}, "calls_per_s", "rust")
+    add("services", ">= 2x the Rust server's calls/s at C=32", r, lambda v: v >= 2)
+    r = vs("services", {"concurrency": 32}, "calls_per_s", "rclpy")
+    add("services", ">= 60% of the rclpy ceiling's calls/s at C=32", r, lambda v: v >= 0.6)
+    v = _median(results, "services", {"concurrency": 1}, target, "lat_p50_ms")
+    add("services", "call p50 < 1 ms at C=1 (ms)", v, lambda v: v < 1)
+    v = _median(results, "fanout", {"subscribers": 100}, target, "server_cpu_pct")
+    d = _median(results, "fanout", {"subscribers": 100}, target, "delivered_pct")
+    add("fanout", "100 subscribers at the fan-out rate x 1 KiB < 5% of a core, nothing lost (srv CPU%)",
+        v, lambda v: v < 5 and (d or 0) >= 100)
+    for enc, limit in (("none", 20), ("cbor", 10)):
+        v = _median(results, "images", {"compression": enc}, target, "server_cpu_pct")
+        hz = _median(results, "images", {"compression": enc}, target, "sub_hz")
+        label = "JSON" if enc == "none" else "CBOR"
+        add("images", f"640x480 rgb8 30 Hz to 3 {label} clients: 30 Hz each, < {limit}% of a core "
+            "(srv CPU%)", v, lambda v, hz=hz, limit=limit: v < limit and (hz or 0) >= 29)
+    v = _median(results, "slow_consumer", {}, target, "healthy_loss_pct")
+    add("slow_consumer", "a stalled client costs the others nothing (< 5% loss; others' loss %)", v,
+        lambda v: v < 5)
     return out
 
 

@@ -1,10 +1,13 @@
 """Command line and orchestration of the benchmark.
 
     .venv/bin/python -m tests.bench [--quick] [--out FILE] [--target ws://HOST:PORT --server-pid PID]...
+    .venv/bin/python -m tests.bench --backend rclpy [--quick]
 
 By default it starts the ceiling server and rosgate (sim backend), runs every
 scenario against both, repeat by repeat, and prints each rosgate figure next
-to the ceiling's and as a ratio of it.
+to the ceiling's and as a ratio of it. With `--backend rclpy` it re-runs itself
+in a loopback-only network namespace and measures rosgate on rclpy, the Rust
+rosbridge server (when installed) and plain rclpy nodes (the rclpy ceiling).
 """
 
 from __future__ import annotations
@@ -12,6 +15,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import json
+import os
 import platform
 import sys
 import time
@@ -20,7 +24,7 @@ from dataclasses import asdict, dataclass, field
 import tornado
 import websockets
 
-from . import payloads, report
+from . import payloads, report, rosgraph, rosplan
 from .ceiling import tune_malloc
 from .fanout import fanout
 from .profile import PySpy
@@ -29,6 +33,7 @@ from .services import services
 from .topics import encoding_max, encoding_rate, slow_consumer, throughput
 
 SCENARIOS = ("throughput", "fanout", "encodings", "services", "slow_consumer")
+ROS_SCENARIOS = ("throughput", "fanout", "images", "services", "slow_consumer")
 KIB = 1024
 
 
@@ -55,6 +60,16 @@ class Config:
 def quick_config() -> Config:
     return Config(repeats=1, sizes=[64, KIB, 64 * KIB], point_s=0.15, fanout_ns=[1, 10],
                   fanout_rate=20.0, fanout_s=0.3, rate_s=0.3, slow_s=1.5)
+
+
+def rclpy_config(quick: bool) -> Config:
+    """The issue's points: no 1 MiB strings, images from a camera node instead of encodings."""
+    cfg = quick_config() if quick else Config()
+    cfg.sizes = [64, KIB, 64 * KIB]
+    cfg.scenarios = list(ROS_SCENARIOS)
+    if quick:  # each image point waits for DDS discovery of a new camera node
+        cfg.rate_s, cfg.slow_s = 0.5, 2.0
+    return cfg
 
 
 def size_label(size: int) -> str:
@@ -119,13 +134,14 @@ async def idle_cpu(target: Target, seconds: float) -> float | None:
     return None if cpu is None else 100 * cpu / seconds
 
 
-async def run_all(cfg: Config, targets: list[Target], log) -> dict:
+async def run_all(cfg: Config, targets: list[Target], log, ros: bool = False) -> dict:
     results: dict[str, list[dict]] = {}
     names = [t.name for t in targets]
+    bases = tuple(n for n in ("rust", "rclpy") if n in names) if ros else ("ceiling",)
     current = None
-    for scenario, label, point, fn, repeated in plan(cfg):
+    for scenario, label, point, fn, repeated in (rosplan.plan(cfg) if ros else plan(cfg)):
         if scenario != current and current is not None:
-            log(f"\n{report.TITLES[current]}\n{report.table(current, results[current], names)}\n")
+            log(f"\n{report.title(current, ros)}\n{report.table(current, results[current], names)}\n")
         current = scenario
         entry = {"label": label, "point": point, "runs": {n: [] for n in names}, "errors": {}}
         budget = 60 + 3 * max(cfg.point_s, cfg.fanout_s, cfg.rate_s) * cfg.repeats + cfg.slow_s
@@ -136,6 +152,8 @@ async def run_all(cfg: Config, targets: list[Target], log) -> dict:
                 started = time.monotonic()
                 try:
                     runs = await run_point(fn, target, budget)
+                except rosplan.NotApplicable:
+                    continue
                 except Exception as exc:  # recorded, and the run goes on
                     entry["errors"][target.name] = f"{type(exc).__name__}: {exc}"
                     log(f"  {scenario} {label} {target.name}: {entry['errors'][target.name]}", err=True)
@@ -145,16 +163,19 @@ async def run_all(cfg: Config, targets: list[Target], log) -> dict:
                 shown = ", ".join(report.fmt(r.get(first_key)) for r in runs)
                 log(f"  {scenario} {label} {target.name} #{rep + 1}: {first_key}={shown} "
                     f"({time.monotonic() - started:.1f} s)", err=True)
-        report.finish_point(entry)
+        report.finish_point(entry, bases or ("ceiling",))
         results.setdefault(scenario, []).append(entry)
     if current is not None:
-        log(f"\n{report.TITLES[current]}\n{report.table(current, results[current], names)}\n")
+        log(f"\n{report.title(current, ros)}\n{report.table(current, results[current], names)}\n")
     return results
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p = argparse.ArgumentParser(prog="python -m tests.bench", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--backend", choices=["sim", "rclpy"], default="sim",
+                   help="rosgate's backend; rclpy: rosgate, the Rust server and the rclpy ceiling on the "
+                        ".venv-ros wheels, in a loopback-only network namespace (default sim)")
     p.add_argument("--target", action="append", default=[],
                    help="a running rosbridge server, ws://HOST:PORT/; repeatable; "
                         "rosgate is then not started unless --with-rosgate")
@@ -165,6 +186,12 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--with-rosgate", action="store_true", help="start rosgate as well as the --target(s)")
     p.add_argument("--no-ceiling", action="store_true", help="skip the ceiling server (no ratios)")
     p.add_argument("--no-rosgate", action="store_true", help="do not start rosgate")
+    p.add_argument("--no-rust", action="store_true", help="--backend rclpy: skip the Rust server")
+    p.add_argument("--no-netns", action="store_true",
+                   help="--backend rclpy: stay on this machine's network (e.g. with --target on a ROS "
+                        "machine) instead of a loopback-only namespace")
+    p.add_argument("--ros-python", help="--backend rclpy: the Python with rclpy that runs rosgate and "
+                                        "the ROS nodes (default .venv-ros/bin/python)")
     p.add_argument("--rosgate-arg", action="append", default=None,
                    help="argument for the rosgate command line, repeatable, e.g. --rosgate-arg=--talker "
                         "(default: --backend sim, --robot none and a scratch --programs-dir where offered)")
@@ -178,7 +205,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--fanout-procs", type=int, help="subscriber worker processes (default 2)")
     p.add_argument("--no-malloc-tune", action="store_true",
                    help="leave glibc malloc thresholds alone in the clients and the ceiling")
-    p.add_argument("--scenarios", help=f"comma-separated subset of {','.join(SCENARIOS)}")
+    p.add_argument("--scenarios", help=f"comma-separated subset of {','.join(SCENARIOS)} "
+                                       f"(--backend rclpy: of {','.join(ROS_SCENARIOS)})")
     p.add_argument("--out", help="write the figures as JSON to this file")
     p.add_argument("--py-spy", metavar="FILE",
                    help="sample the server under test with py-spy for the whole run: collapsed "
@@ -187,7 +215,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
 
 
 def make_config(args: argparse.Namespace) -> Config:
-    cfg = quick_config() if args.quick else Config()
+    ros = args.backend == "rclpy"
+    cfg = rclpy_config(args.quick) if ros else quick_config() if args.quick else Config()
     if args.repeats:
         cfg.repeats = args.repeats
     if args.duration:
@@ -205,7 +234,7 @@ def make_config(args: argparse.Namespace) -> Config:
     cfg.malloc_tune = not args.no_malloc_tune
     if args.scenarios:
         wanted = [s.strip() for s in args.scenarios.split(",") if s.strip()]
-        unknown = set(wanted) - set(SCENARIOS)
+        unknown = set(wanted) - set(ROS_SCENARIOS if ros else SCENARIOS)
         if unknown:
             raise SystemExit(f"unknown scenario(s): {', '.join(sorted(unknown))}")
         cfg.scenarios = wanted
@@ -239,13 +268,53 @@ def start_targets(args: argparse.Namespace) -> list[Target]:
     return targets
 
 
+def start_ros_targets(args: argparse.Namespace) -> list[Target]:
+    """rosgate on rclpy, the Rust server and the rclpy ceiling, in that order, then --target(s)."""
+    targets = []
+    try:
+        if not args.no_rosgate:
+            targets.append(rosgraph.start_rosgate_rclpy(args.rosgate_arg))
+        if not args.no_rust:
+            why = rosgraph.rust_unavailable()
+            if why:
+                log(f"rust: column skipped: {why}")
+            else:
+                targets.append(rosgraph.start_rust())
+        if not args.no_ceiling:
+            targets.append(rosgraph.start_rclpy_ceiling())
+        for i, url in enumerate(args.target):
+            name = args.target_name[i] if i < len(args.target_name) else f"target{i + 1 if i else ''}"
+            pid = args.server_pid[i] if i < len(args.server_pid) else None
+            targets.append(Target(name=name, url=url, pid=pid))
+    except BaseException:
+        for target in targets:
+            target.stop()
+        raise
+    if not targets:
+        raise SystemExit("nothing to measure")
+    return targets
+
+
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
+    ros = args.backend == "rclpy"
+    if ros:
+        if args.ros_python:
+            os.environ[rosgraph.ROS_PYTHON_ENV] = args.ros_python
+        rosgraph.check_ros_env()
+        if not args.no_netns and not rosgraph.isolated():
+            rosgraph.reexec_isolated(sys.argv[1:] if argv is None else argv)
     cfg = make_config(args)
     if cfg.malloc_tune:
         tune_malloc()
     started = time.monotonic()
-    targets = start_targets(args)
+    graph = rosgraph.RosGraph() if ros else None
+    try:
+        targets = start_ros_targets(args) if ros else start_targets(args)
+    except BaseException:
+        if graph is not None:
+            graph.stop()
+        raise
     spy = None
     try:
         for t in targets:
@@ -257,14 +326,19 @@ def main(argv: list[str] | None = None) -> int:
             if profiled is None:
                 raise SystemExit("--py-spy needs rosgate or --target with --server-pid")
             spy = PySpy(profiled.pid, args.py_spy)
-        results = asyncio.run(run_all(cfg, targets, log))
+        results = asyncio.run(run_all(cfg, targets, log, ros))
     finally:
         if spy is not None:
             log(spy.stop())
         for t in targets:
             t.stop()
-    primary = next((t.name for t in targets if t.kind != "ceiling"), None)
-    goal_rows = report.goals(results, primary) if primary and not args.no_ceiling else []
+        if graph is not None:
+            graph.stop()
+    primary = next((t.name for t in targets if t.kind not in ("ceiling", "rclpy")), None)
+    if ros:
+        goal_rows = report.goals_rclpy(results, primary) if primary else []
+    else:
+        goal_rows = report.goals(results, primary) if primary and not args.no_ceiling else []
     if goal_rows:
         log(report.goals_table(goal_rows, primary))
     total = time.monotonic() - started

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import time
+from dataclasses import dataclass
 
 import orjson
 from websockets.exceptions import ConnectionClosed
@@ -12,15 +13,27 @@ from .client import close_quietly, open_ws, percentile, send_op
 from .servers import ProcMeter, Target, Window
 
 SERVICE = "/add_two_ints"
-TYPE = "example_interfaces/srv/AddTwoInts"
 
 
-def call_frame(call_id: str) -> bytes:
-    return (b'{"op":"call_service","id":"%s","service":"%s","type":"%s","args":{"a":2,"b":3}}'
-            % (call_id.encode(), SERVICE.encode(), TYPE.encode()))
+@dataclass(frozen=True)
+class Call:
+    """A service call adding 2 and 3: its type, request and the field of the sum in the reply."""
+
+    type: str
+    args: bytes
+    sum_field: str
+
+    def frame(self, call_id: str) -> bytes:
+        return (b'{"op":"call_service","id":"%s","service":"%s","type":"%s","args":%s}'
+                % (call_id.encode(), SERVICE.encode(), self.type.encode(), self.args))
 
 
-async def services(target: Target, concurrency: int, duration: float) -> dict:
+ADD_TWO_INTS = Call("example_interfaces/srv/AddTwoInts", b'{"a":2,"b":3}', "sum")
+# the same call on the PyPI Jazzy wheels, which have no example_interfaces (tests/bench/rosnodes.py)
+BASIC_TYPES = Call("test_msgs/srv/BasicTypes", b'{"int64_value":2,"int32_value":3}', "int64_value")
+
+
+async def services(target: Target, concurrency: int, duration: float, kind: Call = ADD_TWO_INTS) -> dict:
     ws = await open_ws(target.url)
     pending: dict[str, asyncio.Future] = {}
     statuses: list[str] = []
@@ -48,7 +61,7 @@ async def services(target: Target, concurrency: int, duration: float) -> dict:
         future = loop.create_future()
         pending[call_id] = future
         sent = time.monotonic_ns()
-        await ws.send(call_frame(call_id), text=True)
+        await ws.send(kind.frame(call_id), text=True)
         done, reply = await future
         return done - sent, reply
 
@@ -57,10 +70,10 @@ async def services(target: Target, concurrency: int, duration: float) -> dict:
     failures = 0
     try:
         if target.kind == "ceiling":
-            await send_op(ws, {"op": "ceiling_preload", "service": SERVICE, "values": {"sum": 5}})
+            await send_op(ws, {"op": "ceiling_preload", "service": SERVICE, "values": {kind.sum_field: 5}})
         for n in range(5):  # warm-up, and check the answer once
             _ns, reply = await asyncio.wait_for(call(f"warm:{n}"), 10)
-            if not (reply.get("result") is True and (reply.get("values") or {}).get("sum") == 5):
+            if not (reply.get("result") is True and (reply.get("values") or {}).get(kind.sum_field) == 5):
                 raise RuntimeError(f"unexpected reply to {SERVICE}: {orjson.dumps(reply)[:300]!r}")
 
         window = Window(ProcMeter(target.pid))

@@ -221,10 +221,14 @@ async def encoding_rate(target: Target, payload: payloads.Payload, compression: 
     }
 
 
-async def slow_consumer(target: Target, duration: float, rate: float = 30.0, healthy: int = 2) -> dict:
-    """healthy+1 cbor image subscribers; one stops reading its socket part way through."""
+async def slow_consumer(target: Target, duration: float, rate: float = 30.0, healthy: int = 2,
+                        camera=None) -> dict:
+    """healthy+1 cbor image subscribers; one stops reading its socket part way through.
+
+    The image comes from a websocket publisher here, or from `camera` (a ROS node publishing
+    on `camera.topic` at `rate`, whose `count()` says how many it has sent)."""
     payload = payloads.image()
-    topic = unique_topic("slow")
+    topic = camera.topic if camera is not None else unique_topic("slow")
     frame = payload.publish_frame(topic)
     meter = ProcMeter(target.pid)
     arrivals: list[list[float]] = [[] for _ in range(healthy + 1)]
@@ -237,10 +241,15 @@ async def slow_consumer(target: Target, duration: float, rate: float = 30.0, hea
                 rss.append((time.monotonic() - t0, value))
             await asyncio.sleep(0.5)
 
+    async def camera_sent(until: float, before: int) -> int:
+        await asyncio.sleep(until - time.monotonic())
+        return await camera.count() - before
+
     async with connections(target.url, healthy + 2, max_queue=4) as conns:
         pub, subs = conns[0], conns[1:]
-        await preload_frames(target, pub, payload, topic, ["cbor"])
-        await advertise(pub, topic, payload.type)
+        if camera is None:
+            await preload_frames(target, pub, payload, topic, ["cbor"])
+            await advertise(pub, topic, payload.type)
         readers = []
         for i, sub in enumerate(subs):
             await subscribe(sub, topic, payload.type, "cbor")
@@ -249,13 +258,19 @@ async def slow_consumer(target: Target, duration: float, rate: float = 30.0, hea
         slow = subs[-1]
         sampler = None
         try:
-            await _warm_up(pub, lambda _s: frame, lambda: all(arrivals))
+            if camera is None:
+                await _warm_up(pub, lambda _s: frame, lambda: all(arrivals))
+            elif not await settle(lambda: all(arrivals), WARM_TIMEOUT):
+                raise TimeoutError("no image delivered during warm-up")
             window = Window(meter)
             t0 = time.monotonic()
             sampler = asyncio.create_task(sample_rss(t0))
             stall_at = t0 + min(10.0, duration / 6)
             end = t0 + duration
-            publisher = asyncio.create_task(publish_at(pub, lambda _s: frame, rate, end, 0))
+            if camera is None:
+                publisher = asyncio.create_task(publish_at(pub, lambda _s: frame, rate, end, 0))
+            else:
+                publisher = asyncio.create_task(camera_sent(end, await camera.count()))
             await asyncio.sleep(stall_at - time.monotonic())
             readers[-1].cancel()
             slow.transport.pause_reading()
