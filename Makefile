@@ -60,8 +60,13 @@ $(ROSVENV)/.installed: pyproject.toml
 test-rclpy: $(ROSVENV)/.installed
 	unshare -rn sh -c 'ip link set lo up && $(ROSVENV)/bin/python -m pytest -q tests/backends'
 
-bench: install-test
+bench: install-test $(if $(findstring rclpy,$(ARGS)),$(ROSVENV)/.installed-bench)
 	$(PY) -m tests.bench $(ARGS)
+
+# `make bench ARGS="--backend rclpy"` also measures the Rust rosbridge server on the same wheels
+$(ROSVENV)/.installed-bench: $(ROSVENV)/.installed
+	$(ROSVENV)/bin/pip install -q rosbridge-server-rs==0.1.6
+	touch $@
 
 clean:
 	rm -rf $(VENV) $(ROSVENV) ide/node_modules ide/vendor tests/node/node_modules
