@@ -17,6 +17,7 @@ export class Runner extends EventTarget {
     this.state = 'idle';         // idle | running | paused
     this.errors = new Map();     // block id -> message
     this.runs = 0;
+    this.heldAt = null;          // block the paused program holds at (null while a block runs)
     addEventListener('pagehide', () => this.rt?.stop());
   }
 
@@ -50,6 +51,7 @@ export class Runner extends EventTarget {
       log: (text, level) => this.console.log(text, level),
       highlight: (id) => { if (this.rt === rt) this.workspace.highlightBlock(id); },
       error: (e, id) => this._error(rt, e, id),
+      held: (id) => { if (this.rt === rt) { this.heldAt = id; this.dispatchEvent(new CustomEvent('held', { detail: id })); } },
     }, { namespace: this.getNamespace() });
     this.rt = rt;
     if (paused) rt.pause();
@@ -96,6 +98,7 @@ export class Runner extends EventTarget {
     rt.stop();
     if (this.rt === rt) {
       this.rt = null;
+      this.heldAt = null;
       this.workspace.highlightBlock(null);
       this._setState('idle');
       this.console.info(text);
@@ -116,12 +119,16 @@ export class Runner extends EventTarget {
 
   resume() {
     if (!this.rt) return;
+    this.heldAt = null;
     this.rt.resume();
     this._setState('running');
   }
 
+  // Runs the highlighted block to its end (a move, a wait), then holds before the next one
+  // with the robot stopped; the first Step starts a paused run.
   step() {
     if (!this.rt) { this.run({ paused: true }); return; }
+    this.heldAt = null;
     this.rt.stepOnce();
     this._setState('paused');
   }

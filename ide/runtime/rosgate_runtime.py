@@ -170,9 +170,16 @@ class Runtime:
             handlers["status"] = self._on_status
 
     def _on_status(self, message):
-        text = str(message.get("msg", ""))
-        refused = re.match(r"publish(?: \(id [^)]*\))?: ([^:\s]+):", text)
-        if message.get("level") == "error" and refused and refused.group(1) in self._topics:
+        # a status error about a publish or advertise of one of the program's topics ends it
+        # (roslibpy's ids are "publish:/topic:N"; an older gateway names the topic in the text)
+        if message.get("level") != "error":
+            return
+        op_id = str(message.get("id") or "")
+        text = str(message.get("msg", "")).replace(" (id %s)" % op_id, "") if op_id else str(message.get("msg", ""))
+        mine = re.match(r"(?:publish|advertise):(.+):\d+$", op_id)
+        refused = re.match(r"publish: ([^:\s]+):", text)
+        topic = mine.group(1) if mine else refused.group(1) if refused and not op_id else None
+        if topic in self._topics:
             self.fail(RosError(text))
 
     def _check(self):

@@ -16,12 +16,13 @@ export class RosError extends Error {
 }
 
 let runCounter = 0;
+const PAGE_TAG = Math.random().toString(36).slice(2, 8);   // ids of this page's runs, not another tab's
 const GAIN = 6;   // proportional gain of move/turn near the goal (1/s)
 
 export class Runtime {
   /**
    * @param ros a connected roslib Ros
-   * @param hooks {log(text), highlight(blockId), error(err, blockId), idle()}
+   * @param hooks {log(text), highlight(blockId), error(err, blockId), held(blockId): paused before or in a block}
    * @param options {namespace}: the robot namespace robot blocks' names go in (rt.ns)
    */
   constructor(ros, hooks = {}, { namespace = '' } = {}) {
@@ -29,9 +30,11 @@ export class Runtime {
     this.hooks = hooks;
     this.namespace = normNamespace(namespace);
     this.run = ++runCounter;
+    this.tag = `rosgate${PAGE_TAG}.${this.run}`;
     this.n = 0;
     this.stopped = false;
     this.paused = false;
+    this.stepping = false;        // Step granted: the current block runs whole, then the next one holds
     this.current = null;          // id of the block running now
     this.started = performance.now();
     this.pending = new Set();     // {reject} of every promise stop() must end
@@ -39,21 +42,35 @@ export class Runtime {
     this.advertised = new Map();  // topic -> type
     this.velocityTopics = new Map();
     this.goals = new Map();       // goal id -> action
-    this.statusIds = new Set();
+    this.owned = new Map();       // op|name|block -> {id, unwatch}: ids of ops no promise waits on
     this.lastYield = performance.now();
     this._gate = null;
-    // a refused publish (no id, e.g. someone else holds the driver lease) ends the program
+    // A status error with no id that names a topic this run advertised ends it too.
     this._onStatus = (m) => {
-      const topic = /^publish(?: \(id [^)]*\))?: ([^:\s]+):/.exec(m.msg ?? '')?.[1];
-      if (m.level === 'error' && this.advertised.has(topic)) this._fail(m.msg);
+      const topic = /^publish: ([^:\s]+):/.exec(m.msg ?? '')?.[1];
+      if (m.level === 'error' && this.advertised.has(topic)) this._fail(new RosError(m.msg));
     };
     ros.on('status', this._onStatus);
+  }
+
+  // The id of an op nothing waits a reply for (publish, advertise), one per op, name and block:
+  // a status error about it ends the program on that block. Ops a promise waits on (calls,
+  // goals, subscriptions) reject that promise instead.
+  _owned(op, name, blockId = this.current) {
+    const key = `${op}|${name}|${blockId}`;
+    let entry = this.owned.get(key);
+    if (!entry) {
+      const id = this._id(op, name);
+      entry = { id, unwatch: this._watchStatus(id, (m) => this._fail(new RosError(statusText(m)), blockId)) };
+      this.owned.set(key, entry);
+    }
+    return entry.id;
   }
 
   // A robot block's name in the robot namespace.
   ns(name) { return withNamespace(this.namespace, name); }
 
-  _id(op, name) { return `${op}:${name}:rosgate${this.run}.${++this.n}`; }
+  _id(op, name) { return `${op}:${name}:${this.tag}.${++this.n}`; }
 
   _send(msg) { this.ros.callOnConnection(msg); }
 
@@ -78,18 +95,22 @@ export class Runtime {
   }
 
   // ---- program control -------------------------------------------------
+  // Before every block: the block Step let through has ended, so a paused program holds here.
   async step(blockId) {
     if (this.stopped) throw new StopSignal();
+    this.stepping = false;
     this.current = blockId;
     this.hooks.highlight?.(blockId);
     await this._hold();
     await this.tick();
   }
 
-  // While paused: the robot stands still and the program waits for Resume or Step.
+  // While paused: the robot stands still and the program waits for Resume or Step. Inside a
+  // block (drive, move, turn) only Pause holds; a block Step let through runs to its end.
   async _hold() {
-    if (!this.paused) return;
+    if (!this.paused || this.stepping) return;
     this.stopRobot();
+    this.hooks.held?.(this.current);
     await this._track((resolve) => { this._gate = { resolve }; });
   }
 
@@ -104,9 +125,9 @@ export class Runtime {
     }
   }
 
-  pause() { this.paused = true; }
-  resume() { this.paused = false; this._release(); }
-  stepOnce() { this.paused = true; this._release(); }
+  pause() { this.paused = true; this.stepping = false; }
+  resume() { this.paused = false; this.stepping = false; this._release(); }
+  stepOnce() { this.paused = true; this.stepping = true; this._release(); }
   _release() { const g = this._gate; this._gate = null; g?.resolve(); }
 
   elapsed() { return (performance.now() - this.started) / 1000; }
@@ -121,8 +142,7 @@ export class Runtime {
   // ---- topics ----------------------------------------------------------
   advertise(topic, type) {
     if (this.advertised.get(topic) === type) return;
-    const id = this._id('advertise', topic);
-    this._watchStatus(id, (m) => this._fail(`advertise ${topic}: ${m.msg}`));
+    const id = this._owned('advertise', topic);
     this._send({ op: 'advertise', id, topic, type });
     this.advertised.set(topic, type);
   }
@@ -131,20 +151,21 @@ export class Runtime {
     if (this.stopped) throw new StopSignal();
     this.advertise(topic, type);
     if (isVelocityType(type)) this.velocityTopics.set(topic, type);
-    this._send({ op: 'publish', topic, msg });
+    this._send({ op: 'publish', id: this._owned('publish', topic), topic, msg });
   }
 
   _subscribe(topic, type) {
     let sub = this.subs.get(topic);
     if (sub) return sub;
     const id = this._id('subscribe', topic);
+    const blockId = this.current;
     sub = { id, type, latest: undefined, waiters: new Set(), handlers: [] };
     sub.listener = (m) => this._deliver(sub, m.msg);
     sub.unwatch = this._watchStatus(id, (m) => {
-      const err = new RosError(`subscribe ${topic}: ${m.msg}`);
+      const err = new RosError(statusText(m));
       for (const w of sub.waiters) w.reject(err);
       sub.waiters.clear();
-      this._fail(err.message);
+      this._fail(err, blockId);
     });
     this.ros.on(topic, sub.listener);
     this.subs.set(topic, sub);
@@ -225,7 +246,7 @@ export class Runtime {
       };
       const unwatch = this._watchStatus(id, (m) => {
         done();
-        reject(new RosError(`call_service ${service}: ${m.msg}`));
+        reject(new RosError(`call_service ${service}: ${statusText(m)}`));
       });
       this.ros.on(id, onReply);
       const op = { op: 'call_service', id, service, args: args ?? {} };
@@ -258,7 +279,7 @@ export class Runtime {
       };
       const unwatch = this._watchStatus(id, (m) => {
         done();
-        reject(new RosError(`send_action_goal ${action}: ${m.msg}`));
+        reject(new RosError(`send_action_goal ${action}: ${statusText(m)}`));
       });
       this.ros.on(id, onReply);
       this.goals.set(id, action);
@@ -356,6 +377,8 @@ export class Runtime {
     this.stopped = true;
     this.stopRobot();
     this.ros.off('status', this._onStatus);
+    for (const { unwatch } of this.owned.values()) unwatch();
+    this.owned.clear();
     this.cancel();
     for (const [topic, sub] of this.subs) {
       this.ros.off(topic, sub.listener);
@@ -370,6 +393,11 @@ export class Runtime {
     this.pending.clear();
     this._release();
   }
+}
+
+// A status message without the op id the runtime made up (the block already says where).
+function statusText(m) {
+  return String(m.msg ?? '').replace(` (id ${m.id})`, '');
 }
 
 function twist(type, linear, angular) {

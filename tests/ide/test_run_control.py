@@ -1,0 +1,135 @@
+"""Run control in Chromium against the simulated turtlesim: a status error about any op of the
+program ends the run on the block that sent it, and Step runs one whole block, then holds."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+import time
+
+from .conftest import ARTIFACTS, wait_for
+from .test_ide_features import ex, program
+
+
+def bool_message() -> dict:
+    return {"type": "ros_message", "extraState": {"kind": "msg", "type": "std_msgs/msg/Bool",
+                                                  "fields": [{"name": "data", "type": "bool", "array": -1}]},
+            "fields": {"TYPE": "std_msgs/msg/Bool"},
+            "inputs": {"F_data": {"shadow": {"type": "logic_boolean", "fields": {"BOOL": "TRUE"}}}}}
+
+
+def test_wrong_type_publish_fails_on_its_block(turtle_gateway, turtle_ros, ide_factory):
+    ide = ide_factory(turtle_gateway)
+    cmd = turtle_ros.watch("/turtle1/cmd_vel", "geometry_msgs/msg/Twist")
+    publish = ex.block("ros_publish", {"TOPIC": "/turtle1/cmd_vel", "TYPE": "geometry_msgs/msg/Twist"},
+                       {"MSG": bool_message()}, id="bad-publish")
+    drive = ex.block("turtle_drive", inputs={"TURTLE": ex.text("turtle1"), "SPEED": ex.num(0.5),
+                                             "TURN": ex.num(0), "SECONDS": ex.num(0.3)})
+    ide.js("(p) => rosgateIde.loadProgram(p)", program(ex.seq(
+        ex.log(ex.text("before")), drive, publish,
+        ex.block("ros_sleep", inputs={"SECONDS": ex.num(60)}), ex.log(ex.text("after")))))
+    ide.run()
+    ide.wait_idle(timeout=20)      # the error ends the run long before the 60 s wait
+    assert ide.logs() == ["before"]
+    errors = ide.js("Object.fromEntries(rosgateIde.runner.errors)")
+    assert list(errors) == ["bad-publish"], errors
+    assert "data" in errors["bad-publish"] and "Twist" in errors["bad-publish"], errors
+    assert "(id " not in errors["bad-publish"]
+    warning = ide.js("rosgateIde.workspace.getBlockById('bad-publish')"
+                     ".getIcon(Blockly.icons.IconType.WARNING)?.getText()")
+    assert warning == errors["bad-publish"]
+    text = ide.console_text()
+    assert errors["bad-publish"] in text and "stopped after an error (robot stopped)" in text
+    assert "finished" not in text
+    # the robot was stopped: the last command on the velocity topic is zero
+    wait_for(lambda: cmd.latest() == {"linear": {"x": 0.0, "y": 0.0, "z": 0.0},
+                                      "angular": {"x": 0.0, "y": 0.0, "z": 0.0}}, what="a zero command last")
+    assert not ide.errors, ide.errors
+
+
+def test_wrong_type_publish_ends_the_python_program(turtle_gateway, ide_factory):
+    ide = ide_factory(turtle_gateway)
+    publish = ex.block("ros_publish", {"TOPIC": "/turtle1/cmd_vel", "TYPE": "geometry_msgs/msg/Twist"},
+                       {"MSG": bool_message()})
+    ide.js("(p) => rosgateIde.loadProgram(p)", program(ex.seq(
+        ex.log(ex.text("before")), publish,
+        ex.block("ros_sleep", inputs={"SECONDS": ex.num(60)}), ex.log(ex.text("after")))))
+    path = ARTIFACTS / "wrong_type_publish.py"
+    path.write_text(ide.python())
+    proc = subprocess.run([sys.executable, str(path), "--url", turtle_gateway.ws_url],
+                          capture_output=True, text=True, timeout=50)   # far less than the 60 s wait
+    assert proc.returncode == 1, proc
+    assert proc.stdout.splitlines() == ["before"]
+    assert "unknown field 'data'" in proc.stderr and "(id " not in proc.stderr, proc.stderr
+
+
+def test_publish_ids_name_their_block(turtle_gateway, ide_factory):
+    """Every publish of a run carries an id the runtime maps back to the block that sent it."""
+    ide = ide_factory(turtle_gateway)
+    ide.js("""() => {
+      window.sent = [];
+      const ros = rosgateIde.ros;
+      const send = ros.callOnConnection.bind(ros);
+      ros.callOnConnection = (m) => { window.sent.push(m); send(m); };
+    }""")
+    publish = ex.block("ros_publish", {"TOPIC": "/chatter_ids", "TYPE": "std_msgs/msg/String"},
+                       {"MSG": {"type": "ros_message",
+                                "extraState": {"kind": "msg", "type": "std_msgs/msg/String",
+                                               "fields": [{"name": "data", "type": "string", "array": -1}]},
+                                "fields": {"TYPE": "std_msgs/msg/String"},
+                                "inputs": {"F_data": {"shadow": {"type": "text", "fields": {"TEXT": "hi"}}}}}},
+                       id="good-publish")
+    ide.js("(p) => rosgateIde.loadProgram(p)", program(publish))
+    ide.run()
+    ide.wait_idle(timeout=15)
+    ops = ide.js("window.sent.filter((m) => m.op === 'publish' && m.topic === '/chatter_ids')")
+    assert len(ops) == 1 and ops[0]["id"].startswith("publish:/chatter_ids:rosgate"), ops
+    assert "finished" in ide.console_text()
+    assert not ide.js("rosgateIde.runner.errors.size")
+
+
+def pose_xy(pose):
+    m = pose.latest()
+    return (m["x"], m["y"]) if m else None
+
+
+def test_step_runs_one_whole_block_then_holds(turtle_gateway, turtle_ros, ide_factory):
+    ide = ide_factory(turtle_gateway)
+    turtle_ros.call("/reset", "std_srvs/srv/Empty")
+    pose = turtle_ros.watch("/turtle1/pose", "turtlesim/msg/Pose")
+    cmd = turtle_ros.watch("/turtle1/cmd_vel", "geometry_msgs/msg/Twist")
+    ide.load_example("drive_square.json")
+    ids = ide.js("""() => {
+      const top = rosgateIde.workspace.getTopBlocks(true)[0];
+      const rep = top.getNextBlock();
+      const move = rep.getInputTargetBlock('DO');
+      return {pen: top.id, repeat: rep.id, move: move.id, turn: move.getNextBlock().id};
+    }""")
+    wait_for(lambda: pose_xy(pose), what="a pose")
+
+    def step_to(block_id: str):
+        ide.page.click("#step")
+        ide.page.wait_for_function("(id) => rosgateIde.runner.heldAt === id", arg=block_id, timeout=30000)
+        assert ide.js("document.body.dataset.run") == "paused"
+
+    step_to(ids["pen"])                  # the first Step starts a paused run
+    step_to(ids["repeat"])               # the pen block ran
+    step_to(ids["move"])                 # into the loop
+    start = pose_xy(pose)
+    t0 = time.monotonic()
+    step_to(ids["turn"])                 # the whole move: 3 m, then it holds with the robot stopped
+    wait_for(lambda: (pose.latest() or {}).get("linear_velocity", 1) == 0, what="the turtle halted")
+    end = pose_xy(pose)
+    moved = math.hypot(end[0] - start[0], end[1] - start[1])
+    assert abs(moved - 3) < 0.1, f"one Step moved the turtle {moved:.3f} m, not 3"
+    assert any(m["linear"]["x"] == 0 and m["angular"]["z"] == 0 for t, m in cmd.since(t0))
+    theta0 = pose.latest()["theta"]
+    step_to(ids["repeat"])               # the whole turn: 90 degrees; the loop block shows its next round
+    turned = (pose.latest()["theta"] - theta0 + math.pi) % (2 * math.pi) - math.pi
+    assert abs(math.degrees(turned) - 90) < 2, math.degrees(turned)
+    step_to(ids["move"])                 # the second side's move holds before it starts
+    assert math.hypot(pose_xy(pose)[0] - end[0], pose_xy(pose)[1] - end[1]) < 0.01
+    ide.page.click("#stop")
+    ide.wait_idle()
+    assert not ide.errors, ide.errors
