@@ -33,7 +33,6 @@ import cbor2
 import tornado.web
 
 from .api import JsonHandler, body_json, caller
-from .backends.base import BackendError, QoS
 
 log = logging.getLogger('rosgate.recordings')
 _ID = re.compile(r'rec-\d{8}-\d{6}-[0-9a-f]{4}')
@@ -63,7 +62,11 @@ class _Tap:
         self.outbox = self
 
     def message(self, frame: bytes, binary: bool, key: object, queue_length: int) -> bool:
-        self.recording.write(self.topic, cbor2.loads(frame)['msg']['bytes'])
+        try:
+            self.recording.write(self.topic, cbor2.loads(frame)['msg']['bytes'])
+        except Exception as e:   # never into the fan-out loop: the live clients come first
+            log.exception('recording %s failed on %s', self.recording.id, self.topic)
+            self.recording.manager.fail(self.recording, f'cannot write {self.topic}: {e}')
         return True
 
     def forget(self, key: object) -> None:
@@ -103,6 +106,7 @@ class Recording:
         gw = self.manager.gateway
         msgdef = gw.backend.msg_def(type)
         text, rihs01 = definition(gw.backend, type, msgdef)
+        gw.backend.to_cdr(type, {})   # a type the backend cannot serialize fails here, not in the fan-out
         self.connections[topic] = self.writer.add_connection(topic, type, msgdef=text, rihs01=rihs01)
         fan = gw.fanout(topic, type)
         tap = _Tap(self, topic)
@@ -163,7 +167,10 @@ class RecordingManager:
             raise tornado.web.HTTPError(507, f'only {free // 2**20} MiB free in {self.dir}; a recording needs '
                                              f'{(lim.max_bytes + lim.disk_reserve) // 2**20} MiB')
         rec_id = f"rec-{time.strftime('%Y%m%d-%H%M%S')}-{secrets.token_hex(2)}"
-        rec = Recording(self, rec_id, globs, max_seconds)
+        try:
+            rec = Recording(self, rec_id, globs, max_seconds)
+        except Exception as e:   # rosbags' WriterError, OSError
+            raise tornado.web.HTTPError(500, f'cannot create the recording in {self.dir}: {e}') from None
         self.recordings[rec_id] = rec
         try:
             self._match(rec)
@@ -182,7 +189,7 @@ class RecordingManager:
             if topic not in rec.connections and rec.wants(topic):
                 try:
                     rec.add_topic(topic, type)
-                except (BackendError, LookupError, ValueError) as e:
+                except Exception as e:   # an unknown type, a definition rosbags cannot parse, ...
                     log.warning('recording %s: cannot record %s (%s): %s', rec.id, topic, type, e)
                     rec.connections.setdefault(topic, None)
 
@@ -202,6 +209,12 @@ class RecordingManager:
             rec.state, rec.reason, rec.ended = 'failed', f'could not finish the file: {e}', time.time()
         log.info('recording %s %s: %d messages, %d bytes%s', rec.id, rec.state, rec.messages, rec.bytes,
                  f' ({reason})' if reason else '')
+
+    def fail(self, rec: Recording, reason: str) -> None:
+        """Stop taking messages; the file is finished with what it has."""
+        self.stop(rec, reason)
+        if rec.state == 'done':
+            rec.state = 'failed'
 
     def listing(self) -> list[dict]:
         out = {r.id: r.summary() for r in self.recordings.values()}
@@ -232,8 +245,14 @@ class RecordingManager:
 
         if rec_id in self.plays and not self.plays[rec_id].done():
             raise tornado.web.HTTPError(409, f'recording {rec_id} is already playing')
-        playback = Playback(self.gateway.backend, self.path(rec_id), rate, prefix)
-        self.plays[rec_id] = asyncio.ensure_future(playback.run())
+        path = self.path(rec_id)
+        try:
+            playback = Playback(self.gateway.backend, path, rate, prefix)
+        except Exception as e:   # a damaged file, a type rosbags cannot parse
+            raise tornado.web.HTTPError(422, f'cannot play {rec_id}: {e}') from None
+        task = self.plays[rec_id] = asyncio.ensure_future(playback.run())
+        task.add_done_callback(lambda t: t.cancelled() or t.exception() is None or log.error(
+            'playing %s failed: %s', rec_id, t.exception()))
         return playback.summary()
 
     def stop_playing(self, rec_id: str) -> bool:

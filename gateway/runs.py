@@ -121,8 +121,11 @@ class RunManager:
         self._lease_free_for(role)
         run_id = 'r' + secrets.token_hex(4)
         workdir = self.runs_dir / run_id
-        workdir.mkdir(parents=True, mode=0o700)
-        (workdir / 'program.py').write_text(source)
+        try:
+            workdir.mkdir(parents=True, mode=0o700)
+            (workdir / 'program.py').write_text(source)
+        except OSError as e:
+            raise tornado.web.HTTPError(500, f'cannot prepare the run directory: {e}') from None
         run = Run(run_id, name, ns, timeout, workdir)
         run.role = role
         latched = QoS(depth=1, transient_local=True)
@@ -132,7 +135,9 @@ class RunManager:
         self.runs[run_id] = run
         self._forget_old()
         self._announce(run)
-        asyncio.ensure_future(self._supervise(run, port))
+        task = asyncio.ensure_future(self._supervise(run, port))
+        task.add_done_callback(lambda t: t.cancelled() or t.exception() is None or log.error(
+            'run %s: supervising it failed', run.id, exc_info=t.exception()))
         return run
 
     def _lease_free_for(self, role: str | None) -> None:
