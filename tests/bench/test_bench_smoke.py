@@ -1,18 +1,25 @@
 """The benchmark harness in its --quick mode: every scenario yields figures.
 
-Runs against the ceiling server, and against rosgate when the gateway is there.
+Runs against the ceiling server, and against rosgate when the gateway is there; with
+`--backend rclpy` against rosgate on rclpy and the rclpy ceiling when `.venv-ros` and
+`unshare` are there.
 """
 
 from __future__ import annotations
 
 import json
+import shutil
 import subprocess
 import sys
 
+import cbor2
+import orjson
 import pytest
 
 from tests.bench.client import StringFrames, is_publish, read_stamp
-from tests.bench.report import finish_point, goals
+from tests.bench.report import finish_point, goals, goals_rclpy
+from tests.bench.rosgraph import ROS_VENV
+from tests.bench.rosplan import image_seq
 from tests.bench.servers import REPO, rosgate_available, start_ceiling
 
 # scenario -> metrics that must be positive numbers for every server
@@ -35,11 +42,11 @@ MEASURED = {
 }
 
 
-def run_quick(tmp_path, *args: str) -> dict:
+def run_quick(tmp_path, *args: str, timeout: float = 90) -> dict:
     out = tmp_path / "bench.json"
     proc = subprocess.run(
         [sys.executable, "-m", "tests.bench", "--quick", "--out", str(out), *args],
-        cwd=REPO, capture_output=True, text=True, timeout=90,
+        cwd=REPO, capture_output=True, text=True, timeout=timeout,
     )
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert "1. Throughput" in proc.stdout and "5. Slow consumer" in proc.stdout
@@ -126,3 +133,62 @@ def test_target_and_server_pid_measure_a_running_server(tmp_path):
         summary = entry["summary"]["other"]
         assert summary["msg_per_s"]["median"] > 0
         assert summary["server_cpu_pct"]["median"] > 0
+
+
+# --backend rclpy: scenario -> metrics that must be positive for rosgate and the rclpy ceiling
+ROS_REQUIRED = {
+    "throughput": ["msg_per_s", "lat_p50_ms", "delivered_pct", "server_cpu_pct"],
+    "fanout": ["delivered_pct", "server_cpu_pct"],
+    "images": ["sub_hz", "published_hz", "delivered_pct", "server_cpu_pct"],
+    "services": ["calls_per_s", "lat_p50_ms", "server_cpu_pct"],
+    "slow_consumer": ["published_hz", "healthy_hz_before"],
+}
+
+
+@pytest.mark.skipif(not (ROS_VENV / "bin" / "python").exists() or shutil.which("unshare") is None,
+                    reason="needs .venv-ros (rclpy) and unshare")
+@pytest.mark.timeout(420)
+def test_quick_rclpy_bench_yields_every_figure(tmp_path):
+    """rosgate on rclpy against the rclpy ceiling, in the namespace the harness makes for itself."""
+    doc = run_quick(tmp_path, "--backend", "rclpy", "--no-rust", timeout=400)
+    assert [t["name"] for t in doc["meta"]["targets"]] == ["rosgate", "rclpy"]
+    results = doc["results"]
+    assert set(results) == set(ROS_REQUIRED)
+    for scenario, entries in results.items():
+        for entry in entries:
+            assert entry["errors"] == {}, (scenario, entry["label"], entry["errors"])
+            servers = ["rosgate"] if scenario == "slow_consumer" else ["rosgate", "rclpy"]
+            assert sorted(entry["summary"]) == sorted(servers), (scenario, entry["label"])
+            for server in servers:
+                for key in ROS_REQUIRED[scenario]:
+                    assert entry["summary"][server][key]["median"] > 0, (scenario, entry["label"], server, key)
+            if scenario != "slow_consumer":
+                assert entry["ratios"]["rclpy"]["rosgate"], (scenario, entry["label"])
+    rows = {g["goal"]: g for g in doc["goals"]}
+    assert rows["call p50 < 1 ms at C=1 (ms)"]["value"] > 0
+    assert rows[">= 60% of the rclpy ceiling's calls/s at C=32"]["value"] > 0
+
+
+def test_image_sequence_read_from_json_and_cbor_frames():
+    for seq in (0, 23, 24, 300, 70_000, 2**33):
+        msg = {"header": {"stamp": {"sec": seq, "nanosec": 9}, "frame_id": "camera"}, "data": b"x" * 100}
+        assert image_seq(cbor2.dumps({"op": "publish", "topic": "/c", "msg": msg})) == seq
+        msg["data"] = "eHh4"
+        assert image_seq(orjson.dumps({"op": "publish", "topic": "/c", "msg": msg})) == seq
+        spaced = b'{"op": "publish", "msg": {"header": {"stamp": {"nanosec": 1, "sec": %d}}}}' % seq
+        assert image_seq(spaced) == seq
+    assert image_seq(b'{"op":"publish","msg":{"data":"x"}}') is None
+
+
+def test_ratios_to_each_base_and_rclpy_goals():
+    entry = {"point": {"size": 64, "window": 32}, "runs": {
+        "rosgate": [{"msg_per_s": 9000.0}], "rust": [{"msg_per_s": 10000.0}], "rclpy": [{"msg_per_s": 4500.0}],
+    }}
+    finish_point(entry, ("rust", "rclpy"))
+    assert entry["ratios"]["rust"]["rosgate"]["msg_per_s"] == pytest.approx(0.9)
+    assert entry["ratios"]["rclpy"]["rosgate"]["msg_per_s"] == pytest.approx(2.0)
+    assert "rust" not in entry["ratios"]["rclpy"]  # bases get no ratio rows of their own
+    assert entry["ratio"] == entry["ratios"]["rust"]
+    rows = {g["goal"]: g for g in goals_rclpy({"throughput": [entry]}, "rosgate")}
+    assert rows[">= 0.8x the Rust server's msg/s at 64 B, W=32"]["met"] is True
+    assert rows[">= 0.8x the Rust server's msg/s at 1024 B, W=32"]["met"] is None
