@@ -8,7 +8,7 @@ const { Order } = python;
 
 const SNAKE = {
   publish: 'publish', drive: 'drive', move: 'move', turn: 'turn', latest: 'latest',
-  callService: 'call_service', sendGoal: 'send_goal', rangeAt: 'range_at', yaw: 'yaw',
+  callService: 'call_service', sendGoal: 'send_goal', rangeAt: 'range_at', yaw: 'yaw', pick: 'pick',
 };
 
 export const lang = {
@@ -44,7 +44,7 @@ class RosPythonGenerator extends python.PythonGenerator {
   constructor() {
     super('Python');
     Object.assign(this.forBlock, python.pythonGenerator.forBlock);
-    this.addReservedWords('rt,run,main,field,fmt,yaw,range_at,angle_diff,pose_of,roslibpy,Runtime,' +
+    this.addReservedWords('rt,run,main,field,fmt,pick,yaw,range_at,angle_diff,pose_of,roslibpy,Runtime,' +
       'StopProgram,RosError,argparse,json,math,os,random,signal,sys,threading,time,traceback,message,queue,GAIN,is_velocity_type,zero_velocity,' +
       'norm_namespace,with_namespace,re');
     this.programName = 'program';

@@ -4,6 +4,8 @@
 //   "$NAME:i"        the i-th number in field NAME's value (e.g. a colour "255 0 0")
 //   "/${NAME}/pose"  a string with an input or field spliced in
 //   {"$mul": [a, b]}, {"$deg2rad": a}
+// A `latest` spec with `pick` (a selector template, see runtime/util.js pick) reads the whole
+// message and picks from it; `index` names the optional input of an 'item:' selector.
 //   numbers, booleans, null, objects and arrays as themselves
 // `lang` adapts the output to one language (see javascript.js and python.js).
 // A spec with `namespaced` (the robot sets) puts its names in the robot namespace: rt.ns(name).
@@ -109,6 +111,11 @@ export function specToCode(gen, block, spec, lang) {
     case 'latest': {
       const topic = N(spec.topic);
       const type = V(spec.type);
+      if (spec.pick !== undefined) {     // "make a block" reader: a field or a reducer over a list
+        const msg = lang.call('latest', [topic, type], true);
+        const index = spec.index && block.getInput(spec.index) ? V(`$${spec.index}`) : lang.num(0);
+        return [lang.helper('pick', [msg, V(spec.pick), index]), lang.order.CALL];
+      }
       if (spec.fn === 'range_at') {
         const scan = lang.call('latest', [topic, type], true);
         const extra = (spec.fn_args ?? [0, 30]).map(V);

@@ -11,7 +11,7 @@ import { Runner } from './runner.js';
 import { Console } from './console.js';
 import { WorldView } from './worldview.js';
 import * as storage from './storage.js';
-import { MakeBlockDialog } from './makeblock.js';
+import { MakeBlockDialog, registerMakeBlock } from './makeblock.js';
 import { DriverLease, bindDriverBadge, DRIVER_TOPIC } from './driver.js';
 import { bindNamespace, CLAIM_SERVICE } from './robotns.js';
 import { reportProgram } from './report.js';
@@ -91,6 +91,7 @@ async function start() {
   ide.sets = { ros: ros_, turtlesim, rover };
   ide.baseToolbox = base;
   setRuntimeSource(runtimePy);
+  registerMakeBlock();
   for (const set of Object.values(ide.sets)) for (const def of set.blocks) defineBlock(def, set.colour, set.namespaced);
 
   const workspace = Blockly.inject($('#blockly'), {

@@ -1,18 +1,23 @@
 // "Make a block": turns a live topic, service or action into a block of its own.
 // The definition (block JSON + rosgate spec) is saved with the program.
+/* global Blockly */
 import { normType } from './graph.js';
 
 const NUMERIC = /^(u?int(8|16|32|64)|float(32|64)|double|byte|char)$/;
 const MAX_INPUTS = 8;
 
-// Scalar leaf fields of a type: [{path, type}] (arrays left out: they keep their defaults).
-function leaves(typedefs) {
+// Scalar leaf fields of a type: [{path, type}]. Arrays are left out (they keep their defaults),
+// unless `arrays`: then numeric arrays come too, as {path, type, array: true}.
+function leaves(typedefs, { arrays = false } = {}) {
   const byType = new Map(typedefs.map((d) => [normType(d.type), d]));
   const out = [];
   const walk = (def, prefix, depth) => def.fieldnames.forEach((name, i) => {
     const t = def.fieldtypes[i].replace(/<=\d+$/, '');
     const path = prefix ? `${prefix}.${name}` : name;
-    if (def.fieldarraylen[i] !== -1) return;
+    if (def.fieldarraylen[i] !== -1) {
+      if (arrays && NUMERIC.test(t)) out.push({ path, type: t, array: true });
+      return;
+    }
     const sub = byType.get(normType(t));
     if (sub && depth < 4) walk(sub, path, depth + 1);
     else if (NUMERIC.test(t) || t === 'bool' || t === 'string') out.push({ path, type: t });
@@ -71,15 +76,58 @@ export function buildDefinition({ kind, name, type, label, fields, responseField
     Object.assign(json, { previousStatement: null, nextStatement: null });
     spec = { kind: 'goal', action: name, type, args: template(used) };
   } else {
-    const options = fields.map((f) => [f.path, f.path]);
+    const options = fields.flatMap((f) => (f.array ? REDUCERS.map(([text, how]) => [text(f.path), `${how}:${f.path}`]) : [[f.path, f.path]]));
     json.message0 = `${label.replace(/%/g, '%%')} %1`;
     json.args0 = [{ type: 'field_dropdown', name: 'FIELD', options: options.length ? options : [['(message)', '']] }];
     json.output = null;
     json.inputsInline = true;
-    spec = { kind: 'latest', topic: name, type, field: '${FIELD}' };
+    if (fields.some((f) => f.array)) {
+      // a list field: read the message, then pick (min, max, mean, item i) from it
+      json.mutator = PICK_MUTATOR;
+      json.tooltip += '; a list gives its smallest, largest or mean number (NaN and inf left out), or item i (from 0)';
+      spec = { kind: 'latest', topic: name, type, pick: '${FIELD}', index: 'I' };
+    } else {
+      spec = { kind: 'latest', topic: name, type, field: '${FIELD}' };
+    }
     return { json, spec, toolboxInputs: {} };
   }
   return { json, spec, toolboxInputs };
+}
+
+// The reducers a reader offers for a list field: the option's text and the selector's prefix.
+const REDUCERS = [
+  [(p) => `smallest of ${p}`, 'min'],
+  [(p) => `largest of ${p}`, 'max'],
+  [(p) => `mean of ${p}`, 'mean'],
+  [(p) => `${p} item i`, 'item'],
+];
+
+// A reader with list fields shows an input "i" while an 'item:' selector is chosen.
+export const PICK_MUTATOR = 'rosgate_pick_mutator';
+const PICK_MIXIN = {
+  saveExtraState() { return { item: !!this.getInput('I') }; },
+  loadExtraState(state) { this.showIndex_(!!state?.item, false); },
+  showIndex_(on, withShadow = true) {
+    const has = !!this.getInput('I');
+    if (on && !has) {
+      const input = this.appendValueInput('I').setCheck('Number').appendField('i');
+      if (withShadow) input.connection.setShadowState({ type: 'math_number', fields: { NUM: 0 } });
+    } else if (!on && has) {
+      this.removeInput('I');
+    }
+  },
+};
+
+// Registers the reader's mutator (main.js calls this once, before any block is made).
+export function registerMakeBlock() {
+  if (Blockly.Extensions.isRegistered(PICK_MUTATOR)) return;
+  Blockly.Extensions.registerMutator(PICK_MUTATOR, PICK_MIXIN, function () {
+    const block = this;
+    this.getField('FIELD').setValidator(function (v) {
+      block.showIndex_(String(v).startsWith('item:'));
+      return undefined;
+    });
+  });
 }
 
 export class MakeBlockDialog {
@@ -126,7 +174,7 @@ export class MakeBlockDialog {
     }
     if (!type) throw new Error(`no ${gk} named ${name} on the gateway`);
     const detailKind = { publish: 'msg', read: 'msg', service: 'request', action: 'goal' }[kind];
-    const fields = leaves(await this.graph.details(detailKind, type));
+    const fields = leaves(await this.graph.details(detailKind, type), { arrays: kind === 'read' });
     const responseFields = kind === 'service' ? leaves(await this.graph.details('response', type)) : [];
     const def = buildDefinition({ kind, name, type, label: label || `${kind} ${name}`, fields, responseFields });
     this.add(def);

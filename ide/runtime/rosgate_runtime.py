@@ -68,6 +68,41 @@ def field(obj, path):
     return v
 
 
+def pick(msg, selector, index=0):
+    """One value out of a message: a field path, or 'min:PATH', 'max:PATH', 'mean:PATH' over the
+    finite numbers of a list field (NaN and inf arrive as None), or 'item:PATH' (item `index`,
+    from 0; negative counts from the end). min of nothing is inf, max -inf, mean nan."""
+    m = re.match(r"^(min|max|mean|item):(.+)$", str(selector), re.S)
+    if not m:
+        return field(msg, selector)
+    how, path = m.groups()
+    items = field(msg, path)
+    if not isinstance(items, (list, tuple)):
+        raise RosError("'%s' is not a list" % path)
+    if how == "item":
+        try:
+            i = float(index)
+        except (TypeError, ValueError):
+            i = math.nan
+        if not (math.isfinite(i) and -len(items) <= int(i) < len(items)):
+            raise RosError("no item %s in '%s' (it has %d)" % (fmt(index), path, len(items)))
+        return items[int(i)]
+    n, acc = 0, {"min": math.inf, "max": -math.inf, "mean": 0.0}[how]
+    for v in items:
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            continue
+        n += 1
+        if how == "min":
+            acc = v if v < acc else acc
+        elif how == "max":
+            acc = v if v > acc else acc
+        else:
+            acc += v
+    if how == "mean":
+        return acc / n if n else math.nan
+    return acc
+
+
 def yaw(q):
     """Heading in radians from a geometry_msgs/Quaternion."""
     q = q or {}

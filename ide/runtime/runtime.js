@@ -2,10 +2,10 @@
 // Promise that rejects on a rosbridge `status` error or a failed result. stop()
 // ends the program: pending waits reject, subscriptions end, goals are cancelled
 // and every velocity topic the program drove gets a zero command.
-import { fmt, field, yaw, rangeAt, zeroVelocity, isVelocityType, poseOf, angleDiff,
+import { fmt, field, pick, yaw, rangeAt, zeroVelocity, isVelocityType, poseOf, angleDiff,
   normNamespace, withNamespace } from './util.js';
 
-export { fmt, field, yaw, rangeAt };
+export { fmt, field, pick, yaw, rangeAt };
 
 export class StopSignal extends Error {
   constructor() { super('program stopped'); this.name = 'StopSignal'; }
@@ -361,6 +361,7 @@ export class Runtime {
   }
 
   field(obj, path) { return field(obj, path); }
+  pick(msg, selector, index) { return pick(msg, selector, index); }
   yaw(q) { return yaw(q); }
   rangeAt(scan, degrees, window) { return rangeAt(scan, degrees, window); }
 

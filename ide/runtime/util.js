@@ -35,6 +35,31 @@ export function field(obj, path) {
   return v;
 }
 
+// One number (or value) out of a message for a "make a block" reader: `selector` is a field
+// path ('range_max'), or a reducer over a list field: 'min:ranges', 'max:ranges', 'mean:ranges'
+// (over the finite numbers; NaN and inf arrive as null) or 'item:ranges' (item `index`, from 0;
+// negative counts from the end). min of nothing is Infinity, max -Infinity, mean NaN.
+export function pick(msg, selector, index = 0) {
+  const m = /^(min|max|mean|item):(.+)$/.exec(String(selector));
+  if (!m) return field(msg, selector);
+  const [, how, path] = m;
+  const list = field(msg, path);
+  if (!Array.isArray(list) && !ArrayBuffer.isView(list)) throw new Error(`'${path}' is not a list`);
+  if (how === 'item') {
+    const i = Math.trunc(index === null || index === undefined ? NaN : Number(index));
+    if (!(i >= -list.length && i < list.length)) throw new Error(`no item ${fmt(index)} in '${path}' (it has ${list.length})`);
+    return list[i < 0 ? list.length + i : i];
+  }
+  let n = 0;
+  let acc = how === 'min' ? Infinity : how === 'max' ? -Infinity : 0;
+  for (const v of list) {
+    if (typeof v !== 'number' || !Number.isFinite(v)) continue;
+    n += 1;
+    if (how === 'min') { if (v < acc) acc = v; } else if (how === 'max') { if (v > acc) acc = v; } else acc += v;
+  }
+  return how === 'mean' ? (n ? acc / n : NaN) : acc;
+}
+
 // Heading in radians from a geometry_msgs/Quaternion.
 export function yaw(q) {
   const { x = 0, y = 0, z = 0, w = 1 } = q ?? {};
