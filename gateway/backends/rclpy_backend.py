@@ -1,19 +1,19 @@
 """The rclpy backend: the gateway as one node of a real ROS 2 (Jazzy) graph.
 
 rclpy is imported when the backend starts, so importing this module works without ROS. One node
-(``rosgate`` by default; ROS arguments such as ``--ros-args -r __node:=x`` honoured) and one
-MultiThreadedExecutor spinning in its own thread. rclpy callbacks convert messages on the
-executor's threads and hop to the IOLoop with ``call_soon_threadsafe``; they never log. Callbacks
-that wait for the gateway (services and actions served by browser clients) are coroutines in a
-reentrant callback group: they hold no thread while they wait, and the loop wakes the executor
-when their answer is there.
+(``rosgate`` by default; ROS arguments such as ``--ros-args -r __node:=x`` honoured). Topic
+subscriptions, service clients and services served by the gateway are moved by the pump
+(``rclpy_pump``): one thread with its own rcl wait set that hands what it takes to the IOLoop in
+batches; the loop publishes and sends requests and responses itself. Actions go through a
+SingleThreadedExecutor in a thread of its own: their callbacks that wait for the gateway are
+coroutines in a reentrant callback group, hold no thread while they wait, and the loop wakes the
+executor when their answer is there. No thread logs except through a hop to the loop.
 """
 
 from __future__ import annotations
 
 import asyncio
 import logging
-import os
 import threading
 from collections.abc import Awaitable, Callable
 from typing import Any
@@ -22,7 +22,8 @@ from protocol.msgdefs import ActionDef, MsgDef, SrvDef, normalize
 
 from . import rclpy_params
 from .base import ActionServerCallbacks, BackendError, Message, NodeInfo, QoS, ServiceTimeout
-from .rclpy_actions import Pending, RclpyActionServer, send_goal
+from .rclpy_actions import RclpyActionServer, send_goal
+from .rclpy_pump import Pump, ServiceCaller, ServiceServer, TopicReader
 from .rclpy_types import Converter, RosDefinitions
 
 log = logging.getLogger('rosgate.rclpy')
@@ -61,24 +62,62 @@ class RclpySubscription:
     def __init__(self, backend: RclpyBackend, topic: str, type: str, callback: Callable[[Message], None]):
         self.topic, self.type = topic, type
         self._backend, self._callback = backend, callback
-        self.sub = None
+        self.sub: TopicReader | None = None
 
     def deliver(self, msg: Message) -> None:    # on the loop
         if self.sub is not None:
             self._callback(msg)
 
     def destroy(self) -> None:
-        if self.sub is not None:
-            self._backend.node.destroy_subscription(self.sub)
-            self.sub = None
+        sub, self.sub = self.sub, None
+        if sub is not None:
+            self._backend.pump.remove(sub)
 
 
 class RclpyService:
-    def __init__(self, backend: RclpyBackend, name: str, type: str):
-        self.name, self.type = name, type
-        self._backend = backend
-        self.srv = None
-        self.pending: set = set()     # requests waiting for the gateway's answer
+    """A service served by the gateway: requests come from the pump, answers go out from the loop."""
+
+    def __init__(self, backend: RclpyBackend, name: str, type: str, cls, handler):
+        self.name, self.type, self.cls = name, type, cls
+        self._backend, self._handler = backend, handler
+        self.srv: ServiceServer | None = None       # None once destroyed
+        self.entity: ServiceServer | None = None    # kept: late answers still go out through it
+        self.pending: set[asyncio.Task] = set()     # requests waiting for the gateway's answer
+
+    def on_request(self, item) -> None:             # on the loop
+        request, header = item
+        backend = self._backend
+        if self.srv is None:
+            self.respond(header, None)
+            return
+        try:
+            data = backend.convert.to_dict(request)
+        except Exception as e:  # noqa: BLE001
+            backend.report(f'service {self.name}', e)
+            self.respond(header, None)
+            return
+        task = backend.loop.create_task(backend.serve(self.name, self._handler, data))
+        self.pending.add(task)
+        task.add_done_callback(lambda t: self._answered(header, t))
+
+    def _answered(self, header, task: asyncio.Task) -> None:
+        self.pending.discard(task)
+        self.respond(header, None if task.cancelled() else task.result())
+
+    def respond(self, header, data: Message | None) -> None:
+        """Answer one caller; None: a default response."""
+        response = self.cls.Response()
+        if data is not None:
+            try:
+                response = self._backend.convert.from_dict(self.cls.Response, data)
+            except Exception as e:  # noqa: BLE001
+                self._backend.report(f'service {self.name}: bad response', e)
+        handle = self.entity.handle
+        try:
+            with handle:
+                handle.service_send_response(response, header.request_id)
+        except Exception as e:  # noqa: BLE001 (the service is gone: its callers get nothing)
+            log.debug('service %s: %s', self.name, e)
 
     def destroy(self) -> None:
         srv, self.srv = self.srv, None
@@ -88,12 +127,12 @@ class RclpyService:
         if backend._served.get(self.name) is self:
             del backend._served[self.name]
         if not self.pending:
-            backend.node.destroy_service(srv)
+            backend.pump.remove(srv)
             return
         # waiting callers get a default response now; the service goes once they have it
-        for future in list(self.pending):
-            future.cancel()
-        backend.loop.call_later(0.5, backend.destroy_quietly, backend.node.destroy_service, srv)
+        for task in list(self.pending):
+            task.cancel()
+        backend.loop.call_later(0.5, backend.pump.remove, srv)
 
 
 class RclpyBackend:
@@ -104,23 +143,23 @@ class RclpyBackend:
     name = 'rclpy'
 
     def __init__(self, node_name: str = 'rosgate', *, ros_args: list[str] | None = None,
-                 service_timeout: float = 5.0, num_threads: int | None = None):
+                 service_timeout: float = 5.0):
         self.node_name = '/' + node_name.strip('/')
         self.service_timeout = service_timeout
         self.defs = RosDefinitions()
         self.convert = Converter(self.defs)
         self._args = None if ros_args is None else ['rosgate', *ros_args]
-        self._num_threads = num_threads
         self.loop: asyncio.AbstractEventLoop | None = None
         self.node = self.reentrant = None
         self._context = self._executor = self._thread = None
-        self._clients: dict[tuple[str, str], Any] = {}
+        self.pump: Pump | None = None
+        self._rclpy = None      # rclpy's C extension (rcl entities the pump waits on)
+        self._clients: dict[tuple[str, str], ServiceCaller] = {}
         self._in_flight: dict[str, asyncio.Semaphore] = {}
         self._action_clients: dict[tuple[str, str], Any] = {}
         self._served: dict[str, RclpyService] = {}
         self._action_servers: dict[str, RclpyActionServer] = {}
         self._closing: dict[str, RclpyActionServer] = {}
-        self._serving: set = set()
 
     # --- lifecycle ----------------------------------------------------------------------------
 
@@ -128,21 +167,24 @@ class RclpyBackend:
         import rclpy  # noqa: PLC0415 (optional dependency, present on ROS 2 machines)
         from rclpy.callback_groups import ReentrantCallbackGroup  # noqa: PLC0415
         from rclpy.context import Context  # noqa: PLC0415
-        from rclpy.executors import MultiThreadedExecutor  # noqa: PLC0415
+        from rclpy.executors import SingleThreadedExecutor  # noqa: PLC0415
+        from rclpy.impl.implementation_singleton import rclpy_implementation  # noqa: PLC0415
         from rclpy.signals import SignalHandlerOptions  # noqa: PLC0415
 
         self.loop = asyncio.get_running_loop()
+        self._rclpy = rclpy_implementation
         self._context = Context()
         # the gateway handles SIGINT/SIGTERM itself (closing clients first), so rclpy must not
         rclpy.init(args=self._args, context=self._context, signal_handler_options=SignalHandlerOptions.NO)
         self.node = rclpy.create_node(self.node_name.lstrip('/'), context=self._context)
         self.node_name = self.node.get_fully_qualified_name()
         self.reentrant = ReentrantCallbackGroup()
-        threads = self._num_threads or max(4, os.cpu_count() or 2)
-        self._executor = MultiThreadedExecutor(num_threads=threads, context=self._context)
+        self._executor = SingleThreadedExecutor(context=self._context)
         self._executor.add_node(self.node)
         self._thread = threading.Thread(target=self._spin, name='rosgate-rclpy', daemon=True)
         self._thread.start()
+        self.pump = Pump(self._context, self.loop)
+        self.pump.start()
 
     def _spin(self) -> None:
         try:
@@ -153,8 +195,8 @@ class RclpyBackend:
     async def stop(self) -> None:
         if self.node is None:
             return
-        for future in list(self._serving):
-            future.cancel()
+        for served in list(self._served.values()):
+            served.destroy()
         for server in list(self._action_servers.values()):
             server.destroy()
         await asyncio.to_thread(self._shutdown)
@@ -162,6 +204,7 @@ class RclpyBackend:
     def _shutdown(self) -> None:
         executor, node, context, thread = self._executor, self.node, self._context, self._thread
         self.node = None
+        self.pump.stop()
         executor.shutdown(timeout_sec=2.0)
         thread.join(timeout=2.0)
         node.destroy_node()
@@ -261,24 +304,17 @@ class RclpyBackend:
 
     def subscribe(self, topic: str, type: str, callback: Callable[[Message], None],
                   qos: QoS | None = None) -> RclpySubscription:
-        from rclpy.callback_groups import MutuallyExclusiveCallbackGroup  # noqa: PLC0415
+        from rclpy.type_support import check_is_valid_msg_type  # noqa: PLC0415
 
         topic, full, cls = self._topic(topic, type)
+        check_is_valid_msg_type(cls)    # loads the type support
         handle = RclpySubscription(self, topic, full, callback)
-        convert, hop = self.convert.to_dict, self.hop
-
-        def on_message(msg) -> None:   # executor thread: convert here, deliver on the loop
-            try:
-                data = convert(msg)
-            except Exception as e:  # noqa: BLE001
-                hop(self.report, f'subscription {topic}', e)
-                return
-            hop(handle.deliver, data)
-
         profile = ros_qos(qos if qos is not None else self._adapted_qos(topic))
-        # one mutually exclusive group per subscription: its messages stay in order
-        handle.sub = self.node.create_subscription(
-            cls, topic, on_message, profile, callback_group=MutuallyExclusiveCallbackGroup())
+        with self.node.handle:
+            sub = self._rclpy.Subscription(self.node.handle, cls, topic, profile.get_c_qos_profile())
+        handle.sub = TopicReader(sub, cls, self.convert.to_dict, handle.deliver,
+                                 lambda e: self.report(f'subscription {topic}', e))
+        self.pump.add(handle.sub)
         return handle
 
     def _adapted_qos(self, topic: str) -> QoS:
@@ -304,28 +340,38 @@ class RclpyBackend:
 
     # --- services -----------------------------------------------------------------------------
 
-    def _client(self, service: str, type: str, cls):
+    def _client(self, service: str, type: str, cls) -> ServiceCaller:
+        from rclpy.qos import qos_profile_services_default  # noqa: PLC0415
+        from rclpy.type_support import check_is_valid_srv_type  # noqa: PLC0415
+
         client = self._clients.get((service, type))
         if client is None:
-            client = self.node.create_client(cls, service, callback_group=self.reentrant)
-            self._clients[(service, type)] = client
+            check_is_valid_srv_type(cls)
+            with self.node.handle:
+                handle = self._rclpy.Client(self.node.handle, cls, service,
+                                            qos_profile_services_default.get_c_qos_profile())
+            client = self._clients[(service, type)] = ServiceCaller(handle, cls)
+            self.pump.add(client)
         return client
 
     async def _call(self, service: str, type: str, cls, request, timeout: float | None):
         client = self._client(service, type, cls)
+        handle = client.handle
         limit = self._in_flight.setdefault(service, asyncio.Semaphore(IN_FLIGHT))
         timeout = timeout if timeout and timeout > 0 else None
         wait = timeout or self.service_timeout
         try:
             async with asyncio.timeout(timeout), limit:
-                await self._until(client.service_is_ready, wait, ServiceTimeout(
+                await self._until(handle.service_server_is_available, wait, ServiceTimeout(
                     f'service {service} did not become ready within {wait} s'))
-                future = client.call_async(request)
+                future = self.loop.create_future()
+                with handle:
+                    sequence = handle.send_request(request)
+                client.pending[sequence] = future    # the pump's answer reaches the loop after this
                 try:
-                    return await self.wrap(future)
+                    return await future
                 finally:
-                    if not future.done():
-                        client.remove_pending_request(future)
+                    client.pending.pop(sequence, None)
         except TimeoutError:
             raise ServiceTimeout(f'service {service} did not answer within {timeout} s') from None
 
@@ -344,6 +390,9 @@ class RclpyBackend:
 
     def advertise_service(self, service: str, type: str,
                           handler: Callable[[Message], Awaitable[Message]]) -> RclpyService:
+        from rclpy.qos import qos_profile_services_default  # noqa: PLC0415
+        from rclpy.type_support import check_is_valid_srv_type  # noqa: PLC0415
+
         full = normalize(type, 'srv')
         self.defs.srv(full)
         cls = self.defs.srv_class(full)
@@ -355,36 +404,15 @@ class RclpyBackend:
             others = [p for p in self.service_providers(service) if p != self.node_name]
             if others:
                 raise BackendError(f'service {service} is already provided by {", ".join(others)}')
-        convert = self.convert
-        handle = RclpyService(self, service, full)
-
-        async def serve(request, response):   # an executor task; holds no thread while waiting
-            try:
-                data = convert.to_dict(request)
-                future = asyncio.run_coroutine_threadsafe(self._serve(service, handler, data), self.loop)
-            except Exception as e:  # noqa: BLE001 (bad request, or the loop is gone)
-                self.hop(self.report, f'service {service}', e)
-                return response
-            handle.pending.add(future)
-            self._serving.add(future)
-            future.add_done_callback(lambda f: self._served_done(handle, f))
-            done = await Pending(future)
-            if done.cancelled() or done.exception() is not None or done.result() is None:
-                return response
-            try:
-                return convert.from_dict(cls.Response, done.result())
-            except Exception as e:  # noqa: BLE001
-                self.hop(self.report, f'service {service}: bad response', e)
-                return response
-
-        handle.srv = self.node.create_service(cls, service, serve, callback_group=self.reentrant)
+        handle = RclpyService(self, service, full, cls, handler)
+        check_is_valid_srv_type(cls)
+        with self.node.handle:
+            srv = self._rclpy.Service(self.node.handle, cls, service,
+                                      qos_profile_services_default.get_c_qos_profile())
+        handle.srv = handle.entity = ServiceServer(srv, cls, handle.on_request)
+        self.pump.add(handle.srv)
         self._served[service] = handle
         return handle
-
-    def _served_done(self, handle: RclpyService, future) -> None:
-        handle.pending.discard(future)
-        self._serving.discard(future)
-        self.wake()
 
     def destroy_quietly(self, destroy: Callable, entity) -> None:
         """Destroy an entity later on; the node may be gone by then."""
@@ -394,7 +422,7 @@ class RclpyBackend:
             except Exception as e:  # noqa: BLE001
                 log.debug('destroying %s: %s', entity, e)
 
-    async def _serve(self, service: str, handler, request: Message) -> Message | None:
+    async def serve(self, service: str, handler, request: Message) -> Message | None:
         """On the loop: the gateway's answer, or None (the ROS caller then gets a default response)."""
         try:
             return await asyncio.wait_for(handler(request), self.service_timeout)
