@@ -7,11 +7,18 @@ DELETE /api/programs/NAME     -> 204
 
 NAME: 1-64 characters of letters, digits, space, '_' and '-', not starting with a space.
 Anything else is refused with 400 before the file system is touched.
+
+Spaces: with auth on (``--auth``) every signed-in name has a space of its own, ``users/NAME/``
+under the library directory. An operator reads and writes only its own space, a viewer only
+reads its own, an admin sees every space: the list holds every program with its ``owner``
+(null: the shared space at the top of the directory, where programs saved without auth live)
+and ``?owner=NAME`` on any request picks a space. Without auth every request is an admin's.
 """
 
 from __future__ import annotations
 
 import errno
+import hashlib
 import json
 import os
 import pathlib
@@ -22,11 +29,41 @@ import tornado.web
 
 MAX_PROGRAM_BYTES = 2 * 1024 * 1024
 _NAME = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9 _-]{0,63}")
+_OWNER = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9_.@-]{0,63}")
+USERS = "users"
+
+
+def space_name(owner: str) -> str:
+    """The directory of a signed-in name's space: the name itself when it is a safe file name,
+    else u- and a digest of it."""
+    return owner if _OWNER.fullmatch(owner) else "u-" + hashlib.sha256(owner.encode()).hexdigest()[:16]
 
 
 class _Base(tornado.web.RequestHandler):
+    identity = None      # who asks (security.http sets it when auth is on); None: an admin
+
     def initialize(self, programs_dir: pathlib.Path) -> None:
         self.programs_dir = programs_dir
+
+    def _admin(self) -> bool:
+        return self.identity is None or self.identity.role == "admin"
+
+    def _owner(self) -> str | None:
+        """The space this request is about: ?owner= for an admin (none: the shared space), the
+        caller's own for anyone else."""
+        asked = self.get_query_argument("owner", None) or None
+        if self._admin():
+            return asked
+        if asked is not None and asked != self.identity.name:
+            raise tornado.web.HTTPError(403, "%s may open only their own programs" % self.identity.name)
+        return self.identity.name
+
+    def _space(self, owner: str | None) -> pathlib.Path:
+        return self.programs_dir if owner is None else self.programs_dir / USERS / space_name(owner)
+
+    def _may_write(self) -> None:
+        if self.identity is not None and self.identity.role == "viewer":
+            raise tornado.web.HTTPError(403, "role viewer may not save or delete programs")
 
     def set_default_headers(self) -> None:
         self.set_header("Content-Type", "application/json; charset=utf-8")
@@ -42,18 +79,27 @@ class _Base(tornado.web.RequestHandler):
     def _path(self, name: str) -> pathlib.Path:
         if not _NAME.fullmatch(name):
             raise tornado.web.HTTPError(400, "bad program name %r" % name[:80])
-        return self.programs_dir / (name + ".json")
+        return self._space(self._owner()) / (name + ".json")
 
 
 class ProgramListHandler(_Base):
     def get(self) -> None:
+        if not self._admin():
+            spaces = [(self.identity.name, self._space(self.identity.name))]
+        else:
+            spaces = [(None, self.programs_dir)]
+            users = self.programs_dir / USERS
+            if users.is_dir() and not users.is_symlink():
+                spaces += [(d.name, d) for d in sorted(users.iterdir()) if d.is_dir() and not d.is_symlink()]
         programs = []
-        if self.programs_dir.is_dir():
-            for p in sorted(self.programs_dir.glob("*.json")):
+        for owner, folder in spaces:
+            if not folder.is_dir():
+                continue
+            for p in sorted(folder.glob("*.json")):
                 if not _NAME.fullmatch(p.stem) or p.is_symlink():
                     continue
                 st = p.stat()
-                programs.append({"name": p.stem, "size": st.st_size, "modified": st.st_mtime})
+                programs.append({"name": p.stem, "owner": owner, "size": st.st_size, "modified": st.st_mtime})
         self.finish(json.dumps({"programs": programs}))
 
 
@@ -67,6 +113,7 @@ class ProgramHandler(_Base):
         self.finish(data)
 
     def put(self, name: str) -> None:
+        self._may_write()
         path = self._path(name)
         body = self.request.body
         if len(body) > MAX_PROGRAM_BYTES:
@@ -78,8 +125,8 @@ class ProgramHandler(_Base):
         if not isinstance(program, dict):
             raise tornado.web.HTTPError(400, "a program is a JSON object")
         data = json.dumps(program, separators=(",", ":")).encode()
-        self.programs_dir.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=self.programs_dir, prefix=".tmp-", suffix=".json")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".json")
         try:
             with os.fdopen(fd, "wb") as f:
                 f.write(data)
@@ -92,6 +139,7 @@ class ProgramHandler(_Base):
     post = put
 
     def delete(self, name: str) -> None:
+        self._may_write()
         path = self._path(name)
         try:
             path.unlink()

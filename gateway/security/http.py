@@ -1,5 +1,5 @@
-"""HTTP side of access control: a small login page that sets the token cookie, and the admin
-guard in front of the program library (/api/programs)."""
+"""HTTP side of access control: a small login page that sets the token cookie, /whoami, and the
+token guard in front of the program library (/api/programs), which keeps a space per name."""
 
 from __future__ import annotations
 
@@ -116,7 +116,8 @@ def require(handler: tornado.web.RequestHandler, policy, permission: str):
 
 
 def guarded_program_routes(policy, programs_dir) -> list:
-    """The program library's own routes, each handler requiring the admin role when auth is on."""
+    """The program library's own routes behind a valid token when auth is on; the handlers keep
+    each signed-in name in its own space (admin: all of them, viewer: read only)."""
     from ..programs import program_routes
 
     routes = []
@@ -124,9 +125,9 @@ def guarded_program_routes(policy, programs_dir) -> list:
         base = spec.handler_class
 
         def prepare(self, _base=base):
-            require(self, policy, 'programs')
+            self.identity = require(self, policy, 'read')
             return _base.prepare(self)
 
-        guarded = type(f'Admin{base.__name__}', (base,), {'prepare': prepare})
+        guarded = type(f'Guarded{base.__name__}', (base,), {'prepare': prepare})
         routes.append(tornado.web.url(spec.regex.pattern, guarded, spec.kwargs))
     return routes

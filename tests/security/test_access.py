@@ -140,14 +140,40 @@ def test_each_role_allowed_and_refused_exactly(secured, role, how):
     assert outcome == expected
 
 
-def test_program_library_needs_admin(secured):
+def test_program_library_keeps_a_space_per_name(secured):
+    def as_(role, path, method='GET', data=None):
+        headers = {'Authorization': f'Bearer {TOKENS[role]}', 'Content-Type': 'application/json'}
+        status, _, body = http(secured, path, method=method, data=data, headers=headers)
+        return status, json.loads(body) if body else None
+
+    def names(role, query=''):
+        status, body = as_(role, '/api/programs' + query)
+        assert status == 200, body
+        return sorted(((p['owner'], p['name']) for p in body['programs']), key=lambda p: (p[0] or '', p[1]))
+
     assert http(secured, '/api/programs')[0] == 401
-    for role, code in (('viewer', 403), ('operator', 403), ('admin', 200)):
-        status, _, body = http(secured, '/api/programs', headers={'Authorization': f'Bearer {TOKENS[role]}'})
-        assert status == code, body
-    status, _, _ = http(secured, '/api/programs/demo', method='PUT', data=b'{"blocks": []}',
-                        headers={'Authorization': f'Bearer {TOKENS["operator"]}'})
-    assert status == 403
+    assert as_('viewer', '/api/programs')[0] == 200
+    # operators save without the teacher's token, each in a space of their own
+    assert as_('operator', '/api/programs/square', 'PUT', b'{"who": "alice"}')[0] == 200
+    assert as_('operator2', '/api/programs/square', 'PUT', b'{"who": "bob"}')[0] == 200
+    assert as_('admin', '/api/programs/starter', 'PUT', b'{"who": "teacher"}')[0] == 200
+    assert as_('operator', '/api/programs/square')[1] == {'who': 'alice'}
+    assert as_('operator2', '/api/programs/square')[1] == {'who': 'bob'}
+    assert names('operator') == [('alice', 'square')]
+    assert names('operator2') == [('bob', 'square')]
+    # nobody else's space, by name or by ?owner=
+    assert as_('operator', '/api/programs/square?owner=bob')[0] == 403
+    assert as_('operator', '/api/programs/starter')[0] == 404
+    assert [p['owner'] for p in as_('operator', '/api/programs?owner=bob')[1]['programs']] == ['alice']
+    # a viewer reads its own space and saves nothing
+    status, body = as_('viewer', '/api/programs/mine', 'PUT', b'{}')
+    assert status == 403 and 'viewer' in body['error']
+    # the admin sees every space and opens, saves and deletes in any of them
+    assert names('admin') == [(None, 'starter'), ('alice', 'square'), ('bob', 'square')]
+    assert as_('admin', '/api/programs/square?owner=bob')[1] == {'who': 'bob'}
+    assert as_('admin', '/api/programs/square?owner=alice', 'DELETE')[0] == 204
+    assert names('operator') == []
+    assert as_('operator', '/api/programs/square', 'DELETE')[0] == 404
 
 
 def test_before_auth_only_auth_is_accepted(secured):
