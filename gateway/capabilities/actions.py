@@ -88,7 +88,7 @@ def advertise_action(s: ClientSession, op: AdvertiseAction) -> None:
 
 
 def _goal(s: ClientSession, op, remove: bool):
-    entry = (s.server_goals.pop if remove else s.server_goals.get)(op.id) if op.id else None
+    entry = (s.server_goals.pop if remove else s.server_goals.get)(op.id, None) if op.id else None
     if entry is None:
         raise ProtocolError(f'no goal with id {op.id} is running on {op.action}', op=op.OP, id=op.id)
     return entry
