@@ -1,0 +1,180 @@
+"""Measure a gateway under hostile load (not part of `make test`):
+
+    .venv/bin/python -m tests.fuzz.hammer --ops 100000
+
+1. ``--ops`` fuzzed frames (tests/fuzz/frames.py) over ``--connections`` connections at once,
+   each sending batches followed by a barrier call: counts connections the server dropped
+   (1006: no close frame), other closes, ops with a definite defect left without an error status,
+   and "internal error" statuses; the gateway's RSS before and after.
+2. A client that stops reading and keeps calling ``/rosapi/topics_and_raw_types``: the server's
+   RSS growth while it floods, how it ended, and RSS after it left.
+3. A websocket upgrade as a page on a rebound domain would send it (Host and Origin evil.example).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import random
+import re
+import socket
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+
+from websockets.exceptions import ConnectionClosed
+from websockets.sync.client import connect
+
+from tests.fuzz.client import Closed, FuzzConn, rss_bytes
+from tests.fuzz.frames import frame
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+SET_LEVEL = json.dumps({'op': 'set_level', 'level': 'error'})
+MB = 2**20
+
+
+def start(flags: list[str]):
+    log = tempfile.NamedTemporaryFile('w', prefix='rosgate-hammer-', suffix='.log', delete=False)
+    proc = subprocess.Popen([sys.executable, '-m', 'gateway', '--port', '0', '--address', '127.0.0.1',
+                             '--programs-dir', tempfile.mkdtemp(), *flags],
+                            cwd=ROOT, stdout=subprocess.PIPE, stderr=log, text=True)
+    line = proc.stdout.readline()
+    m = re.search(r'(ws://127\.0\.0\.1:(\d+)/\S*)', line)
+    if not m:
+        raise SystemExit(f'gateway did not start: {line!r}')
+    return proc, m.group(1), int(m.group(2)), log.name
+
+
+class Tally:
+    def __init__(self):
+        self.lock = threading.Lock()
+        self.frames = self.bad = self.unanswered = self.internal = 0
+        self.closes: dict[int, int] = {}
+        self.examples: list = []
+
+    def add(self, **counts):
+        with self.lock:
+            for k, v in counts.items():
+                setattr(self, k, getattr(self, k) + v)
+
+
+def fuzz_worker(url: str, ops: int, seed: int, tally: Tally) -> None:
+    rng = random.Random(seed)
+    conn = FuzzConn(url)
+    sent = 0
+    while sent < ops:
+        frames = [frame(rng) for _ in range(rng.randrange(1, 11))]
+        try:
+            for f in frames:
+                if f.bad_id:
+                    conn.send(SET_LEVEL)
+                conn.send(f.payload)
+            got = conn.barrier(120)
+        except Closed as closed:
+            with tally.lock:
+                tally.closes[closed.code] = tally.closes.get(closed.code, 0) + 1
+                if closed.code == 1006 and len(tally.examples) < 5:
+                    tally.examples.append(('dropped', [f.payload for f in frames]))
+            conn = FuzzConn(url)
+            sent += len(frames)
+            continue
+        answered = {m.get('id') for m in got if m.get('op') == 'status' and m.get('level') == 'error'}
+        missing = [f.payload for f in frames if f.bad_id and f.bad_id not in answered]
+        internal = sum(1 for m in got if m.get('op') == 'status' and 'internal error' in m.get('msg', ''))
+        if (missing or internal) and len(tally.examples) < 5:
+            with tally.lock:
+                tally.examples.append(('unanswered' if missing else 'internal', [f.payload for f in frames]))
+        tally.add(frames=len(frames), bad=sum(1 for f in frames if f.bad_id), unanswered=len(missing),
+                  internal=internal)
+        sent += len(frames)
+    conn.close()
+
+
+def fuzz(url: str, pid: int, ops: int, connections: int, seed: int) -> None:
+    warm = FuzzConn(url)
+    warm.barrier()
+    warm.close()
+    rss0 = rss_bytes(pid)
+    tally = Tally()
+    t0 = time.monotonic()
+    threads = [threading.Thread(target=fuzz_worker, args=(url, ops // connections, seed + i, tally))
+               for i in range(connections)]
+    for t in threads:
+        t.start()
+    peak = rss0
+    while any(t.is_alive() for t in threads):
+        peak = max(peak, rss_bytes(pid))
+        time.sleep(0.2)
+    rss1 = rss_bytes(pid)
+    print(f'fuzz: {tally.frames} frames ({tally.bad} with a definite defect) over {connections} connections '
+          f'in {time.monotonic() - t0:.1f} s')
+    print(f'fuzz: closes by code {tally.closes or "{} (none)"}; server-initiated 1006: {tally.closes.get(1006, 0)}')
+    print(f'fuzz: defective ops without an error status: {tally.unanswered}; internal errors: {tally.internal}')
+    print(f'fuzz: RSS {rss0 / MB:.1f} MiB before, {peak / MB:.1f} MiB peak, {rss1 / MB:.1f} MiB after '
+          f'(growth {(rss1 - rss0) / MB:+.1f} MiB)')
+    for kind, frames in tally.examples:
+        print(f'  example ({kind}): {frames!r}'[:2000])
+
+
+def non_reader(url: str, pid: int, seconds: float) -> None:
+    rss0 = rss_bytes(pid)
+    ws = connect(url, max_size=None, compression=None, open_timeout=10, max_queue=1, legacy=True)
+    peak, calls, t0, ended = rss0, 0, time.monotonic(), 'still open'
+    try:
+        while time.monotonic() - t0 < seconds:
+            ws.send(json.dumps({'op': 'call_service', 'service': '/rosapi/topics_and_raw_types', 'id': f'c{calls}'}))
+            calls += 1
+            if calls % 100 == 0:
+                peak = max(peak, rss_bytes(pid))
+    except ConnectionClosed:
+        pass
+    during = rss_bytes(pid)
+    peak = max(peak, during)
+    try:   # read what is left to learn how the server ended it
+        while True:
+            ws.recv(timeout=30)
+    except ConnectionClosed as e:
+        ended = f'closed {e.rcvd.code} {e.rcvd.reason!r}' if e.rcvd else 'dropped (1006)'
+    except TimeoutError:
+        ended = 'no close within 30 s'
+    ws.close()
+    time.sleep(1.0)
+    after = rss_bytes(pid)
+    print(f'non-reader: {calls} calls in {time.monotonic() - t0:.1f} s; {ended}')
+    print(f'non-reader: RSS {rss0 / MB:.1f} MiB before, {peak / MB:.1f} MiB peak (growth {(peak - rss0) / MB:+.1f} MiB), '
+          f'{after / MB:.1f} MiB after it left')
+
+
+def rebinding(port: int) -> None:
+    host = f'evil.example:{port}'
+    with socket.create_connection(('127.0.0.1', port), timeout=10) as s:
+        s.sendall((f'GET / HTTP/1.1\r\nHost: {host}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n'
+                   f'Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n'
+                   f'Origin: http://{host}\r\n\r\n').encode())
+        status = s.recv(4096).split(b'\r\n', 1)[0].decode()
+        print(f'rebinding upgrade (Host and Origin {host}): {status}')
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument('--ops', type=int, default=100_000)
+    p.add_argument('--connections', type=int, default=4)
+    p.add_argument('--seed', type=int, default=1)
+    p.add_argument('--flood-seconds', type=float, default=20.0)
+    args = p.parse_args()
+    proc, url, port, log = start(['--fibonacci-interval', '0.01', '--max-message-size', '262144'])
+    try:
+        fuzz(url, proc.pid, args.ops, args.connections, args.seed)
+        non_reader(url, proc.pid, args.flood_seconds)
+        rebinding(port)
+        print(f'gateway alive: {proc.poll() is None}; log: {log}')
+    finally:
+        proc.terminate()
+        proc.wait(10)
+
+
+if __name__ == '__main__':
+    main()
