@@ -10,6 +10,7 @@ import tornado.web
 import tornado.websocket
 
 from .backends.base import BackendError, QoS
+from .classview import ClassHandler
 from .core import Gateway
 from .session import ClientSession
 from .settings import Settings
@@ -107,6 +108,7 @@ def make_app(settings: Settings, backend) -> tuple[tornado.web.Application, Gate
         (r'/health', HealthHandler, {'gateway': gateway}),
         (r'/teleop/', tornado.web.RedirectHandler, {'url': '/teleop'}),
         (r'/teleop', TeleopHandler, {'page': settings.ide_dir / 'teleop.html'}),
+        (r'/class/?', ClassHandler, {'gateway': gateway, 'page': settings.ide_dir / 'class.html'}),
         (r'/examples/(.*)', IdeFileHandler, {'path': str(settings.examples_dir)}),
     ]
     if settings.programs_dir is not None:

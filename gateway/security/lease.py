@@ -8,12 +8,13 @@ Command names are topics of the velocity types plus anything matching ``--contro
 - else a ``--control-glob`` pattern (``/turtle1/*`` is the group ``/turtle1``);
 - else the gateway-wide group ``/``.
 
-The first client to command in a group takes its lease; others are refused with a status error
-and can watch. Publish std_msgs/String on /rosgate/control: "take [NS]" takes a free lease (an
+The first client to command in a group takes its lease (a zero velocity on a free lease passes
+without taking it); others are refused with a status error and can watch. Publish std_msgs/String on /rosgate/control: "take [NS]" takes a free lease (an
 admin, or anyone when --auth is off, takes it over from its holder, whose motion is stopped);
 "release [NS]" gives one back (all of yours without NS; an admin may free another's); "stop NS"
 (admin) zeroes every command left moving in the group, frees it and tells the pages of that
-station to stop their programs. Leaving releases everything. Who drives is published, latched,
+station to stop their programs; until they send "take NS", the clients connected then may not
+move that robot again. Leaving releases everything. Who drives is published, latched,
 on /rosgate/driver as JSON: {"driver": <holder of "/"> | null, "drivers": {group: holder | null},
 "stations": [...], "stopped": {group: unix time}}, a holder being {"client", "name", "role",
 "remote", "since"}.
@@ -30,6 +31,7 @@ from fnmatch import fnmatchcase
 from protocol.errors import ProtocolError
 
 from ..backends.base import QoS
+from ..safety import _moving
 
 CONTROL_TOPIC = '/rosgate/control'
 DRIVER_TOPIC = '/rosgate/driver'
@@ -71,6 +73,7 @@ class Lease:
         self.holders: dict[str, object] = {}     # group -> session
         self.since: dict[str, float] = {}
         self.stopped: dict[str, float] = {}      # group -> when an admin last stopped it
+        self.benched: dict[str, dict[int, str]] = {}   # group -> {session id: who stopped it}, until "take"
         self._stations: tuple[str, ...] = ()
         self._stations_at = -float('inf')
         backend = gateway.backend
@@ -112,16 +115,22 @@ class Lease:
 
     # --- commands -------------------------------------------------------------------------------
 
-    def require(self, session, name: str, type: str | None = None) -> None:
-        """Grant a free lease to a commanding client; refuse everyone but the holder."""
+    def require(self, session, name: str, type: str | None = None, moving: bool = True) -> None:
+        """Grant a free lease to a commanding client; refuse everyone but the holder. A zero
+        command on a free lease (a page stopping its program) passes without taking it."""
         if not self.is_command(name, type):
             return
         group = self.group(name)
         holder = self.holders.get(group)
         if holder is session:
             return
+        stopper = self.benched.get(group, {}).get(session.id)
+        if stopper is not None and moving:
+            raise ProtocolError(f'{name}: {stopper} stopped {group}; send "take {group}" (the Take button) to '
+                                'drive it again')
         if holder is None:
-            self._grant(group, session)
+            if moving:
+                self._grant(group, session)
             return
         where = '' if group == ROOT else f' {group}'
         raise ProtocolError(f'{name}: {who(holder)} is driving{where} (exclusive control); watch, wait for '
@@ -131,7 +140,7 @@ class Lease:
         if pub.topic == CONTROL_TOPIC:
             self._command(session, str(msg.get('data', '')).split())
             return None
-        self.require(session, pub.topic, pub.type)
+        self.require(session, pub.topic, pub.type, moving=pub.type not in self.types or _moving(msg))
         return msg
 
     def _may_override(self, session) -> bool:
@@ -152,11 +161,15 @@ class Lease:
             if not self._may_override(session):
                 raise ProtocolError(f'only an admin can stop {group}')
             self.stopped[group] = round(time.time(), 3)
+            # a stop sticks: nobody connected now moves this robot again without taking it
+            self.benched[group] = {sid: who(session) for sid in self.gateway.sessions if sid != session.id}
             if holder is not None:
                 self._grant(group, None, by=session, why='stopped the robot and freed')
             self.stop_group(group)
             self._announce()
             return
+        if verb == 'take':
+            self.benched.get(group, {}).pop(session.id, None)
         if holder is None or holder is session:
             if verb == 'take':
                 self._grant(group, session)
@@ -186,6 +199,8 @@ class Lease:
         self._announce()
 
     def on_close(self, session) -> None:
+        for benched in self.benched.values():
+            benched.pop(session.id, None)
         held = [g for g, h in self.holders.items() if h is session]
         for group in held:
             del self.holders[group]

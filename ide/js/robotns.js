@@ -37,6 +37,7 @@ export function urlWithNamespace(ns, href = location.href) {
 export function bindNamespace({ call, onChange, onError = () => {}, $ = (s) => document.querySelector(s) }) {
   let ns = loadNamespace();
   let claimed = '';           // the station this page claimed, given back when it claims another
+  const followers = [];
   const input = $('#ns');
   input.value = ns;
   const set = (value) => {
@@ -46,6 +47,7 @@ export function bindNamespace({ call, onChange, onError = () => {}, $ = (s) => d
     ns = next;
     saveNamespace(ns);
     history.replaceState(history.state, '', urlWithNamespace(ns));
+    for (const f of followers) f(ns);
     onChange(ns);
   };
   input.addEventListener('change', () => set(input.value));
@@ -73,7 +75,10 @@ export function bindNamespace({ call, onChange, onError = () => {}, $ = (s) => d
       if (yes && !ns && !autoClaimed) { autoClaimed = true; claim(); }
     },
     // Follows the driver lease: its namespace, a free station taken, another's station named.
-    follow: (lease) => followLease(self, lease, { onError, $ }),
+    follow: (lease) => {
+      followers.push((next) => lease.setNamespace(next));
+      followLease(self, lease, { onError, $ });
+    },
   };
   return self;
 }

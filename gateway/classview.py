@@ -1,0 +1,43 @@
+"""GET /class: the teacher's view of every robot station (ide/class.html).
+
+When the gateway requires tokens (--auth) only an admin gets the page: without a token the
+browser is sent to /login (and back here after signing in), other roles get 403.
+"""
+
+from __future__ import annotations
+
+from urllib.parse import quote
+
+import tornado.web
+
+
+class ClassHandler(tornado.web.RequestHandler):
+    def initialize(self, gateway, page) -> None:
+        self.gateway, self.page = gateway, page
+
+    def get(self) -> None:
+        policy = self.gateway.policy
+        if getattr(policy, 'auth', None) is not None:
+            from .security.http import require
+            try:
+                identity = require(self, policy, 'read')
+            except tornado.web.HTTPError as e:
+                if e.status_code != 401:
+                    raise
+                self.redirect(f'/login?next={quote("/class")}')
+                return
+            if identity.role != 'admin':
+                raise tornado.web.HTTPError(403, f'the class view is for admins; {identity.name} is '
+                                                 f'{identity.role}')
+        if not self.page.is_file():
+            raise tornado.web.HTTPError(404)
+        self.set_header('Content-Type', 'text/html; charset=UTF-8')
+        self.set_header('Cache-Control', 'no-store')
+        self.write(self.page.read_bytes())
+
+    def write_error(self, status_code: int, **kwargs) -> None:
+        exc = kwargs.get('exc_info')
+        reason = exc[1].log_message if exc and isinstance(exc[1], tornado.web.HTTPError) else None
+        self.set_header('Content-Type', 'text/plain; charset=UTF-8')
+        self.finish(f'{status_code} {self._reason}: {reason or "the class view cannot be shown"}\n'
+                    'Sign in as an admin at /login?next=/class\n')

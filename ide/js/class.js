@@ -1,0 +1,164 @@
+// The teacher's view (/class): every robot station as a live tile — its world, who holds it,
+// whether its program runs, the last error — with Stop, Release and the student's program
+// (read-only). Stations are the gateway's (the driver lease's list, else the fleet's, else the
+// namespaces of the graph), so a real multi-robot graph shows the same way as the sim's fleet.
+import { Ros } from 'roslib';
+import { WorldView } from './worldview.js';
+import { DriverLease, DRIVER_TOPIC } from './driver.js';
+import { isVelocityType, zeroVelocity, withNamespace } from '../runtime/util.js';
+import { showProgram } from './classprogram.js';
+
+const $ = (s) => document.querySelector(s);
+const REFRESH = 10000;   // ms between looks at the graph for new stations
+const view = { ros: null, lease: new DriverLease(), tiles: new Map(), topics: [], types: [], services: [], seq: 0 };
+window.classView = view;
+
+function setStatus(s, text) { const el = $('#status'); el.dataset.state = s; el.textContent = text; document.body.dataset.connection = s; }
+
+function notice(text) { $('#notice').textContent = text; $('#notice').hidden = !text; }
+
+function connect() {
+  const params = new URLSearchParams(location.search);
+  const url = params.get('url') || `${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/?name=teacher`;
+  const ros = new Ros({});
+  view.ros = ros;
+  setStatus('connecting', 'connecting…');
+  ros.on('connection', () => {
+    setStatus('connected', 'connected');
+    view.lease.attach(ros);
+    for (const t of view.tiles.values()) t.attach(ros);
+    refresh();
+  });
+  ros.on('close', () => { if (view.ros === ros) { setStatus('closed', 'disconnected'); setTimeout(connect, 2000); } });
+  ros.on('error', () => setStatus('error', 'cannot connect'));
+  ros.connect(url).catch(() => setStatus('error', 'bad URL'));
+}
+
+function call(service, args = {}) {
+  const ros = view.ros;
+  const id = `call_service:${service}:class.${++view.seq}`;
+  return new Promise((resolve, reject) => {
+    ros.once(id, (m) => (m.result === false ? reject(new Error(m.values)) : resolve(m.values)));
+    ros.callOnConnection({ op: 'call_service', id, service, args });
+  });
+}
+
+// The stations: the lease's list, else the fleet's parameter, else top namespaces with a world
+// view or a velocity topic (two or more of them).
+async function stations() {
+  if (view.lease.info?.stations?.length) return view.lease.info.stations;
+  try {
+    const v = JSON.parse((await call('/rosapi/get_param', { name: '/fleet:namespaces', default_value: 'null' })).value);
+    if (Array.isArray(v) && v.length) return v;
+  } catch { /* no fleet */ }
+  const tops = new Set();
+  view.topics.forEach((t, i) => {
+    const parts = t.split('/').filter(Boolean);
+    if (parts.length > 1 && (t.endsWith('/world/markers') || isVelocityType(view.types[i]))) tops.add(`/${parts[0]}`);
+  });
+  return tops.size > 1 ? [...tops].sort() : [];
+}
+
+async function refresh() {
+  try {
+    ({ topics: view.topics, types: view.types } = await call('/rosapi/topics'));
+    ({ services: view.services } = await call('/rosapi/services'));
+    if (view.topics.includes(DRIVER_TOPIC)) view.lease.watch();
+    await show(await stations());
+  } catch (e) { notice(`cannot read the graph: ${e.message}`); }
+}
+
+async function show(list) {
+  for (const ns of list) if (!view.tiles.has(ns)) view.tiles.set(ns, new Tile(ns));
+  const tiles = [...view.tiles.values()].sort((a, b) => a.ns.localeCompare(b.ns));
+  $('#tiles').replaceChildren(...tiles.map((t) => t.el));
+  $('#count').textContent = `${tiles.length} station${tiles.length === 1 ? '' : 's'}`
+    + (view.lease.available ? '' : ' · start the gateway with --exclusive-control to see who drives and stop programs');
+  if (!tiles.length) notice('No stations yet: run the gateway with --fleet N, or robots in their own namespaces.');
+  else notice('');
+  document.body.dataset.tiles = String(tiles.length);
+}
+
+class Tile {
+  constructor(ns) {
+    this.ns = ns;
+    this.el = $('#tile').content.firstElementChild.cloneNode(true);
+    this.el.dataset.ns = ns;
+    this.el.querySelector('.ns').textContent = ns;
+    this.world = new WorldView(this.el.querySelector('.world'), withNamespace(ns, '/world/markers'));
+    this.report = null;
+    this.el.querySelector('.stop').onclick = () => stop(ns);
+    this.el.querySelector('.release').onclick = () => release(ns);
+    this.el.querySelector('.open').onclick = () => showProgram(this.report, ns);
+    this.ros = null;
+    if (view.ros?.isConnected) this.attach(view.ros);
+    this.show();
+  }
+
+  attach(ros) {
+    this.ros = ros;
+    this.world.attach(ros);
+    const topic = withNamespace(this.ns, '/rosgate/program');
+    ros.on(topic, (m) => {
+      if (this.ros !== ros) return;
+      try { this.report = JSON.parse(m.msg.data); } catch { this.report = null; }
+      this.show();
+    });
+    ros.callOnConnection({ op: 'subscribe', id: `subscribe:${topic}:class`, topic, type: 'std_msgs/msg/String' });
+  }
+
+  show() {
+    const r = this.report;
+    const d = view.lease.holderOf(this.ns);
+    const who = d?.name ?? (r?.user || '');
+    this.el.querySelector('.holder').textContent = d ? `${who} drives` : who ? `${who} (not driving)` : 'free';
+    this.el.toggleAttribute('data-held', Boolean(d));
+    const state = r?.state ?? 'none';
+    this.el.dataset.state = state;
+    this.el.querySelector('.state').textContent = { none: 'no program', idle: 'idle', running: 'running', paused: 'paused' }[state] ?? state;
+    this.el.querySelector('.program').textContent = r?.name ? `program: ${r.name}` : '';
+    const err = this.el.querySelector('.error');
+    err.textContent = r?.error ? `last error: ${r.error}` : '';
+    err.hidden = !r?.error;
+    this.el.toggleAttribute('data-error', Boolean(r?.error));
+    this.el.querySelector('.open').disabled = !r?.program;
+  }
+}
+
+// Stop: the gateway zeroes the station's commands, frees it and tells its pages to stop their
+// programs (driver lease); without the lease this page publishes the zero commands itself.
+function stop(ns) {
+  if (view.lease.available) {
+    view.lease.command(`stop ${ns}`);
+    return;
+  }
+  view.topics.forEach((topic, i) => {
+    const type = view.types[i];
+    if (!topic.startsWith(`${ns}/`) || !isVelocityType(type)) return;
+    view.ros.callOnConnection({ op: 'advertise', topic, type, id: `advertise:${topic}:class` });
+    view.ros.callOnConnection({ op: 'publish', topic, msg: zeroVelocity(type) });
+  });
+}
+
+function release(ns) {
+  if (view.lease.available) view.lease.command(`release ${ns}`);
+  if (view.services.includes(`${ns}/fleet/release`)) call(`${ns}/fleet/release`).catch(() => {});
+}
+
+function setup() {
+  view.lease.addEventListener('change', () => {
+    for (const t of view.tiles.values()) t.show();
+    const listed = view.lease.info?.stations ?? [];
+    if (listed.some((ns) => !view.tiles.has(ns))) show(listed);
+  });
+  $('#stop-all').onclick = () => { for (const ns of view.tiles.keys()) stop(ns); };
+  $('#release-all').onclick = () => {
+    for (const ns of view.tiles.keys()) if (view.lease.available) view.lease.command(`release ${ns}`);
+    if (view.services.includes('/fleet/release_all')) call('/fleet/release_all').catch(() => {});
+  };
+  setInterval(() => { if (view.ros?.isConnected) refresh(); }, REFRESH);
+}
+
+setup();
+connect();
+document.body.dataset.ready = 'true';

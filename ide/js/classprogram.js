@@ -1,0 +1,48 @@
+// The teacher's read-only look at a student's program: the blocks as the student's IDE last
+// reported them (NS/rosgate/program), in a Blockly workspace that cannot be edited.
+/* global Blockly */
+import './fields.js';
+import './msgblock.js';
+
+let workspace = null;
+let defined = null;
+
+async function defineBlocks() {
+  if (!defined) {
+    defined = Promise.all(['ros', 'turtlesim', 'rover'].map((n) => fetch(`blocks/${n}.json`).then((r) => r.json())))
+      .then((sets) => { for (const set of sets) for (const def of set.blocks) define(def, set.colour); });
+  }
+  return defined;
+}
+
+function define(def, colour) {
+  const { rosgate: _spec, ...json } = def;
+  if (Blockly.Blocks[json.type]) return;
+  if (json.colour === undefined) json.colour = colour;
+  Blockly.common.defineBlocksWithJsonArray([json]);
+}
+
+export async function showProgram(report, ns) {
+  const dlg = document.querySelector('#dlg-program');
+  document.querySelector('#program-title').textContent = `${ns} · ${report?.user || 'student'} · ${report?.name ?? ''}`;
+  document.querySelector('#program-close').onclick = () => dlg.close();
+  dlg.showModal();
+  await defineBlocks();
+  for (const custom of report?.program?.blocks ?? []) if (custom.json) define(custom.json, 330);
+  if (!workspace) {
+    workspace = Blockly.inject(document.querySelector('#program-view'), {
+      readOnly: true, renderer: 'zelos', media: 'vendor/blockly/media/', sounds: false,
+      zoom: { controls: true, wheel: true, startScale: 0.7, maxScale: 1 }, move: { scrollbars: true, drag: true, wheel: true },
+    });
+  }
+  Blockly.svgResize(workspace);
+  workspace.clear();
+  try {
+    Blockly.serialization.workspaces.load(report?.program?.workspace ?? {}, workspace);
+    document.querySelector('#program-note').textContent = 'Read-only: the student\'s program as last reported.';
+  } catch (e) {
+    document.querySelector('#program-note').textContent = `This program cannot be shown: ${e.message}`;
+  }
+  workspace.zoomToFit?.();
+  window.classView.programShown = workspace.getAllBlocks(false).length;
+}
