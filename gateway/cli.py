@@ -52,6 +52,9 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument('--websocket-ping-timeout', type=float, default=d.websocket_ping_timeout)
     g.add_argument('--send-buffer-limit', type=int, default=d.send_buffer_limit,
                    help='bytes queued per client before its topic messages are dropped [%(default)s]')
+    g.add_argument('--allowed-hosts', help='Host names the gateway answers to besides IP addresses, localhost and '
+                                            'this machine\'s names (globs, e.g. "[\'robot.example.org\']"); '
+                                            'others get 421 (DNS rebinding)')
     g.add_argument('--allowed-origins', help='browser origins allowed besides our own and localhost ("*" for any)')
     b = p.add_argument_group('backend')
     b.add_argument('--backend', choices=('auto', 'sim', 'rclpy'), default='auto',

@@ -14,6 +14,7 @@ from .classview import ClassHandler
 from .core import Gateway
 from .session import ClientSession
 from .settings import Settings
+from .web import Application, PublicFileHandler
 
 log = logging.getLogger('rosgate')
 HARD_LIMIT_FACTOR = 4   # frames up to this many times max_message_size get a status; larger ones close 1009
@@ -118,9 +119,9 @@ def make_app(settings: Settings, backend) -> tuple[tornado.web.Application, Gate
     from .runs import run_routes
     routes += run_routes(gateway) + recording_routes(gateway)
     routes += gateway.policy.http_routes()
-    routes.append((r'/(.*)', IdeFileHandler, {'path': str(settings.ide_dir), 'default_filename': 'index.html'}))
-    app = tornado.web.Application(
-        routes,
+    routes.append((r'/(.*)', PublicFileHandler, {'path': str(settings.ide_dir), 'default_filename': 'index.html'}))
+    app = Application(
+        gateway, routes,
         websocket_max_message_size=settings.max_message_size * HARD_LIMIT_FACTOR,
         websocket_ping_interval=settings.websocket_ping_interval or None,
         websocket_ping_timeout=settings.websocket_ping_timeout,

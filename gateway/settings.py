@@ -24,6 +24,7 @@ class Settings:
     websocket_ping_timeout: float = 30.0
     send_buffer_limit: int = 16 * 2**20        # per-client queued bytes before topic messages drop
     default_queue_length: int = 100            # per-subscription queued messages when queue_length is 0
+    allowed_hosts: str | None = None         # globs of Host names besides IPs, localhost and this machine's
     allowed_origins: str | None = None       # globs of browser origins besides our own and localhost
     topics_glob: str | None = None
     services_glob: str | None = None
