@@ -52,7 +52,8 @@ def api(gw, method: str, path: str, body=None, token: str | None = None, headers
 @pytest.fixture(scope='module')
 def runs_gw(start_gateway, tmp_path_factory):
     runs_dir = tmp_path_factory.mktemp('runs')
-    gw = start_gateway('--robot', 'turtlesim', '--allow-runs', '--runs-dir', str(runs_dir))
+    gw = start_gateway('--robot', 'turtlesim', '--allow-runs', '--runs-dir', str(runs_dir),
+                       env={'ROSGATE_TEST_SECRET': 'do-not-leak'})
     gw.runs_dir = runs_dir
     return gw
 
@@ -187,6 +188,47 @@ def test_second_run_in_a_namespace_is_refused_naming_the_first(runs_gw):
     assert first in body['error'] and 'first one' in body['error']
     api(runs_gw, 'DELETE', f'/api/runs/{first}')
     assert ended(runs_gw, first)['state'] == 'stopped'
+
+
+def test_the_process_its_environment_directory_and_group(runs_gw):
+    run_id = start(runs_gw, program('''
+import subprocess
+child = subprocess.Popen(["sleep", "300"])
+rt.log("child %d" % child.pid)
+rt.log("cwd %s" % os.getcwd())
+rt.log("env %s" % " ".join(sorted(os.environ)))
+signal.signal(signal.SIGINT, signal.SIG_IGN)
+while True:
+    time.sleep(1)
+'''), '/t6')
+    body = wait_for(lambda: (lambda b: b if 'env ' in b['output'] else None)(state_of(runs_gw, run_id)), 30)
+    lines = dict(line.split(' ', 1) for line in body['output'].splitlines() if ' ' in line)
+    assert Path(lines['cwd']) == runs_gw.runs_dir / run_id
+    assert (runs_gw.runs_dir / run_id / 'program.py').is_file()
+    assert 'ROSGATE_TEST_SECRET' not in lines['env'] and 'do-not-leak' not in body['output']
+    assert set(lines['env'].split()) <= {'PATH', 'HOME', 'LANG', 'LC_CTYPE', 'PYTHONUNBUFFERED',
+                                         'PYTHONDONTWRITEBYTECODE', 'ROSBRIDGE_URL', 'ROSGATE_NS', 'ROSGATE_RUN'}
+    child = int(lines['child'])
+    assert Path(f'/proc/{child}').exists()
+    api(runs_gw, 'DELETE', f'/api/runs/{run_id}')      # it ignores SIGINT: SIGKILL after 2 s
+    final = ended(runs_gw, run_id)
+    assert final['state'] == 'stopped' and final['exit_code'] == -9, final
+    wait_for(lambda: not Path(f'/proc/{child}').exists() or 'Z' in Path(f'/proc/{child}/stat').read_text().split()[2],
+             10)   # the whole process group went
+
+
+def test_a_library_program_runs_by_name(runs_gw):
+    source = program('rt.log("from the library")')
+    req = urllib.request.Request(f'{runs_gw.http_url}api/programs/lib%20run', method='PUT',
+                                 data=json.dumps({'format': 'rosgate-program', 'python': source}).encode(),
+                                 headers={'Content-Type': 'application/json'})
+    urllib.request.urlopen(req, timeout=10).close()
+    status, body = api(runs_gw, 'POST', '/api/runs', {'program': 'lib run', 'ns': '/t7'})
+    assert status == 201, body
+    final = ended(runs_gw, body['id'])
+    assert final['state'] == 'finished' and 'from the library' in final['output'] and final['name'] == 'lib run'
+    status, body = api(runs_gw, 'POST', '/api/runs', {'program': 'not there'})
+    assert status == 404, body
 
 
 def test_bad_requests_are_refused_clearly(runs_gw):
