@@ -107,7 +107,7 @@ export class History {
       scales: { x: { time: true } },
       axes: [
         { stroke: '#aab3cc', grid: { stroke: '#2c3350' }, size: 28 },
-        { stroke: '#aab3cc', grid: { stroke: '#2c3350' }, size: 46, label: unit, labelSize: 14 },
+        { stroke: '#aab3cc', grid: { stroke: '#2c3350' }, size: 58, label: unit, labelSize: 16, labelGap: 0 },
       ],
       series: [{}, ...c.series.map((s) => ({
         label: s.label, stroke: COLOURS[this.series.indexOf(s) % COLOURS.length], width: 2, spanGaps: true }))],

@@ -25,6 +25,7 @@ const state = {
   blocked: '',                               // why this page may not drive now ('' : it may)
 };
 window.teleop = state;
+window.teleopGauge = gauge;   // for tests of the warning colours
 const lease = new DriverLease();
 state.lease = lease;
 

@@ -1,0 +1,91 @@
+"""The teleop page's dashboard against the simulated rover, in Chromium: gauges with warning
+colours, history plots with their own axes and live legends, history kept across a reload, and
+the speed slider and ▲ key within the rover's own limit (its node parameter, 0.8 m/s)."""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+
+from .conftest import ARTIFACTS, RosClient, wait_for
+
+TABLET, PHONE = {"width": 1180, "height": 820}, {"width": 390, "height": 844}
+
+
+@pytest.fixture
+def rover():
+    from tests.conftest import GatewayProcess
+    gw = GatewayProcess("--robot", "rover")
+    client = RosClient(gw)
+    yield gw, client
+    client.close()
+    gw.stop()
+
+
+def test_gauges_history_and_limits(chromium, rover):
+    gw, ros = rover
+    cmd = ros.watch("/cmd_vel", "geometry_msgs/msg/Twist")
+    ctx = chromium.new_context(viewport=TABLET, has_touch=True)
+    page = ctx.new_page()
+    errors = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    try:
+        page.goto(gw.http_url + "teleop")
+        page.wait_for_function("document.body.dataset.connection === 'connected'")
+
+        # the slider's range is the rover's limit; ▲ at full slider sends exactly that
+        page.wait_for_function("document.querySelector('#maxspeed').max === '0.8'")
+        assert "0.8 m/s" in page.inner_text("#limits")
+        page.fill("#maxspeed", "0.8")
+        page.dispatch_event("#maxspeed", "input")
+        t0 = time.monotonic()
+        page.keyboard.down("ArrowUp")
+        wait_for(lambda: len(cmd.since(t0)) >= 25, timeout=10, what="2.5 s of commands")
+        page.keyboard.up("ArrowUp")
+        wait_for(lambda: cmd.latest()["linear"]["x"] == 0, what="zero after the key")
+        sent = [m["linear"]["x"] for _, m in cmd.since(t0)]
+        assert max(sent) == pytest.approx(0.8) and all(x <= 0.8 + 1e-9 for x in sent)
+
+        # gauges: battery and both motors, with a level colour each
+        page.wait_for_function("['#g-battery', '#g-left', '#g-right'].every((s) => document.querySelector(s).dataset.level === 'ok')")
+        assert 0 < float(page.get_attribute("#g-battery", "data-value")) <= 100
+        assert 20 < float(page.get_attribute("#g-left", "data-value")) < 90
+        ok_colour = page.evaluate("getComputedStyle(document.querySelector('#g-left .g-fill')).stroke")
+
+        # history: one chart per unit, the speed seen while driving, legends with numbers
+        page.wait_for_function("teleop.history.rows.speed.some((v) => v > 0.3)", timeout=10000)
+        units = page.eval_on_selector_all("#plot .chart", "(cs) => cs.map((c) => c.dataset.unit)")
+        assert units == ["°C", "m/s", "%"]
+        assert page.eval_on_selector_all("#plot .chart canvas", "(cs) => cs.length") == 3
+        page.wait_for_function("teleop.history.rows.battery.some((v) => v > 0)")
+        legends = page.eval_on_selector_all("#plot .legend span", "(ss) => ss.map((s) => s.textContent)")
+        assert len(legends) == 4 and all(any(ch.isdigit() for ch in t) for t in legends), legends
+        page.screenshot(path=str(ARTIFACTS / "teleop-dashboard-tablet.png"))
+
+        # the warning colours: a hot motor turns amber then red, a low battery red
+        colours = page.evaluate("""() => {
+          const probe = document.createElement('div'); document.body.append(probe);
+          const g = window.teleopGauge(probe, { label: 'probe', unit: '°C', min: 20, max: 90, warn: 50, danger: 65 });
+          const out = [];
+          for (const v of [40, 55, 70]) { g.set(v); out.push([probe.dataset.level, getComputedStyle(probe.querySelector('.g-fill')).stroke]); }
+          probe.remove();
+          return out;
+        }""")
+        assert [c[0] for c in colours] == ["ok", "warn", "danger"]
+        assert colours[0][1] == ok_colour and len({c[1] for c in colours}) == 3
+
+        # the history survives a reload
+        kept = page.evaluate("teleop.history.rows.t.length")
+        page.evaluate("teleop.history.save()")
+        page.reload()
+        page.wait_for_function("document.body.dataset.connection === 'connected'")
+        assert page.evaluate("teleop.history.rows.t.length") >= kept
+        assert page.evaluate("teleop.history.rows.speed.some((v) => v > 0.3)")
+        page.set_viewport_size(PHONE)
+        page.wait_for_function("document.querySelector('#plot').getBoundingClientRect().width < 390")
+        page.wait_for_function("teleop.history.rows.t.length > %d" % kept)
+        page.screenshot(path=str(ARTIFACTS / "teleop-dashboard-phone.png"), full_page=True)
+        assert not errors, errors
+    finally:
+        ctx.close()
