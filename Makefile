@@ -11,8 +11,8 @@ VENV_FLAGS := $(if $(ROS_DISTRO),--system-site-packages,)
 # The rclpy backend's contract suite runs against real rclpy (Jazzy builds from PyPI) in a separate
 # environment, inside a network namespace with only loopback: DDS discovery stays on this machine.
 ROSVENV  := .venv-ros
-ROS_PKGS := ros-rclpy==7.1.6 ros-rmw-fastrtps-cpp==8.4.3 ros-std-msgs==5.3.6 ros-geometry-msgs==5.3.6 \
-            ros-sensor-msgs==5.3.6 ros-test-msgs==2.0.3
+# What the suite needs besides the project's [ros] extra (rclpy with Fast DDS, common_interfaces).
+ROS_TEST_PKGS := ros-jazzy-test-msgs==2.0.3 pytest pytest-asyncio pytest-timeout hypothesis
 
 system:
 	@tools/system-packages run
@@ -54,11 +54,11 @@ test: system-test install-test ide tests/node/node_modules/.installed $(ROSVENV)
 
 $(ROSVENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(ROSVENV)
-	$(ROSVENV)/bin/pip install -q $(ROS_PKGS) -e . pytest pytest-asyncio pytest-timeout hypothesis
+	$(ROSVENV)/bin/pip install -q -e '.[ros]' $(ROS_TEST_PKGS)
 	touch $@
 
 test-rclpy: $(ROSVENV)/.installed
-	unshare -rn sh -c 'ip link set lo up && $(ROSVENV)/bin/python -m pytest -q tests/backends'
+	unshare -rn sh -c 'ip link set lo up && $(ROSVENV)/bin/python -m pytest -q tests/backends tests/install/test_ros_extra.py'
 
 bench: install-test $(if $(findstring rclpy,$(ARGS)),$(ROSVENV)/.installed-bench)
 	$(PY) -m tests.bench $(ARGS)
