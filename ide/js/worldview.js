@@ -145,7 +145,7 @@ export class WorldView {
     over.setAttribute('aria-label', 'world view, enlarged: tap to close');
     over.style.cssText = 'position:fixed;inset:0;z-index:1000;background:#000c;display:grid;place-items:center;cursor:zoom-out';
     const big = document.createElement('canvas');
-    big.style.cssText = 'width:96vw;height:92vh;background:#1d2230;border-radius:8px';
+    big.style.cssText = 'width:98vw;height:94vh;background:#1d2230;border-radius:8px';
     over.append(big);
     over.addEventListener('click', () => this.enlarge(false));
     const esc = (e) => { if (e.key === 'Escape') { this.enlarge(false); removeEventListener('keydown', esc); } };
