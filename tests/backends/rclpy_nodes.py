@@ -109,3 +109,78 @@ class HelperNodes:
             node.destroy_node()
         self.context.try_shutdown()
         self.thread.join(timeout=2.0)
+
+
+class RosCaller:
+    """A ROS node of its own context that calls a service and sends goals (as another process
+    would), on a SingleThreadedExecutor in its own thread. Its coroutines poll rclpy futures."""
+
+    def __init__(self):
+        self.add_type, self._add = find('add')
+        self.fib_type, self._fib = find('fibonacci')
+        self._clients: dict = {}
+
+    def start(self) -> None:
+        import rclpy
+        from rclpy.context import Context
+        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.signals import SignalHandlerOptions
+
+        self.context = Context()
+        rclpy.init(args=[], context=self.context, signal_handler_options=SignalHandlerOptions.NO)
+        self.node = rclpy.create_node('ros_caller', context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self.thread = threading.Thread(target=self.executor.spin, name='ros-caller', daemon=True)
+        self.thread.start()
+
+    def stop(self) -> None:
+        self.executor.shutdown(timeout_sec=2.0)
+        self.node.destroy_node()
+        self.context.try_shutdown()
+        self.thread.join(timeout=2.0)
+
+    def _client(self, name: str):
+        client = self._clients.get(name)
+        if client is None:
+            client = self._clients[name] = self.node.create_client(self._add, name)
+        return client
+
+    def _action_client(self, name: str):
+        from rclpy.action import ActionClient
+
+        client = self._clients.get(name)
+        if client is None:
+            client = self._clients[name] = ActionClient(self.node, self._fib, name)
+        return client
+
+    def ready(self, service: str, action: str) -> bool:
+        return self._client(service).service_is_ready() and self._action_client(action).server_is_ready()
+
+    async def call(self, name: str, request: dict, timeout: float = 10.0) -> dict:
+        """The response as a dict of its fields."""
+        response = await _done(self._client(name).call_async(self._add.Request(**request)), timeout)
+        return {field: getattr(response, field) for field in response.get_fields_and_field_types()}
+
+    async def goal(self, name: str, order: int, timeout: float = 10.0):
+        """(result, feedback sequences) of one Fibonacci goal."""
+        feedback = []
+        handle = await _done(self._action_client(name).send_goal_async(
+            self._fib.Goal(order=order), feedback_callback=lambda m: feedback.append(list(m.feedback.sequence))),
+            timeout)
+        assert handle.accepted
+        response = await _done(handle.get_result_async(), timeout)
+        return response.result, feedback
+
+
+async def _done(future, timeout: float):
+    """The result of an rclpy Future, awaited by polling from asyncio."""
+    import asyncio
+
+    loop = asyncio.get_running_loop()
+    deadline = loop.time() + timeout
+    while not future.done():
+        if loop.time() > deadline:
+            raise AssertionError(f'no answer within {timeout} s')
+        await asyncio.sleep(0.005)
+    return future.result()

@@ -1,0 +1,199 @@
+"""The whole gateway over rclpy, through websockets: traffic that used to wait for rclpy's executor.
+
+A rosgate process (``--backend rclpy``) on the contract suite's ROS domain, driven by tornado
+websocket clients; ROS callers are plain rclpy nodes of their own context (``RosCaller``).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import socket
+
+import pytest
+import pytest_asyncio
+from tornado.websocket import websocket_connect
+
+from .conftest import rclpy_missing
+from .rclpy_nodes import RosCaller
+from .support import until
+
+pytestmark = [
+    pytest.mark.asyncio(loop_scope='session'),
+    pytest.mark.skipif(rclpy_missing() is not None, reason='rclpy does not import here'),
+]
+
+
+@pytest.fixture(scope='module')
+def gateway(rclpy_helpers, start_gateway):
+    return start_gateway('--backend', 'rclpy', '--send-buffer-limit', str(2 * 2**20))
+
+
+@pytest_asyncio.fixture(loop_scope='session')
+async def caller(rclpy_helpers):
+    ros = RosCaller()
+    ros.start()
+    yield ros
+    ros.stop()
+
+
+class Client:
+    def __init__(self, conn):
+        self.conn = conn
+
+    @classmethod
+    async def open(cls, gateway) -> Client:
+        return cls(await websocket_connect(gateway.ws_url, max_message_size=2**30))
+
+    async def send(self, op: dict) -> None:
+        await self.conn.write_message(json.dumps(op))
+
+    async def recv(self, timeout: float = 10.0) -> dict:
+        frame = await asyncio.wait_for(self.conn.read_message(), timeout)
+        assert frame is not None, 'connection closed'
+        return json.loads(frame)
+
+    async def expect(self, predicate, timeout: float = 10.0) -> dict:
+        loop = asyncio.get_running_loop()
+        deadline = loop.time() + timeout
+        while True:
+            msg = await self.recv(max(0.01, deadline - loop.time()))
+            if predicate(msg):
+                return msg
+
+    async def sync(self) -> None:
+        """Everything sent before has been handled (a round trip through the gateway)."""
+        await self.send({'op': 'call_service', 'id': 'sync', 'service': '/rosapi/get_time'})
+        await self.expect(lambda m: m.get('id') == 'sync')
+
+    def close(self) -> None:
+        self.conn.close()
+
+
+def stalled_client(gateway, ops: list[dict]) -> socket.socket:
+    """A websocket client that sends ``ops`` and then never reads."""
+    sock = socket.create_connection((gateway.host, gateway.port))
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+    sock.sendall((f'GET {gateway.path} HTTP/1.1\r\nHost: {gateway.host}:{gateway.port}\r\n'
+                  'Upgrade: websocket\r\nConnection: Upgrade\r\n'
+                  'Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n').encode())
+    reply = b''
+    while b'\r\n\r\n' not in reply:
+        reply += sock.recv(1)
+    assert b' 101 ' in reply.split(b'\r\n')[0], reply
+    for op in ops:
+        payload = json.dumps(op).encode()
+        assert len(payload) < 126
+        mask = b'\x01\x02\x03\x04'
+        sock.sendall(bytes((0x81, 0x80 | len(payload))) + mask
+                     + bytes(b ^ mask[i % 4] for i, b in enumerate(payload)))
+    return sock
+
+
+async def test_a_stalled_client_costs_the_others_nothing(gateway):
+    topic, payload = '/rclpy_flood', 'z' * 100_000
+    slow = stalled_client(gateway, [{'op': 'subscribe', 'topic': topic, 'type': 'std_msgs/msg/String'}])
+    fast, pub = await Client.open(gateway), await Client.open(gateway)
+    try:
+        await fast.send({'op': 'subscribe', 'topic': topic, 'type': 'std_msgs/msg/String'})
+        await fast.sync()
+        await pub.send({'op': 'advertise', 'topic': topic, 'type': 'std_msgs/msg/String'})
+        # until DDS has matched the gateway's publisher with its subscription
+        while True:
+            await pub.send({'op': 'publish', 'topic': topic, 'msg': {'data': 'warm-up'}})
+            try:
+                await fast.expect(lambda m: m.get('op') == 'publish', timeout=0.2)
+                break
+            except asyncio.TimeoutError:
+                continue
+        count = 300    # 30 MB past a client that never reads
+        for i in range(count):   # lock-step: each message reaches the fast client, in order
+            await pub.send({'op': 'publish', 'topic': topic, 'msg': {'data': f'{i:06d}' + payload}})
+            msg = await fast.expect(lambda m: m.get('op') == 'publish' and m['msg']['data'] != 'warm-up')
+            assert int(msg['msg']['data'][:6]) == i
+    finally:
+        fast.close()
+        pub.close()
+        slow.close()
+    assert gateway.alive
+
+
+async def test_browser_served_service_and_action_answer_ros_callers_under_load(gateway, caller, rclpy_helpers):
+    helpers = rclpy_helpers
+    browser, flood_pub, flood_sub = [await Client.open(gateway) for _ in range(3)]
+    await browser.send({'op': 'advertise_service', 'service': '/browser_add', 'type': helpers.add_type})
+    await browser.send({'op': 'advertise_action', 'action': '/browser_fib', 'type': helpers.fib_type})
+    await browser.sync()
+
+    served = {'calls': 0, 'goals': 0}
+
+    async def serve() -> None:       # the browser: answers calls and goals from the gateway
+        while True:
+            msg = await browser.recv(timeout=None)
+            if msg.get('op') == 'call_service' and msg.get('service') == '/browser_add':
+                served['calls'] += 1
+                args = msg['args']
+                total = (args['a'] + args['b']) if 'a' in args else args['int64_value'] + args['int32_value']
+                values = {'sum': total} if 'a' in args else {'int64_value': total}
+                await browser.send({'op': 'service_response', 'service': '/browser_add', 'id': msg['id'],
+                                    'values': values, 'result': True})
+            elif msg.get('op') == 'send_action_goal':
+                served['goals'] += 1
+                order, sequence = msg['args']['order'], [0, 1]
+                while len(sequence) < order + 1:
+                    sequence.append(sequence[-1] + sequence[-2])
+                    await browser.send({'op': 'action_feedback', 'action': msg['action'], 'id': msg['id'],
+                                        'values': {'sequence': sequence}})
+                await browser.send({'op': 'action_result', 'action': msg['action'], 'id': msg['id'],
+                                    'status': 4, 'values': {'sequence': sequence}, 'result': True})
+
+    delivered = [0]
+
+    async def flood() -> None:       # as fast as the gateway moves it, 32 in flight
+        topic = '/rclpy_load'
+        await flood_sub.send({'op': 'subscribe', 'topic': topic, 'type': 'std_msgs/msg/String',
+                              'queue_length': 100})
+        await flood_sub.sync()
+        await flood_pub.send({'op': 'advertise', 'topic': topic, 'type': 'std_msgs/msg/String'})
+        window = asyncio.Semaphore(32)
+
+        async def read() -> None:
+            while True:
+                msg = await flood_sub.recv(timeout=None)
+                if msg.get('op') == 'publish':
+                    delivered[0] += 1
+                    window.release()
+
+        reader = asyncio.ensure_future(read())
+        try:
+            while True:
+                try:
+                    await asyncio.wait_for(window.acquire(), 1.0)
+                except asyncio.TimeoutError:     # lost to discovery at the start: refill
+                    window = asyncio.Semaphore(32)
+                    continue
+                await flood_pub.send({'op': 'publish', 'topic': topic, 'msg': {'data': 'x' * 64}})
+        finally:
+            reader.cancel()
+
+    tasks = [asyncio.ensure_future(serve()), asyncio.ensure_future(flood())]
+    try:
+        await until(lambda: delivered[0] >= 1000, timeout=30, what='the flood flowing')
+        await until(lambda: caller.ready('/browser_add', '/browser_fib'), timeout=15,
+                    what='the browser-served service and action seen by the ROS caller')
+        before = delivered[0]
+        for i in range(20):
+            response = await caller.call('/browser_add', helpers.add_request(i, 1000))
+            assert helpers.add_sum(response) == i + 1000
+        result, feedback = await caller.goal('/browser_fib', 6)
+        assert list(result.sequence) == [0, 1, 1, 2, 3, 5, 8]
+        # feedback travels apart from the result: some may still be on its way
+        assert feedback and all(f == [0, 1, 1, 2, 3, 5, 8][:len(f)] for f in feedback)
+        assert served == {'calls': 20, 'goals': 1}
+        assert delivered[0] > before      # the flood went on meanwhile
+    finally:
+        for task in tasks:
+            task.cancel()
+        for client in (browser, flood_pub, flood_sub):
+            client.close()
+    assert gateway.alive
