@@ -151,3 +151,23 @@ def test_class_is_for_admins(start_gateway, tmp_path, chromium):
         assert json.dumps(info["drivers"]) == '{"/s01": null, "/s02": null}'
     finally:
         ctx.close()
+
+
+def test_without_the_lease_stop_publishes_zero(start_gateway, chromium):
+    gw = start_gateway("--robot", "turtlesim", "--fleet", "2")
+    ctx, page, errors = open_class(chromium, gw, PHONE)
+    ros = RosClient(gw)
+    try:
+        page.wait_for_function("document.body.dataset.tiles === '2'")     # from the fleet's parameter
+        assert "--exclusive-control" in page.inner_text("#count")
+        cmd = ros.watch("/s02/turtle1/cmd_vel", TWIST)
+        wait_for(lambda: ros.call("/rosapi/subscribers", "rosapi/srv/Subscribers",
+                                  {"topic": "/s02/turtle1/cmd_vel"})["subscribers"].count("/rosgate"),
+                 what="the watcher subscribed")
+        page.click(f"{tile(page, '/s02')} .stop")
+        msg = wait_for(cmd.latest, what="a command on /s02")
+        assert msg["linear"]["x"] == 0 and msg["angular"]["z"] == 0
+        assert not errors, errors
+    finally:
+        ros.close()
+        ctx.close()

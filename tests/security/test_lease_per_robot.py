@@ -82,3 +82,31 @@ def test_control_glob_groups_lease_separately(launch):
         refusal = ben.refusal({'op': 'call_service', 'service': '/turtle1/teleport_relative',
                                'args': {'linear': 0.0, 'angular': 0.0}})
         assert 'Ann (client' in refusal['msg'] and 'is driving /turtle1' in refusal['msg']
+
+
+class Graph:
+    """A backend's graph introspection, as a real multi-robot graph would answer it."""
+
+    def __init__(self, topics: dict[str, tuple[str, list[str]]]):
+        self._topics = topics
+
+    def topics(self):
+        return [(name, type) for name, (type, _) in self._topics.items()]
+
+    def subscribers(self, topic):
+        return self._topics[topic][1]
+
+
+def test_stations_are_the_namespaces_of_robot_nodes():
+    from gateway.security.lease import find_stations, glob_group
+    stamped = 'geometry_msgs/msg/TwistStamped'
+    graph = Graph({
+        '/robot1/cmd_vel': (TWIST, ['/robot1/base_controller']),
+        '/robot2/diff_drive/cmd_vel': (stamped, ['/robot2/diff_drive/controller']),
+        '/turtle1/cmd_vel': (TWIST, ['/turtlesim']),             # a root node: not a station
+        '/lease/cmd_vel': (TWIST, ['/rosgate']),                  # a client's topic, watched through the gateway
+        '/robot3/status': ('std_msgs/msg/String', ['/robot3/monitor']),   # not a velocity topic
+        '/other/cmd_vel': (TWIST, ['/robot1/base_controller']),   # outside the node's namespace
+    })
+    assert find_stations(graph, frozenset({TWIST, stamped})) == ('/robot1', '/robot2')
+    assert glob_group('/turtle1/*') == '/turtle1' and glob_group('/arm_*') == '/arm_*'
