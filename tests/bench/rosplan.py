@@ -36,8 +36,8 @@ async def ceiling(target: Target, command: dict, budget: float = 120.0) -> tuple
     if "error" in reply:
         raise RuntimeError(reply["error"])
     result = reply["result"]
-    cpu, elapsed = result.pop("cpu_s"), result.pop("window_s")
-    figures = {"elapsed_s": elapsed, "server_cpu_s": cpu, "server_cpu_pct": 100 * cpu / elapsed,
+    cpu = result.pop("cpu_s")
+    figures = {"server_cpu_s": cpu, "server_cpu_pct": 100 * cpu / result["window_s"],
                "client_cpu_pct": None, "other_cpu_pct": None}
     return result, figures
 
@@ -48,7 +48,6 @@ async def ros_throughput(target: Target, size: int, window: int, duration: float
     result, fig = await ceiling(target, {"cmd": "throughput", "size": size, "window": window,
                                          "duration": duration})
     messages = result.pop("messages")
-    fig.pop("elapsed_s")
     return {**result, **fig, "server_us_per_msg": fig["server_cpu_s"] / messages * 1e6 if messages else None}
 
 
@@ -61,7 +60,6 @@ async def ros_fanout(target: Target, subscribers: int, rate: float, size: int, d
         result, fig = await ceiling(target, {"cmd": "fanout", "subscribers": subscribers, "rate": rate,
                                              "size": size, "duration": duration})
         messages = result.pop("messages")
-        fig.pop("elapsed_s")
         runs.append({**result, **fig, "server_cpu_s_per_1000":
                      fig["server_cpu_s"] / messages * 1000 if messages else None})
     return runs
@@ -73,7 +71,6 @@ async def ros_services(target: Target, concurrency: int, duration: float) -> dic
     result, fig = await ceiling(target, {"cmd": "services", "concurrency": concurrency,
                                          "duration": duration})
     calls = result.pop("calls")
-    fig.pop("elapsed_s")
     return {**result, **fig, "server_us_per_call": fig["server_cpu_s"] / calls * 1e6 if calls else None}
 
 
@@ -89,15 +86,17 @@ async def ros_images(target: Target, compression: str, subscribers: int, rate: f
         if target.kind == "rclpy":
             result, fig = await ceiling(target, {"cmd": "images", "topic": camera.topic,
                                                  "subscribers": subscribers, "duration": duration})
-            published_hz = result["published"] / fig["elapsed_s"]
+            elapsed = result["window_s"]
+            published_hz = result["published"] / elapsed
             arrived, received, sent = result["arrived"], result["received"], result["published"]
         else:
             arrived, received, sent, published_hz, fig = await _ws_images(
                 target, camera, compression, subscribers, duration)
+            elapsed = fig["elapsed_s"]
     finally:
         await asyncio.to_thread(camera.stop)
     return {
-        "sub_hz": min(arrived) / fig["elapsed_s"],
+        "sub_hz": min(arrived) / elapsed,
         "published_hz": published_hz,
         "delivered_pct": 100 * sum(received) / (sent * subscribers) if sent else None,
         "server_ms_per_msg": fig["server_cpu_s"] / sent * 1e3 if sent and fig["server_cpu_s"] is not None
