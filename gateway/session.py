@@ -31,7 +31,8 @@ class ClientSession:
         self.gateway, self.backend, self.remote = gateway, gateway.backend, remote
         self.proto = Session(fragment_timeout=settings.fragment_timeout,
                              max_message_size=settings.max_message_size)
-        self.outbox = Outbox(send, byte_limit=settings.send_buffer_limit, on_overflow=self._overflow)
+        self.outbox = Outbox(send, byte_limit=settings.send_buffer_limit, on_overflow=self._overflow,
+                             on_reply_overflow=self._reply_overflow)
         self._close_connection = close
         self.subscriptions: dict[str, Any] = {}        # topic -> fanout.Subscriber
         self.publishers: dict[str, Any] = {}           # topic -> core.SharedPublisher
@@ -125,6 +126,11 @@ class ClientSession:
                        f'(send buffer over {self.outbox.byte_limit} bytes)')
         if status is not None:
             self.outbox.reply(encode.text(status))
+
+    def _reply_overflow(self, count: int, size: int) -> None:
+        log.warning('client %s (%s) does not read its replies: %d (%d bytes) waiting; closing',
+                    self.id, self.remote, count, size)
+        self.close_connection(1008, f'not reading replies: {count} replies, {size} bytes waiting')
 
     def close_connection(self, code: int, reason: str) -> None:
         self._close_connection(code, reason)
