@@ -74,7 +74,10 @@ export class FieldRosName extends Blockly.FieldDropdown {
     });
   }
 
-  getText_() { return this.value_ || '…'; }
+  getText_() {
+    if (!this.value_) return '…';
+    return this.shortText ? this.value_.split('/').pop() : this.value_;
+  }
 }
 
 Blockly.fieldRegistry.register('field_rosname', FieldRosName);

@@ -12,6 +12,8 @@ import { Console } from './console.js';
 import { WorldView } from './worldview.js';
 import * as storage from './storage.js';
 import { MakeBlockDialog, registerMakeBlock } from './makeblock.js';
+import { whoami, showIdentity, abilities } from './auth.js';
+import { bindLayout, fitProgram, PHONE } from './layout.js';
 import { DriverLease, bindDriverBadge, DRIVER_TOPIC } from './driver.js';
 import { bindNamespace, CLAIM_SERVICE } from './robotns.js';
 import { reportProgram } from './report.js';
@@ -94,16 +96,19 @@ async function start() {
   registerMakeBlock();
   for (const set of Object.values(ide.sets)) for (const def of set.blocks) defineBlock(def, set.colour, set.namespaced);
 
+  const phone = matchMedia(PHONE).matches;    // categories along the top: the blocks get the width
   const workspace = Blockly.inject($('#blockly'), {
     toolbox: buildToolbox(base),
+    horizontalLayout: phone,
     media: 'vendor/blockly/media/',
     renderer: 'zelos',
     trashcan: true,
-    zoom: { controls: true, wheel: true, startScale: 0.8, maxScale: 2, minScale: 0.3 },
+    zoom: { controls: true, wheel: true, startScale: phone ? 0.7 : 0.8, maxScale: 2, minScale: 0.3 },
     move: { scrollbars: true, drag: true, wheel: false },
     grid: { spacing: 24, length: 2, colour: '#e4e6ee', snap: true },
   });
   ide.workspace = workspace;
+  bindLayout(workspace, $('#code-toggle'));
 
   const consoleView = new Console($('#console-lines'), (id) => {
     const b = workspace.getBlockById(id);
@@ -225,6 +230,7 @@ async function start() {
     workspace.updateToolbox(buildToolbox(ide.baseToolbox));
     workspace.clear();
     Blockly.serialization.workspaces.load(p.workspace, workspace);
+    fitProgram(workspace);
     ide.programName = p.name || 'program';
     ide.robot = p.robot || 'any';
     $('#name').value = ide.programName;
@@ -281,7 +287,16 @@ async function start() {
     else { const saved = storage.loadAutosave(); if (saved) ide.loadProgram(saved); }
   } catch (e) { consoleView.error(`cannot open the program: ${e.message}`); }
   updateCode();
-  connect();
+  // with --auth: who is signed in decides whether the page connects and what it offers
+  const me = await whoami();
+  ide.me = me;
+  showIdentity(me, { signin: $('#signin'), who: $('#who'), whoName: $('#who-name'), whoRole: $('#who-role') },
+    { run: [$('#run'), $('#step'), $('#pause')], save: [$('#library-save')] });
+  if (me.signedIn) connect();
+  else {
+    setStatus('signin', 'not signed in');
+    consoleView.error('This gateway needs a token: use "Sign in" at the top to open /login.');
+  }
   ide.ready = true;
   document.body.dataset.ready = 'true';
 }
@@ -292,19 +307,33 @@ function setupLibrary(program) {
   const refresh = async () => {
     list.replaceChildren();
     let items = [];
+    // with --auth each signed-in name has a space of its own; an admin sees everyone's
+    const me = ide.me ?? { auth: false, signedIn: true };
+    const space = $('#library-space');
+    space.hidden = !me.auth;
+    space.textContent = !me.signedIn ? 'Sign in to use the library.'
+      : abilities(me).everyone ? 'Every student\'s programs; yours are saved in the shared space.'
+        : `Your programs, ${me.name}${abilities(me).save ? '' : ' (a viewer may open but not save)'}.`;
     try { items = await storage.library.list(); } catch (e) { list.textContent = `library unavailable: ${e.message}`; return; }
     for (const item of items) {
       const li = document.createElement('li');
       const open = document.createElement('button');
-      open.textContent = item.name;
+      const who = item.owner && item.owner !== me.name ? `${item.owner} / ` : '';
+      open.textContent = `${who}${item.name}`;
       open.className = 'lib-open';
+      open.dataset.owner = item.owner ?? '';
       open.onclick = async () => {
-        try { ide.loadProgram(await storage.library.load(item.name)); dlg.close(); } catch (e) { ide.console.error(e.message); }
+        try { ide.loadProgram(await storage.library.load(item.name, item.owner)); dlg.close(); } catch (e) { ide.console.error(e.message); }
       };
       const del = document.createElement('button');
       del.textContent = '🗑';
-      del.title = `delete ${item.name}`;
-      del.onclick = async () => { if (confirm(`Delete ${item.name}?`)) { await storage.library.remove(item.name); refresh(); } };
+      del.title = `delete ${who}${item.name}`;
+      del.disabled = !abilities(me).save;
+      del.onclick = async () => {
+        if (!confirm(`Delete ${who}${item.name}?`)) return;
+        try { await storage.library.remove(item.name, item.owner); } catch (e) { ide.console.error(`delete failed: ${e.message}`); }
+        refresh();
+      };
       li.append(open, del);
       list.append(li);
     }

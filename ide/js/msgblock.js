@@ -75,6 +75,9 @@ export const MESSAGE_MIXIN = {
   },
 
   updateShape_() {
+    // a message of a few plain fields (Vector3, Point, Color) sits on one row: x ( ) y ( ) z ( )
+    const plain = (f) => f.array === -1 && /^(u?int(8|16|32|64)|float(32|64)?|double|byte|char|octet|bool(ean)?|w?string)(<=\d+)?$/.test(f.type);
+    this.setInputsInline(this.msgFields.length > 0 && this.msgFields.length <= 4 && this.msgFields.every(plain));
     const keep = new Set(this.msgFields.map((f) => `F_${f.name}`));
     for (const input of [...this.inputList]) {
       if (input.name.startsWith('F_') && !keep.has(input.name)) this.removeInput(input.name);
@@ -103,6 +106,17 @@ export const MESSAGE_MIXIN = {
 
 Blockly.Extensions.registerMutator('ros_message_mutator', MESSAGE_MIXIN, function () {
   const block = this;
+  this.getField('TYPE').shortText = true;     // "Twist"; the menu and the tooltip give the full type
+  // inside another message the field name says it all: no "message Vector3" label there
+  this.setOnChange(function () {
+    const nested = this.getParent()?.type === 'ros_message';
+    if (nested === this.nested_) return;
+    this.nested_ = nested;
+    this.getField('KIND').setVisible(!nested);
+    this.getField('TYPE').setVisible(!nested);
+    this.queueRender?.();
+  });
+  this.setTooltip(() => `${LABEL[block.msgKind] ?? 'message'} ${block.msgType}: one input per field`);
   this.getField('TYPE').setValidator(function (v) {
     if (typeof v === 'string' && !v.startsWith('\u0000')) setTimeout(() => block.onTypeChosen_(v), 0);
     return undefined;

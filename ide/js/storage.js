@@ -103,11 +103,14 @@ async function api(path, options = {}) {
   return res.status === 204 ? null : res.json();
 }
 
+// `owner`: the space a program is in (with --auth each signed-in name has one; null: shared).
+const inSpace = (name, owner) => `/${encodeURIComponent(name)}${owner ? `?owner=${encodeURIComponent(owner)}` : ''}`;
+
 export const library = {
   list: async () => (await api('')).programs,
-  load: async (name) => checkProgram(await api(`/${encodeURIComponent(name)}`)),
+  load: async (name, owner = null) => checkProgram(await api(inSpace(name, owner))),
   save: (name, program) => api(`/${encodeURIComponent(name)}`, {
     method: 'PUT', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(program),
   }),
-  remove: (name) => api(`/${encodeURIComponent(name)}`, { method: 'DELETE' }),
+  remove: (name, owner = null) => api(inSpace(name, owner), { method: 'DELETE' }),
 };
