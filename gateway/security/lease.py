@@ -8,8 +8,8 @@ Command names are topics of the velocity types plus anything matching ``--contro
 - else a ``--control-glob`` pattern (``/turtle1/*`` is the group ``/turtle1``);
 - else the gateway-wide group ``/``.
 
-The first client to command in a group takes its lease (a zero velocity on a free lease passes
-without taking it); others are refused with a status error and can watch. Publish std_msgs/String on /rosgate/control: "take [NS]" takes a free lease (an
+The first client to command in a group takes its lease; others are refused with a status error
+and can watch. Publish std_msgs/String on /rosgate/control: "take [NS]" takes a free lease (an
 admin, or anyone when --auth is off, takes it over from its holder, whose motion is stopped);
 "release [NS]" gives one back (all of yours without NS; an admin may free another's); "stop NS"
 (admin) zeroes every command left moving in the group, frees it and tells the pages of that
@@ -116,8 +116,9 @@ class Lease:
     # --- commands -------------------------------------------------------------------------------
 
     def require(self, session, name: str, type: str | None = None, moving: bool = True) -> None:
-        """Grant a free lease to a commanding client; refuse everyone but the holder. A zero
-        command on a free lease (a page stopping its program) passes without taking it."""
+        """Grant a free lease to a commanding client; refuse everyone but the holder. A client an
+        admin stopped may not move the robot until it takes it again; its zero commands (its page
+        stopping the program) pass without taking the lease."""
         if not self.is_command(name, type):
             return
         group = self.group(name)
@@ -125,12 +126,13 @@ class Lease:
         if holder is session:
             return
         stopper = self.benched.get(group, {}).get(session.id)
-        if stopper is not None and moving:
+        if stopper is not None:
+            if not moving and holder is None:
+                return
             raise ProtocolError(f'{name}: {stopper} stopped {group}; send "take {group}" (the Take button) to '
                                 'drive it again')
         if holder is None:
-            if moving:
-                self._grant(group, session)
+            self._grant(group, session)
             return
         where = '' if group == ROOT else f' {group}'
         raise ProtocolError(f'{name}: {who(holder)} is driving{where} (exclusive control); watch, wait for '
