@@ -118,7 +118,7 @@ class RunManager:
             where = f'namespace {ns}' if ns else 'the root namespace'
             raise tornado.web.HTTPError(409, f'run {busy.id} ({busy.name}) is already running in {where}; '
                                              f'stop it first (DELETE /api/runs/{busy.id})')
-        self._lease_free_for(role)
+        self._lease_free_for(role, ns)
         run_id = 'r' + secrets.token_hex(4)
         workdir = self.runs_dir / run_id
         try:
@@ -140,15 +140,18 @@ class RunManager:
             'run %s: supervising it failed', run.id, exc_info=t.exception()))
         return run
 
-    def _lease_free_for(self, role: str | None) -> None:
+    def _lease_free_for(self, role: str | None, ns: str) -> None:
+        """With --exclusive-control a run takes its namespace's driver lease: refuse at once a run
+        that could not (someone else holds it and the starter may not take over)."""
         lease = getattr(self.gateway.policy, 'lease', None)
-        if lease is None or lease.holder is None or lease.takeover_role is None or role == lease.takeover_role:
+        if lease is None or lease.takeover_role is None or role == lease.takeover_role:
             return
-        if any(lease.holder in r.sessions for r in self.runs.values()):
+        holder = lease.holders.get(lease.group_of_namespace(ns))
+        if holder is None:
             return
         from .security.lease import who
-        raise tornado.web.HTTPError(409, f'{who(lease.holder)} holds the driver lease (exclusive control); '
-                                         'a run needs it: wait for "release" or ask an admin')
+        raise tornado.web.HTTPError(409, f'{who(holder)} holds the driver lease{f" of {ns}" if ns else ""} '
+                                         '(exclusive control); a run needs it: wait for "release" or ask an admin')
 
     def _env(self, run: Run, url: str) -> dict:
         """Only what a Python program needs: none of the gateway's own environment (tokens, keys)."""
@@ -298,9 +301,9 @@ class RunManager:
             session.attrs['role'] = run.role
             session.attrs.pop('auth_error', None)
         lease = getattr(self.gateway.policy, 'lease', None)
-        if lease is not None:
+        if lease is not None:   # as if it published "take NS" on /rosgate/control
             try:
-                lease._command(session, 'take')   # as publishing "take" on /rosgate/control would
+                lease.publish_hook(session, _CONTROL, {'data': f'take {run.ns}'.strip()})
             except ProtocolError as e:
                 self._line(run, f'[driver lease: {e.message}]\n')
 
@@ -333,6 +336,15 @@ class RunManager:
                 await asyncio.wait_for(run.proc.wait(), KILL_AFTER + 1)
             except asyncio.TimeoutError:
                 self._signal(run, signal.SIGKILL)
+
+
+class _Control:
+    """The driver lease's control topic, as a publish hook sees it."""
+    topic = '/rosgate/control'
+    type = STRING
+
+
+_CONTROL = _Control()
 
 
 # --- HTTP ---------------------------------------------------------------------------------------

@@ -79,7 +79,7 @@ def state_of(gw, run_id: str, token: str | None = None) -> dict:
     return body
 
 
-def ended(gw, run_id: str, timeout: float = 30, token: str | None = None) -> dict:
+def ended(gw, run_id: str, timeout: float = 60, token: str | None = None) -> dict:
     return wait_for(lambda: (lambda s: s if s['state'] in ENDED else None)(state_of(gw, run_id, token)), timeout, 0.05)
 
 
@@ -102,7 +102,7 @@ def wait_for_subscriber(ros, topic: str) -> None:
             roslibpy.ServiceRequest({'topic': topic}), lambda r: (out.update(r), done.set()), lambda e: done.set())
         done.wait(5)
         return out.get('subscribers')
-    wait_for(has, 30, 0.1)
+    wait_for(has, 60, 0.1)
 
 
 def test_run_moves_the_turtle_and_streams_output_in_order(runs_gw, client):
@@ -248,11 +248,28 @@ def test_without_allow_runs_the_api_answers_403(gateway):
     assert status == 403 and '--allow-runs' in body['error']
 
 
-def test_viewer_refused_operator_runs_with_its_role(start_gateway, tmp_path):
-    tokens = tmp_path / 'tokens.toml'
-    tokens.write_text(tokens_toml())
-    gw = start_gateway('--robot', 'turtlesim', '--allow-runs', '--runs-dir', str(tmp_path / 'runs'),
-                       '--auth', str(tokens), '--exclusive-control')
+@pytest.fixture(scope='module')
+def auth_gw(start_gateway, tmp_path_factory):
+    folder = tmp_path_factory.mktemp('auth-runs')
+    (folder / 'tokens.toml').write_text(tokens_toml())
+    return start_gateway('--robot', 'turtlesim', '--allow-runs', '--runs-dir', str(folder / 'runs'),
+                         '--auth', str(folder / 'tokens.toml'), '--exclusive-control')
+
+
+def signed_in(gw, who: str):
+    ros = roslibpy.Ros(gw.host, gw.port)
+    ros.run(timeout=10)
+    ros.send_on_ready(roslibpy.Message({'op': 'auth', 'token': TOKENS[who]}))
+    return ros
+
+
+def drivers_seen(q: queue.Queue, seen: list) -> list:
+    seen.extend(json.loads(m['data'])['driver'] for _, m in iter_queue(q))
+    return seen
+
+
+def test_viewer_refused_operator_runs_with_its_role(auth_gw):
+    gw = auth_gw
     source = program('rt.log("x=%.1f" % rt.latest("/turtle1/pose", "turtlesim/msg/Pose", "x"))\n'
                      f'rt.drive("/turtle1/cmd_vel", "{TWIST}", {{"linear": {{"x": 0.5}}}}, 0.3)')
     assert api(gw, 'POST', '/api/runs', {'source': source})[0] == 401
@@ -260,19 +277,41 @@ def test_viewer_refused_operator_runs_with_its_role(start_gateway, tmp_path):
     assert status == 403 and 'operator' in body['error']
     assert api(gw, 'GET', '/api/runs', token=TOKENS['viewer'])[0] == 200
 
-    ros = roslibpy.Ros(gw.host, gw.port)
-    ros.run(timeout=10)
+    ros = signed_in(gw, 'viewer')
     try:
-        ros.send_on_ready(roslibpy.Message({'op': 'auth', 'token': TOKENS['viewer']}))
         drivers = follow(ros, '/rosgate/driver')
         status, body = api(gw, 'POST', '/api/runs', {'source': source}, token=TOKENS['operator'])
         assert status == 201, body
         run_id = body['id']
         final = ended(gw, run_id, token=TOKENS['viewer'])
         assert final['state'] == 'finished', final
-        assert 'x=' in final['output']
-        names = []
-        wait_for(lambda: names.extend(json.loads(m['data'])['driver'] for _, m in iter_queue(drivers))
-                 or (any(d and d['name'] == f'run {run_id}' for d in names) and names[-1] is None), 10)
+        assert 'x=' in final['output']   # its connection has the operator's role: it may subscribe
+        seen: list = []
+        wait_for(lambda: (lambda d: any(x and x['name'] == f'run {run_id}' for x in d) and d[-1] is None)(
+            drivers_seen(drivers, seen)), 10)   # the run drove, then gave the lease back
     finally:
         ros.close()
+
+
+def test_run_takes_the_lease_when_it_starts(auth_gw):
+    gw = auth_gw
+    alice = signed_in(gw, 'operator')
+    try:
+        drivers = follow(alice, '/rosgate/driver')
+        roslibpy.Topic(alice, '/rosgate/control', 'std_msgs/msg/String').publish(roslibpy.Message({'data': 'take'}))
+        seen: list = []
+        wait_for(lambda: any(d and d['name'] == 'alice' for d in drivers_seen(drivers, seen)), 10)
+        quiet = program('rt.log("holding")\nrt.wait_for_message("/run_test/done", "std_msgs/msg/String")')
+        status, body = api(gw, 'POST', '/api/runs', {'source': quiet}, token=TOKENS['operator2'])
+        assert status == 409 and 'alice' in body['error'], body        # bob may not take it from alice
+        status, body = api(gw, 'POST', '/api/runs', {'source': quiet}, token=TOKENS['admin'])
+        assert status == 201, body                                     # the teacher's run takes over
+        run_id = body['id']
+        wait_for(lambda: (lambda d: d[-1] and d[-1]['name'] == f'run {run_id}')(drivers_seen(drivers, seen)), 30)
+        assert state_of(gw, run_id, TOKENS['viewer'])['state'] == 'running'   # it has not commanded anything
+        wait_for_subscriber(alice, '/run_test/done')
+        roslibpy.Topic(alice, '/run_test/done', 'std_msgs/msg/String').publish(roslibpy.Message({'data': 'done'}))
+        assert ended(gw, run_id, token=TOKENS['viewer'])['state'] == 'finished'
+        wait_for(lambda: drivers_seen(drivers, seen)[-1] is None, 10)   # and it gave the lease back
+    finally:
+        alice.close()
