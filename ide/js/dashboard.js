@@ -104,7 +104,11 @@ export class History {
       height: 110,
       legend: { show: false },
       cursor: { drag: { x: false, y: false } },
-      scales: { x: { time: true } },
+      scales: { x: { time: true, range: (u, min, max) => {     // at least the last minute, also for one sample
+        const hi = Number.isFinite(max) ? max : Date.now() / 1000;
+        return [Math.min(Number.isFinite(min) ? min : hi, hi - 60), hi];
+      } },
+      y: unit === '%' ? { range: [0, 100] } : {} },
       axes: [
         { stroke: '#aab3cc', grid: { stroke: '#2c3350' }, size: 28 },
         { stroke: '#aab3cc', grid: { stroke: '#2c3350' }, size: 58, label: unit, labelSize: 16, labelGap: 0 },
