@@ -16,6 +16,8 @@ from dataclasses import dataclass
 
 import cbor2
 
+from protocol.codec import png_encode
+
 FIB = 'example_interfaces/action/Fibonacci'
 TEMPLATES = [
     {'op': 'subscribe', 'topic': '/fuzz/a', 'type': 'std_msgs/msg/String', 'throttle_rate': 0, 'queue_length': 1},
@@ -44,6 +46,15 @@ TEMPLATES = [
     {'op': 'fragment', 'id': 'f', 'data': '{"op": "set_le', 'num': 0, 'total': 2},
     {'op': 'fragment', 'id': 'f', 'data': 'vel", "level": "error"}', 'num': 1, 'total': 2},
     {'op': 'png', 'data': 'iVBORw0KGgo='},
+    {'op': 'png', 'data': png_encode('{"op": "unsubscribe", "topic": "/fuzz/a"}')},
+    {'op': 'subscribe', 'topic': '/turtle1/pose', 'throttle_rate': 100, 'compression': 'png'},
+    {'op': 'subscribe', 'topic': '/fuzz/a', 'type': 'std_msgs/msg/String', 'fragment_size': 5},
+    {'op': 'subscribe', 'topic': '/fuzz/a', 'type': 'std_msgs/msg/String', 'compression': 'cbor-raw'},
+    {'op': 'publish', 'topic': '/turtle1/cmd_vel', 'msg': {'linear': {'x': 0.1}, 'angular': {'z': 0.1}}},
+    {'op': 'call_service', 'service': '/rosapi/message_details', 'args': {'type': 'geometry_msgs/msg/Twist'}},
+    {'op': 'call_service', 'service': '/rosapi/set_param', 'args': {'name': '/turtlesim:background_r', 'value': '9'}},
+    {'op': 'call_service', 'service': '/turtle1/teleport_absolute', 'args': {'x': 1.0, 'y': 2.0, 'theta': 0.5},
+     'fragment_size': 8, 'compression': 'cbor'},
 ]
 # per op: string fields and integer fields that parse_op checks (a wrong value there is a defect)
 STRINGS = ('topic', 'service', 'action', 'type', 'action_type')

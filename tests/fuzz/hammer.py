@@ -119,7 +119,7 @@ def fuzz(url: str, pid: int, ops: int, connections: int, seed: int) -> None:
         print(f'  example ({kind}): {frames!r}'[:2000])
 
 
-def non_reader(url: str, pid: int, seconds: float) -> None:
+def non_reader(url: str, pid: int, seconds: float, rate: float, log: str) -> None:
     rss0 = rss_bytes(pid)
     ws = connect(url, max_size=None, compression=None, open_timeout=10, max_queue=1, legacy=True)
     peak, calls, t0, ended = rss0, 0, time.monotonic(), 'still open'
@@ -129,6 +129,8 @@ def non_reader(url: str, pid: int, seconds: float) -> None:
             calls += 1
             if calls % 100 == 0:
                 peak = max(peak, rss_bytes(pid))
+            if rate:
+                time.sleep(max(0.0, t0 + calls / rate - time.monotonic()))
     except ConnectionClosed:
         pass
     during = rss_bytes(pid)
@@ -143,7 +145,10 @@ def non_reader(url: str, pid: int, seconds: float) -> None:
     ws.close()
     time.sleep(1.0)
     after = rss_bytes(pid)
-    print(f'non-reader: {calls} calls in {time.monotonic() - t0:.1f} s; {ended}')
+    with open(log) as f:
+        said = [line.split(': ', 1)[-1].strip() for line in f if 'does not read its replies' in line]
+    print(f'non-reader: {calls} calls in {time.monotonic() - t0:.1f} s; the client saw: {ended}; '
+          f'the gateway logged: {said[-1] if said else "nothing"}')
     print(f'non-reader: RSS {rss0 / MB:.1f} MiB before, {peak / MB:.1f} MiB peak (growth {(peak - rss0) / MB:+.1f} MiB), '
           f'{after / MB:.1f} MiB after it left')
 
@@ -164,11 +169,12 @@ def main() -> None:
     p.add_argument('--connections', type=int, default=4)
     p.add_argument('--seed', type=int, default=1)
     p.add_argument('--flood-seconds', type=float, default=20.0)
+    p.add_argument('--flood-rate', type=float, default=500.0, help='calls per second, 0: as fast as possible')
     args = p.parse_args()
     proc, url, port, log = start(['--fibonacci-interval', '0.01', '--max-message-size', '262144'])
     try:
         fuzz(url, proc.pid, args.ops, args.connections, args.seed)
-        non_reader(url, proc.pid, args.flood_seconds)
+        non_reader(url, proc.pid, args.flood_seconds, args.flood_rate, log)
         rebinding(port)
         print(f'gateway alive: {proc.poll() is None}; log: {log}')
     finally:

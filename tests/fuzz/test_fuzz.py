@@ -16,7 +16,7 @@ from tests.fuzz.client import Closed, FuzzConn, rss_bytes
 from tests.fuzz.frames import frame
 from tests.gateway.rawclient import Raw
 
-EXAMPLES = 1500
+EXAMPLES = 1000
 BUDGET = 20.0   # seconds of fuzzing at most; examples past it are skipped (a slow machine runs fewer)
 MIN_FRAMES = 200
 RSS_GROWTH = 50 * 2**20
@@ -37,7 +37,8 @@ class State:
 
 @pytest.fixture(scope='module')
 def state(start_gateway):
-    gw = start_gateway('--fibonacci-interval', '0.01', '--max-message-size', '262144')
+    # no robots: the suite is about the gateway (tests/fuzz/hammer.py runs with turtlesim)
+    gw = start_gateway('--fibonacci-interval', '0.01', '--max-message-size', '262144', '--robot', 'none')
     s = State(gw)
     yield s
     s.control.close()
