@@ -59,6 +59,23 @@ def test_fresh_teleop_claims_a_free_station_and_spares_a_held_one(fleet, chromiu
         page.keyboard.up("ArrowUp")
         wait_for(lambda: cmd["/s02"].latest()["linear"]["x"] == 0, what="zero on /s02 after the key")
         page.screenshot(path=str(ARTIFACTS / "teleop-fleet-tablet.png"))
+
+        # the teacher stops /s02 (no --auth: anyone may): the page says so, its keys stay refused
+        # until its driver presses Take
+        roslibpy.Topic(zed, "/rosgate/control", "std_msgs/msg/String").publish(roslibpy.Message({"data": "stop /s02"}))
+        page.wait_for_function("/teacher stopped/.test(document.querySelector('#notice').textContent)")
+        n02 = len(cmd["/s02"].messages)
+        page.keyboard.down("ArrowUp")
+        page.wait_for_function("/stopped \\/s02; send \"take \\/s02\"/.test(document.querySelector('#notice').textContent)")
+        page.keyboard.up("ArrowUp")
+        ros.call("/rosapi/get_time", "rosapi/srv/GetTime")
+        assert not any(m["linear"]["x"] for _, m in cmd["/s02"].messages[n02:]), "the stopped robot moved"
+        page.click("#take")
+        page.wait_for_function("teleop.lease.state === 'you'")
+        n02 = len(cmd["/s02"].messages)
+        page.keyboard.down("ArrowUp")
+        wait_for(lambda: any(m["linear"]["x"] > 0 for _, m in cmd["/s02"].messages[n02:]), what="driving again after Take")
+        page.keyboard.up("ArrowUp")
         page.set_viewport_size(PHONE)
         page.wait_for_function("document.querySelector('#drive').getBoundingClientRect().width < 390")
         page.screenshot(path=str(ARTIFACTS / "teleop-fleet-phone.png"), full_page=True)
