@@ -10,7 +10,7 @@ import { showProgram } from './classprogram.js';
 
 const $ = (s) => document.querySelector(s);
 const REFRESH = 10000;   // ms between looks at the graph for new stations
-const view = { ros: null, lease: new DriverLease(), tiles: new Map(), topics: [], types: [], services: [], seq: 0 };
+const view = { ros: null, lease: new DriverLease(), tiles: new Map(), topics: [], types: [], services: [], claimed: [], seq: 0 };
 window.classView = view;
 
 function setStatus(s, text) { const el = $('#status'); el.dataset.state = s; el.textContent = text; document.body.dataset.connection = s; }
@@ -64,7 +64,13 @@ async function refresh() {
     ({ topics: view.topics, types: view.types } = await call('/rosapi/topics'));
     ({ services: view.services } = await call('/rosapi/services'));
     if (view.topics.includes(DRIVER_TOPIC)) view.lease.watch();
+    if (view.services.includes('/fleet/claim')) {   // the fleet's claims, for tiles nobody drives
+      try {
+        view.claimed = JSON.parse((await call('/rosapi/get_param', { name: '/fleet:claimed', default_value: '[]' })).value) ?? [];
+      } catch { view.claimed = []; }
+    }
     await show(await stations());
+    for (const t of view.tiles.values()) t.show();
   } catch (e) { notice(`cannot read the graph: ${e.message}`); }
 }
 
@@ -111,7 +117,8 @@ class Tile {
     const r = this.report;
     const d = view.lease.holderOf(this.ns);
     const who = d?.name ?? (r?.user || '');
-    this.el.querySelector('.holder').textContent = d ? `${who} drives` : who ? `${who} (not driving)` : 'free';
+    const claimed = view.claimed.includes(this.ns);
+    this.el.querySelector('.holder').textContent = d ? `${who} drives` : who ? `${who} (not driving)` : claimed ? 'claimed' : 'free';
     this.el.toggleAttribute('data-held', Boolean(d));
     const state = r?.state ?? 'none';
     this.el.dataset.state = state;
