@@ -25,6 +25,7 @@ import os
 import secrets
 import shutil
 import signal
+import subprocess
 import sys
 import time
 from collections import deque
@@ -82,7 +83,8 @@ class Run:
         self.published = 0
         self.sessions: list = []
         self.ending: str | None = None     # 'stopped' or 'timed_out' once we end it
-        self.proc: asyncio.subprocess.Process | None = None
+        self.pid: int | None = None        # also its process group
+        self.done: asyncio.Future = asyncio.get_running_loop().create_future()
         self.timers: list[asyncio.TimerHandle] = []
         self.output_pub = self.state_pub = None
         self.memory_error = False
@@ -101,6 +103,35 @@ class Run:
         self.tail_bytes += len(line)
         while self.tail_bytes > OUTPUT_TAIL and len(self.tail) > 1:
             self.tail_bytes -= len(self.tail.popleft())
+
+
+class _Output(asyncio.SubprocessProtocol):
+    """The process's stdout and stderr (one pipe), cut into lines, and when it ends."""
+
+    def __init__(self, on_line, loop):
+        self.on_line = on_line
+        self.pending = b''
+        self.exited, self.eof = loop.create_future(), loop.create_future()
+
+    def pipe_data_received(self, fd: int, data: bytes) -> None:
+        self.pending += data
+        *lines, self.pending = self.pending.split(b'\n')
+        for line in lines:
+            self.on_line(line[:LINE_LIMIT].decode('utf-8', 'replace') + '\n')
+        if len(self.pending) > LINE_LIMIT:
+            self.on_line(self.pending[:LINE_LIMIT].decode('utf-8', 'replace') + '\n')
+            self.pending = b''
+
+    def pipe_connection_lost(self, fd: int, exc) -> None:
+        if self.pending:
+            self.on_line(self.pending.decode('utf-8', 'replace') + '\n')
+            self.pending = b''
+        if not self.eof.done():
+            self.eof.set_result(None)
+
+    def process_exited(self) -> None:
+        if not self.exited.done():
+            self.exited.set_result(None)
 
 
 class RunManager:
@@ -171,38 +202,34 @@ class RunManager:
         argv = [sys.executable, '-I', '-c', LAUNCHER, limits, 'program.py']
         if run.ns:
             argv += ['--ns', run.ns]
+        loop = asyncio.get_running_loop()
+        output = _Output(lambda line: self._line(run, line), loop)
         try:
-            run.proc = await asyncio.create_subprocess_exec(
-                *argv, cwd=run.workdir, env=self._env(run, url), stdin=asyncio.subprocess.DEVNULL,
-                stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.STDOUT, start_new_session=True)
+            transport, _ = await loop.subprocess_exec(
+                lambda: output, *argv, cwd=run.workdir, env=self._env(run, url), stdin=subprocess.DEVNULL,
+                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, start_new_session=True)
         except OSError as e:
             self._line(run, f'could not start the program: {e}\n')
             self._ended(run, None, f'could not start: {e}')
             return
+        run.pid = transport.get_pid()
+        if run.ending:   # stopped while it was starting
+            self._signal(run, signal.SIGINT)
+            run.timers.append(loop.call_later(KILL_AFTER, self._signal, run, signal.SIGKILL))
         run.state = 'running'
         self._announce(run)
-        loop = asyncio.get_running_loop()
         run.timers.append(loop.call_later(run.timeout, self.stop, run, 'timed_out'))
-        await self._read(run)
-        code = await run.proc.wait()
-        self._signal(run, signal.SIGKILL)   # whatever it left behind in its group
-        self._ended(run, code, None)
-
-    async def _read(self, run: Run) -> None:
-        pending = b''
-        while True:
-            chunk = await run.proc.stdout.read(65536)
-            if not chunk:
-                break
-            pending += chunk
-            *lines, pending = pending.split(b'\n')
-            for line in lines:
-                self._line(run, line[:LINE_LIMIT].decode('utf-8', 'replace') + '\n')
-            if len(pending) > LINE_LIMIT:
-                self._line(run, pending[:LINE_LIMIT].decode('utf-8', 'replace') + '\n')
-                pending = b''
-        if pending:
-            self._line(run, pending.decode('utf-8', 'replace') + '\n')
+        try:
+            await output.exited
+            self._signal(run, signal.SIGKILL)   # whatever it left behind in its group (and its pipe)
+            try:
+                await asyncio.wait_for(asyncio.shield(output.eof), KILL_AFTER)
+            except asyncio.TimeoutError:        # a descendant that left the group still holds the pipe
+                self._line(run, '[output after the program ended is not shown]\n')
+        finally:
+            code = transport.get_returncode()
+            transport.close()
+            self._ended(run, code, None)
 
     def _line(self, run: Run, line: str) -> None:
         if 'MemoryError' in line:
@@ -235,10 +262,10 @@ class RunManager:
         return sum(safety.stop_session(s) for s in run.sessions)
 
     def _signal(self, run: Run, sig: int) -> None:
-        if run.proc is None:
+        if run.pid is None or run.ended is not None:
             return
         try:
-            os.killpg(run.proc.pid, sig)
+            os.killpg(run.pid, sig)
         except (ProcessLookupError, PermissionError):
             pass
 
@@ -259,6 +286,7 @@ class RunManager:
         run.reason = reason
         self._line(run, f'[run {run.state}{f": {reason}" if reason else ""}]\n')
         self._announce(run)
+        run.done.set_result(run.state)
         log.info('run %s (%s) %s%s', run.id, run.name, run.state, f': {reason}' if reason else '')
 
     def _why(self, run: Run, code: int | None) -> str:
@@ -328,12 +356,12 @@ class RunManager:
             run.sessions.remove(session)
 
     async def on_shutdown(self) -> None:
-        running = [r for r in self.runs.values() if r.proc is not None and r.ended is None]
+        running = [r for r in self.runs.values() if r.pid is not None and r.ended is None]
         for run in running:
             self.stop(run)
         for run in running:
             try:
-                await asyncio.wait_for(run.proc.wait(), KILL_AFTER + 1)
+                await asyncio.wait_for(asyncio.shield(run.done), KILL_AFTER + 1)
             except asyncio.TimeoutError:
                 self._signal(run, signal.SIGKILL)
 

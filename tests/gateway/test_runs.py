@@ -315,3 +315,16 @@ def test_run_takes_the_lease_when_it_starts(auth_gw):
         wait_for(lambda: drivers_seen(drivers, seen)[-1] is None, 10)   # and it gave the lease back
     finally:
         alice.close()
+
+
+def test_a_child_left_behind_does_not_keep_the_run_going(runs_gw):
+    run_id = start(runs_gw, program('''
+import subprocess
+child = subprocess.Popen(["sleep", "300"])
+rt.log("child %d" % child.pid)
+'''), '/t8')
+    final = ended(runs_gw, run_id)
+    assert final['state'] == 'finished', final
+    child = int(final['output'].split('child ')[1].split()[0])
+    wait_for(lambda: not Path(f'/proc/{child}').exists() or 'Z' in Path(f'/proc/{child}/stat').read_text().split()[2],
+             10)
