@@ -380,11 +380,14 @@ class RclpyBackend:
         self.defs.srv(full)
         cls = self.defs.srv_class(full)
         service = self.node.resolve_service_name(service)
-        types = self.served_types().get(service)
-        if not types:
-            raise BackendError(f'service {service} is not available')
-        if full not in types:
-            raise BackendError(f'service {service} has type {types[0]}, not {full}')
+        client = self._clients.get((service, full))
+        # a client matched with a server needs no look at the graph: DDS matches only equal types
+        if client is None or not client.handle.service_server_is_available():
+            types = self.served_types().get(service)
+            if not types:
+                raise BackendError(f'service {service} is not available')
+            if full not in types:
+                raise BackendError(f'service {service} has type {types[0]}, not {full}')
         response = await self._call(service, full, cls, self.convert.from_dict(cls.Request, request), timeout)
         return self.convert.to_dict(response)
 
