@@ -209,7 +209,7 @@ class RunManager:
                 lambda: output, *argv, cwd=run.workdir, env=self._env(run, url), stdin=subprocess.DEVNULL,
                 stdout=subprocess.PIPE, stderr=subprocess.STDOUT, start_new_session=True)
         except OSError as e:
-            self._line(run, f'could not start the program: {e}\n')
+            self._line(run, f'could not start the program: {e}\n', ours=True)
             self._ended(run, None, f'could not start: {e}')
             return
         run.pid = transport.get_pid()
@@ -225,20 +225,22 @@ class RunManager:
             try:
                 await asyncio.wait_for(asyncio.shield(output.eof), KILL_AFTER)
             except asyncio.TimeoutError:        # a descendant that left the group still holds the pipe
-                self._line(run, '[output after the program ended is not shown]\n')
+                self._line(run, '[output after the program ended is not shown]\n', ours=True)
         finally:
             code = transport.get_returncode()
             transport.close()
             self._ended(run, code, None)
 
-    def _line(self, run: Run, line: str) -> None:
-        if 'MemoryError' in line:
+    def _line(self, run: Run, line: str, *, ours: bool = False) -> None:
+        """One line of output (or, ``ours``, a note of the gateway's, which the cap never drops)."""
+        if 'MemoryError' in line and not ours:
             run.memory_error = True
-        if run.published > self.limits.output_bytes:
-            return
-        run.published += len(line)
-        if run.published > self.limits.output_bytes:
-            line = f'[output limit of {self.limits.output_bytes} bytes reached: further output is dropped]\n'
+        if not ours:
+            if run.published > self.limits.output_bytes:
+                return
+            run.published += len(line)
+            if run.published > self.limits.output_bytes:
+                line = f'[output limit of {self.limits.output_bytes} bytes reached: further output is dropped]\n'
         run.keep(line)
         run.output_pub.publish({'data': line.rstrip('\n')})
 
@@ -250,7 +252,7 @@ class RunManager:
             return
         run.ending = why
         if why == 'timed_out':
-            self._line(run, f'[timeout of {run.timeout:g} s: stopping]\n')
+            self._line(run, f'[timeout of {run.timeout:g} s: stopping]\n', ours=True)
         self.halt(run)
         self._signal(run, signal.SIGINT)
         run.timers.append(asyncio.get_running_loop().call_later(KILL_AFTER, self._signal, run, signal.SIGKILL))
@@ -284,7 +286,7 @@ class RunManager:
             run.state = 'failed'
             reason = reason or self._why(run, code)
         run.reason = reason
-        self._line(run, f'[run {run.state}{f": {reason}" if reason else ""}]\n')
+        self._line(run, f'[run {run.state}{f": {reason}" if reason else ""}]\n', ours=True)
         self._announce(run)
         run.done.set_result(run.state)
         log.info('run %s (%s) %s%s', run.id, run.name, run.state, f': {reason}' if reason else '')
@@ -333,7 +335,7 @@ class RunManager:
             try:
                 lease.publish_hook(session, _CONTROL, {'data': f'take {run.ns}'.strip()})
             except ProtocolError as e:
-                self._line(run, f'[driver lease: {e.message}]\n')
+                self._line(run, f'[driver lease: {e.message}]\n', ours=True)
 
     def publish_hook(self, session, pub, msg):
         """A run being stopped may still send commands before its SIGINT lands: those that would

@@ -66,3 +66,32 @@ async def test_record_then_play(world, topic, tmp_path):
     expected = [f'message {i}' for i in range(50)]
     assert played == expected[len(expected) - len(played):]
     assert len(played) >= (50 if backend.name == 'sim' else 10), played
+
+
+async def test_bounds(world, topic, tmp_path):
+    import tornado.web
+
+    from gateway.recordings import RecordingLimits
+
+    backend = world.backend
+    gateway = Gateway(Settings(), backend)
+    pub = backend.create_publisher(topic, STRING, QoS())
+    try:
+        await until(lambda: any(name == topic for name, _ in backend.topics()), what=f'{topic} in the graph')
+        full = RecordingManager(gateway, tmp_path, RecordingLimits(disk_reserve=2**62))
+        with pytest.raises(tornado.web.HTTPError) as refused:
+            full.start((topic,), None)
+        assert refused.value.status_code == 507 and 'free' in refused.value.log_message
+
+        small = RecordingManager(gateway, tmp_path, RecordingLimits(max_bytes=2000, max_concurrent=1))
+        rec = small.start((topic,), None)
+        with pytest.raises(tornado.web.HTTPError) as busy:
+            small.start((topic,), None)
+        assert busy.value.status_code == 409
+        while rec.state == 'recording':
+            pub.publish({'data': 'x' * 100})
+            await asyncio.sleep(0.005)
+    finally:
+        pub.destroy()
+    assert rec.state == 'done' and 'size cap' in rec.reason
+    assert rec.messages * 100 < 2000 and rec.file.stat().st_size < 2000 + 4096

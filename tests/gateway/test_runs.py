@@ -328,3 +328,19 @@ rt.log("child %d" % child.pid)
     child = int(final['output'].split('child ')[1].split()[0])
     wait_for(lambda: not Path(f'/proc/{child}').exists() or 'Z' in Path(f'/proc/{child}/stat').read_text().split()[2],
              10)
+
+
+def test_output_is_capped(runs_gw):
+    run_id = start(runs_gw, program('''
+line = "y" * 1000
+for i in range(6000):
+    print(line)
+print("z" * 10000)
+rt.log("end")
+'''), '/t9')
+    final = ended(runs_gw, run_id)
+    assert final['state'] == 'finished', final['reason']
+    assert 'output limit of 4194304 bytes reached' in final['output']
+    assert len(final['output']) <= 64 * 1024 + 4096
+    assert 'end' not in final['output'].splitlines()
+    assert final['output'].endswith('[run finished]\n')
