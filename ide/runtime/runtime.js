@@ -34,7 +34,7 @@ export class Runtime {
     this.n = 0;
     this.stopped = false;
     this.paused = false;
-    this.stepping = false;        // Step granted: the current block runs whole, then the next one holds
+    this.stepping = false;        // paused by Step: blocks run whole, each part holds before its next
     this.current = null;          // id of the block running now
     this.started = performance.now();
     this.pending = new Set();     // {reject} of every promise stop() must end
@@ -44,7 +44,7 @@ export class Runtime {
     this.goals = new Map();       // goal id -> action
     this.owned = new Map();       // op|name|block -> {id, unwatch}: ids of ops no promise waits on
     this.lastYield = performance.now();
-    this._gate = null;
+    this._gates = new Set();      // resolvers of the parts (main, handlers) held while paused
     // A status error with no id that names a topic this run advertised ends it too.
     this._onStatus = (m) => {
       const topic = /^publish: ([^:\s]+):/.exec(m.msg ?? '')?.[1];
@@ -95,23 +95,25 @@ export class Runtime {
   }
 
   // ---- program control -------------------------------------------------
-  // Before every block: the block Step let through has ended, so a paused program holds here.
+  // Before every block: a paused program holds here (the block before it has ended).
   async step(blockId) {
     if (this.stopped) throw new StopSignal();
-    this.stepping = false;
     this.current = blockId;
     this.hooks.highlight?.(blockId);
-    await this._hold();
+    await this._hold(false);
     await this.tick();
   }
 
   // While paused: the robot stands still and the program waits for Resume or Step. Inside a
-  // block (drive, move, turn) only Pause holds; a block Step let through runs to its end.
-  async _hold() {
-    if (!this.paused || this.stepping) return;
+  // block (drive, move, turn: `inside`) only Pause holds: a block Step let go runs to its end.
+  async _hold(inside = true) {
+    if (!this.paused || (inside && this.stepping)) return;
     this.stopRobot();
-    this.hooks.held?.(this.current);
-    await this._track((resolve) => { this._gate = { resolve }; });
+    const blockId = this.current;
+    await this._track((resolve) => {
+      this._gates.add(resolve);
+      this.hooks.held?.(blockId);
+    });
   }
 
   // Loop trap: lets the page breathe inside tight loops.
@@ -127,8 +129,9 @@ export class Runtime {
 
   pause() { this.paused = true; this.stepping = false; }
   resume() { this.paused = false; this.stepping = false; this._release(); }
+  // Every held part (the main program, a message handler) runs its next block, then holds.
   stepOnce() { this.paused = true; this.stepping = true; this._release(); }
-  _release() { const g = this._gate; this._gate = null; g?.resolve(); }
+  _release() { const gates = [...this._gates]; this._gates.clear(); for (const g of gates) g(); }
 
   elapsed() { return (performance.now() - this.started) / 1000; }
 

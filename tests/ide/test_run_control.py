@@ -133,3 +133,34 @@ def test_step_runs_one_whole_block_then_holds(turtle_gateway, turtle_ros, ide_fa
     ide.page.click("#stop")
     ide.wait_idle()
     assert not ide.errors, ide.errors
+
+
+def test_step_runs_a_whole_block_while_a_handler_runs(turtle_gateway, turtle_ros, ide_factory):
+    """A message handler that holds between its blocks does not make a stepped move hold midway."""
+    ide = ide_factory(turtle_gateway)
+    turtle_ros.call("/reset", "std_srvs/srv/Empty")
+    pose = turtle_ros.watch("/turtle1/pose", "turtlesim/msg/Pose")
+    handler = ex.block("ros_on_message", {"TOPIC": "/turtle1/pose", "TYPE": "turtlesim/msg/Pose",
+                                          "VAR": {"id": "v-msg"}},
+                       {"DO": {"type": "math_change", "fields": {"VAR": {"id": "v-n"}},
+                               "inputs": {"DELTA": ex.num(1)}}})
+    move = ex.block("turtle_move", inputs={"TURTLE": ex.text("turtle1"), "DIST": ex.num(2)}, id="move")
+    ide.js("(p) => rosgateIde.loadProgram(p)", program(
+        handler, ex.seq(move, {**ex.log(ex.text("moved")), "id": "after"}),
+        variables={"msg": "v-msg", "n": "v-n"}))
+    start = wait_for(lambda: pose_xy(pose), what="a pose")
+    ide.page.click("#step")                         # a paused run: main holds before the move
+    ide.page.wait_for_function("rosgateIde.runner.rt && rosgateIde.runner.rt.paused")
+    wait_for(lambda: ide.js("rosgateIde.runner.heldAt") is not None, what="the program holding")
+    ide.page.click("#step")                         # the whole move, with the handler stepping too
+    wait_for(lambda: math.hypot(pose_xy(pose)[0] - start[0], pose_xy(pose)[1] - start[1]) > 1.95,
+             timeout=30, what="one Step moving the turtle the whole 2 m")
+    wait_for(lambda: (pose.latest() or {}).get("linear_velocity", 1) == 0, what="the turtle halted")
+    moved = math.hypot(pose_xy(pose)[0] - start[0], pose_xy(pose)[1] - start[1])
+    assert abs(moved - 2) < 0.1, moved
+    assert ide.logs() == [] and ide.js("document.body.dataset.run") == "paused"
+    ide.page.click("#run")                          # Resume: every held part goes on
+    ide.page.wait_for_function("rosgateIde.console.logs().includes('moved')", timeout=10000)
+    ide.page.click("#stop")
+    ide.wait_idle()
+    assert not ide.errors, ide.errors
