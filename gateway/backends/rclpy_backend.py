@@ -31,6 +31,9 @@ log = logging.getLogger('rosgate.rclpy')
 # requests in flight per service: a server's request reader keeps the last 10 (the default
 # service QoS), so a larger burst would lose requests
 IN_FLIGHT = 8
+# history of the gateway's own subscriptions: the loop may publish a burst of a client's messages
+# before the pump takes the first (they share the GIL); a history of 10 lost most of 32 in flight
+READER_DEPTH = 100
 
 
 def fq_name(namespace: str, name: str) -> str:
@@ -323,7 +326,7 @@ class RclpyBackend:
 
         infos = self.node.get_publishers_info_by_topic(topic)
         best_effort = any(i.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT for i in infos)
-        return QoS(reliable=not best_effort, transient_local=self.latched(topic, infos))
+        return QoS(depth=READER_DEPTH, reliable=not best_effort, transient_local=self.latched(topic, infos))
 
     def latched(self, topic: str, infos=None) -> bool:
         """Whether every publisher of the topic is transient-local (and there is one)."""
