@@ -157,6 +157,21 @@ def rust_unavailable() -> str | None:
     return None
 
 
+def versions() -> dict[str, str]:
+    """Versions of the ROS packages under test, as the ROS environment's pip knows them."""
+    code = ("import importlib.metadata as m, json, os\n"
+            "out = {'rmw': os.environ.get('RMW_IMPLEMENTATION', 'rmw_fastrtps_cpp (default)')}\n"
+            "for p in ('ros-rclpy', 'ros-rmw-fastrtps-cpp', 'rosbridge-server-rs'):\n"
+            "    try: out[p] = m.version(p)\n"
+            "    except m.PackageNotFoundError: pass\n"
+            "print(json.dumps(out))")
+    try:
+        done = subprocess.run([str(ros_python()), "-c", code], capture_output=True, text=True, timeout=60)
+        return json.loads(done.stdout)
+    except (OSError, ValueError, subprocess.TimeoutExpired):
+        return {}
+
+
 def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))

@@ -309,6 +309,9 @@ def main(argv: list[str] | None = None) -> int:
         tune_malloc()
     started = time.monotonic()
     graph = rosgraph.RosGraph() if ros else None
+    ros_versions = rosgraph.versions() if ros else {}
+    if ros_versions:
+        log("ROS: " + ", ".join(f"{k} {v}" for k, v in ros_versions.items()))
     try:
         targets = start_ros_targets(args) if ros else start_targets(args)
     except BaseException:
@@ -350,6 +353,7 @@ def main(argv: list[str] | None = None) -> int:
                 "python": platform.python_version(), "cpus": _cpus(), "cpu_model": _cpu_model(),
                 "client": f"websockets {websockets.__version__}", "tornado": tornado.version,
                 "config": asdict(cfg), "total_s": total, "idle_server_cpu_pct": idle,
+                "backend": args.backend, "ros": ros_versions,
                 "targets": [{"name": t.name, "url": t.url, "pid": t.pid, "kind": t.kind, "argv": t.argv}
                             for t in targets],
             },
