@@ -138,11 +138,13 @@ def image(graph: Graph, topic: str, rate: float) -> None:
     reply({"ready": topic})
     period = 1.0 / rate
     next_at = time.monotonic()
-    while True:
+    while graph.rclpy.ok():  # until SIGINT shuts the context down
         delay = next_at - time.monotonic()
         if delay > 0:
             time.sleep(delay)
         msg.header.stamp.sec = sent[0]
+        if not graph.rclpy.ok():
+            break
         pub.publish(msg)
         sent[0] += 1
         next_at += period
@@ -387,6 +389,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--topic", default="/bench/image")
     p.add_argument("--rate", type=float, default=30.0)
     args = p.parse_args(argv)
+    from rclpy.executors import ExternalShutdownException
+
     graph = Graph()
     try:
         if args.role == "serve":
@@ -395,7 +399,7 @@ def main(argv: list[str] | None = None) -> int:
             image(graph, args.topic, args.rate)
         else:
             ceiling(graph)
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, ExternalShutdownException):  # stopped with SIGINT
         pass
     return 0
 
