@@ -390,3 +390,31 @@ def test_a_viewer_joining_late_gets_the_whole_world(fresh, turtle_gw):
             assert {'bounds', 'pen', 'robots'} <= kinds
     finally:
         first.close()
+
+
+def test_non_finite_and_huge_commands_leave_turtlesim_working(fresh):
+    """NaN or 1e308 from one client must not break the turtle (or its timer) for everyone."""
+    ros = fresh
+    poses = Inbox(ros, '/turtle1/pose', 'turtlesim/msg/Pose')
+    pub = roslibpy.Topic(ros, '/turtle1/cmd_vel', 'geometry_msgs/msg/Twist')
+    try:
+        with pytest.raises(Exception, match='finite'):
+            call(ros, '/turtle1/teleport_absolute', 'turtlesim/srv/TeleportAbsolute',
+                 {'x': float('nan'), 'y': 1.0, 'theta': 0.0})
+        with pytest.raises(Exception, match='finite'):
+            call(ros, '/turtle1/teleport_relative', 'turtlesim/srv/TeleportRelative',
+                 {'linear': float('inf'), 'angular': 0.0})
+        t = time.monotonic()
+        pub.publish(roslibpy.Message(twist(x=1e308, z=-1e308)))
+        moved = poses.wait(lambda m: m['linear_velocity'] > 0, after=t)
+        assert all(math.isfinite(moved[k]) for k in ('x', 'y', 'theta'))
+        assert 0 <= moved['x'] <= SIZE and 0 <= moved['y'] <= SIZE
+        pub.publish(roslibpy.Message(twist()))
+        poses.wait(lambda m: m['linear_velocity'] == 0, after=time.monotonic())
+        call(ros, '/turtle1/teleport_absolute', 'turtlesim/srv/TeleportAbsolute', {'x': 3.0, 'y': 4.0, 'theta': 0.5})
+        t = time.monotonic()
+        back = poses.wait(lambda m: m['linear_velocity'] == 0 and abs(m['x'] - 3.0) < 1e-3, after=t, timeout=10)
+        assert back['y'] == pytest.approx(4.0, abs=1e-3) and back['theta'] == pytest.approx(0.5, abs=1e-3)
+    finally:
+        pub.unadvertise()
+        poses.close()

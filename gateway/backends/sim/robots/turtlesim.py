@@ -33,6 +33,17 @@ TURTLE_COLORS = [(0.29, 0.66, 0.31), (0.95, 0.61, 0.07), (0.85, 0.27, 0.27), (0.
                  (0.1, 0.7, 0.75), (0.9, 0.45, 0.7)]
 NAME = re.compile(r'^[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*$')
 QOS = QoS(depth=7)
+MAX_SPEED = 1000.0                           # m/s and rad/s: far past any real command, keeps the sums finite
+
+
+def speed(value) -> float:
+    """A commanded velocity as a finite float: NaN reads as 0 and infinities are capped."""
+    v = float(value)
+    return 0.0 if v != v else max(-MAX_SPEED, min(MAX_SPEED, v))
+
+
+def finite(*values) -> bool:
+    return all(math.isfinite(float(v)) for v in values)
 
 
 class Turtle:
@@ -72,9 +83,9 @@ class Turtle:
     # --- callbacks ------------------------------------------------------------------------
     def on_cmd_vel(self, msg: dict) -> None:
         self.last_command = self.sim.time
-        self.lin_x = float(msg['linear']['x'])
-        self.lin_y = float(msg['linear']['y']) if self.sim.node.params.get('holonomic') is True else 0.0
-        self.ang = float(msg['angular']['z'])
+        self.lin_x = speed(msg['linear']['x'])
+        self.lin_y = speed(msg['linear']['y']) if self.sim.node.params.get('holonomic') is True else 0.0
+        self.ang = speed(msg['angular']['z'])
         if self.goal is not None:
             self.sim.log.warn('Velocity command received during rotation goal. Aborting goal')
             self.goal.finish(STATUS_ABORTED, {'delta': self.goal_delta})
@@ -90,12 +101,18 @@ class Turtle:
         return {}
 
     def on_teleport_absolute(self, req: dict) -> dict:
-        self.teleports.append((False, float(req.get('x', 0.0)), float(req.get('y', 0.0)),
-                               float(req.get('theta', 0.0))))
+        x, y, theta = req.get('x', 0.0), req.get('y', 0.0), req.get('theta', 0.0)
+        if not finite(x, y, theta):
+            raise BackendError('teleport_absolute: x, y and theta must be finite numbers')
+        self.teleports.append((False, min(max(float(x), 0.0), SIZE), min(max(float(y), 0.0), SIZE),
+                               float(theta)))
         return {}
 
     def on_teleport_relative(self, req: dict) -> dict:
-        self.teleports.append((True, float(req.get('linear', 0.0)), 0.0, float(req.get('angular', 0.0))))
+        linear, angular = req.get('linear', 0.0), req.get('angular', 0.0)
+        if not finite(linear, angular):
+            raise BackendError('teleport_relative: linear and angular must be finite numbers')
+        self.teleports.append((True, max(-2 * SIZE, min(2 * SIZE, float(linear))), 0.0, float(angular)))
         return {}
 
     def on_goal(self, goal) -> None:
