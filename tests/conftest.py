@@ -25,13 +25,15 @@ class GatewayProcess:
         self.programs_dir = tempfile.mkdtemp(prefix='rosgate-programs-')
         cmd = [sys.executable, '-m', 'gateway', '--port', '0', '--address', '127.0.0.1',
                '--programs-dir', self.programs_dir, *args]
-        self.proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        # the log goes to a file: a pipe nobody reads would block a gateway that logs a lot
+        self.log = tempfile.TemporaryFile(mode='w+', prefix='rosgate-log-')
+        self.proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=self.log,
                                      text=True, env={**os.environ, **(env or {})})
         line = self._read_line(timeout=30)
         m = LINE.search(line)
         if not m:
             self.stop()
-            raise RuntimeError(f'rosgate did not start: {line!r}\n{self.proc.stderr.read()}')
+            raise RuntimeError(f'rosgate did not start: {line!r}\n{self.log_text()}')
         scheme, self.host, port, self.path = m.groups()
         self.port = int(port)
         self.ws_url = f'{scheme}://{self.host}:{self.port}{self.path}'
@@ -47,6 +49,12 @@ class GatewayProcess:
             if self.proc.poll() is not None:
                 break
         return ''
+
+    def log_text(self) -> str:
+        """What the gateway has logged so far (its stderr)."""
+        self.log.flush()
+        self.log.seek(0)
+        return self.log.read()
 
     @property
     def alive(self) -> bool:
