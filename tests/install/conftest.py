@@ -112,14 +112,16 @@ class Started:
 
     def __init__(self, cmd: list, cwd: Path, env: dict | None = None):
         clean = {k: v for k, v in os.environ.items() if k not in ('PYTHONPATH', 'VIRTUAL_ENV', 'PYTHONHOME')}
-        self.proc = subprocess.Popen([str(c) for c in cmd], cwd=cwd, env={**clean, **(env or {})},
-                                     stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        self.log = Path(cwd) / f'rosgate-{id(self)}.log'   # a file: an unread stderr pipe could block the gateway
+        with open(self.log, 'w') as log:
+            self.proc = subprocess.Popen([str(c) for c in cmd], cwd=cwd, env={**clean, **(env or {})},
+                                         stdout=subprocess.PIPE, stderr=log, text=True)
         ready, _, _ = select.select([self.proc.stdout], [], [], 60)
         self.line = self.proc.stdout.readline() if ready else ''
         m = LINE.search(self.line)
         if not m:
             self.stop()
-            raise AssertionError(f'rosgate did not start: {self.line!r}\n{self.proc.stderr.read()[-4000:]}')
+            raise AssertionError(f'rosgate did not start: {self.line!r}\n{self.log.read_text()[-4000:]}')
         self.host, self.port = m.group(2), int(m.group(3))
         self.http_url = f'http://{self.host}:{self.port}/'
 
