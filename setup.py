@@ -57,4 +57,16 @@ class PlainValuesDistribution(Distribution):
                 holder.python_requires = str(holder.python_requires)
 
 
+def link_metadata_into_colcon_build_dir() -> None:
+    """`colcon build --symlink-install` runs this file through a symlink in its build directory, where
+    it links setup.py, setup.cfg and the packages but not pyproject.toml: link the metadata too."""
+    cwd = Path.cwd()
+    if cwd == HERE or not (cwd / 'setup.py').is_symlink() or (cwd / 'setup.py').resolve() != HERE / 'setup.py':
+        return
+    for name in ('pyproject.toml', 'README.md'):
+        if not (cwd / name).exists():
+            (cwd / name).symlink_to(HERE / name)
+
+
+link_metadata_into_colcon_build_dir()
 setup(cmdclass={'build_py': BuildPyWithAssets, 'sdist': SdistWithBuiltIde}, distclass=PlainValuesDistribution)

@@ -129,3 +129,23 @@ def test_colcon_installed_gateway_serves_the_ide(colcon_install, user_venv, tmp_
             assert b'vendor/blockly/blockly_compressed.js' in r.read()
     finally:
         gw.stop()
+
+
+def test_colcon_symlink_install_serves_the_source_tree(tools, sdist_tree, user_venv, tmp_path):
+    """`colcon build --symlink-install`: Python files and the IDE come from the workspace's source."""
+    ws = tmp_path / 'ws'
+    shutil.copytree(sdist_tree, ws / 'src' / 'rosgate')
+    run([tools.parent / 'colcon', 'build', '--symlink-install'], cwd=ws)
+    install = ws / 'install' / 'rosgate'
+    assert (install / 'share/rosgate/launch/rosgate_launch.xml').resolve() == \
+        (ws / 'src/rosgate/launch/rosgate_launch.xml').resolve()
+    env = {'PYTHONPATH': str(ws / 'build' / 'rosgate'), 'AMENT_PREFIX_PATH': str(install)}   # colcon's hook
+    script = 'import gateway.assets as a; print(a.ide_dir().resolve())'
+    assert run([user_venv, '-c', script], cwd=tmp_path, env=env).stdout.strip() == str((ws / 'src/rosgate/ide').resolve())
+    gw = Started([user_venv, install / 'lib/rosgate/rosgate', 'port:=0', 'address:=127.0.0.1', 'backend:=sim',
+                  f'programs_dir:={tmp_path / "programs"}'], cwd=tmp_path, env=env)
+    try:
+        with urllib.request.urlopen(gw.http_url + 'teleop', timeout=10) as r:
+            assert r.status == 200
+    finally:
+        gw.stop()
