@@ -98,3 +98,19 @@ def test_too_large_refused(gateway):
     assert status == 413
     assert "big" not in names(gateway)
     assert gateway.alive
+
+
+@pytest.mark.parametrize("owner", ["..", "../..", "a/b", ".hidden", "%2E%2E%2F%2E%2E", "x" * 70])
+def test_owner_spaces_stay_inside_the_library(gateway, owner):
+    """?owner= picks a space under users/; a name unsafe as a directory becomes u-<digest>."""
+    root = Path(gateway.programs_dir)
+    outside = set(os.listdir(root.parent))
+    status, body = request(gateway, "PUT", f"/api/programs/escape?owner={owner}", json.dumps(PROGRAM).encode())
+    assert status == 200, body
+    assert set(os.listdir(root.parent)) == outside
+    stored = [p for p in (root / "users").rglob("escape.json")]
+    assert len(stored) == 1 and stored[0].parent.parent == root / "users", stored
+    assert stored[0].parent.name.startswith("u-")
+    listing = json.loads(request(gateway, "GET", "/api/programs")[1])["programs"]
+    assert any(p["name"] == "escape" and p["owner"] == stored[0].parent.name for p in listing)
+    assert request(gateway, "DELETE", f"/api/programs/escape?owner={owner}")[0] == 204
