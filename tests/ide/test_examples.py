@@ -25,17 +25,19 @@ def reset_turtlesim(ros):
     return pose
 
 
-def run_python(ide, gateway, name: str, stop_after: float | None = None, timeout: float = 90):
-    """Runs the IDE's generated Python against the gateway; returns (stdout lines, stderr)."""
+def run_python(ide, gateway, name: str, stop_when=None, timeout: float = 90):
+    """Runs the IDE's generated Python against the gateway; returns (stdout lines, stderr).
+
+    With ``stop_when`` (a condition), the program gets Ctrl-C once the condition holds."""
     path = ARTIFACTS / f"{name}.py"
     path.write_text(ide.python())
     proc = subprocess.Popen([sys.executable, str(path), "--url", gateway.ws_url],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        if stop_after is not None:
-            try:
-                proc.wait(stop_after)
-            except subprocess.TimeoutExpired:
+        if stop_when is not None:
+            wait_for(lambda: stop_when() or proc.poll() is not None, timeout=timeout,
+                     what=f"{name}.py reaching its stop condition")
+            if proc.poll() is None:
                 proc.send_signal(signal.SIGINT)
         out, err = proc.communicate(timeout=timeout)
     finally:
@@ -202,7 +204,7 @@ def test_rover_wall_follower(fresh_rover, ide_factory):
                 assert ide.logs() == ["following the wall on the right"]
                 ide.screenshot("example-wall_follower")
             else:
-                out, _ = run_python(ide, gw, "wall_follower", stop_after=8)
+                out, _ = run_python(ide, gw, "wall_follower", stop_when=lambda: travelled(odom, t0) > 2.0)
                 assert out == ["following the wall on the right"]
                 assert travelled(odom, t0) > 2.0
                 wait_for(lambda: rover_at_rest(odom), timeout=3, what="the rover stopping after Ctrl-C")
