@@ -291,7 +291,7 @@ async function start() {
   const me = await whoami();
   ide.me = me;
   showIdentity(me, { signin: $('#signin'), who: $('#who'), whoName: $('#who-name'), whoRole: $('#who-role') },
-    { run: [$('#run'), $('#step'), $('#pause')], save: [$('#library-save')] });
+    { run: [$('#run'), $('#step'), $('#pause'), $('#run-robot')], save: [$('#library-save')] });
   if (me.signedIn) connect();
   else {
     setStatus('signin', 'not signed in');

@@ -22,7 +22,7 @@ def auth_gateway(start_gateway, tmp_path_factory):
     path = tmp_path_factory.mktemp("ide-auth") / "tokens.toml"
     path.write_text("".join(f'[[tokens]]\nname = "{NAMES[r]}"\nrole = "{r}"\ntoken = "{t}"\n\n'
                             for r, t in TOKENS.items()))
-    return start_gateway("--robot", "turtlesim", "--auth", str(path))
+    return start_gateway("--robot", "turtlesim", "--auth", str(path), "--allow-runs")
 
 
 @pytest.fixture
@@ -77,6 +77,8 @@ def test_viewer_may_watch_but_not_run_or_save(auth_gateway, browser_page):
     assert ide.js("rosgateIde.me") == {"auth": True, "signedIn": True, "name": "vera", "role": "viewer"}
     assert ide.page.inner_text("#who-name") == "vera" and not ide.page.is_visible("#signin")
     assert ide.page.is_disabled("#run") and ide.page.is_disabled("#step") and ide.page.is_disabled("#pause")
+    ide.page.wait_for_function("document.body.dataset.robotRuns === 'allowed'", timeout=10000)
+    assert ide.page.is_visible("#run-robot") and ide.page.is_disabled("#run-robot")
     ide.page.click("#library")
     ide.page.wait_for_selector("#library-space:not([hidden])")
     assert ide.page.is_disabled("#library-save")
@@ -89,6 +91,8 @@ def test_students_save_in_their_own_space_and_the_teacher_sees_all(auth_gateway,
     sign_in(student, "operator")
     assert student.page.inner_text("#who-role") == "(operator)"
     assert not student.page.is_disabled("#run")
+    student.page.wait_for_function("document.body.dataset.robotRuns === 'allowed'", timeout=10000)
+    assert not student.page.is_disabled("#run-robot")
     student.js("(p) => rosgateIde.loadProgram(p)", program(ex.log(ex.text("alice was here")), name="alice square"))
     student.run()
     student.wait_idle(timeout=15)
