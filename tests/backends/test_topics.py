@@ -74,6 +74,30 @@ async def test_latched_reaches_late_subscriber(world, topic):
         pub.destroy()
 
 
+async def test_retained_never_arrives_after_a_newer_live_message(world, topic):
+    """A message published right as a transient-local subscriber joins (before the backend had a
+    chance to hand it the retained one) comes after the retained one, never before it."""
+    backend = world.backend
+    pub = backend.create_publisher(topic, 'std_msgs/msg/String', QoS(depth=1, transient_local=True))
+    pub.publish({'data': '0'})
+    await until(lambda: backend.latched(topic), what='topic latched')
+    try:
+        for n in range(1, 12, 2):
+            got: list[int] = []
+            sub = backend.subscribe(topic, 'std_msgs/msg/String', lambda m: got.append(int(m['data'])))
+            pub.publish({'data': str(n)})   # no await in between: the subscription is a moment old
+            try:
+                await until(lambda: n in got, what=f'live message {n}')
+                await asyncio.sleep(0)   # the backend runs what it had queued for the newcomer
+                pub.publish({'data': str(n + 1)})   # a round trip: what came before it has arrived
+                await until(lambda: n + 1 in got, what=f'live message {n + 1}')
+                assert got == sorted(got) and set(got) <= {n - 1, n, n + 1}, got
+            finally:
+                sub.destroy()
+    finally:
+        pub.destroy()
+
+
 async def test_volatile_not_replayed(world, topic):
     backend = world.backend
     pub = backend.create_publisher(topic, 'std_msgs/msg/String', QoS())

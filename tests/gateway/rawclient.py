@@ -19,6 +19,13 @@ class Raw:
             op = json.dumps(op)
         self.ws.send(op)
 
+    def send_together(self, *ops) -> None:
+        """Several ops in one TCP write, so the gateway reads and handles them in one go."""
+        with self.ws.send_context():
+            for op in ops:
+                self.ws.protocol.send_text((op if isinstance(op, str) else json.dumps(op)).encode())
+            self.ws.socket.sendall(b''.join(self.ws.protocol.data_to_send()))
+
     def recv(self, timeout: float = 5.0) -> dict:
         frame = self.ws.recv(timeout=timeout)
         if isinstance(frame, bytes):

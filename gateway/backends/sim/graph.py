@@ -58,6 +58,8 @@ class SimPublisher:
         if self.qos.transient_local:
             topic.latched.append(msg)
         for sub in tuple(topic.subscriptions):
+            if sub.backlog:   # a newcomer gets the retained messages before this newer one
+                sub.catch_up()
             try:
                 sub.callback(msg)
             except Exception:  # a faulty subscriber must not break the publisher
@@ -81,6 +83,15 @@ class SimSubscription:
     def __init__(self, node: Node, topic: Topic, callback: Callable[[Message], None], qos: QoS | None):
         self.node, self._topic, self.callback, self.qos = node, topic, callback, qos
         self.topic, self.type = topic.name, topic.type
+        self.backlog: deque[Message] = deque()   # retained messages not yet handed to the callback
+
+    def catch_up(self) -> None:
+        """Hand over the retained messages this subscription joined with, oldest first."""
+        while self.backlog and self in self._topic.subscriptions:
+            try:
+                self.callback(self.backlog.popleft())
+            except Exception:  # as in publish: a faulty subscriber must not break the others
+                log.exception('subscription callback on %s failed', self.topic)
 
     def destroy(self) -> None:
         self.node.graph._remove_endpoint(self._topic, self, 'subscriptions')
@@ -195,9 +206,11 @@ class Node:
         sub = SimSubscription(self, t, callback, qos)
         t.subscriptions.append(sub)
         self._owned.add(sub)
-        if qos is None or qos.transient_local:
-            for msg in tuple(t.latched):
-                self.graph.loop.call_soon(_deliver, sub, msg)
+        if (qos is None or qos.transient_local) and t.latched:
+            # not now: the caller does not hold the handle yet. A publish before then hands
+            # these over first, so a retained message never follows a newer live one.
+            sub.backlog.extend(t.latched)
+            self.graph.loop.call_soon(sub.catch_up)
         return sub
 
     # services
@@ -294,11 +307,6 @@ class Node:
         for entity in list(self._owned):
             entity.destroy()
         self.graph._nodes.pop(self.name, None)
-
-
-def _deliver(sub: SimSubscription, msg: Message) -> None:
-    if sub in sub._topic.subscriptions:
-        sub.callback(msg)
 
 
 class Graph:
