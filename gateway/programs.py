@@ -39,6 +39,25 @@ def space_name(owner: str) -> str:
     return owner if _OWNER.fullmatch(owner) else "u-" + hashlib.sha256(owner.encode()).hexdigest()[:16]
 
 
+def space_dir(programs_dir: pathlib.Path, owner: str | None) -> pathlib.Path:
+    """The folder of a space (owner None: the shared space)."""
+    return programs_dir if owner is None else programs_dir / USERS / space_name(owner)
+
+
+def stored_program(programs_dir: pathlib.Path, name: str, owner: str | None) -> dict:
+    """A stored program of a space, for the gateway's own use (runs by library name).
+    ValueError for a bad name or a file that is not a program; FileNotFoundError if absent."""
+    if not _NAME.fullmatch(name):
+        raise ValueError("bad program name %r" % name[:80])
+    try:
+        program = json.loads(_read_no_follow(space_dir(pathlib.Path(programs_dir), owner) / (name + ".json")))
+    except IsADirectoryError:
+        raise FileNotFoundError(name) from None
+    if not isinstance(program, dict):
+        raise ValueError("%r is not a program" % name)
+    return program
+
+
 class _Base(tornado.web.RequestHandler):
     identity = None      # who asks (security.http sets it when auth is on); None: an admin
 
@@ -59,7 +78,7 @@ class _Base(tornado.web.RequestHandler):
         return self.identity.name
 
     def _space(self, owner: str | None) -> pathlib.Path:
-        return self.programs_dir if owner is None else self.programs_dir / USERS / space_name(owner)
+        return space_dir(self.programs_dir, owner)
 
     def _may_write(self) -> None:
         if self.identity is not None and self.identity.role == "viewer":

@@ -1,6 +1,6 @@
 """Robot-side runs: a program sent over HTTP runs as a process next to the robot (``--allow-runs``).
 
-POST   /api/runs       {"source": "<python>", "name", "ns", "timeout"} or {"program": "<library name>", ...}
+POST   /api/runs       {"source": "<python>", "name", "ns", "timeout"} or {"program": "<library name>", "owner", ...}
                        -> 201 {"id"}; 409 naming the run already going in that namespace
 GET    /api/runs       -> {"allowed": bool, "runs": [summary, ...]}
 GET    /api/runs/ID    -> {"id", "name", "ns", "state", "exit_code", "reason", "started", "ended", "output"}
@@ -405,7 +405,7 @@ class RunListHandler(JsonHandler):
         body = body_json(self, MAX_SOURCE)
         source = body.get('source')
         if source is None and body.get('program') is not None:
-            source = self._library(str(body['program']))
+            source = self._library(str(body['program']), identity, body.get('owner'))
         if not isinstance(source, str) or not source.strip():
             raise tornado.web.HTTPError(400, 'give "source" (the Python program) or "program" (a library name)')
         name = body.get('name') or body.get('program') or 'program'
@@ -423,16 +423,24 @@ class RunListHandler(JsonHandler):
         self.set_status(201)
         self.finish({'id': run.id, **run.summary()})
 
-    def _library(self, name: str) -> str:
+    def _library(self, name: str, identity, owner) -> str:
+        """The Python stored with a library program, from the space the library would open for
+        this caller: an operator's own (with --auth), else the shared one or an admin's "owner"."""
+        from .programs import stored_program
         programs_dir = self.manager.gateway.settings.programs_dir
-        from .programs import _NAME
-        if programs_dir is None or not _NAME.fullmatch(name):
+        if identity is not None and identity.role != 'admin':
+            if owner is not None and owner != identity.name:
+                raise tornado.web.HTTPError(403, f'{identity.name} may run only their own programs')
+            owner = identity.name
+        if programs_dir is None or not (owner is None or isinstance(owner, str) and owner):
             raise tornado.web.HTTPError(400, f'no program library entry {name!r}')
         try:
-            stored = json.loads((Path(programs_dir) / f'{name}.json').read_bytes())
+            stored = stored_program(programs_dir, name, owner)
         except FileNotFoundError:
             raise tornado.web.HTTPError(404, f'no program named {name!r} in the library') from None
-        source = stored.get('python') if isinstance(stored, dict) else None
+        except ValueError as e:
+            raise tornado.web.HTTPError(400, str(e)) from None
+        source = stored.get('python')
         if not isinstance(source, str):
             raise tornado.web.HTTPError(422, f'program {name!r} was saved without its Python; send "source"')
         return source

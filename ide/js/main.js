@@ -342,8 +342,12 @@ function setupLibrary(program) {
   $('#library').onclick = () => { dlg.showModal(); refresh(); };
   $('#library-save').onclick = async () => {
     const name = storage.safeName($('#name').value);
+    let python = null;
+    try { python = ide.generatePython(); } catch (e) {
+      ide.console.error(`saving without its Python (it cannot run on the robot by name): ${e.message}`);
+    }
     try {
-      await storage.library.save(name, program());
+      await storage.library.save(name, program(), python);
       ide.console.info(`saved "${name}" on the gateway`);
       refresh();
     } catch (e) { ide.console.error(`save failed: ${e.message}`); }

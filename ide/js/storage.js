@@ -109,8 +109,11 @@ const inSpace = (name, owner) => `/${encodeURIComponent(name)}${owner ? `?owner=
 export const library = {
   list: async () => (await api('')).programs,
   load: async (name, owner = null) => checkProgram(await api(inSpace(name, owner))),
-  save: (name, program) => api(`/${encodeURIComponent(name)}`, {
-    method: 'PUT', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(program),
+  // `python`: the program's generated Python, stored with it so the gateway can run the program
+  // by name (POST /api/runs {"program": name}); opening it again uses only the workspace.
+  save: (name, program, python = null) => api(`/${encodeURIComponent(name)}`, {
+    method: 'PUT', headers: { 'Content-Type': 'application/json' },
+    body: JSON.stringify(python == null ? program : { ...program, python }),
   }),
   remove: (name, owner = null) => api(inSpace(name, owner), { method: 'DELETE' }),
 };

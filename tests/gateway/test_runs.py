@@ -293,6 +293,23 @@ def test_viewer_refused_operator_runs_with_its_role(auth_gw):
         ros.close()
 
 
+def test_a_library_program_runs_by_name_from_the_callers_own_space(auth_gw):
+    gw = auth_gw
+    source = program('rt.log("from my space")')
+    status, body = api(gw, 'PUT', '/api/programs/mine', {'format': 'rosgate-program', 'python': source},
+                       token=TOKENS['operator'])
+    assert status == 200, body   # with --auth it lands in the operator's own space, as the IDE's save does
+    status, body = api(gw, 'POST', '/api/runs', {'program': 'mine'}, token=TOKENS['operator'])
+    assert status == 201, body
+    final = ended(gw, body['id'], token=TOKENS['viewer'])
+    assert final['state'] == 'finished' and 'from my space' in final['output'], final
+    # another operator's library has no such program, and may not reach into the first one's
+    assert api(gw, 'POST', '/api/runs', {'program': 'mine'}, token=TOKENS['operator2'])[0] == 404
+    owner = api(gw, 'GET', '/api/programs', token=TOKENS['operator'])[1]['programs'][0]['owner']
+    status, body = api(gw, 'POST', '/api/runs', {'program': 'mine', 'owner': owner}, token=TOKENS['operator2'])
+    assert status == 403, body
+
+
 def test_run_takes_the_lease_when_it_starts(auth_gw):
     gw = auth_gw
     alice = signed_in(gw, 'operator')

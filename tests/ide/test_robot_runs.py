@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import json
 import time
+import urllib.error
 import urllib.request
+from pathlib import Path
 
 import pytest
 
@@ -27,6 +30,21 @@ def runs_ros(runs_gateway):
     client = RosClient(runs_gateway)
     yield client
     client.close()
+
+
+def post_json(gateway, path: str, body: dict) -> tuple[int, dict]:
+    req = urllib.request.Request(gateway.http_url + path, method="POST", data=json.dumps(body).encode(),
+                                 headers={"Content-Type": "application/json"})
+    try:
+        with urllib.request.urlopen(req, timeout=10) as res:
+            return res.status, json.loads(res.read())
+    except urllib.error.HTTPError as e:
+        return e.code, json.loads(e.read() or b"null")
+
+
+def get_json(gateway, path: str) -> dict:
+    with urllib.request.urlopen(gateway.http_url + path, timeout=10) as res:
+        return json.loads(res.read())
 
 
 def console_has(ide, text: str) -> bool:
@@ -67,6 +85,30 @@ def test_run_on_robot_streams_output_and_stop_stops_it(runs_gateway, runs_ros, i
     wait_for(lambda: console_has(ide, "stopped") and console_has(other, "stopped"), 20, what="both pages told")
     assert ide.js("document.body.dataset.robotRun") == "idle"
     assert not ide.errors and not other.errors, ide.errors + other.errors
+
+
+def test_a_program_saved_from_the_library_dialog_runs_on_the_robot_by_name(runs_gateway, runs_ros, ide_factory):
+    ide = ide_factory(runs_gateway)
+    cmd = runs_ros.watch("/turtle1/cmd_vel", "geometry_msgs/msg/Twist")
+    ide.js("(p) => rosgateIde.loadProgram(p)", program(ex.seq(log("saved in the library"), drive(0.5))))
+    ide.page.fill("#name", "square by name")
+    ide.page.dispatch_event("#name", "change")
+    ide.page.click("#library")
+    ide.page.click("#library-save")
+    ide.page.locator("#library-list .lib-open", has_text="square by name").wait_for()
+    ide.page.click("#library-close")
+    stored = json.loads((Path(runs_gateway.programs_dir) / "square by name.json").read_text())
+    assert stored["python"] == ide.python() and stored["workspace"] == ide.workspace()
+
+    status, run = post_json(runs_gateway, "api/runs", {"program": "square by name"})
+    assert status == 201, run
+    assert run["name"] == "square by name"
+    final = wait_for(lambda: (lambda s: s if s["state"] not in ("starting", "running") else None)(
+        get_json(runs_gateway, f"api/runs/{run['id']}")), 60, what="the run by name to end")
+    assert final["state"] == "finished", final
+    assert "saved in the library" in final["output"]
+    assert moving(cmd)
+    assert not ide.errors, ide.errors
 
 
 def test_button_hidden_without_allow_runs(turtle_gateway, ide_factory):
