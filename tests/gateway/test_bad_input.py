@@ -100,6 +100,17 @@ def test_unknown_service_and_action_fail_with_result_false(raw):
     assert '/no/such/action' in reply['values']
 
 
+def test_a_goal_the_action_refuses_is_aborted_and_logged_as_the_clients_mistake(raw, gateway):
+    log_before = len(gateway.log_text())
+    raw.send({'op': 'send_action_goal', 'id': 'big', 'action': '/fibonacci',
+              'action_type': 'example_interfaces/action/Fibonacci', 'args': {'order': 100}})
+    reply = raw.expect(lambda m: m.get('op') == 'action_result' and m.get('id') == 'big')
+    assert reply['status'] == 6 and reply['values'] == {'sequence': []}, reply   # ABORTED
+    logged = gateway.log_text()[log_before:]   # the sim logs before it answers
+    assert 'WARNING' in logged and 'order must be between 0 and 46' in logged, logged
+    assert 'Traceback' not in logged and 'ERROR' not in logged, logged
+
+
 def test_warnings_reach_clients_that_ask_for_them(raw):
     raw.send({'op': 'set_level', 'level': 'warning'})
     raw.send({'op': 'cancel_action_goal', 'id': 'c1', 'action': '/fibonacci'})

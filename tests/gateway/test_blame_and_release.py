@@ -65,3 +65,30 @@ async def test_our_value_errors_are_bugs_logged_with_a_traceback(caplog):
     assert not caplog.records
     session.close()
     await backend.stop()
+
+
+async def test_a_sim_action_logs_a_refused_goal_as_a_warning_and_its_own_bug_with_a_traceback(caplog):
+    from gateway.backends.base import STATUS_ABORTED, BackendError
+
+    backend = SimBackend(demo=False)
+    await backend.start()
+    node = backend.graph.node('blame_actions')
+
+    async def execute(goal):
+        if goal.request['order'] < 0:
+            raise BackendError('order must not be negative')   # the client's mistake
+        return {'sequence': [1 // 0]}                           # a bug of the server
+
+    node.create_simple_action_server('/blame/fib', 'example_interfaces/action/Fibonacci', execute)
+    try:
+        for order, level, traceback in ((-1, logging.WARNING, False), (3, logging.ERROR, True)):
+            caplog.clear()
+            with caplog.at_level(logging.WARNING, logger='rosgate'):
+                goal = await backend.graph.send_goal('/blame/fib', {'order': order}, None)
+                result = await goal.result()
+            assert result.status == STATUS_ABORTED
+            [record] = [r for r in caplog.records if '/blame/fib' in r.getMessage()]
+            assert record.levelno == level and (record.exc_info is not None) == traceback, record
+    finally:
+        node.destroy()
+        await backend.stop()

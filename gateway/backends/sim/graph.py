@@ -18,6 +18,7 @@ from typing import Any
 
 from protocol.msgdefs import Definitions, normalize
 
+from ... import blame
 from ..base import (
     STATUS_ABORTED, STATUS_ACCEPTED, STATUS_CANCELED, STATUS_CANCELING, STATUS_EXECUTING,
     STATUS_SUCCEEDED, ActionResult, ActionServerCallbacks, BackendError, QoS, ServiceTimeout,
@@ -258,8 +259,11 @@ class Node:
         except asyncio.CancelledError:
             goal.finish(STATUS_ABORTED, self.graph.default_result(goal.server.type))
             raise
-        except Exception:
-            log.exception('action %s failed', goal.server.name)
+        except Exception as e:
+            if blame.answerable(e):   # the client's goal was wrong (e.g. out of range): no traceback
+                log.warning('action %s aborted a goal: %s', goal.server.name, blame.sentence(e))
+            else:                     # a bug of the action server
+                log.exception('action %s failed', goal.server.name)
             goal.finish(STATUS_ABORTED, self.graph.default_result(goal.server.type))
 
     # parameters
