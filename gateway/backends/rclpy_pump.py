@@ -24,7 +24,7 @@ from typing import Any
 log = logging.getLogger('rosgate.rclpy')
 
 BUDGET = 64        # items taken from one entity per round, so one busy topic cannot starve others
-BACKLOG = 512      # items waiting for the loop before the pump stops taking (DDS queues the rest)
+BACKLOG = 128      # items waiting for the loop before the pump stops taking (DDS queues the rest)
 
 
 def _rclpy():
