@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import logging
 import time
 
@@ -18,6 +19,39 @@ from .web import Application, PublicFileHandler
 
 log = logging.getLogger('rosgate')
 HARD_LIMIT_FACTOR = 4   # frames up to this many times max_message_size get a status; larger ones close 1009
+TEXT, BINARY, CLOSE = 0x1, 0x2, 0x8  # websocket opcodes
+FLUSH_BEFORE_CLOSE = 1.0  # seconds a failing connection waits for its last status to go out
+
+
+class TextAsBytesProtocol(tornado.websocket.WebSocketProtocol13):
+    """Hands a text message to the handler undecoded, flagged as text (``handler.text_frame``).
+
+    Tornado decodes text messages itself and drops the connection without a close frame when
+    one is not valid UTF-8, before any of our code runs. Here a text message goes through
+    tornado's binary path (decompression and accounting unchanged) and the handler decodes it,
+    once, so invalid UTF-8 can get a status and a 1007 close (RFC 6455, section 8.1).
+    A close frame whose reason is not UTF-8 (tornado raises decoding it, and the connection
+    ends without an answer) is echoed with its code alone, as tornado echoes every close.
+    """
+
+    def _handle_message(self, opcode: int, data: bytes):
+        if opcode != TEXT:
+            if opcode == CLOSE and len(data) > 2 and not _is_utf8(data[2:]):
+                data = data[:2]
+            return super()._handle_message(opcode, data)
+        self.handler.text_frame = True
+        try:
+            return super()._handle_message(BINARY, data)
+        finally:
+            self.handler.text_frame = False
+
+
+def _is_utf8(data: bytes) -> bool:
+    try:
+        data.decode('utf-8')
+    except UnicodeDecodeError:
+        return False
+    return True
 
 
 class RosbridgeHandler(tornado.websocket.WebSocketHandler):
@@ -26,6 +60,8 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
     def initialize(self, gateway: Gateway) -> None:
         self.gateway = gateway
         self.session: ClientSession | None = None
+        self.text_frame = False   # set by TextAsBytesProtocol while it delivers a text message
+        self.failed = False       # a frame failed the connection: later ones are not handled
 
     async def get(self, *args, **kwargs) -> None:
         if self.request.headers.get('Upgrade', '').lower() != 'websocket':
@@ -36,6 +72,12 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
             self.write(index.read_bytes())
             return
         await super().get(*args, **kwargs)
+
+    def get_websocket_protocol(self):
+        protocol = super().get_websocket_protocol()
+        if type(protocol) is tornado.websocket.WebSocketProtocol13:
+            protocol.__class__ = TextAsBytesProtocol   # same state, one method more
+        return protocol
 
     def check_origin(self, origin: str) -> bool:
         return self.gateway.policy.origin_allowed(origin, self.request)
@@ -57,9 +99,29 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
     def _send(self, payload: bytes, binary: bool):
         return self.write_message(payload, binary=binary)
 
-    def on_message(self, message: str | bytes) -> None:
-        if self.session is not None:
-            self.session.receive(message)
+    def on_message(self, message: str | bytes):
+        if self.session is None or self.failed:
+            return None
+        if self.text_frame:
+            try:
+                message = message.decode('utf-8')
+            except UnicodeDecodeError as e:   # keep only words: e.object is the whole frame
+                problem = f'byte 0x{message[e.start:e.start + 1].hex()} at offset {e.start}: {e.reason}'
+                return self._invalid_text(problem)
+        self.session.receive(message)
+        return None
+
+    async def _invalid_text(self, problem: str) -> None:
+        """A text message that is not UTF-8 fails the connection (RFC 6455: close 1007). The
+        client is told why first; tornado reads no further frame while this runs."""
+        self.failed = True
+        session = self.session
+        session.status('error', f'text frame is not valid UTF-8 ({problem}); closing the connection (1007)')
+        loop = asyncio.get_running_loop()
+        deadline = loop.time() + FLUSH_BEFORE_CLOSE
+        while session.outbox.queued_bytes and not session.closed and loop.time() < deadline:
+            await asyncio.sleep(0.01)   # the outbox's pump is writing what came before
+        self.close(1007, 'text frame is not valid UTF-8')
 
     def on_close(self) -> None:
         if self.session is not None:

@@ -17,9 +17,10 @@ _barriers = itertools.count(1)
 
 
 class Closed(Exception):
-    def __init__(self, code: int | None, reason: str):
+    def __init__(self, code: int | None, reason: str, last_status: dict | None = None):
         super().__init__(f'connection closed: {code} {reason}')
         self.code, self.reason = code, reason
+        self.last_status = last_status   # the latest error or warning status before the close
 
 
 class FuzzConn:
@@ -28,6 +29,7 @@ class FuzzConn:
         self.inbox: queue.Queue = queue.Queue()
         self.code: int | None = None
         self.reason = ''
+        self.last_status: dict | None = None   # the latest error or warning status since the last barrier
         self.thread = threading.Thread(target=self._read, daemon=True)
         self.thread.start()
 
@@ -35,7 +37,12 @@ class FuzzConn:
         try:
             while True:
                 frame = self.ws.recv()
-                self.inbox.put(cbor2.loads(frame) if isinstance(frame, bytes) else json.loads(frame))
+                msg = cbor2.loads(frame) if isinstance(frame, bytes) else json.loads(frame)
+                if msg.get('op') == 'status' and msg.get('level') in ('error', 'warning'):
+                    self.last_status = msg
+                elif msg.get('op') == 'service_response' and str(msg.get('id')).startswith('barrier-'):
+                    self.last_status = None
+                self.inbox.put(msg)
         except ConnectionClosed as e:
             # no close frame from the server: 1006, the connection was dropped
             self.code, self.reason = (e.rcvd.code, e.rcvd.reason) if e.rcvd else (1006, '')
@@ -46,12 +53,12 @@ class FuzzConn:
     def closed(self) -> bool:
         return not self.thread.is_alive()
 
-    def send(self, payload: str | bytes) -> None:
+    def send(self, payload: str | bytes, text: bool | None = None) -> None:
         try:
-            self.ws.send(payload)
+            self.ws.send(payload, text=text)
         except ConnectionClosed:
             self.thread.join(10)
-            raise Closed(self.code, self.reason) from None
+            raise Closed(self.code, self.reason, self.last_status) from None
 
     def barrier(self, timeout: float = 60.0) -> list[dict]:
         """Everything received until the reply to a fresh rosapi call (sent now)."""
@@ -65,7 +72,7 @@ class FuzzConn:
             except queue.Empty:
                 raise AssertionError(f'no reply to {id} within {timeout} s') from None
             if msg is None:
-                raise Closed(self.code, self.reason)
+                raise Closed(self.code, self.reason, self.last_status)
             if msg.get('id') == id and msg.get('op') == 'service_response':
                 return got
             got.append(msg)

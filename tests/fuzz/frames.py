@@ -3,7 +3,9 @@
 Each frame is one websocket message (text or binary). Frames made with a definite defect carry a
 fresh id in ``bad_id``: the gateway must answer each of them with an error status with that id.
 The others (mutations of valid ops, random JSON, random bytes) may do anything the protocol
-allows; the checks on them are that the gateway lives and keeps answering.
+allows; the checks on them are that the gateway lives and keeps answering. A few text frames are
+not valid UTF-8 (``text`` bytes): they fail the connection, so they carry the close code the
+gateway must answer with (``close``: 1007, after an error status).
 """
 
 from __future__ import annotations
@@ -62,10 +64,15 @@ INTEGERS = ('throttle_rate', 'queue_length', 'num', 'total')
 _bad_ids = itertools.count(1)
 
 
+INVALID_UTF8 = [b'\xff', b'\xc0\xaf', b'\x80', b'\xe2\x82', b'\xed\xa0\x80', b'\xf4\x90\x80\x80']
+
+
 @dataclass
 class Frame:
     payload: str | bytes
     bad_id: str | None = None    # set when the gateway must answer with an error status with this id
+    text: bool | None = None     # True: payload (bytes) goes out as a text frame
+    close: int | None = None     # the close code this frame must get (after a status)
 
 
 def json_value(rng: random.Random, depth: int = 0):
@@ -154,9 +161,18 @@ def frame(rng: random.Random) -> Frame:
         return Frame(encode(rng, _mutate(rng, rng.choice(TEMPLATES)), cbor))
     if kind == 8:
         return Frame(encode(rng, json_value(rng), cbor))
+    if rng.random() > 0.95:   # (not < 0.05: hypothesis's randoms favour small values)
+        return not_utf8(rng)
     if rng.random() < 0.5:
         return Frame(bytes(rng.randrange(256) for _ in range(rng.randrange(64))))
     return Frame(text(rng, 64))
+
+
+def not_utf8(rng: random.Random) -> Frame:
+    """A text frame with a byte sequence UTF-8 does not allow, somewhere in an otherwise valid op."""
+    raw = json.dumps(_mutate(rng, rng.choice(TEMPLATES)), ensure_ascii=False).encode('utf-8', 'surrogatepass')
+    at = rng.randrange(len(raw) + 1)
+    return Frame(raw[:at] + rng.choice(INVALID_UTF8) + raw[at:], text=True, close=1007)
 
 
 def safe_for_cbor(obj) -> bool:

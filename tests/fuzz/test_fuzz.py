@@ -1,7 +1,13 @@
 """Property-based fuzzing of a live gateway: mutated and random ops, JSON and CBOR, text and
-binary frames. Whatever arrives: the process lives, no connection is dropped (only 1008/1009
-closes are allowed), every op with a definite defect and an id gets an error status with that
-id, a control client's round trips keep working, and RSS stays bounded."""
+binary frames. Whatever arrives: the process lives, no connection is dropped, every op with a
+definite defect and an id gets an error status with that id, a control client's round trips keep
+working, and RSS stays bounded.
+
+The only closes allowed are the gateway's own, each one explained to the client: 1007 for a text
+frame that is not UTF-8 (an error status naming it, then the close with a reason; the fuzzer
+sends a few and each must get exactly that), 1008 (a reason: the client does not read its
+replies; or, past the op rate limit, after the refusal statuses) and 1009 (tornado's hard
+frame limit: no status can come first, so the reason must say it)."""
 
 from __future__ import annotations
 
@@ -32,6 +38,7 @@ class State:
         self.conn.barrier()
         self.rss_start = rss_bytes(gw.pid)
         self.frames = self.bad = self.reconnects = 0
+        self.closes: dict[int, int] = {}   # close code -> count
         self.deadline = time.monotonic() + BUDGET
 
 
@@ -46,9 +53,19 @@ def state(start_gateway):
         s.conn.close()
 
 
-def _reconnect(state: State, closed: Closed) -> None:
-    assert closed.code in (1008, 1009), f'connection dropped with {closed.code} {closed.reason!r}'
+def _reconnect(state: State, closed: Closed, expected: int | None) -> None:
+    """A close is allowed only as the gateway's rule has it: see the module docstring."""
+    code, reason, status = closed.code, closed.reason, closed.last_status
+    assert code == expected or (expected is None and code in (1008, 1009)), \
+        f'connection closed with {code} {reason!r} (expected {expected}); last status {status}'
+    assert reason, f'a {code} close without a reason; last status {status}'
+    if code == 1007:
+        assert status and status['level'] == 'error' and 'not valid UTF-8' in status['msg'], \
+            f'a 1007 close ({reason!r}) without an error status naming the UTF-8 first: {status}'
+    elif code == 1008 and 'rate limit' in reason:
+        assert status, f'a 1008 close ({reason!r}) with no refusal status before it'
     state.reconnects += 1
+    state.closes[code] = state.closes.get(code, 0) + 1
     state.conn = FuzzConn(state.gw.ws_url)
 
 
@@ -60,15 +77,17 @@ def test_fuzzed_frames(state, rng, count):
     if time.monotonic() > state.deadline:           # every example to draw the same way
         return
     conn = state.conn
+    closing = next((f.close for f in frames if f.close), None)
     try:
         for f in frames:
-            if f.bad_id:
+            if f.bad_id or f.close:
                 conn.send(SET_LEVEL)   # a fuzzed set_level before it may have silenced errors
-            conn.send(f.payload)
+            conn.send(f.payload, f.text)
         got = conn.barrier()
     except Closed as closed:
-        _reconnect(state, closed)
+        _reconnect(state, closed, closing)
         return
+    assert closing is None, f'no {closing} close after {[f.payload for f in frames if f.close]!r}'
     answered = {m.get('id') for m in got if m.get('op') == 'status' and m.get('level') == 'error'}
     unanswered = [f for f in frames if f.bad_id and f.bad_id not in answered]
     assert not unanswered, f'no error status for {[f.payload for f in unanswered]!r}'
@@ -82,6 +101,7 @@ def test_fuzzed_frames(state, rng, count):
 
 def test_after_fuzzing_the_gateway_lives_and_rss_is_bounded(state):
     assert state.frames > MIN_FRAMES and state.bad > 0
+    assert state.closes.get(1007), f'no frame that is not UTF-8 was sent (closes {state.closes})'
     assert state.gw.alive
     assert state.control.call('/add_two_ints', {'a': 2, 'b': 3})['values'] == {'sum': 5}
     growth = rss_bytes(state.gw.pid) - state.rss_start

@@ -3,9 +3,15 @@ and everyone else's service carry on, and nothing the failed op began is left be
 
 from __future__ import annotations
 
+import json
+import os
+import socket
+import struct
+
 import cbor2
 import pytest
 from websockets.exceptions import ConnectionClosed
+from websockets.sync.client import connect
 
 from tests.gateway.rawclient import Raw
 
@@ -104,3 +110,60 @@ def test_a_client_that_does_not_read_its_replies_is_closed_1008(start_gateway):
         assert code == 1008 and 'not reading replies' in reason
         assert other.call('/rosapi/get_time')['values']['time']['sec'] > 0
     assert gw.alive
+
+
+
+def closed_with(ws) -> tuple[list, int, str]:
+    """Everything the server sent until it closed, and its close code and reason (1006: dropped)."""
+    got = []
+    try:
+        while True:
+            got.append(json.loads(ws.recv(timeout=10)))
+    except TimeoutError:
+        pytest.fail(f'the server did not close the connection; it sent {got[-5:]}')
+    except ConnectionClosed as e:
+        return got, *((e.rcvd.code, e.rcvd.reason) if e.rcvd else (1006, ''))
+
+
+@pytest.mark.parametrize('compression', [None, 'deflate'])
+def test_invalid_utf8_in_a_text_frame_gets_a_status_and_a_1007_close(gateway, start_gateway, compression):
+    gw = start_gateway('--use-compression') if compression else gateway
+    call = {'op': 'call_service', 'service': '/rosapi/get_time'}
+    with Raw(gw.ws_url) as other, connect(gw.ws_url, compression=compression, open_timeout=10) as bad:
+        bad.send(json.dumps({**call, 'id': 'before'}))
+        bad.send(b'{"op": "subscribe", "topic": "/x\xff\xfe", "id": "u1"}', text=True)   # not UTF-8
+        bad.send(json.dumps({**call, 'id': 'after'}))   # the connection has failed: never handled
+        got, code, reason = closed_with(bad)
+        assert (code, reason) == (1007, 'text frame is not valid UTF-8')
+        assert [m.get('id') for m in got] == ['before', None], got
+        status = got[1]
+        assert status['op'] == 'status' and status['level'] == 'error', status
+        assert 'not valid UTF-8 (byte 0xff at offset 32' in status['msg'], status
+        assert other.call('/add_two_ints', {'a': 2, 'b': 3})['values'] == {'sum': 5}
+    with Raw(gw.ws_url) as again:   # valid non-ASCII text is still text
+        again.send('{"op": "nope", "id": "ä€"}')
+        assert again.status('ä€')['level'] == 'error'
+    assert gw.alive
+
+
+def test_a_close_frame_whose_reason_is_not_utf8_is_answered(gateway):
+    """websockets will not send such a frame: the handshake and frames are written by hand."""
+    with socket.create_connection((gateway.host, gateway.port), timeout=10) as s:
+        s.sendall(f'GET {gateway.path} HTTP/1.1\r\nHost: {gateway.host}:{gateway.port}\r\nUpgrade: websocket\r\n'
+                  'Connection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n'
+                  'Sec-WebSocket-Version: 13\r\n\r\n'.encode())
+        head = b''
+        while b'\r\n\r\n' not in head:
+            head += s.recv(4096)
+        assert head.startswith(b'HTTP/1.1 101'), head
+        payload = struct.pack('!H', 1000) + b'bye \xff'
+        mask = os.urandom(4)
+        s.sendall(bytes([0x88, 0x80 | len(payload)]) + mask + bytes(b ^ mask[i % 4] for i, b in enumerate(payload)))
+        answer = head.split(b'\r\n\r\n', 1)[1]
+        while len(answer) < 4:
+            chunk = s.recv(4096)
+            assert chunk, f'the server dropped the connection without a close frame (got {answer!r})'
+            answer += chunk
+        assert answer[:4] == b'\x88\x02' + struct.pack('!H', 1000)   # the close echoed, its code alone
+    with Raw(gateway.ws_url) as other:
+        other.sync()
