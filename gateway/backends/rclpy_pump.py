@@ -1,9 +1,10 @@
 """The pump: one thread that moves the gateway's topic and service traffic between rcl and the loop.
 
 rclpy's executors pace every message with their own wake-ups. Measured on Fast DDS (PyPI Jazzy
-wheels, rclpy 7.1.6, one process, std_msgs/String of 64 B, 32 in flight):
-``MultiThreadedExecutor`` 41 msg/s, ``SingleThreadedExecutor`` 3,200–6,400 msg/s, this loop
-29,000 msg/s. (``EventsExecutor`` deadlocks there as soon as another thread publishes.)
+wheels, rclpy 7.1.6, one process, std_msgs/String of 64 B, 32 in flight, a busy and a quiet
+2-core machine): ``MultiThreadedExecutor`` 41–2,300 msg/s, ``SingleThreadedExecutor``
+3,200–8,900 msg/s, this loop 29,000–76,000 msg/s. ``EventsExecutor`` hung there as soon as
+another thread published, and delivered nothing from another process.
 
 So subscriptions, service clients and services served by the gateway are plain rcl entities
 (``_rclpy.Subscription`` / ``Client`` / ``Service``) that no executor sees. The pump waits on
