@@ -2,13 +2,14 @@
 
 Replies (service responses, action results, status) are never dropped, but they are bounded
 too: a client with more than ``reply_limit`` replies or ``byte_limit`` bytes of them waiting is
-not reading what it asks for, and ``on_reply_overflow`` is told once (the session closes the
-connection with 1008). Topic messages are dropped: each subscription keeps at most
-``queue_length`` queued messages (oldest dropped first), and once the whole queue holds more
-than ``byte_limit`` bytes, new topic messages are dropped and the client is warned (at most once
-per ``warn_interval``). A slow client therefore loses its own oldest messages; it never grows
-server memory without bound nor stalls anyone else. An outbox that held a lot gives the memory
-back to the system when it closes.
+not reading what it asks for: everything queued is released at once (none of it will be sent)
+and ``on_reply_overflow`` is told once (the session closes the connection with 1008). Topic
+messages are dropped: each subscription keeps at most ``queue_length`` queued messages (oldest
+dropped first), and once the whole queue holds more than ``byte_limit`` bytes, new topic
+messages are dropped and the client is warned (at most once per ``warn_interval``). A slow
+client therefore loses its own oldest messages; it never grows server memory without bound nor
+stalls anyone else. An outbox that held a lot gives the memory back to the system when it
+closes.
 """
 
 from __future__ import annotations
@@ -80,9 +81,10 @@ class Outbox:
             return
         if self.reply_count >= self.reply_limit or (
                 self.reply_bytes and self.reply_bytes + len(frame) > self.byte_limit):
-            self._closed = True
+            count, size = self.reply_count, self.reply_bytes
+            self.close()   # none of it will be sent: the memory goes back now, not at disconnect
             if self._on_reply_overflow is not None:
-                self._on_reply_overflow(self.reply_count, self.reply_bytes)
+                self._on_reply_overflow(count, size)
             return
         entry = Entry(frame, binary, None)
         self._queue.append(entry)

@@ -44,6 +44,7 @@ class ClientSession:
         self.tasks: set[asyncio.Task] = set()
         self.attrs: dict[str, Any] = {}                # role, lease, ... for policy hooks
         self.closed = False
+        self.closing = False   # the server closed the connection: later ops are not handled
         self.connected_at = gateway.backend.now()
         self._counter = itertools.count(1)
 
@@ -57,7 +58,7 @@ class ClientSession:
     # --- incoming ----------------------------------------------------------------------------
 
     def receive(self, data: str | bytes) -> None:
-        if self.closed:
+        if self.closed or self.closing:
             return
         now = asyncio.get_running_loop().time()
         try:
@@ -133,6 +134,7 @@ class ClientSession:
         self.close_connection(1008, f'not reading replies: {count} replies, {size} bytes waiting')
 
     def close_connection(self, code: int, reason: str) -> None:
+        self.closing = True
         self._close_connection(code, reason)
 
     # --- teardown ----------------------------------------------------------------------------

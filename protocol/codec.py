@@ -49,8 +49,15 @@ def _json_default(value):
 
 
 def dumps(obj) -> bytes:
-    """JSON bytes; bytes become base64 strings and NaN/Inf become null (in lists too)."""
-    return orjson.dumps(obj, default=_json_default, option=_DUMPS_OPTIONS)
+    """JSON bytes; bytes become base64 strings and NaN/Inf become null (in lists too).
+
+    The result is an exact-size copy: orjson's own bytes object keeps the buffer it grew while
+    encoding, often many times the text (orjson 3.13: 4 KiB for a 41-byte status, 32 KiB for the
+    4.1 KB reply of /rosapi/topics_and_raw_types), and a frame waiting in a client's queue would
+    hold all of it (a client not reading 16 MiB of such replies cost the process 116 MiB). The
+    copy costs under 0.5 µs for 4.6 KiB and 33 µs for 1.4 MB (once per message, not per client).
+    """
+    return bytes(memoryview(orjson.dumps(obj, default=_json_default, option=_DUMPS_OPTIONS)))
 
 
 def _constant(token: str) -> float:

@@ -7,12 +7,14 @@ import json
 import os
 import socket
 import struct
+from urllib.request import urlopen
 
 import cbor2
 import pytest
 from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
 
+from tests.conftest import wait_for
 from tests.gateway.rawclient import Raw
 
 
@@ -110,6 +112,58 @@ def test_a_client_that_does_not_read_its_replies_is_closed_1008(start_gateway):
         assert code == 1008 and 'not reading replies' in reason
         assert other.call('/rosapi/get_time')['values']['time']['sec'] > 0
     assert gw.alive
+
+
+NON_READER_CALLS = 10_000      # 4.1 KB replies, ~41 MB: past the default bound (16 MiB) and the socket buffers
+NON_READER_BATCH = 5           # calls per round trip of another client
+NON_READER_GROWTH = 50_000_000   # issue 11: "< 50 MB"
+
+
+def proc_kib(pid: int, field: str) -> int:
+    with open(f'/proc/{pid}/status') as f:
+        for line in f:
+            if line.startswith(f'{field}:'):
+                return int(line.split()[1]) * 1024
+    raise AssertionError(f'no {field} for {pid}')
+
+
+def test_a_client_that_does_not_read_its_replies_costs_the_server_little_memory(start_gateway):
+    """A client that stops reading and calls /rosapi/topics_and_raw_types 10,000 times (default
+    limits): the gateway's peak RSS grows by less than 50 MB, and the memory is given back.
+
+    The calls go in small batches, each followed by another client's round trip: sent all at once,
+    most would be refused past --max-pending-calls with a short reply, and the replies would be
+    made back to back on a fresh heap, where unused parts of a buffer never become resident
+    (orjson's oversized buffers cost 70 MiB paced like this, 37 MiB in batches of 50)."""
+    gw = start_gateway()
+    with Raw(gw.ws_url) as other:
+        for _ in range(20):   # imports and caches a first call makes are not the client's cost
+            other.call('/rosapi/topics_and_raw_types')
+        try:   # the peak RSS (VmHWM) starts again from the current RSS
+            with open(f'/proc/{gw.pid}/clear_refs', 'w') as f:
+                f.write('5')
+        except OSError as e:
+            pytest.skip(f'cannot reset the peak RSS of the gateway: {e}')
+        before = proc_kib(gw.pid, 'VmRSS')
+        with Raw(gw.ws_url, max_queue=1) as lazy:
+            try:
+                for i in range(0, NON_READER_CALLS, NON_READER_BATCH):
+                    lazy.send_together(*({'op': 'call_service', 'service': '/rosapi/topics_and_raw_types',
+                                          'id': f'c{j}'} for j in range(i, i + NON_READER_BATCH)))
+                    other.call('/rosapi/get_time')
+                while True:
+                    lazy.recv(timeout=30)
+            except TimeoutError:
+                pytest.fail('the server never closed the connection of a client that does not read')
+            except ConnectionClosed:
+                pass
+        growth = proc_kib(gw.pid, 'VmHWM') - before
+        assert 'does not read its replies' in gw.log_text()
+        assert growth < NON_READER_GROWTH, f'peak RSS grew by {growth / 2**20:.1f} MiB'
+        wait_for(lambda: json.loads(urlopen(gw.http_url + 'health').read())['clients'] == 1, timeout=15)
+        left = proc_kib(gw.pid, 'VmRSS') - before
+        assert left < 10 * 2**20, f'RSS is still {left / 2**20:.1f} MiB above where it was'
+        assert other.call('/rosapi/get_time')['values']['time']['sec'] > 0
 
 
 
