@@ -24,6 +24,7 @@ from protocol.msgdefs import ActionDef, MsgDef, SrvDef, normalize
 from . import rclpy_params
 from .base import ActionServerCallbacks, BackendError, Message, NodeInfo, QoS, ServiceTimeout
 from .rclpy_actions import RclpyActionServer, send_goal
+from .rclpy_cdr import Slow
 from .rclpy_pump import Pump, ServiceCaller, ServiceServer, TopicReader
 from .rclpy_types import Converter, RosDefinitions
 
@@ -52,10 +53,20 @@ class RclpyPublisher:
     def __init__(self, backend: RclpyBackend, topic: str, type: str, cls, publisher):
         self.topic, self.type = topic, type
         self._backend, self._cls, self._pub = backend, cls, publisher
+        self._cdr = backend.convert.cdr_writer(cls)
 
     def publish(self, msg: Message) -> None:
-        if self._pub is not None:
-            self._pub.publish(self._backend.convert.from_dict(self._cls, msg))
+        if self._pub is None:
+            return
+        if self._cdr is not None:
+            try:
+                data = self._cdr(msg)
+            except Slow:
+                pass
+            else:
+                self._pub.publish(data)
+                return
+        self._pub.publish(self._backend.convert.from_dict(self._cls, msg))
 
     def destroy(self) -> None:
         if self._pub is not None:
@@ -326,7 +337,8 @@ class RclpyBackend:
         with self.node.handle:
             sub = self._rclpy.Subscription(self.node.handle, cls, topic, profile.get_c_qos_profile())
         handle.sub = TopicReader(sub, cls, self.convert.to_dict, handle.deliver,
-                                 lambda e: self.report(f'subscription {topic}', e))
+                                 lambda e: self.report(f'subscription {topic}', e),
+                                 self.convert.cdr_reader(cls))
         self.pump.add(handle.sub)
         return handle
 

@@ -49,14 +49,27 @@ class Entity:
 class TopicReader(Entity):
     kind = 'subscription'
 
-    def __init__(self, handle, msg_type, convert: Callable, deliver: Callable, report: Callable):
+    def __init__(self, handle, msg_type, convert: Callable, deliver: Callable, report: Callable,
+                 decode: Callable | None = None):
+        """decode: CDR bytes -> dict (raising for what it leaves to convert); with it the reader
+        takes raw messages, which costs less than rclpy's message objects."""
         super().__init__(handle)
         self.msg_type, self._convert, self._deliver, self._report = msg_type, convert, deliver, report
+        self._decode = decode
+
+    def _from_cdr(self, data: bytes):
+        try:
+            return self._decode(data)
+        except Exception:  # noqa: BLE001 (rclpy_cdr.Slow, or a malformed message: rclpy decides)
+            from rclpy.serialization import deserialize_message  # noqa: PLC0415
+            return self._convert(deserialize_message(data, self.msg_type))
 
     def take(self, push) -> None:
-        take, msg_type, convert, deliver = self.handle.take_message, self.msg_type, self._convert, self._deliver
+        raw = self._decode is not None
+        take, msg_type, deliver = self.handle.take_message, self.msg_type, self._deliver
+        convert = self._from_cdr if raw else self._convert
         for _ in range(BUDGET):
-            got = take(msg_type, False)
+            got = take(msg_type, raw)
             if got is None:
                 return
             try:

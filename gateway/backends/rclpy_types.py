@@ -236,6 +236,17 @@ class Converter:
                 out[name] = value.tolist() if hasattr(value, 'tolist') else list(value)
         return out
 
+    def cdr_reader(self, cls):
+        """CDR bytes -> the dict to_dict makes (raising rclpy_cdr.Slow where it cannot), or None."""
+        from . import rclpy_cdr  # noqa: PLC0415
+        return rclpy_cdr.reader(self._plan, cls)
+
+    def cdr_writer(self, cls):
+        """A dict -> the CDR bytes rclpy would publish for from_dict(cls, dict) (raising
+        rclpy_cdr.Slow for a dict it leaves to from_dict), or None."""
+        from . import rclpy_cdr  # noqa: PLC0415
+        return rclpy_cdr.writer(self._plan, cls)
+
     def from_dict(self, cls, data: dict):
         msg = cls()
         for name, f, sub in self._plan(cls):
