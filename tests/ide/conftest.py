@@ -119,8 +119,8 @@ class IdePage:
 
     def open(self, url: str | None = None):
         self.page.goto(url or self.gateway.http_url)
-        self.page.wait_for_function("document.body.dataset.ready === 'true'", timeout=20000)
-        self.page.wait_for_function("document.body.dataset.connection === 'connected'", timeout=10000)
+        self.page.wait_for_function("document.body?.dataset.ready === 'true'", timeout=20000)
+        self.page.wait_for_function("document.body?.dataset.connection === 'connected'", timeout=10000)
         return self
 
     def js(self, expr: str, arg=None):
@@ -146,7 +146,7 @@ class IdePage:
         self.page.wait_for_function(f"rosgateIde.runner.runs > {runs}", timeout=5000)
 
     def wait_idle(self, timeout: float = 60):
-        self.page.wait_for_function("document.body.dataset.run === 'idle'", timeout=timeout * 1000)
+        self.page.wait_for_function("document.body?.dataset.run === 'idle'", timeout=timeout * 1000)
 
     def logs(self) -> list[str]:
         return self.js("rosgateIde.console.logs()")

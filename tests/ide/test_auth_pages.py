@@ -41,7 +41,7 @@ def browser_page(chromium):
 
 def open_signed_out(ide: IdePage):
     ide.page.goto(ide.gateway.http_url)
-    ide.page.wait_for_function("document.body.dataset.ready === 'true'", timeout=20000)
+    ide.page.wait_for_function("document.body?.dataset.ready === 'true'", timeout=20000)
 
 
 def sign_in(ide: IdePage, role: str):
@@ -52,8 +52,8 @@ def sign_in(ide: IdePage, role: str):
     ide.page.wait_for_url("**/login?next=*")
     ide.page.fill("input[name=token]", TOKENS[role])
     ide.page.click("button[type=submit]")
-    ide.page.wait_for_function("document.body.dataset.ready === 'true'", timeout=20000)
-    ide.page.wait_for_function("document.body.dataset.connection === 'connected'", timeout=10000)
+    ide.page.wait_for_function("document.body?.dataset.ready === 'true'", timeout=20000)
+    ide.page.wait_for_function("document.body?.dataset.connection === 'connected'", timeout=10000)
 
 
 def test_signed_out_links_to_login(auth_gateway, browser_page):
@@ -77,7 +77,7 @@ def test_viewer_may_watch_but_not_run_or_save(auth_gateway, browser_page):
     assert ide.js("rosgateIde.me") == {"auth": True, "signedIn": True, "name": "vera", "role": "viewer"}
     assert ide.page.inner_text("#who-name") == "vera" and not ide.page.is_visible("#signin")
     assert ide.page.is_disabled("#run") and ide.page.is_disabled("#step") and ide.page.is_disabled("#pause")
-    ide.page.wait_for_function("document.body.dataset.robotRuns === 'allowed'", timeout=10000)
+    ide.page.wait_for_function("document.body?.dataset.robotRuns === 'allowed'", timeout=10000)
     assert ide.page.is_visible("#run-robot") and ide.page.is_disabled("#run-robot")
     ide.page.click("#library")
     ide.page.wait_for_selector("#library-space:not([hidden])")
@@ -91,7 +91,7 @@ def test_students_save_in_their_own_space_and_the_teacher_sees_all(auth_gateway,
     sign_in(student, "operator")
     assert student.page.inner_text("#who-role") == "(operator)"
     assert not student.page.is_disabled("#run")
-    student.page.wait_for_function("document.body.dataset.robotRuns === 'allowed'", timeout=10000)
+    student.page.wait_for_function("document.body?.dataset.robotRuns === 'allowed'", timeout=10000)
     assert not student.page.is_disabled("#run-robot")
     student.js("(p) => rosgateIde.loadProgram(p)", program(ex.log(ex.text("alice was here")), name="alice square"))
     student.run()

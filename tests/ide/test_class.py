@@ -36,7 +36,7 @@ def open_class(chromium, gw, viewport):
     page.on("pageerror", lambda e: errors.append(str(e)))
     page.on("console", lambda m: m.type == "error" and errors.append(m.text))
     page.goto(gw.http_url + "class")
-    page.wait_for_function("document.body.dataset.connection === 'connected'")
+    page.wait_for_function("document.body?.dataset.connection === 'connected'")
     return ctx, page, errors
 
 
@@ -59,7 +59,7 @@ def test_teacher_sees_stops_and_releases_stations(fleet, ide_factory, chromium):
     ros = RosClient(gw)
     bob = None
     try:
-        page.wait_for_function("document.body.dataset.tiles === '3'")
+        page.wait_for_function("document.body?.dataset.tiles === '3'")
         assert [page.get_attribute(t, "data-ns") for t in ("article.tile:nth-child(1)", "article.tile:nth-child(2)",
                                                              "article.tile:nth-child(3)")] == ["/s01", "/s02", "/s03"]
         # every tile draws its station's world
@@ -158,7 +158,7 @@ def test_without_the_lease_stop_publishes_zero(start_gateway, chromium):
     ctx, page, errors = open_class(chromium, gw, PHONE)
     ros = RosClient(gw)
     try:
-        page.wait_for_function("document.body.dataset.tiles === '2'")     # from the fleet's parameter
+        page.wait_for_function("document.body?.dataset.tiles === '2'")     # from the fleet's parameter
         assert "--exclusive-control" in page.inner_text("#count")
         cmd = ros.watch("/s02/turtle1/cmd_vel", TWIST)
         wait_for(lambda: ros.call("/rosapi/subscribers", "rosapi/srv/Subscribers",

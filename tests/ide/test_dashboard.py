@@ -32,7 +32,7 @@ def test_gauges_history_and_limits(chromium, rover):
     page.on("pageerror", lambda e: errors.append(str(e)))
     try:
         page.goto(gw.http_url + "teleop")
-        page.wait_for_function("document.body.dataset.connection === 'connected'")
+        page.wait_for_function("document.body?.dataset.connection === 'connected'")
 
         # the slider's range is the rover's limit; ▲ at full slider sends exactly that
         page.wait_for_function("document.querySelector('#maxspeed').max === '0.8'")
@@ -79,7 +79,7 @@ def test_gauges_history_and_limits(chromium, rover):
         kept = page.evaluate("teleop.history.rows.t.length")
         page.evaluate("teleop.history.save()")
         page.reload()
-        page.wait_for_function("document.body.dataset.connection === 'connected'")
+        page.wait_for_function("document.body?.dataset.connection === 'connected'")
         assert page.evaluate("teleop.history.rows.t.length") >= kept
         assert page.evaluate("teleop.history.rows.speed.some((v) => v > 0.3)")
         page.set_viewport_size(PHONE)

@@ -23,7 +23,7 @@ def open_teleop(chromium, gw, viewport, query=""):
     errors = []
     page.on("pageerror", lambda e: errors.append(str(e)))
     page.goto(gw.http_url + "teleop" + query)
-    page.wait_for_function("document.body.dataset.ready === 'true' && document.body.dataset.connection === 'connected'")
+    page.wait_for_function("document.body?.dataset.ready === 'true' && document.body.dataset.connection === 'connected'")
     return ctx, page, errors
 
 
@@ -45,7 +45,7 @@ def test_fresh_teleop_claims_a_free_station_and_spares_a_held_one(fleet, chromiu
         ctx, page, errors = open_teleop(chromium, gw, TABLET)
         contexts.append(ctx)
         page.wait_for_function("new URLSearchParams(location.search).get('ns') === '/s02'", timeout=15000)
-        page.wait_for_function("document.body.dataset.connection === 'connected' && document.querySelector('#topic').value === '/s02/cmd_vel'")
+        page.wait_for_function("document.body?.dataset.connection === 'connected' && document.querySelector('#topic').value === '/s02/cmd_vel'")
         assert page.input_value("#ns") == "/s02"
         assert page.input_value("#battery-topic") == "/s02/battery_state"
         assert page.input_value("#camera-topic") == "/s02/camera/image_raw/compressed"

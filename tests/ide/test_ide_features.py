@@ -175,7 +175,7 @@ def test_save_reload_and_share_link(turtle_gateway, ide_factory):
     ide.page.wait_for_function(f"(rosgateIde.saved || 0) > {saved}")
     before = ide.workspace()
     ide.page.reload()
-    ide.page.wait_for_function("document.body.dataset.ready === 'true'")
+    ide.page.wait_for_function("document.body?.dataset.ready === 'true'")
     assert ide.workspace() == before
     assert ide.page.input_value("#name") == "spiral with the pen"
 

@@ -58,7 +58,7 @@ def test_who_is_driving(start_gateway, ide_factory, chromium):
         ctx = chromium.new_context(viewport={"width": 1024, "height": 768})
         teleop = ctx.new_page()
         teleop.goto(gw.http_url + "teleop")
-        teleop.wait_for_function("document.body.dataset.connection === 'connected'")
+        teleop.wait_for_function("document.body?.dataset.connection === 'connected'")
         text_is(teleop, "#driver-name", "Bob")
         teleop.wait_for_function("document.querySelector('#topic').value === '/turtle1/cmd_vel'")
         teleop.keyboard.down("ArrowUp")

@@ -113,7 +113,7 @@ def test_a_program_saved_from_the_library_dialog_runs_on_the_robot_by_name(runs_
 
 def test_button_hidden_without_allow_runs(turtle_gateway, ide_factory):
     ide = ide_factory(turtle_gateway)
-    ide.page.wait_for_function("document.body.dataset.robotRuns === 'off'", timeout=10000)
+    ide.page.wait_for_function("document.body?.dataset.robotRuns === 'off'", timeout=10000)
     assert ide.page.is_hidden("#run-robot")
 
 
@@ -132,7 +132,7 @@ def test_record_button_shows_time_and_size_and_lists_the_download(runs_gateway, 
     label = tab.inner_text("#rec")
     assert label.startswith("■ 0:0") and "·" in label, label
     tab.click("#rec")
-    tab.wait_for_function("document.body.dataset.recording === 'off'", timeout=10000)
+    tab.wait_for_function("document.body?.dataset.recording === 'off'", timeout=10000)
     tab.click("#recordings")
     link = tab.wait_for_selector("#rec-list a[download]", timeout=10000)
     with urllib.request.urlopen(link.evaluate("a => a.href"), timeout=10) as res:

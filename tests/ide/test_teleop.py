@@ -26,8 +26,8 @@ def open_teleop(chromium, gw, **ctx_args):
     errors = []
     page.on("pageerror", lambda e: errors.append(str(e)))
     page.goto(gw.http_url + "teleop")
-    page.wait_for_function("document.body.dataset.ready === 'true'")
-    page.wait_for_function("document.body.dataset.connection === 'connected'")
+    page.wait_for_function("document.body?.dataset.ready === 'true'")
+    page.wait_for_function("document.body?.dataset.connection === 'connected'")
     return ctx, page, errors
 
 

@@ -84,16 +84,16 @@ def test_ide_and_teleop_work_in_chromium(installed):
             page.on('response', lambda r: r.status >= 400 and failed.append(f'{r.status} {r.url}'))
             page.on('pageerror', lambda e: errors.append(str(e)))
             page.goto(installed.http_url)
-            page.wait_for_function("document.body.dataset.ready === 'true'", timeout=30000)
-            page.wait_for_function("document.body.dataset.connection === 'connected'", timeout=15000)
+            page.wait_for_function("document.body?.dataset.ready === 'true'", timeout=30000)
+            page.wait_for_function("document.body?.dataset.connection === 'connected'", timeout=15000)
             blocks = page.evaluate('rosgateIde.workspace.getToolbox().getToolboxItems().length')
             assert blocks > 3   # Blockly injected with the toolbox's categories
             assert page.evaluate("typeof Blockly.Blocks['controls_repeat_ext']") == 'object'
             examples = page.evaluate("fetch('examples/index.json').then(r => r.json())")
             assert examples, 'the examples index is served'
             page.goto(installed.http_url + 'teleop')
-            page.wait_for_function("document.body.dataset.ready === 'true'", timeout=30000)
-            page.wait_for_function("document.body.dataset.connection === 'connected'", timeout=15000)
+            page.wait_for_function("document.body?.dataset.ready === 'true'", timeout=30000)
+            page.wait_for_function("document.body?.dataset.connection === 'connected'", timeout=15000)
             assert not failed, failed
             assert not errors, errors
         finally:
