@@ -27,6 +27,8 @@ import tempfile
 
 import tornado.web
 
+from .api import JsonHandler
+
 MAX_PROGRAM_BYTES = 2 * 1024 * 1024
 _NAME = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9 _-]{0,63}")
 _OWNER = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9_.@-]{0,63}")
@@ -58,7 +60,7 @@ def stored_program(programs_dir: pathlib.Path, name: str, owner: str | None) -> 
     return program
 
 
-class _Base(tornado.web.RequestHandler):
+class _Base(JsonHandler):
     identity = None      # who asks (security.http sets it when auth is on); None: an admin
 
     def initialize(self, programs_dir: pathlib.Path) -> None:
@@ -83,17 +85,6 @@ class _Base(tornado.web.RequestHandler):
     def _may_write(self) -> None:
         if self.identity is not None and self.identity.role == "viewer":
             raise tornado.web.HTTPError(403, "role viewer may not save or delete programs")
-
-    def set_default_headers(self) -> None:
-        self.set_header("Content-Type", "application/json; charset=utf-8")
-        self.set_header("Cache-Control", "no-store")
-
-    def write_error(self, status_code: int, **kwargs) -> None:
-        reason = self._reason
-        exc = kwargs.get("exc_info")
-        if exc and isinstance(exc[1], tornado.web.HTTPError) and exc[1].log_message:
-            reason = exc[1].log_message
-        self.finish(json.dumps({"error": reason, "status": status_code}))
 
     def _path(self, name: str) -> pathlib.Path:
         if not _NAME.fullmatch(name):

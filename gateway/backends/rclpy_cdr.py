@@ -63,14 +63,21 @@ def reader(plan: Callable, cls) -> Callable[[bytes], dict] | None:
     return decode
 
 
-def _reader(plan, cls):
+def _ops(plan, cls, op_for) -> tuple | None:
+    """``(name, op)`` per field of cls, or None when a field has no compiled op."""
     ops = []
     for name, f, sub in plan(cls):
-        op = _read_op(plan, f, sub)
+        op = op_for(plan, f, sub)
         if op is None:
             return None
         ops.append((name, op))
-    ops = tuple(ops)
+    return tuple(ops)
+
+
+def _reader(plan, cls):
+    ops = _ops(plan, cls, _read_op)
+    if ops is None:
+        return None
 
     def read(data: bytes, pos: int) -> tuple[dict, int]:
         out = {}
@@ -187,15 +194,9 @@ def _fixed_size(plan, cls) -> bool:
 
 
 def _writer(plan, cls):
-    ops = []
-    for name, f, sub in plan(cls):
-        op = _write_op(plan, f, sub)
-        if op is None:
-            return None
-        ops.append((name, op))
+    ops = _ops(plan, cls, _write_op)
     if not ops:
-        return None     # an empty message is one placeholder byte on the wire
-    ops = tuple(ops)
+        return None     # not compiled, or an empty message: one placeholder byte on the wire
 
     def write(msg, parts: list, pos: int) -> int:
         if type(msg) is not dict or len(msg) < len(ops):
