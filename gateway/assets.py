@@ -3,10 +3,13 @@
 An installed wheel (or a colcon install) carries them as package data in ``gateway/_assets/``
 (copied there by setup.py at build time); a checkout, and an editable install of it, serves the
 checkout's own ``ide/`` and ``examples/``, so a developer's edits show on reload.
+
+What the gateway stores (programs, runs, recordings) goes under the user's XDG data directory.
 """
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parent
@@ -43,3 +46,9 @@ def ide_problem(ide: Path) -> str | None:
         return f'no IDE pages in {ide}'
     return (f'the IDE in {ide} is not built (missing {", ".join(missing)}): '
             'run `make ide` (npm ci && npm run build in ide/)')
+
+
+def data_dir(name: str) -> Path:
+    """``$XDG_DATA_HOME/rosgate/NAME`` (``~/.local/share/rosgate/NAME`` when unset)."""
+    base = os.environ.get('XDG_DATA_HOME') or os.path.join(os.path.expanduser('~'), '.local', 'share')
+    return Path(base) / 'rosgate' / name

@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import asyncio
 import logging
-import os
 import signal
 import ssl
 import sys
@@ -15,14 +14,14 @@ from pathlib import Path
 import tornado.httpserver
 import tornado.netutil
 
+from .assets import data_dir
 from .settings import Settings
 
 log = logging.getLogger('rosgate')
 
 
 def default_programs_dir() -> Path:
-    base = os.environ.get('XDG_DATA_HOME') or Path.home() / '.local' / 'share'
-    return Path(base) / 'rosgate' / 'programs'
+    return data_dir('programs')
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -28,6 +28,7 @@ import tempfile
 import tornado.web
 
 from .api import JsonHandler
+from .assets import data_dir
 
 MAX_PROGRAM_BYTES = 2 * 1024 * 1024
 _NAME = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9 _-]{0,63}")
@@ -183,5 +184,4 @@ def program_routes(programs_dir: pathlib.Path) -> list:
 
 def default_programs_dir() -> pathlib.Path:
     """Where programs live when no --programs-dir is given (XDG data dir)."""
-    base = os.environ.get("XDG_DATA_HOME") or os.path.join(os.path.expanduser("~"), ".local", "share")
-    return pathlib.Path(base) / "rosgate" / "programs"
+    return data_dir("programs")

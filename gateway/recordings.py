@@ -20,7 +20,6 @@ from __future__ import annotations
 import asyncio
 import itertools
 import logging
-import os
 import re
 import secrets
 import shutil
@@ -33,6 +32,7 @@ import cbor2
 import tornado.web
 
 from .api import JsonHandler, body_json, caller
+from .assets import data_dir
 
 log = logging.getLogger('rosgate.recordings')
 _ID = re.compile(r'rec-\d{8}-\d{6}-[0-9a-f]{4}')
@@ -385,5 +385,4 @@ def _start_up(manager: RecordingManager, globs: tuple[str, ...]) -> None:
 
 
 def default_recordings_dir() -> Path:
-    base = os.environ.get('XDG_DATA_HOME') or os.path.join(os.path.expanduser('~'), '.local', 'share')
-    return Path(base) / 'rosgate' / 'recordings'
+    return data_dir('recordings')

@@ -37,6 +37,7 @@ import tornado.web
 from protocol.errors import ProtocolError
 
 from .api import JsonHandler, body_json, caller
+from .assets import data_dir
 from .backends.base import QoS
 from .safety import Safety, _moving
 
@@ -257,8 +258,11 @@ class RunManager:
         self._signal(run, signal.SIGINT)
         run.timers.append(asyncio.get_running_loop().call_later(KILL_AFTER, self._signal, run, signal.SIGKILL))
 
+    def _safety(self) -> Safety | None:
+        return next((h for h in self.gateway.hooks if isinstance(h, Safety)), None)
+
     def halt(self, run: Run) -> int:
-        safety = next((h for h in self.gateway.hooks if isinstance(h, Safety)), None)
+        safety = self._safety()
         if safety is None:
             return 0
         return sum(safety.stop_session(s) for s in run.sessions)
@@ -349,7 +353,7 @@ class RunManager:
         return msg
 
     def _is_velocity(self, type: str) -> bool:
-        safety = next((h for h in self.gateway.hooks if isinstance(h, Safety)), None)
+        safety = self._safety()
         return type in safety.types if safety is not None else type.startswith('geometry_msgs/msg/Twist')
 
     def on_close(self, session) -> None:
@@ -482,5 +486,4 @@ def run_routes(gateway) -> list:
 
 
 def default_runs_dir() -> Path:
-    base = os.environ.get('XDG_DATA_HOME') or os.path.join(os.path.expanduser('~'), '.local', 'share')
-    return Path(base) / 'rosgate' / 'runs'
+    return data_dir('runs')

@@ -16,7 +16,7 @@ from protocol.ops import (
 
 from .. import blame
 from ..backends.base import (
-    STATUS_ABORTED, STATUS_CANCELED, STATUS_SUCCEEDED, STATUS_UNKNOWN, ActionServerCallbacks, BackendError,
+    STATUS_ABORTED, STATUS_CANCELED, STATUS_SUCCEEDED, STATUS_UNKNOWN, ActionServerCallbacks,
 )
 from .topics import absolute
 

@@ -54,7 +54,7 @@ class LoginHandler(tornado.web.RequestHandler):
         try:
             identity = auth.token(self.request.remote_ip or '?', self.get_argument('token', ''))
         except AuthError as e:
-            self._page(str(e), 429 if str(e).startswith('too many') else 401)
+            self._page(str(e), e.status)
             return
         self.set_cookie(COOKIE, self.get_argument('token'), httponly=True, secure=self.secure_cookie,
                         samesite='Strict', expires_days=30)
@@ -109,7 +109,7 @@ def require(handler: tornado.web.RequestHandler, policy, permission: str):
     try:
         identity = auth.token(handler.request.remote_ip or '?', token)
     except AuthError as e:
-        raise tornado.web.HTTPError(429 if str(e).startswith('too many') else 401, str(e)) from None
+        raise tornado.web.HTTPError(e.status, str(e)) from None
     if permission not in PERMISSIONS[identity.role]:
         raise tornado.web.HTTPError(403, f'role {identity.role} may not use this; it needs admin')
     return identity

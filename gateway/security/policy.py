@@ -165,7 +165,7 @@ class SecurePolicy(Policy):
         try:
             self.auth.token(request.remote_ip or '?', token)
         except AuthError as e:
-            return (429 if str(e).startswith('too many') else 401), str(e)
+            return e.status, str(e)
         return None
 
     def connect_attrs(self, request) -> dict:

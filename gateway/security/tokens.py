@@ -34,7 +34,13 @@ class Identity:
 
 
 class AuthError(Exception):
-    """A refused attempt; the message is safe to show the client."""
+    """A refused attempt; the message is safe to show the client. ``status``: its HTTP status."""
+    status = 401
+
+
+class TooManyAttempts(AuthError):
+    """The brake holds: too many failed attempts from one address."""
+    status = 429
 
 
 def _digest(token: str) -> bytes:
@@ -185,7 +191,7 @@ class Authenticator:
     def _attempt(self, remote: str, check: Callable[[], Identity | None], what: str) -> Identity:
         wait = self.brake.retry_after(remote)
         if wait > 0:
-            raise AuthError(f'too many failed attempts from {remote}; retry in {wait:.1f} s')
+            raise TooManyAttempts(f'too many failed attempts from {remote}; retry in {wait:.1f} s')
         identity = check()
         if identity is None:
             self.brake.failed(remote)
