@@ -91,7 +91,8 @@ class Outbox:
         self.queued_bytes += entry.size
         self.reply_count += 1
         self.reply_bytes += entry.size
-        self.peak_bytes = max(self.peak_bytes, self.queued_bytes)
+        if self.queued_bytes > self.peak_bytes:
+            self.peak_bytes = self.queued_bytes
         self._wakeup.set()
 
     def message(self, frame: bytes, binary: bool, key: object, queue_length: int) -> bool:
@@ -116,7 +117,8 @@ class Outbox:
                 self.dropped += 1
         self._queue.append(entry)
         self.queued_bytes += entry.size
-        self.peak_bytes = max(self.peak_bytes, self.queued_bytes)
+        if self.queued_bytes > self.peak_bytes:
+            self.peak_bytes = self.queued_bytes
         self._wakeup.set()
         return True
 

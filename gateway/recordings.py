@@ -12,7 +12,8 @@ Each recording is a rosbag2 directory (metadata.yaml and ID.mcap) written by ros
 CDR messages with their definitions, which ``ros2 bag``, Foxglove and the rosbags/mcap readers
 open. The recorder is one more subscriber of each topic's shared fan-out, asking for cbor-raw
 (the CDR bytes the backend makes once for every cbor-raw client), so it adds no backend
-subscription and no per-message work beyond appending bytes to the writer.
+subscription; per message it reads those bytes back out of the cbor-raw frame and appends them
+to the writer.
 """
 
 from __future__ import annotations
