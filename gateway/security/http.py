@@ -7,6 +7,7 @@ import html
 
 import tornado.web
 
+from ..api import JsonHandler
 from .policy import COOKIE, PERMISSIONS, token_from_request
 from .tokens import AuthError
 
@@ -70,7 +71,7 @@ class LogoutHandler(tornado.web.RequestHandler):
     post = get
 
 
-class WhoAmIHandler(tornado.web.RequestHandler):
+class WhoAmIHandler(JsonHandler):
     """{"auth": bool, "name", "role"} for the token this browser holds (the IDE hides what the
     role may not use); 401 when auth is on and no valid token came with the request."""
 
@@ -78,17 +79,11 @@ class WhoAmIHandler(tornado.web.RequestHandler):
         self.policy = policy
 
     def get(self) -> None:
-        self.set_header('Cache-Control', 'no-store')
         if self.policy.auth is None:
             self.finish({'auth': False, 'name': None, 'role': 'admin'})
             return
         identity = require(self, self.policy, 'read')
         self.finish({'auth': True, 'name': identity.name, 'role': identity.role})
-
-    def write_error(self, status_code: int, **kwargs) -> None:
-        exc = kwargs.get('exc_info')
-        reason = exc[1].log_message if exc and isinstance(exc[1], tornado.web.HTTPError) else self._reason
-        self.finish({'error': reason, 'status': status_code})
 
 
 def login_routes(policy, *, secure_cookie: bool) -> list:
