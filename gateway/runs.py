@@ -176,9 +176,7 @@ class RunManager:
         """With --exclusive-control a run takes its namespace's driver lease: refuse at once a run
         that could not (someone else holds it and the starter may not take over)."""
         lease = getattr(self.gateway.policy, 'lease', None)
-        if lease is None or lease.takeover_role is None or role == lease.takeover_role:
-            return
-        holder = lease.holders.get(lease.group_of_namespace(ns))
+        holder = lease.holder_against(role, ns) if lease is not None else None
         if holder is None:
             return
         from .security.lease import who

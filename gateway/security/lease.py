@@ -146,7 +146,15 @@ class Lease:
         return msg
 
     def _may_override(self, session) -> bool:
-        return self.takeover_role is None or session.attrs.get('role') == self.takeover_role
+        return self.may_take_over(session.attrs.get('role'))
+
+    def may_take_over(self, role: str | None) -> bool:
+        return self.takeover_role is None or role == self.takeover_role
+
+    def holder_against(self, role: str | None, ns: str):
+        """Who holds the lease of namespace ``ns`` such that a client of ``role`` could not take
+        it (None: it is free, or ``role`` may take it over)."""
+        return None if self.may_take_over(role) else self.holders.get(self.group_of_namespace(ns))
 
     def _command(self, session, words: list[str]) -> None:
         verb = words[0].lower() if words else ''
