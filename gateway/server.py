@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import asyncio
 import logging
 import time
 
@@ -115,13 +114,8 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
         """A text message that is not UTF-8 fails the connection (RFC 6455: close 1007). The
         client is told why first; tornado reads no further frame while this runs."""
         self.failed = True
-        session = self.session
-        session.status('error', f'text frame is not valid UTF-8 ({problem}); closing the connection (1007)')
-        loop = asyncio.get_running_loop()
-        deadline = loop.time() + FLUSH_BEFORE_CLOSE
-        while session.outbox.queued_bytes and not session.closed and loop.time() < deadline:
-            await asyncio.sleep(0.01)   # the outbox's pump is writing what came before
-        self.close(1007, 'text frame is not valid UTF-8')
+        self.session.status('error', f'text frame is not valid UTF-8 ({problem}); closing the connection (1007)')
+        await self.session.hang_up(1007, 'text frame is not valid UTF-8', FLUSH_BEFORE_CLOSE)
 
     def on_close(self) -> None:
         if self.session is not None:

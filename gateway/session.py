@@ -137,6 +137,15 @@ class ClientSession:
         self.closing = True
         self._close_connection(code, reason)
 
+    async def hang_up(self, code: int, reason: str, flush: float = 1.0) -> None:
+        """Close after what is queued for the client went out (at most ``flush`` s)."""
+        loop = asyncio.get_running_loop()
+        deadline = loop.time() + flush
+        while self.outbox.queued_bytes and not self.closed and loop.time() < deadline:
+            await asyncio.sleep(0.01)   # the outbox's pump is writing what came before
+        if not self.closed:
+            self.close_connection(code, reason)
+
     # --- teardown ----------------------------------------------------------------------------
 
     def close(self) -> None:

@@ -103,7 +103,7 @@ class SecurePolicy(Policy):
         threshold = max(100, int(rate))
         if refused > threshold:
             if refused == threshold + 1:
-                asyncio.ensure_future(_hang_up(session, 1008, 'op rate limit exceeded'))
+                asyncio.ensure_future(session.hang_up(1008, 'op rate limit exceeded'))
             return False
         refuse(session, op, f'op rate limit of {rate:g} per second exceeded; slow down')
 
@@ -184,15 +184,5 @@ class SecurePolicy(Policy):
             else:
                 attrs.update(role=identity.role, name=identity.name)
         return attrs
-
-
-async def _hang_up(session, code: int, reason: str, flush: float = 1.0) -> None:
-    """Close after what is queued for the client went out (at most ``flush`` s)."""
-    loop = asyncio.get_running_loop()
-    deadline = loop.time() + flush
-    while session.outbox.queued_bytes and not session.closed and loop.time() < deadline:
-        await asyncio.sleep(0.01)
-    if not session.closed:
-        session.close_connection(code, reason)
 
 
