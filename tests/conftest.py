@@ -10,6 +10,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
@@ -104,10 +105,19 @@ def wait_for(predicate, timeout: float = 5.0, interval: float = 0.01):
         time.sleep(interval)
 
 
+@contextmanager
+def client(gw):
+    """A roslibpy connection to a gateway, closed on leaving."""
+    import roslibpy
+    ros = roslibpy.Ros(gw.host, gw.port)
+    ros.run(timeout=10)
+    try:
+        yield ros
+    finally:
+        ros.close()
+
+
 @pytest.fixture
 def ros(gateway):
-    import roslibpy
-    client = roslibpy.Ros(gateway.host, gateway.port)
-    client.run(timeout=10)
-    yield client
-    client.close()
+    with client(gateway) as ros:
+        yield ros

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 import roslibpy
 
-from tests.conftest import wait_for
+from tests.conftest import client as connect, wait_for
 from tests.gateway.test_runs import api
 
 POSE = 'turtlesim/msg/Pose'
@@ -27,10 +27,8 @@ def rec_gw(start_gateway, tmp_path_factory):
 
 @pytest.fixture
 def client(rec_gw):
-    ros = roslibpy.Ros(rec_gw.host, rec_gw.port)
-    ros.run(timeout=10)
-    yield ros
-    ros.close()
+    with connect(rec_gw) as ros:
+        yield ros
 
 
 def record(gw, topics, seconds) -> dict:

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 import roslibpy
 
-from tests.conftest import wait_for
+from tests.conftest import client as connect, wait_for
 from tests.security.conftest import TOKENS, tokens_toml
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -60,10 +60,8 @@ def runs_gw(start_gateway, tmp_path_factory):
 
 @pytest.fixture
 def client(runs_gw):
-    ros = roslibpy.Ros(runs_gw.host, runs_gw.port)
-    ros.run(timeout=10)
-    yield ros
-    ros.close()
+    with connect(runs_gw) as ros:
+        yield ros
 
 
 def follow(ros, topic: str, type: str = 'std_msgs/msg/String') -> queue.Queue:

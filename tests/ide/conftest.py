@@ -8,6 +8,7 @@ import os
 import shutil
 import threading
 import time
+import types
 from pathlib import Path
 
 import pytest
@@ -194,3 +195,34 @@ def rover_ros(rover_gateway):
     client = RosClient(rover_gateway)
     yield client
     client.close()
+
+
+@pytest.fixture
+def rover():
+    """A fresh rover gateway of its own (the test may change the rover's state) and a client for it."""
+    from tests.conftest import GatewayProcess
+    gw = GatewayProcess("--robot", "rover")
+    client = RosClient(gw)
+    yield gw, client
+    client.close()
+    gw.stop()
+
+
+@pytest.fixture(scope="module")
+def py_runtime():
+    """The Python runtime that generated programs carry, loaded as a module."""
+    module = types.ModuleType("rosgate_runtime")
+    exec(compile((ROOT / "ide/runtime/rosgate_runtime.py").read_text(), "rosgate_runtime.py", "exec"),
+         module.__dict__)
+    return module
+
+
+@pytest.fixture(scope="module")
+def util_page(chromium, start_gateway):
+    """A page on the gateway's origin that can import /runtime/util.js (no IDE start-up needed)."""
+    gw = start_gateway()
+    ctx = chromium.new_context()
+    page = ctx.new_page()
+    page.goto(gw.http_url + "runtime/util.js")
+    yield page
+    ctx.close()

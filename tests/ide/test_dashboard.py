@@ -8,19 +8,9 @@ import time
 
 import pytest
 
-from .conftest import ARTIFACTS, RosClient, wait_for
+from .conftest import ARTIFACTS, wait_for
 
 TABLET, PHONE = {"width": 1180, "height": 820}, {"width": 390, "height": 844}
-
-
-@pytest.fixture
-def rover():
-    from tests.conftest import GatewayProcess
-    gw = GatewayProcess("--robot", "rover")
-    client = RosClient(gw)
-    yield gw, client
-    client.close()
-    gw.stop()
 
 
 def test_gauges_history_and_limits(chromium, rover):

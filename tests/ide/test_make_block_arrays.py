@@ -7,30 +7,11 @@ from __future__ import annotations
 import math
 import subprocess
 import sys
-import types
 
 import pytest
 
-from .conftest import ARTIFACTS, ROOT, IdePage, wait_for
+from .conftest import ARTIFACTS, wait_for
 from .test_ide_features import ex, program
-
-
-@pytest.fixture(scope="module")
-def py_runtime():
-    module = types.ModuleType("rosgate_runtime")
-    exec(compile((ROOT / "ide/runtime/rosgate_runtime.py").read_text(), "rosgate_runtime.py", "exec"),
-         module.__dict__)
-    return module
-
-
-@pytest.fixture(scope="module")
-def util_page(chromium, start_gateway):
-    gw = start_gateway()
-    ctx = chromium.new_context()
-    ide = IdePage(ctx.new_page(), gw)
-    ide.page.goto(gw.http_url + "runtime/util.js")
-    yield ide.page
-    ctx.close()
 
 
 def js_pick(page, msg, selector, index=0):

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import json
 import time
-import urllib.error
 import urllib.request
 from pathlib import Path
 
 import pytest
+
+from tests.gateway.test_runs import api, ended
 
 from .conftest import RosClient, wait_for
 from .test_ide_features import drive, ex, moving, program
@@ -30,21 +31,6 @@ def runs_ros(runs_gateway):
     client = RosClient(runs_gateway)
     yield client
     client.close()
-
-
-def post_json(gateway, path: str, body: dict) -> tuple[int, dict]:
-    req = urllib.request.Request(gateway.http_url + path, method="POST", data=json.dumps(body).encode(),
-                                 headers={"Content-Type": "application/json"})
-    try:
-        with urllib.request.urlopen(req, timeout=10) as res:
-            return res.status, json.loads(res.read())
-    except urllib.error.HTTPError as e:
-        return e.code, json.loads(e.read() or b"null")
-
-
-def get_json(gateway, path: str) -> dict:
-    with urllib.request.urlopen(gateway.http_url + path, timeout=10) as res:
-        return json.loads(res.read())
 
 
 def console_has(ide, text: str) -> bool:
@@ -100,11 +86,10 @@ def test_a_program_saved_from_the_library_dialog_runs_on_the_robot_by_name(runs_
     stored = json.loads((Path(runs_gateway.programs_dir) / "square by name.json").read_text())
     assert stored["python"] == ide.python() and stored["workspace"] == ide.workspace()
 
-    status, run = post_json(runs_gateway, "api/runs", {"program": "square by name"})
+    status, run = api(runs_gateway, "POST", "/api/runs", {"program": "square by name"})
     assert status == 201, run
     assert run["name"] == "square by name"
-    final = wait_for(lambda: (lambda s: s if s["state"] not in ("starting", "running") else None)(
-        get_json(runs_gateway, f"api/runs/{run['id']}")), 60, what="the run by name to end")
+    final = ended(runs_gateway, run["id"])
     assert final["state"] == "finished", final
     assert "saved in the library" in final["output"]
     assert moving(cmd)

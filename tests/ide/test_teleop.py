@@ -7,17 +7,7 @@ import time
 
 import pytest
 
-from .conftest import ARTIFACTS, RosClient, wait_for
-
-
-@pytest.fixture
-def rover():
-    from tests.conftest import GatewayProcess
-    gw = GatewayProcess("--robot", "rover")
-    client = RosClient(gw)
-    yield gw, client
-    client.close()
-    gw.stop()
+from .conftest import ARTIFACTS, wait_for
 
 
 def open_teleop(chromium, gw, **ctx_args):

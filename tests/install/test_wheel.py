@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 
+from tests.conftest import client
 from tests.ide.conftest import CHROMIUM, CHROMIUM_ARGS
 
 from .conftest import Started, copy_source, run
@@ -102,13 +103,9 @@ def test_ide_and_teleop_work_in_chromium(installed):
 
 def test_roslibpy_round_trip(installed):
     import roslibpy
-    ros = roslibpy.Ros(installed.host, installed.port)
-    ros.run(timeout=10)
-    try:
+    with client(installed) as ros:
         srv = roslibpy.Service(ros, '/add_two_ints', 'example_interfaces/srv/AddTwoInts')
         assert srv.call(roslibpy.ServiceRequest({'a': 20, 'b': 22}), timeout=10)['sum'] == 42
-    finally:
-        ros.close()
 
 
 def test_startup_line_says_when_the_ide_is_missing(user_venv, installed, tmp_path):

@@ -5,12 +5,11 @@ from __future__ import annotations
 import json
 import threading
 import time
-from contextlib import contextmanager
 
 import pytest
 import roslibpy
 
-from tests.conftest import wait_for
+from tests.conftest import client, wait_for  # noqa: F401 (client: used by the sim tests)
 
 # A small rover world: a box whose near face is 1.5 m ahead of the start.
 WALL_WORLD = {
@@ -41,16 +40,6 @@ def fleet_gw(start_gateway):
                        '--twist-stamped', '--sim-speed', '2')
     yield gw
     gw.stop()
-
-
-@contextmanager
-def client(gw):
-    ros = roslibpy.Ros(gw.host, gw.port)
-    ros.run(timeout=10)
-    try:
-        yield ros
-    finally:
-        ros.close()
 
 
 class Inbox:
