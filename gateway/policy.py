@@ -68,7 +68,7 @@ def is_ip(name: str) -> bool:
 class Policy:
     def __init__(self, settings):
         self.allowed_origins = parse_globs(settings.allowed_origins)
-        self.allowed_hosts = parse_globs(getattr(settings, 'allowed_hosts', None))
+        self.allowed_hosts = parse_globs(settings.allowed_hosts)
         self.own_names = own_names()
         self.globs = {
             kind: parse_globs(getattr(settings, f'{kind}_glob'))

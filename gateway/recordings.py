@@ -362,12 +362,12 @@ class PlayHandler(_Handler):
 def recording_routes(gateway) -> list:
     """The /api/recordings routes; with --record, the start-up recording begins here."""
     settings = gateway.settings
-    record = getattr(settings, 'record', None)
+    record = settings.record
     manager = RecordingManager(gateway, Path(record) if record else default_recordings_dir())
     gateway.hooks.append(manager)
     if record:
         from .policy import parse_globs
-        globs = parse_globs(getattr(settings, 'record_topics', None)) or ('/*',)
+        globs = parse_globs(settings.record_topics) or ('/*',)
         asyncio.get_running_loop().call_soon(_start_up, manager, globs)
     kw = {'manager': manager}
     return [(r'/api/recordings/?', RecordingListHandler, kw),

@@ -473,9 +473,7 @@ class RunHandler(JsonHandler):
 def run_routes(gateway) -> list:
     """The /api/runs routes; their manager joins the gateway's hooks."""
     settings = gateway.settings
-    allowed = bool(getattr(settings, 'allow_runs', False))
-    runs_dir = getattr(settings, 'runs_dir', None) or default_runs_dir()
-    manager = RunManager(gateway, allowed=allowed, runs_dir=Path(runs_dir))
+    manager = RunManager(gateway, allowed=settings.allow_runs, runs_dir=Path(settings.runs_dir or default_runs_dir()))
     gateway.hooks.append(manager)
     gateway.publish_hooks.insert(0, manager.publish_hook)
     kw = {'manager': manager}
