@@ -132,6 +132,15 @@ class IdePage:
         self.js("(p) => rosgateIde.loadProgram(p)", program)
         return program
 
+    def make_block(self, kind: str, rosname: str, label: str, block_type: str):
+        """"Make a block" through its dialog; returns once Blockly knows the new block type."""
+        self.js("rosgateIde.makeBlock.open()")
+        self.page.select_option("#dlg-make [name=kind]", kind)
+        self.page.fill("#dlg-make [name=rosname]", rosname)
+        self.page.fill("#dlg-make [name=label]", label)
+        self.page.click("#dlg-make [data-act=create]")
+        self.page.wait_for_function("(t) => !!Blockly.Blocks[t]", arg=block_type)
+
     def workspace(self) -> dict:
         return self.js("Blockly.serialization.workspaces.save(rosgateIde.workspace)")
 

@@ -232,12 +232,7 @@ def test_program_library_and_files(turtle_gateway, ide_factory):
 
 def test_make_a_block_from_a_live_service(turtle_gateway, ide_factory):
     ide = ide_factory(turtle_gateway)
-    ide.js("rosgateIde.makeBlock.open()")
-    ide.page.select_option("#dlg-make [name=kind]", "service")
-    ide.page.fill("#dlg-make [name=rosname]", "/add_two_ints")
-    ide.page.fill("#dlg-make [name=label]", "add")
-    ide.page.click("#dlg-make [data-act=create]")
-    ide.page.wait_for_function("!!Blockly.Blocks['my_service_add_two_ints']")
+    ide.make_block("service", "/add_two_ints", "add", "my_service_add_two_ints")
     ide.js("(p) => rosgateIde.loadProgram(p)", {
         **program(ex.log(ex.block("my_service_add_two_ints", inputs={"F0": ex.num(2), "F1": ex.num(40)}))),
         "blocks": ide.js("rosgateIde.custom"),

@@ -56,12 +56,7 @@ def finite(ranges):
 
 def test_make_a_block_reads_scan_ranges(rover_gateway, rover_ros, ide_factory):
     ide = ide_factory(rover_gateway)
-    ide.js("rosgateIde.makeBlock.open()")
-    ide.page.select_option("#dlg-make [name=kind]", "read")
-    ide.page.fill("#dlg-make [name=rosname]", "/scan")
-    ide.page.fill("#dlg-make [name=label]", "scan")
-    ide.page.click("#dlg-make [data-act=create]")
-    ide.page.wait_for_function("!!Blockly.Blocks['my_read_scan']")
+    ide.make_block("read", "/scan", "scan", "my_read_scan")
     options = ide.js("rosgateIde.custom.find((c) => c.json.type === 'my_read_scan').json.args0[0].options")
     values = [v for _, v in options]
     for how in ("min", "max", "mean", "item"):
