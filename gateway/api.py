@@ -1,5 +1,5 @@
-"""Shared parts of the JSON HTTP API (/api/runs, /api/recordings, /api/programs, /whoami): errors as JSON, who is asking,
-and the checks in front of every request that changes something."""
+"""Shared parts of the JSON HTTP API (/api/runs, /api/recordings, /api/programs, /whoami): errors
+as JSON, who is asking, and the checks in front of every request that changes something."""
 
 from __future__ import annotations
 
