@@ -173,7 +173,7 @@ def ide_factory(chromium):
     contexts = []
 
     def make(gateway, url: str | None = None, **context_args) -> IdePage:
-        ctx = chromium.new_context(viewport={"width": 1400, "height": 860}, **context_args)
+        ctx = chromium.new_context(**{"viewport": {"width": 1400, "height": 860}, **context_args})
         contexts.append(ctx)
         return IdePage(ctx.new_page(), gateway).open(url)
 

@@ -5,27 +5,11 @@ scrolls to the console and a run works. Screenshots go to tests/ide/artifacts/."
 
 from __future__ import annotations
 
-import pytest
-
 from .conftest import IdePage
 from .test_ide_features import ex, program
 
 TABLET = {"viewport": {"width": 1180, "height": 820}, "has_touch": True, "device_scale_factor": 1}
 PHONE = {"viewport": {"width": 390, "height": 844}, "has_touch": True, "is_mobile": True, "device_scale_factor": 1}
-
-
-@pytest.fixture
-def open_ide(chromium):
-    contexts = []
-
-    def make(gateway, device: dict, url: str | None = None) -> IdePage:
-        ctx = chromium.new_context(**device)
-        contexts.append(ctx)
-        return IdePage(ctx.new_page(), gateway).open(url)
-
-    yield make
-    for ctx in contexts:
-        ctx.close()
 
 
 FLYOUTS = """() => {
@@ -53,8 +37,8 @@ def select_category(ide: IdePage, name: str):
       tb.setSelectedItem(tb.getToolboxItems().find((i) => i.getName?.() === name)); }""", name)
 
 
-def test_tablet_flyouts_leave_room_and_show_wait_and_stop(turtle_gateway, open_ide):
-    ide = open_ide(turtle_gateway, TABLET)
+def test_tablet_flyouts_leave_room_and_show_wait_and_stop(turtle_gateway, ide_factory):
+    ide = ide_factory(turtle_gateway, **TABLET)
     flyouts = ide.js(FLYOUTS)
     assert len(flyouts) >= 10
     for name, f in flyouts.items():
@@ -68,8 +52,8 @@ def test_tablet_flyouts_leave_room_and_show_wait_and_stop(turtle_gateway, open_i
     assert not ide.errors, ide.errors
 
 
-def test_tablet_twist_publish_fits_and_code_folds(turtle_gateway, open_ide):
-    ide = open_ide(turtle_gateway, TABLET)
+def test_tablet_twist_publish_fits_and_code_folds(turtle_gateway, ide_factory):
+    ide = ide_factory(turtle_gateway, **TABLET)
     ide.js("(p) => rosgateIde.loadProgram(p)", program(ex.block(
         "ros_publish", {"TOPIC": "/turtle1/cmd_vel", "TYPE": "geometry_msgs/msg/Twist"}, id="pub")))
     # the message block of the topic's type comes from the live graph
@@ -97,8 +81,8 @@ def test_tablet_twist_publish_fits_and_code_folds(turtle_gateway, open_ide):
     assert not ide.errors, ide.errors
 
 
-def test_programs_open_zoomed_to_fit(turtle_gateway, open_ide):
-    ide = open_ide(turtle_gateway, TABLET)
+def test_programs_open_zoomed_to_fit(turtle_gateway, ide_factory):
+    ide = ide_factory(turtle_gateway, **TABLET)
     for example in ("drive_square.json", "three_turtles.json", "pid_goal.json"):
         ide.load_example(example)
         view = ide.js("""() => { const ws = rosgateIde.workspace;
@@ -115,8 +99,8 @@ def test_programs_open_zoomed_to_fit(turtle_gateway, open_ide):
     ide.screenshot("ide-tablet-1180x820")
 
 
-def test_phone_scrolls_to_the_console_and_runs(turtle_gateway, open_ide):
-    ide = open_ide(turtle_gateway, PHONE)
+def test_phone_scrolls_to_the_console_and_runs(turtle_gateway, ide_factory):
+    ide = ide_factory(turtle_gateway, **PHONE)
     ide.screenshot("ide-phone-390x844")
     sizes = ide.js("[document.scrollingElement.scrollHeight, innerHeight, innerWidth, document.scrollingElement.scrollWidth]")
     assert sizes[0] > sizes[1], "the page scrolls"
