@@ -168,6 +168,19 @@ class IdePage:
         self.page.screenshot(path=str(ARTIFACTS / f"{name}.png"))
 
 
+def open_teleop(chromium, gw, query: str = "", **ctx_args):
+    """The teleop page (with ``query``) in a new browser context, ready and connected:
+    (context, page, its page errors)."""
+    ctx = chromium.new_context(**ctx_args)
+    page = ctx.new_page()
+    errors = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    page.goto(gw.http_url + "teleop" + query)
+    page.wait_for_function("document.body?.dataset.ready === 'true'")
+    page.wait_for_function("document.body?.dataset.connection === 'connected'")
+    return ctx, page, errors
+
+
 @pytest.fixture
 def ide_factory(chromium):
     contexts = []

@@ -8,7 +8,7 @@ import time
 
 import pytest
 
-from .conftest import ARTIFACTS, wait_for
+from .conftest import ARTIFACTS, open_teleop, wait_for
 
 TABLET, PHONE = {"width": 1180, "height": 820}, {"width": 390, "height": 844}
 
@@ -16,14 +16,8 @@ TABLET, PHONE = {"width": 1180, "height": 820}, {"width": 390, "height": 844}
 def test_gauges_history_and_limits(chromium, rover):
     gw, ros = rover
     cmd = ros.watch("/cmd_vel", "geometry_msgs/msg/Twist")
-    ctx = chromium.new_context(viewport=TABLET, has_touch=True)
-    page = ctx.new_page()
-    errors = []
-    page.on("pageerror", lambda e: errors.append(str(e)))
+    ctx, page, errors = open_teleop(chromium, gw, viewport=TABLET, has_touch=True)
     try:
-        page.goto(gw.http_url + "teleop")
-        page.wait_for_function("document.body?.dataset.connection === 'connected'")
-
         # the slider's range is the rover's limit; ▲ at full slider sends exactly that
         page.wait_for_function("document.querySelector('#maxspeed').max === '0.8'")
         assert "0.8 m/s" in page.inner_text("#limits")

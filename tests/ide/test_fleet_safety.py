@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import pytest
 
-from .conftest import ARTIFACTS, RosClient, wait_for
+from .conftest import ARTIFACTS, RosClient, open_teleop, wait_for
 
 TWIST = "geometry_msgs/msg/Twist"
 TABLET, PHONE = {"width": 1180, "height": 820}, {"width": 390, "height": 844}
@@ -15,16 +15,6 @@ TABLET, PHONE = {"width": 1180, "height": 820}, {"width": 390, "height": 844}
 @pytest.fixture(scope="module")
 def fleet(start_gateway):
     return start_gateway("--robot", "rover", "--fleet", "3", "--exclusive-control", "--cmd-timeout", "0")
-
-
-def open_teleop(chromium, gw, viewport, query=""):
-    ctx = chromium.new_context(viewport=viewport, has_touch=True)
-    page = ctx.new_page()
-    errors = []
-    page.on("pageerror", lambda e: errors.append(str(e)))
-    page.goto(gw.http_url + "teleop" + query)
-    page.wait_for_function("document.body?.dataset.ready === 'true' && document.body.dataset.connection === 'connected'")
-    return ctx, page, errors
 
 
 def test_fresh_teleop_claims_a_free_station_and_spares_a_held_one(fleet, chromium, ide_factory):
@@ -42,7 +32,7 @@ def test_fresh_teleop_claims_a_free_station_and_spares_a_held_one(fleet, chromiu
         cmd = {"/s01": ros.watch("/s01/cmd_vel", TWIST)}   # a watcher puts a station in use: only held ones
 
         # a fresh teleop page (nothing remembered) claims the next free station and reloads under it
-        ctx, page, errors = open_teleop(chromium, gw, TABLET)
+        ctx, page, errors = open_teleop(chromium, gw, viewport=TABLET, has_touch=True)
         contexts.append(ctx)
         page.wait_for_function("new URLSearchParams(location.search).get('ns') === '/s02'", timeout=15000)
         page.wait_for_function("document.body?.dataset.connection === 'connected' && document.querySelector('#topic').value === '/s02/cmd_vel'")
@@ -82,7 +72,7 @@ def test_fresh_teleop_claims_a_free_station_and_spares_a_held_one(fleet, chromiu
         assert not errors, errors
 
         # a page pointed at Zed's station says who holds it and moves nothing there
-        ctx2, held, errors2 = open_teleop(chromium, gw, PHONE, "?ns=/s01")
+        ctx2, held, errors2 = open_teleop(chromium, gw, "?ns=/s01", viewport=PHONE, has_touch=True)
         contexts.append(ctx2)
         held.wait_for_function("!document.querySelector('#notice').hidden")
         assert "Zed" in held.inner_text("#notice")

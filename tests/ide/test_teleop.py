@@ -7,18 +7,7 @@ import time
 
 import pytest
 
-from .conftest import ARTIFACTS, wait_for
-
-
-def open_teleop(chromium, gw, **ctx_args):
-    ctx = chromium.new_context(**ctx_args)
-    page = ctx.new_page()
-    errors = []
-    page.on("pageerror", lambda e: errors.append(str(e)))
-    page.goto(gw.http_url + "teleop")
-    page.wait_for_function("document.body?.dataset.ready === 'true'")
-    page.wait_for_function("document.body?.dataset.connection === 'connected'")
-    return ctx, page, errors
+from .conftest import ARTIFACTS, open_teleop, wait_for
 
 
 def drag(cdp, x0, y0, dx, dy, steps=8):
