@@ -17,6 +17,7 @@ ROOT = Path(__file__).resolve().parents[2]
 ARTIFACTS = Path(__file__).resolve().parent / "artifacts"
 EXAMPLES = ROOT / "examples"
 CHROMIUM = os.environ.get("ROSGATE_CHROMIUM") or shutil.which("chromium") or "/usr/bin/chromium"
+TABLET, PHONE = {"width": 1180, "height": 820}, {"width": 390, "height": 844}   # viewports
 CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
                  "--disable-component-update", "--no-first-run", "--disable-sync"]
 

@@ -9,14 +9,13 @@ import json
 
 import pytest
 
-from .conftest import ARTIFACTS, EXAMPLES, RosClient, wait_for
+from .conftest import ARTIFACTS, EXAMPLES, PHONE, TABLET, RosClient, wait_for
 
 _spec = importlib.util.spec_from_file_location("make_examples", EXAMPLES / "make_examples.py")
 ex = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(ex)
 
 TWIST = "geometry_msgs/msg/Twist"
-TABLET, PHONE = {"width": 1180, "height": 820}, {"width": 390, "height": 844}
 
 
 def program(block: dict) -> dict:

@@ -8,9 +8,8 @@ import time
 
 import pytest
 
-from .conftest import ARTIFACTS, open_teleop, wait_for
+from .conftest import ARTIFACTS, PHONE, TABLET, open_teleop, wait_for
 
-TABLET, PHONE = {"width": 1180, "height": 820}, {"width": 390, "height": 844}
 
 
 def test_gauges_history_and_limits(chromium, rover):

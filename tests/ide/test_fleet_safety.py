@@ -6,10 +6,9 @@ from __future__ import annotations
 
 import pytest
 
-from .conftest import ARTIFACTS, RosClient, open_teleop, wait_for
+from .conftest import ARTIFACTS, PHONE, TABLET, RosClient, open_teleop, wait_for
 
 TWIST = "geometry_msgs/msg/Twist"
-TABLET, PHONE = {"width": 1180, "height": 820}, {"width": 390, "height": 844}
 
 
 @pytest.fixture(scope="module")

@@ -5,11 +5,12 @@ scrolls to the console and a run works. Screenshots go to tests/ide/artifacts/."
 
 from __future__ import annotations
 
+from . import conftest
 from .conftest import IdePage
 from .test_ide_features import ex, program
 
-TABLET = {"viewport": {"width": 1180, "height": 820}, "has_touch": True, "device_scale_factor": 1}
-PHONE = {"viewport": {"width": 390, "height": 844}, "has_touch": True, "is_mobile": True, "device_scale_factor": 1}
+TABLET = {"viewport": conftest.TABLET, "has_touch": True, "device_scale_factor": 1}
+PHONE = {"viewport": conftest.PHONE, "has_touch": True, "is_mobile": True, "device_scale_factor": 1}
 
 
 FLYOUTS = """() => {

@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import pytest
 
-TABLET, PHONE = {"width": 1180, "height": 820}, {"width": 390, "height": 844}
+from .conftest import PHONE, TABLET
+
 PAD = 8   # the view's margin around the world, in CSS pixels
 
 
