@@ -174,13 +174,19 @@ class RosCaller:
 
 
 async def _done(future, timeout: float):
-    """The result of an rclpy Future, awaited by polling from asyncio."""
+    """The result of an rclpy Future, awaited from asyncio: its done callback (on the executor's
+    thread) settles an asyncio future on this loop."""
     import asyncio
 
     loop = asyncio.get_running_loop()
-    deadline = loop.time() + timeout
-    while not future.done():
-        if loop.time() > deadline:
-            raise AssertionError(f'no answer within {timeout} s')
-        await asyncio.sleep(0.005)
+    settled = loop.create_future()
+
+    def hop(_future) -> None:
+        loop.call_soon_threadsafe(lambda: settled.done() or settled.set_result(None))
+
+    future.add_done_callback(hop)
+    try:
+        await asyncio.wait_for(settled, timeout)
+    except asyncio.TimeoutError:
+        raise AssertionError(f'no answer within {timeout} s') from None
     return future.result()

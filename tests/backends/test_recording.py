@@ -33,10 +33,11 @@ async def test_record_then_play(world, topic, tmp_path):
         while rec.messages == 0:   # a fresh ROS subscription may need a moment to match
             pub.publish({'data': 'warm-up'})
             await asyncio.sleep(0.02)
-        for i in range(50):
+        for i in range(50):   # lock-step: each one recorded before the next is sent
+            base = rec.messages
             pub.publish({'data': f'message {i}'})
             sent += 1
-            await asyncio.sleep(0.005)
+            await until(lambda: rec.messages > base, what=f'message {i} recorded')
         await until(lambda: rec.messages >= sent + 1, what='every message recorded')
         manager.stop(rec, 'done')
     finally:
