@@ -29,9 +29,7 @@ def caller(handler: tornado.web.RequestHandler, gateway, *, change: bool = False
 
     policy = gateway.policy
     if change:
-        origin = handler.request.headers.get('Origin')
-        if origin and not policy.origin_allowed(origin, handler.request):
-            raise tornado.web.HTTPError(403, f'requests from {origin} are not allowed (--allowed-origins)')
+        check_origin(handler, policy)
     if getattr(policy, 'auth', None) is None:
         return None
     identity = require(handler, policy, 'read')
@@ -40,15 +38,28 @@ def caller(handler: tornado.web.RequestHandler, gateway, *, change: bool = False
     return identity
 
 
+def check_origin(handler: tornado.web.RequestHandler, policy) -> None:
+    """A request that changes something comes from an allowed browser origin, or from no browser."""
+    origin = handler.request.headers.get('Origin')
+    if origin and not policy.origin_allowed(origin, handler.request):
+        raise tornado.web.HTTPError(403, f'requests from {origin} are not allowed (--allowed-origins)')
+
+
+def json_content(handler: tornado.web.RequestHandler) -> None:
+    """The body was sent as application/json: a page of another origin cannot send that without
+    a CORS preflight, which this server never grants (a form can post text/plain)."""
+    kind = handler.request.headers.get('Content-Type', '').split(';')[0].strip().lower()
+    if kind != 'application/json':
+        raise tornado.web.HTTPError(415, 'send the body as application/json')
+
+
 def body_json(handler: tornado.web.RequestHandler, limit: int) -> dict:
     """The request body as a JSON object (sent as application/json, so browsers of other
     origins cannot send it without a preflight that this server never grants)."""
     body = handler.request.body
     if len(body) > limit:
         raise tornado.web.HTTPError(413, f'body larger than {limit} bytes')
-    kind = handler.request.headers.get('Content-Type', '').split(';')[0].strip().lower()
-    if kind != 'application/json':
-        raise tornado.web.HTTPError(415, 'send the body as application/json')
+    json_content(handler)
     try:
         value = json.loads(body)
     except ValueError as e:

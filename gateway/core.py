@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 
 from .backends.base import BackendError, QoS
 from .fanout import TopicFanout
+from .outbox import corked
 from .policy import Policy
 
 if TYPE_CHECKING:
@@ -60,6 +61,8 @@ class Gateway:
         self.hooks: list = []          # objects with an optional on_close(session)
         self.on_client_count = None
         self.publish_hooks: list = []  # (session, SharedPublisher, msg) -> msg or None to drop
+        if hasattr(backend, 'batch_scope'):   # a backend delivering messages in batches
+            backend.batch_scope = corked      # sends each client its share in one write
 
     # --- topics ------------------------------------------------------------------------------
 

@@ -15,6 +15,7 @@ closes.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import ctypes
 import ctypes.util
 from collections import deque
@@ -23,6 +24,9 @@ from collections.abc import Awaitable, Callable
 BATCH_BYTES = 256 * 1024   # written to the socket before waiting for it to drain
 REPLY_LIMIT = 4096         # replies queued for a client that does not read them
 TRIM_AFTER = 4 * 2**20     # an outbox that held this many bytes returns memory when it closes
+
+
+Frames = list[tuple[bytes, bool]]
 
 
 class Entry:
@@ -36,10 +40,13 @@ class Entry:
 
 class Outbox:
     def __init__(self, write: Callable[[bytes, bool], Awaitable[None] | None], *,
+                 write_many: Callable[[Frames], Awaitable[None] | None] | None = None,
                  byte_limit: int = 16 * 2**20, on_overflow: Callable[[int], None] | None = None,
                  warn_interval: float = 5.0, reply_limit: int = REPLY_LIMIT,
                  on_reply_overflow: Callable[[int, int], None] | None = None):
         self._write = write          # ws.write_message(frame, binary=...) -> Future
+        self._write_many = write_many or self._one_by_one   # several frames, one socket write
+        self._held: Frames | None = None   # frames written while corked, not yet sent
         self._queue: deque[Entry] = deque()
         self._per_key: dict[object, deque[Entry]] = {}
         self.byte_limit = byte_limit
@@ -123,14 +130,36 @@ class Outbox:
         return True
 
     def _write_now(self, frame: bytes, binary: bool) -> bool:
-        """Write at once, skipping the pump task, while nothing is queued or being written."""
+        """Write at once, skipping the pump task, while nothing is queued or being written
+        (under ``corked()``: when the cork comes out)."""
         if self._queue or (self._last_write is not None and not self._last_write.done()):
             return False
+        if _corked is not None:
+            if self._held is None:
+                self._held = []
+                _corked.append(self)
+            self._held.append((frame, binary))
+            return True
         try:
             self._last_write = self._write(frame, binary)
         except Exception:   # the connection went away; the handler cleans up
             self._closed = True
         return True
+
+    def _uncork(self) -> None:
+        frames, self._held = self._held, None
+        if not frames or self._closed:
+            return
+        try:
+            self._last_write = self._write_many(frames)
+        except Exception:   # the connection went away; the handler cleans up
+            self._closed = True
+
+    def _one_by_one(self, frames: Frames):
+        last = None
+        for frame, binary in frames:
+            last = self._write(frame, binary)
+        return last
 
     def forget(self, key: object) -> None:
         """Drop everything still queued for a subscription that went away."""
@@ -167,7 +196,7 @@ class Outbox:
                 await self._last_write   # a direct write still owns the socket
                 continue
             batch = 0
-            pending = None
+            frames: Frames = []
             while queue and batch < BATCH_BYTES:
                 entry = queue.popleft()
                 if not entry.alive:
@@ -181,10 +210,33 @@ class Outbox:
                 else:
                     self.reply_count -= 1
                     self.reply_bytes -= entry.size
-                pending = self._last_write = self._write(entry.frame, entry.binary)
+                frames.append((entry.frame, entry.binary))
                 batch += entry.size
-            if pending is not None:
-                await pending   # flow control: wait until the socket took the batch
+            if frames:
+                pending = self._last_write = self._write_many(frames)
+                if pending is not None:
+                    await pending   # flow control: wait until the socket took the batch
+
+
+_corked: list[Outbox] | None = None   # outboxes holding frames while corked
+
+
+@contextlib.contextmanager
+def corked():
+    """Frames that outboxes would write at once inside this block go out when it ends, one
+    socket write per client: a batch of messages from the backend costs each client one send
+    (and its reader one wake-up) instead of one per message. Nested blocks join the outer one."""
+    global _corked
+    if _corked is not None:
+        yield
+        return
+    held = _corked = []
+    try:
+        yield
+    finally:
+        _corked = None
+        for box in held:
+            box._uncork()
 
 
 def _malloc_trim():

@@ -27,7 +27,7 @@ import tempfile
 
 import tornado.web
 
-from .api import JsonHandler
+from .api import JsonHandler, check_origin, json_content
 from .assets import data_dir
 
 MAX_PROGRAM_BYTES = 2 * 1024 * 1024
@@ -64,8 +64,8 @@ def stored_program(programs_dir: pathlib.Path, name: str, owner: str | None) -> 
 class _Base(JsonHandler):
     identity = None      # who asks (security.http sets it when auth is on); None: an admin
 
-    def initialize(self, programs_dir: pathlib.Path) -> None:
-        self.programs_dir = programs_dir
+    def initialize(self, programs_dir: pathlib.Path, policy) -> None:
+        self.programs_dir, self.policy = programs_dir, policy
 
     def _admin(self) -> bool:
         return self.identity is None or self.identity.role == "admin"
@@ -84,6 +84,7 @@ class _Base(JsonHandler):
         return space_dir(self.programs_dir, owner)
 
     def _may_write(self) -> None:
+        check_origin(self, self.policy)
         if self.identity is not None and self.identity.role == "viewer":
             raise tornado.web.HTTPError(403, "role viewer may not save or delete programs")
 
@@ -129,6 +130,7 @@ class ProgramHandler(_Base):
         body = self.request.body
         if len(body) > MAX_PROGRAM_BYTES:
             raise tornado.web.HTTPError(413, "program larger than %d bytes" % MAX_PROGRAM_BYTES)
+        json_content(self)
         try:
             program = json.loads(body)
         except ValueError as e:
@@ -173,9 +175,10 @@ def _read_no_follow(path: pathlib.Path) -> bytes:
         return f.read(MAX_PROGRAM_BYTES + 1)
 
 
-def program_routes(programs_dir: pathlib.Path) -> list:
-    """Tornado URL specs for the program library stored in `programs_dir`."""
-    kw = {"programs_dir": pathlib.Path(programs_dir)}
+def program_routes(programs_dir: pathlib.Path, policy) -> list:
+    """Tornado URL specs for the program library stored in `programs_dir`; `policy` decides
+    which browser origins may change it."""
+    kw = {"programs_dir": pathlib.Path(programs_dir), "policy": policy}
     return [
         tornado.web.url(r"/api/programs/?", ProgramListHandler, kw),
         tornado.web.url(r"/api/programs/([^/]+)", ProgramHandler, kw),

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import struct
 import time
 
 import orjson
@@ -86,7 +87,8 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
 
     def open(self, *args, **kwargs) -> None:
         self.set_nodelay(True)   # without it Nagle's algorithm stalls small messages
-        self.session = ClientSession(self.gateway, self._send, self.close, self.request.remote_ip or '')
+        self.session = ClientSession(self.gateway, self._send, self.close, self.request.remote_ip or '',
+                                     send_many=self._send_many)
         self.session.attrs.update(self.gateway.policy.connect_attrs(self.request))
         self.session.open()
         for hook in self.gateway.hooks:   # e.g. a robot-side run knowing its own connection
@@ -98,16 +100,32 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
     def _send(self, payload: bytes, binary: bool):
         return self.write_message(payload, binary=binary)
 
+    def _send_many(self, frames: list[tuple[bytes, bool]]):
+        """Several messages in one write to the socket (one send, one wake-up of the reader).
+        Frames are built as tornado builds them; with compression on, tornado builds each."""
+        conn = self.ws_connection
+        if len(frames) == 1 or self.gateway.settings.use_compression or conn is None or conn.is_closing():
+            last = None
+            for payload, binary in frames:
+                last = self.write_message(payload, binary=binary)
+            return last
+        parts = []
+        for payload, binary in frames:
+            parts.append(_frame_header(len(payload), binary))
+            parts.append(payload)
+        return conn.stream.write(b''.join(parts))
+
     def on_message(self, message: str | bytes):
         if self.session is None or self.failed:
             return None
-        if self.text_frame:
+        text = self.text_frame
+        if text and not message.isascii():   # ASCII is UTF-8: the JSON parser reads those bytes as they are
             try:
                 message = message.decode('utf-8')
             except UnicodeDecodeError as e:   # keep only words: e.object is the whole frame
                 problem = f'byte 0x{message[e.start:e.start + 1].hex()} at offset {e.start}: {e.reason}'
                 return self._invalid_text(problem)
-        self.session.receive(message)
+        self.session.receive(message, text)
         return None
 
     async def _invalid_text(self, problem: str) -> None:
@@ -121,6 +139,16 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
         if self.session is not None:
             self.session.close()
             self.gateway.client_count_changed()
+
+
+def _frame_header(size: int, binary: bool) -> bytes:
+    """A final, unmasked frame's header (RFC 6455 5.2), as a server sends it."""
+    first = 0x82 if binary else 0x81
+    if size < 126:
+        return bytes((first, size))
+    if size <= 0xFFFF:
+        return struct.pack('!BBH', first, 126, size)
+    return struct.pack('!BBQ', first, 127, size)
 
 
 class HealthHandler(tornado.web.RequestHandler):
@@ -170,7 +198,7 @@ def make_app(settings: Settings, backend) -> tuple[tornado.web.Application, Gate
     ]
     if settings.programs_dir is not None:
         from .programs import program_routes
-        routes += program_routes(settings.programs_dir)
+        routes += program_routes(settings.programs_dir, gateway.policy)
     from .recordings import recording_routes
     from .runs import run_routes
     routes += run_routes(gateway) + recording_routes(gateway)

@@ -25,14 +25,15 @@ _session_ids = itertools.count(1)
 
 class ClientSession:
     def __init__(self, gateway: Gateway, send: Callable[[bytes, bool], Any],
-                 close: Callable[[int, str], None], remote: str = ''):
+                 close: Callable[[int, str], None], remote: str = '', *,
+                 send_many: Callable[[list[tuple[bytes, bool]]], Any] | None = None):
         settings = gateway.settings
         self.id = next(_session_ids)
         self.gateway, self.backend, self.remote = gateway, gateway.backend, remote
         self.proto = Session(fragment_timeout=settings.fragment_timeout,
                              max_message_size=settings.max_message_size)
-        self.outbox = Outbox(send, byte_limit=settings.send_buffer_limit, on_overflow=self._overflow,
-                             on_reply_overflow=self._reply_overflow)
+        self.outbox = Outbox(send, write_many=send_many, byte_limit=settings.send_buffer_limit,
+                             on_overflow=self._overflow, on_reply_overflow=self._reply_overflow)
         self._close_connection = close
         self.subscriptions: dict[str, Any] = {}        # topic -> fanout.Subscriber
         self.publishers: dict[str, Any] = {}           # topic -> core.SharedPublisher
@@ -57,15 +58,19 @@ class ClientSession:
 
     # --- incoming ----------------------------------------------------------------------------
 
-    def receive(self, data: str | bytes) -> None:
+    def receive(self, data: str | bytes, text: bool | None = None) -> None:
+        """One frame: a text frame as str (or as bytes with text=True: UTF-8 already checked),
+        a binary (CBOR) frame as bytes."""
         if self.closed or self.closing:
             return
         now = asyncio.get_running_loop().time()
+        if text is None:
+            text = not isinstance(data, bytes)
         try:
-            if isinstance(data, bytes):
-                items = self.proto.receive_bytes(data, now)
-            else:
+            if text:
                 items = self.proto.receive_text(data, now)
+            else:
+                items = self.proto.receive_bytes(data, now)
         except Exception as e:   # a bug in decoding: the frame is lost, the connection is not
             self.report(None, None, e)
             return

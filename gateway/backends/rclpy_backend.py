@@ -13,8 +13,8 @@ executor when their answer is there. No thread logs except through a hop to the 
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import logging
-import sys
 import threading
 from collections.abc import Awaitable, Callable
 from typing import Any
@@ -36,7 +36,6 @@ IN_FLIGHT = 8
 # history of the gateway's own subscriptions: the loop may publish a burst of a client's messages
 # before the pump takes the first (they share the GIL); a history of 10 lost most of 32 in flight
 READER_DEPTH = 100
-SWITCH_INTERVAL = 0.0005     # seconds (sys.setswitchinterval) while the backend runs
 
 
 def fq_name(namespace: str, name: str) -> str:
@@ -65,8 +64,10 @@ class RclpyPublisher:
                 pass
             else:
                 self._pub.publish(data)
+                self._backend.published(self.topic)
                 return
         self._pub.publish(self._backend.convert.from_dict(self._cls, msg))
+        self._backend.published(self.topic)
 
     def destroy(self) -> None:
         if self._pub is not None:
@@ -87,6 +88,11 @@ class RclpySubscription:
     def destroy(self) -> None:
         sub, self.sub = self.sub, None
         if sub is not None:
+            readers = self._backend.readers.get(self.topic, [])
+            if sub in readers:
+                readers.remove(sub)
+                if not readers:
+                    del self._backend.readers[self.topic]
             self._backend.pump.remove(sub)
 
 
@@ -169,7 +175,6 @@ class RclpyBackend:
         self.node = self.reentrant = None
         self._context = self._executor = self._thread = None
         self.pump: Pump | None = None
-        self._switch = 0.005
         self._rclpy = None      # rclpy's C extension (rcl entities the pump waits on)
         self._clients: dict[tuple[str, str], ServiceCaller] = {}
         self._in_flight: dict[str, asyncio.Semaphore] = {}
@@ -177,6 +182,10 @@ class RclpyBackend:
         self._served: dict[str, RclpyService] = {}
         self._action_servers: dict[str, RclpyActionServer] = {}
         self._closing: dict[str, RclpyActionServer] = {}
+        self.readers: dict[str, list[TopicReader]] = {}   # the gateway's subscriptions by topic
+        self._took = False
+        # the pump delivers each batch of messages inside this (the gateway: one write per client)
+        self.batch_scope: Callable[[], Any] = contextlib.nullcontext
 
     # --- lifecycle ----------------------------------------------------------------------------
 
@@ -200,13 +209,7 @@ class RclpyBackend:
         self._executor.add_node(self.node)
         self._thread = threading.Thread(target=self._spin, name='rosgate-rclpy', daemon=True)
         self._thread.start()
-        self.pump = Pump(self._context, self.loop)
-        # the pump and the loop hand the GIL to each other on every batch: a waiting thread gets
-        # it after the switch interval at worst (5 ms by default), which stalled pipelines of
-        # large messages (64 KiB with 32 in flight: 0.50-0.65x the Rust server at 5 ms,
-        # 0.73-0.91x at 0.5 ms, same run)
-        self._switch = sys.getswitchinterval()
-        sys.setswitchinterval(min(self._switch, SWITCH_INTERVAL))
+        self.pump = Pump(self._context, self.loop, scope=lambda: self.batch_scope())
         self.pump.start()
 
     def _spin(self) -> None:
@@ -228,7 +231,6 @@ class RclpyBackend:
         executor, node, context, thread = self._executor, self.node, self._context, self._thread
         self.node = None
         self.pump.stop()
-        sys.setswitchinterval(self._switch)
         executor.shutdown(timeout_sec=2.0)
         thread.join(timeout=2.0)
         node.destroy_node()
@@ -340,7 +342,24 @@ class RclpyBackend:
                                  lambda e: self.report(f'subscription {topic}', e),
                                  self.convert.cdr_reader(cls))
         self.pump.add(handle.sub)
+        self.readers.setdefault(topic, []).append(handle.sub)
         return handle
+
+    def published(self, topic: str) -> None:
+        """The gateway published on topic: its own subscriptions of it may hold the message now.
+
+        Taken here once per round of the loop: the first message of a client's burst goes out at
+        once (64 B, one in flight: p50 0.36 vs 0.44-0.49 ms through the pump), the rest of the
+        burst goes through the pump in batches (taking each here woke the pump for nothing per
+        message: 64 B, 32 in flight, 8.2-8.7k instead of 12-13k msg/s)."""
+        readers = self.readers.get(topic)
+        if readers and not self._took:
+            self._took = True
+            self.loop.call_soon(self._next_round)
+            self.pump.take_here(readers)
+
+    def _next_round(self) -> None:
+        self._took = False
 
     def _adapted_qos(self, topic: str) -> QoS:
         """Transient-local if every publisher is, best-effort if any publisher is."""

@@ -120,11 +120,10 @@ def _read_string(data: bytes, pos: int):
     end = pos + n
     if n == 0 or end > len(data):
         raise Slow('bad string length')
-    raw = data[pos:end - 1]
-    if b'\x00' in raw:
+    if data.find(b'\x00', pos, end - 1) >= 0:
         raise Slow('NUL in a string')
-    try:
-        return raw.decode(), end
+    try:   # a long string is decoded in place, a short one from a slice (cheaper to make)
+        return (str(memoryview(data)[pos:end - 1], 'utf-8') if n > 512 else data[pos:end - 1].decode()), end
     except UnicodeDecodeError:
         raise Slow('not UTF-8') from None
 

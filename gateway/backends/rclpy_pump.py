@@ -12,11 +12,17 @@ them with one rcl wait set, takes everything that is ready, and hands it to the 
 one ``call_soon_threadsafe`` when the batch goes from empty to non-empty, not one per message.
 The loop sends (requests, responses) itself; rcl allows that from any thread. Entities are
 destroyed by the pump thread after its wait, so a handle is never destroyed while waited on.
+
+Each batch is delivered inside the gateway's outbox cork, so a client gets its share of a batch
+in one socket write. Right after the gateway publishes, the loop may take from its own readers
+of that topic itself (``take_here``): Fast DDS delivers to a process's own readers inside the
+publish call, and the message then skips the hop through the pump and back.
 """
 
 from __future__ import annotations
 
 import collections
+import contextlib
 import logging
 import threading
 from collections.abc import Callable
@@ -121,10 +127,13 @@ class ServiceServer(Entity):
 
 
 class Pump:
-    def __init__(self, context, loop, name: str = 'rosgate-pump'):
-        self._context, self._loop = context, loop
+    def __init__(self, context, loop, name: str = 'rosgate-pump', scope: Callable = contextlib.nullcontext):
+        """scope: a context manager each batch is delivered in (the gateway's outbox cork)."""
+        self._context, self._loop, self._scope = context, loop, scope
         self._gc = _rclpy().GuardCondition(context.handle)
         self._lock = threading.Lock()
+        self._take_lock = threading.RLock()   # held by whoever takes: pump thread or loop
+        self._here = False                    # the loop is inside take_here
         self._entities: list[Entity] = []
         self._doomed: list[Entity] = []
         self._changed = True
@@ -195,13 +204,14 @@ class Pump:
                 ready = [*wait_set.get_ready_entities('subscription'),
                          *wait_set.get_ready_entities('client'),
                          *wait_set.get_ready_entities('service')]
-                for pointer in ready:
-                    entity = by_pointer.get(pointer)
-                    if entity is not None:
-                        try:
-                            entity.take(self._push)
-                        except Exception as e:  # noqa: BLE001 (the entity was destroyed meanwhile)
-                            log.debug('taking from %s: %s', entity, e)
+                with self._take_lock:
+                    for pointer in ready:
+                        entity = by_pointer.get(pointer)
+                        if entity is not None:
+                            try:
+                                entity.take(self._push)
+                            except Exception as e:  # noqa: BLE001 (the entity was destroyed meanwhile)
+                                log.debug('taking from %s: %s', entity, e)
                 if len(self._batch) > BACKLOG:
                     self._room.clear()
                     if len(self._batch) > BACKLOG:
@@ -234,13 +244,43 @@ class Pump:
 
     # --- loop ---------------------------------------------------------------------------------
 
+    def take_here(self, readers: list[TopicReader]) -> None:
+        """Take and deliver on the loop, now, what these readers hold: called right after the
+        gateway published to their topic. A middleware that delivers to a process's own readers
+        inside the publish call (Fast DDS does) then costs no hop through the pump thread and
+        back; where nothing is there yet, the pump takes it as usual. Messages stay in order:
+        whatever the pump took before is delivered first, and the two never take at once.
+        """
+        if self._here:
+            return      # a delivery published again: the outer call (or the pump) takes it
+        with self._take_lock:
+            self._here = True
+            try:
+                self._drain()
+                with self._scope():
+                    for reader in readers:
+                        try:
+                            reader.take(self._call)
+                        except Exception as e:  # noqa: BLE001 (the reader was destroyed meanwhile)
+                            log.debug('taking from %s: %s', reader, e)
+            finally:
+                self._here = False
+
+    @staticmethod
+    def _call(fn: Callable, arg) -> None:
+        try:
+            fn(arg)
+        except Exception:
+            log.exception('delivering %s', getattr(fn, '__qualname__', fn))
+
     def _drain(self) -> None:
         self._scheduled = False
         batch = self._batch
-        while batch:
-            fn, arg = batch.popleft()
-            try:
-                fn(arg)
-            except Exception:
-                log.exception('delivering %s', getattr(fn, '__qualname__', fn))
+        with self._scope():
+            while batch:
+                fn, arg = batch.popleft()
+                try:
+                    fn(arg)
+                except Exception:
+                    log.exception('delivering %s', getattr(fn, '__qualname__', fn))
         self._room.set()

@@ -116,7 +116,7 @@ def guarded_program_routes(policy, programs_dir) -> list:
     from ..programs import program_routes
 
     routes = []
-    for spec in program_routes(programs_dir):
+    for spec in program_routes(programs_dir, policy):
         base = spec.handler_class
 
         def prepare(self, _base=base):

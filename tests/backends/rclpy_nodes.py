@@ -154,6 +154,13 @@ class RosCaller:
             client = self._clients[name] = ActionClient(self.node, self._fib, name)
         return client
 
+    def string_publisher(self, topic: str, depth: int = 1000):
+        """``publish(text)`` on topic as std_msgs/String (from any thread: rcl allows it)."""
+        from std_msgs.msg import String
+
+        pub = self.node.create_publisher(String, topic, depth)
+        return lambda text: pub.publish(String(data=text)), pub.get_subscription_count
+
     def ready(self, service: str, action: str) -> bool:
         return self._client(service).service_is_ready() and self._action_client(action).server_is_ready()
 

@@ -10,6 +10,7 @@ import asyncio
 import json
 import socket
 
+import cbor2
 import pytest
 import pytest_asyncio
 from tornado.websocket import websocket_connect
@@ -196,4 +197,77 @@ async def test_browser_served_service_and_action_answer_ros_callers_under_load(g
             task.cancel()
         for client in (browser, flood_pub, flood_sub):
             client.close()
+    assert gateway.alive
+
+
+async def warm_up(sub: Client, publish, topic: str) -> None:
+    """Until DDS has matched the publisher with the gateway's subscription of topic."""
+    while True:
+        publish('warm-up')
+        try:
+            await sub.expect(lambda m: m.get('op') == 'publish' and m.get('topic') == topic, timeout=0.2)
+            return
+        except asyncio.TimeoutError:
+            continue
+
+
+async def test_messages_of_a_client_and_a_ros_node_on_one_topic_keep_their_order(gateway, caller):
+    """The gateway takes what it published itself at once, on the loop; a ROS node's messages on
+    the same topic come through the pump thread: each source's messages arrive in order, all."""
+    topic = '/rclpy_mixed'
+    sub, pub = await Client.open(gateway), await Client.open(gateway)
+    node_publish, _count = caller.string_publisher(topic)
+    try:
+        await sub.send({'op': 'subscribe', 'topic': topic, 'type': 'std_msgs/msg/String', 'queue_length': 1000})
+        await sub.sync()
+        await pub.send({'op': 'advertise', 'topic': topic, 'type': 'std_msgs/msg/String'})
+        await warm_up(sub, lambda text: asyncio.ensure_future(
+            pub.send({'op': 'publish', 'topic': topic, 'msg': {'data': text}})), topic)
+        await warm_up(sub, node_publish, topic)
+        got: dict[str, list[int]] = {'c': [], 'n': []}
+        rounds, step = 300, 20    # at most 2 x 20 in flight: within the gateway reader's history
+        for start in range(0, rounds, step):
+            for i in range(start, start + step):
+                await pub.send({'op': 'publish', 'topic': topic, 'msg': {'data': f'c{i}'}})
+                node_publish(f'n{i}')
+            while len(got['c']) < start + step or len(got['n']) < start + step:
+                data = (await sub.expect(lambda m: m.get('op') == 'publish'))['msg']['data']
+                if data != 'warm-up':
+                    got[data[0]].append(int(data[1:]))
+        assert got == {'c': list(range(rounds)), 'n': list(range(rounds))}
+    finally:
+        sub.close()
+        pub.close()
+    assert gateway.alive
+
+
+async def test_a_burst_from_a_ros_node_reaches_json_and_cbor_clients_intact(gateway, caller):
+    """The pump hands the loop a batch; each client gets its share in one write of frames the
+    gateway builds itself: every length encoding, text and binary."""
+    topic, sizes = '/rclpy_burst', [3, 125, 126, 300, 65535, 65536, 70_000]
+    expected = [f'{r:02d}{i}'.ljust(size, 'x') for r in range(4) for i, size in enumerate(sizes)]
+    json_sub, cbor_sub = await Client.open(gateway), await Client.open(gateway)
+    publish, _count = caller.string_publisher(topic)
+    try:
+        await json_sub.send({'op': 'subscribe', 'topic': topic, 'type': 'std_msgs/msg/String',
+                             'queue_length': 1000})
+        await cbor_sub.send({'op': 'subscribe', 'topic': topic, 'type': 'std_msgs/msg/String',
+                             'queue_length': 1000, 'compression': 'cbor'})
+        await json_sub.sync()
+        await cbor_sub.sync()
+        await warm_up(json_sub, publish, topic)
+        for data in expected:
+            publish(data)
+        for client, decode in ((json_sub, None), (cbor_sub, cbor2.loads)):
+            got = []
+            while len(got) < len(expected):
+                frame = await asyncio.wait_for(client.conn.read_message(), 20)
+                assert frame is not None, 'connection closed'
+                msg = decode(frame) if decode else json.loads(frame)
+                if msg.get('op') == 'publish' and msg['msg']['data'] != 'warm-up':
+                    got.append(msg['msg']['data'])
+            assert got == expected
+    finally:
+        json_sub.close()
+        cbor_sub.close()
     assert gateway.alive

@@ -25,7 +25,7 @@ class PySpy:
         self.out = out
         self.proc = subprocess.Popen(
             [exe, "record", "--pid", str(pid), "--rate", str(rate), "--format", fmt,
-             "--output", out, "--nonblocking"],
+             "--output", out, "--nonblocking", "--threads"],
             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
 
     def stop(self) -> str:

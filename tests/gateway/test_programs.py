@@ -114,3 +114,26 @@ def test_owner_spaces_stay_inside_the_library(gateway, owner):
     listing = json.loads(request(gateway, "GET", "/api/programs")[1])["programs"]
     assert any(p["name"] == "escape" and p["owner"] == stored[0].parent.name for p in listing)
     assert request(gateway, "DELETE", f"/api/programs/escape?owner={owner}")[0] == 204
+
+
+def test_another_sites_page_cannot_change_the_library(gateway):
+    """A form on another site can post text/plain and carries that site's Origin: neither a
+    write nor a delete from such a request changes the library."""
+    assert request(gateway, "PUT", "/api/programs/kept", json.dumps(PROGRAM).encode())[0] == 200
+    form = json.dumps({"format": "rosgate-program", "evil": True}).encode()
+    status, reply = request(gateway, "POST", "/api/programs/kept", form, content_type="text/plain")
+    assert status == 415, reply
+    for method, body in (("PUT", json.dumps(PROGRAM).encode()), ("POST", form), ("DELETE", None)):
+        req = urllib.request.Request(gateway.http_url.rstrip("/") + "/api/programs/kept", data=body,
+                                     method=method, headers={"Origin": "http://evil.example",
+                                                             "Content-Type": "application/json"})
+        with pytest.raises(urllib.error.HTTPError) as refused:
+            urllib.request.urlopen(req, timeout=5)
+        assert refused.value.code == 403, method
+        assert b"evil.example" in refused.value.read()
+    status, body = request(gateway, "GET", "/api/programs/kept")
+    assert status == 200 and json.loads(body) == PROGRAM
+    own = gateway.http_url.rstrip("/")   # the gateway's own pages may
+    req = urllib.request.Request(own + "/api/programs/kept", method="DELETE", headers={"Origin": own})
+    with urllib.request.urlopen(req, timeout=5) as res:
+        assert res.status == 204

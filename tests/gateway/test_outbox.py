@@ -1,0 +1,132 @@
+"""The outbox's cork: frames written while corked go out together, in order, in one write.
+
+The outbox's own contract, with writers that record what they are given (the websocket side of
+``write_many`` is checked through real clients in test_batched_frames.py and the rclpy suite).
+"""
+
+from __future__ import annotations
+
+import asyncio
+
+import pytest
+
+from gateway.outbox import Outbox, corked
+
+pytestmark = pytest.mark.asyncio
+
+
+class Socket:
+    """Records writes; each write's future completes when the test says the socket took it."""
+
+    def __init__(self):
+        self.writes: list[list[tuple[bytes, bool]]] = []
+        self.futures: list[asyncio.Future] = []
+
+    def _future(self) -> asyncio.Future:
+        future = asyncio.get_running_loop().create_future()
+        self.futures.append(future)
+        return future
+
+    def write(self, frame: bytes, binary: bool):
+        self.writes.append([(frame, binary)])
+        return self._future()
+
+    def write_many(self, frames):
+        self.writes.append(list(frames))
+        return self._future()
+
+    def drain(self) -> None:
+        for future in self.futures:
+            if not future.done():
+                future.set_result(None)
+
+
+def started(sock: Socket) -> Outbox:
+    box = Outbox(sock.write, write_many=sock.write_many)
+    box.start()
+    return box
+
+
+async def test_frames_written_while_corked_go_out_in_one_write_in_order():
+    sock = Socket()
+    box = started(sock)
+    with corked():
+        box.message(b'm1', False, 'topic', 0)
+        box.reply(b'status', False)
+        box.message(b'm2', True, 'topic', 0)
+        assert sock.writes == []
+    assert sock.writes == [[(b'm1', False), (b'status', False), (b'm2', True)]]
+    box.close()
+
+
+async def test_without_a_cork_each_frame_is_written_at_once():
+    sock = Socket()
+    box = started(sock)
+    box.message(b'm1', False, 'topic', 0)
+    assert sock.writes == [[(b'm1', False)]]
+    box.close()
+
+
+async def test_every_outbox_written_under_one_cork_gets_its_own_single_write():
+    a, b = Socket(), Socket()
+    box_a, box_b = started(a), started(b)
+    with corked():
+        for i in range(3):
+            box_a.message(b'a%d' % i, False, 'topic', 0)
+            box_b.message(b'b%d' % i, False, 'topic', 0)
+    assert a.writes == [[(b'a0', False), (b'a1', False), (b'a2', False)]]
+    assert b.writes == [[(b'b0', False), (b'b1', False), (b'b2', False)]]
+    box_a.close()
+    box_b.close()
+
+
+async def test_a_nested_cork_joins_the_outer_one():
+    sock = Socket()
+    box = started(sock)
+    with corked():
+        box.message(b'm1', False, 'topic', 0)
+        with corked():
+            box.message(b'm2', False, 'topic', 0)
+        assert sock.writes == []
+        box.message(b'm3', False, 'topic', 0)
+    assert sock.writes == [[(b'm1', False), (b'm2', False), (b'm3', False)]]
+    box.close()
+
+
+async def test_while_a_write_is_pending_frames_queue_and_go_out_together_after_it():
+    sock = Socket()
+    box = started(sock)
+    box.message(b'first', False, 'topic', 0)        # written at once; the socket has not taken it
+    with corked():
+        box.message(b'm1', False, 'topic', 0)
+        box.reply(b'r1', False)
+    box.message(b'm2', False, 'topic', 0)
+    assert sock.writes == [[(b'first', False)]]     # the rest waits behind the pending write
+    sock.drain()
+    while len(sock.writes) < 2:
+        await asyncio.sleep(0)
+    assert sock.writes[1] == [(b'm1', False), (b'r1', False), (b'm2', False)]
+    box.close()
+
+
+async def test_a_queued_topic_message_beyond_its_queue_length_is_not_written():
+    sock = Socket()
+    box = started(sock)
+    box.message(b'first', False, 'other', 0)
+    for i in range(5):
+        box.message(b'm%d' % i, False, 'topic', 2)   # queue_length 2: the two newest stay
+    sock.drain()
+    while len(sock.writes) < 2:
+        await asyncio.sleep(0)
+    assert sock.writes[1] == [(b'm3', False), (b'm4', False)]
+    assert box.dropped == 3
+    box.close()
+
+
+async def test_an_outbox_closed_under_a_cork_writes_nothing():
+    sock = Socket()
+    box = started(sock)
+    with corked():
+        box.message(b'm1', False, 'topic', 0)
+        box.close()
+    assert sock.writes == []
