@@ -61,7 +61,7 @@ class TopicFanout:
         self.msgdef = backend.msg_def(type)
         self.subscribers: dict[int, Subscriber] = {}
         self.last: dict | None = None
-        self.handle = backend.subscribe(topic, type, self._on_message)
+        self.handle = backend.subscribe(topic, type, self._on_message, cdr=True)
 
     def add(self, session: ClientSession, sid: str | None, options: tuple) -> Subscriber:
         """Add or change one subscribe id; on failure the subscriber is as it was (or absent)."""
@@ -117,14 +117,15 @@ class TopicFanout:
             sub.last_sent = time.monotonic()
             sub.deliver(self._encode(msg, sub.compression, sub.fragment_size))
 
-    def _on_message(self, msg: dict) -> None:
+    def _on_message(self, msg: dict, cdr: bytes | None = None) -> None:
+        """cdr: the message as the backend received it, for cbor-raw (else built from msg)."""
         self.last = msg
         cache: dict[tuple, encode.Frames] = {}
         now = time.monotonic()
         for sub in tuple(self.subscribers.values()):
             if sub.throttle:
                 if now - sub.last_sent < sub.throttle:
-                    sub.pending = msg   # keep the latest; sent when the period ends
+                    sub.pending = (msg, cdr)   # keep the latest; sent when the period ends
                     if sub.timer is None:
                         delay = sub.throttle - (now - sub.last_sent)
                         sub.timer = asyncio.get_running_loop().call_later(delay, self._flush, sub)
@@ -133,20 +134,23 @@ class TopicFanout:
             key = (sub.compression, sub.fragment_size)
             frames = cache.get(key)
             if frames is None:
-                frames = cache[key] = self._encode(msg, *key)
+                frames = cache[key] = self._encode(msg, *key, cdr)
             sub.deliver(frames)
 
     def _flush(self, sub: Subscriber) -> None:
         sub.timer = None
-        msg, sub.pending = sub.pending, None
-        if msg is not None and sub.session.id in self.subscribers:
+        pending, sub.pending = sub.pending, None
+        if pending is not None and sub.session.id in self.subscribers:
             sub.last_sent = time.monotonic()
-            sub.deliver(self._encode(msg, sub.compression, sub.fragment_size))
+            sub.deliver(self._encode(pending[0], sub.compression, sub.fragment_size, pending[1]))
 
-    def _encode(self, msg: dict, compression: str, fragment_size: int | None) -> encode.Frames:
+    def _encode(self, msg: dict, compression: str, fragment_size: int | None,
+                cdr: bytes | None = None) -> encode.Frames:
         if compression == 'cbor-raw':
             sec, nanosec = self.gateway.backend.now()
-            body: Any = {'secs': sec, 'nsecs': nanosec, 'bytes': self.gateway.backend.to_cdr(self.type, msg)}
+            if cdr is None:
+                cdr = self.gateway.backend.to_cdr(self.type, msg)
+            body: Any = {'secs': sec, 'nsecs': nanosec, 'bytes': cdr}
             return encode.frames({'op': 'publish', 'topic': self.topic, 'msg': body}, 'cbor-raw')
         op = {'op': 'publish', 'topic': self.topic, 'msg': msg}
         if fragment_size or compression == 'png':

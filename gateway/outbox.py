@@ -151,7 +151,7 @@ class Outbox:
         if not frames or self._closed:
             return
         try:
-            self._last_write = self._write_many(frames)
+            self._last_write = self._write(*frames[0]) if len(frames) == 1 else self._write_many(frames)
         except Exception:   # the connection went away; the handler cleans up
             self._closed = True
 

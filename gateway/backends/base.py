@@ -108,8 +108,11 @@ class Backend(Protocol):
 
     # topics
     def create_publisher(self, topic: str, type: str, qos: QoS) -> Publisher: ...
-    def subscribe(self, topic: str, type: str, callback: Callable[[Message], None], qos: QoS | None = None) -> Handle:
-        """qos None: adapt to the publishers present (latched if they all are)."""
+    def subscribe(self, topic: str, type: str, callback: Callable[..., None], qos: QoS | None = None, *,
+                  cdr: bool = False) -> Handle:
+        """qos None: adapt to the publishers present (latched if they all are). cdr: the callback
+        is ``callback(msg, cdr)`` with the message's CDR as received where the backend has it
+        (else None), instead of ``callback(msg)``."""
 
     def latched(self, topic: str) -> bool:
         """True when every publisher of the topic is transient-local (a latched topic)."""

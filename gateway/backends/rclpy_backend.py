@@ -76,14 +76,18 @@ class RclpyPublisher:
 
 
 class RclpySubscription:
-    def __init__(self, backend: RclpyBackend, topic: str, type: str, callback: Callable[[Message], None]):
+    def __init__(self, backend: RclpyBackend, topic: str, type: str, callback: Callable[..., None],
+                 with_cdr: bool = False):
         self.topic, self.type = topic, type
-        self._backend, self._callback = backend, callback
+        self._backend, self._callback, self._with_cdr = backend, callback, with_cdr
         self.sub: TopicReader | None = None
 
-    def deliver(self, msg: Message) -> None:    # on the loop
+    def deliver(self, item: tuple[Message, bytes | None]) -> None:    # on the loop
         if self.sub is not None:
-            self._callback(msg)
+            if self._with_cdr:
+                self._callback(*item)
+            else:
+                self._callback(item[0])
 
     def destroy(self) -> None:
         sub, self.sub = self.sub, None
@@ -328,13 +332,13 @@ class RclpyBackend:
         topic, full, cls = self._topic(topic, type)
         return RclpyPublisher(self, topic, full, cls, self.node.create_publisher(cls, topic, ros_qos(qos)))
 
-    def subscribe(self, topic: str, type: str, callback: Callable[[Message], None],
-                  qos: QoS | None = None) -> RclpySubscription:
+    def subscribe(self, topic: str, type: str, callback: Callable[..., None],
+                  qos: QoS | None = None, *, cdr: bool = False) -> RclpySubscription:
         from rclpy.type_support import check_is_valid_msg_type  # noqa: PLC0415
 
         topic, full, cls = self._topic(topic, type)
         check_is_valid_msg_type(cls)    # loads the type support
-        handle = RclpySubscription(self, topic, full, callback)
+        handle = RclpySubscription(self, topic, full, callback, cdr)
         profile = ros_qos(qos if qos is not None else self._adapted_qos(topic))
         with self.node.handle:
             sub = self._rclpy.Subscription(self.node.handle, cls, topic, profile.get_c_qos_profile())

@@ -71,6 +71,7 @@ class TopicReader(Entity):
             return self._convert(deserialize_message(data, self.msg_type))
 
     def take(self, push) -> None:
+        """Pushes ``(deliver, (message dict, CDR bytes as taken or None))``."""
         raw = self._decode is not None
         take, msg_type, deliver = self.handle.take_message, self.msg_type, self._deliver
         convert = self._from_cdr if raw else self._convert
@@ -79,7 +80,7 @@ class TopicReader(Entity):
             if got is None:
                 return
             try:
-                push(deliver, convert(got[0]))
+                push(deliver, (convert(got[0]), got[0] if raw else None))
             except Exception as e:  # noqa: BLE001 (a message the converter cannot express)
                 push(self._report, e)
 

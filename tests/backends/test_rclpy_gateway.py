@@ -271,3 +271,38 @@ async def test_a_burst_from_a_ros_node_reaches_json_and_cbor_clients_intact(gate
         json_sub.close()
         cbor_sub.close()
     assert gateway.alive
+
+
+async def test_cbor_raw_clients_get_the_cdr_as_the_ros_node_published_it(gateway, caller):
+    from rclpy.serialization import deserialize_message, serialize_message
+    from std_msgs.msg import String
+
+    topic = '/rclpy_raw'
+    raw, plain = await Client.open(gateway), await Client.open(gateway)
+    publish, _count = caller.string_publisher(topic)
+    try:
+        await raw.send({'op': 'subscribe', 'topic': topic, 'type': 'std_msgs/msg/String',
+                        'compression': 'cbor-raw', 'queue_length': 100})
+        await plain.send({'op': 'subscribe', 'topic': topic, 'type': 'std_msgs/msg/String', 'queue_length': 100})
+        await raw.sync()
+        await plain.sync()
+        await warm_up(plain, publish, topic)
+        texts = ['hello', 'é' * 700, 'y' * 100_000]
+        for text in texts:
+            publish(text)
+        got = []
+        while len(got) < len(texts):
+            frame = await asyncio.wait_for(raw.conn.read_message(), 20)
+            assert isinstance(frame, bytes), frame
+            msg = cbor2.loads(frame)
+            if msg.get('op') == 'publish' and msg['msg']['bytes'] != serialize_message(String(data='warm-up')):
+                got.append(msg['msg']['bytes'])
+        for data, text in zip(got, texts):   # as published: the CDR, plus any padding the middleware adds
+            expected = serialize_message(String(data=text))
+            assert data[:len(expected)] == expected and set(data[len(expected):]) <= {0}, data[-16:]
+            assert len(data) - len(expected) < 8
+            assert deserialize_message(data, String).data == text
+    finally:
+        raw.close()
+        plain.close()
+    assert gateway.alive

@@ -74,8 +74,10 @@ class SimBackend:
     def create_publisher(self, topic: str, type: str, qos: QoS) -> SimPublisher:
         return self.node.create_publisher(topic, type, qos)
 
-    def subscribe(self, topic: str, type: str, callback: Callable[[Message], None],
-                  qos: QoS | None = None) -> Handle:
+    def subscribe(self, topic: str, type: str, callback: Callable[..., None],
+                  qos: QoS | None = None, *, cdr: bool = False) -> Handle:
+        if cdr:   # the sim holds messages as dicts: there is no CDR as received
+            return self.node.create_subscription(topic, type, lambda msg: callback(msg, None), qos)
         return self.node.create_subscription(topic, type, callback, qos)
 
     def latched(self, topic: str) -> bool:
