@@ -98,13 +98,18 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
         self.gateway.client_count_changed()
 
     def _send(self, payload: bytes, binary: bool):
-        return self.write_message(payload, binary=binary)
+        """One message. Without compression the frame goes to the stream as the gateway builds
+        it, once for every client a fan-out sends the same payload to (tornado's write_message
+        builds it per client and wraps each write in a task of its own)."""
+        conn = self.ws_connection
+        if self.gateway.settings.use_compression or conn is None or conn.is_closing():
+            return self.write_message(payload, binary=binary)
+        return conn.stream.write(_wire(payload, binary))
 
     def _send_many(self, frames: list[tuple[bytes, bool]]):
-        """Several messages in one write to the socket (one send, one wake-up of the reader).
-        Frames are built as tornado builds them; with compression on, tornado builds each."""
+        """Several messages in one write to the socket (one send, one wake-up of the reader)."""
         conn = self.ws_connection
-        if len(frames) == 1 or self.gateway.settings.use_compression or conn is None or conn.is_closing():
+        if self.gateway.settings.use_compression or conn is None or conn.is_closing():
             last = None
             for payload, binary in frames:
                 last = self.write_message(payload, binary=binary)
@@ -139,6 +144,21 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
         if self.session is not None:
             self.session.close()
             self.gateway.client_count_changed()
+
+
+_last_wire: tuple = (None, False, b'')   # (payload, binary, frame) of the latest _wire
+
+
+def _wire(payload: bytes, binary: bool) -> bytes:
+    """The whole frame of one message; the same payload written to many clients in a row (a
+    fan-out) is framed once."""
+    global _last_wire
+    last = _last_wire
+    if last[0] is payload and last[1] == binary:
+        return last[2]
+    frame = _frame_header(len(payload), binary) + payload
+    _last_wire = (payload, binary, frame)
+    return frame
 
 
 def _frame_header(size: int, binary: bool) -> bytes:

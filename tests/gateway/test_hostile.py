@@ -98,11 +98,13 @@ def test_a_client_that_does_not_read_its_replies_is_closed_1008(start_gateway):
     gw = start_gateway('--send-buffer-limit', '65536')
     with Raw(gw.ws_url, max_queue=1) as lazy, Raw(gw.ws_url) as other:
         code = reason = None
-        # ~20 MB of replies: more than loopback buffers hold, so the outbox bound is reached. Then
-        # stop sending (a socket closed with unread data resets, losing the close frame) and read.
+        # ~20 MB of replies: more than loopback buffers hold, so the outbox bound is reached while
+        # the client reads nothing. Then stop sending (a socket closed with unread data resets,
+        # losing the close frame) and read: the close frame comes after what the socket holds.
         try:
             for i in range(10_000):
                 lazy.send({'op': 'call_service', 'service': '/rosapi/topics_and_raw_types', 'id': f'c{i}'})
+            wait_for(lambda: 'does not read its replies' in gw.log_text(), timeout=30)
             while True:
                 lazy.recv(timeout=30)
         except TimeoutError:
