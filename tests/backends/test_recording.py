@@ -4,6 +4,7 @@ and playing the bag publishes it again."""
 from __future__ import annotations
 
 import asyncio
+import contextlib
 
 import pytest
 
@@ -30,9 +31,12 @@ async def test_record_then_play(world, topic, tmp_path):
         rec = manager.start((topic,), None)
         assert list(rec.connections) == [topic]
         sent = 0   # recorded: the warm-up messages (at least one), then these
+        deadline = asyncio.get_running_loop().time() + 10
         while rec.messages == 0:   # a fresh ROS subscription may need a moment to match
+            assert asyncio.get_running_loop().time() < deadline, 'the recording never got a message'
             pub.publish({'data': 'warm-up'})
-            await asyncio.sleep(0.02)
+            with contextlib.suppress(AssertionError):
+                await until(lambda: rec.messages > 0, timeout=0.1, what='a warm-up message recorded')
         for i in range(50):   # lock-step: each one recorded before the next is sent
             base = rec.messages
             pub.publish({'data': f'message {i}'})
@@ -89,9 +93,11 @@ async def test_bounds(world, topic, tmp_path):
         with pytest.raises(tornado.web.HTTPError) as busy:
             small.start((topic,), None)
         assert busy.value.status_code == 409
-        while rec.state == 'recording':
+        while rec.state == 'recording':   # lock-step: each message recorded, or the cap reached
+            base = rec.messages
             pub.publish({'data': 'x' * 100})
-            await asyncio.sleep(0.005)
+            await until(lambda: rec.messages > base or rec.state != 'recording',
+                        what='a message recorded or the size cap reached')
     finally:
         pub.destroy()
     assert rec.state == 'done' and 'size cap' in rec.reason

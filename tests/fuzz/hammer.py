@@ -24,6 +24,7 @@ import sys
 import tempfile
 import threading
 import time
+import urllib.request
 
 from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
@@ -119,7 +120,12 @@ def fuzz(url: str, pid: int, ops: int, connections: int, seed: int) -> None:
         print(f'  example ({kind}): {frames!r}'[:2000])
 
 
-def non_reader(url: str, pid: int, seconds: float, rate: float, log: str) -> None:
+def clients(port: int) -> int:
+    with urllib.request.urlopen(f'http://127.0.0.1:{port}/health', timeout=10) as r:
+        return json.load(r)['clients']
+
+
+def non_reader(url: str, port: int, pid: int, seconds: float, rate: float, log: str) -> None:
     rss0 = rss_bytes(pid)
     ws = connect(url, max_size=None, compression=None, open_timeout=10, max_queue=1, legacy=True)
     peak, calls, t0, ended = rss0, 0, time.monotonic(), 'still open'
@@ -143,7 +149,9 @@ def non_reader(url: str, pid: int, seconds: float, rate: float, log: str) -> Non
     except TimeoutError:
         ended = 'no close within 30 s'
     ws.close()
-    time.sleep(1.0)
+    deadline = time.monotonic() + 30   # the gateway has released the client (and its memory)
+    while clients(port) and time.monotonic() < deadline:
+        time.sleep(0.05)
     after = rss_bytes(pid)
     with open(log) as f:
         said = [line.split(': ', 1)[-1].strip() for line in f if 'does not read its replies' in line]
@@ -174,7 +182,7 @@ def main() -> None:
     proc, url, port, log = start(['--fibonacci-interval', '0.01', '--max-message-size', '262144'])
     try:
         fuzz(url, proc.pid, args.ops, args.connections, args.seed)
-        non_reader(url, proc.pid, args.flood_seconds, args.flood_rate, log)
+        non_reader(url, port, proc.pid, args.flood_seconds, args.flood_rate, log)
         rebinding(port)
         print(f'gateway alive: {proc.poll() is None}; log: {log}')
     finally:

@@ -21,6 +21,7 @@ class Socket:
     def __init__(self):
         self.writes: list[list[tuple[bytes, bool]]] = []
         self.futures: list[asyncio.Future] = []
+        self.wrote = asyncio.Event()
 
     def _future(self) -> asyncio.Future:
         future = asyncio.get_running_loop().create_future()
@@ -28,12 +29,19 @@ class Socket:
         return future
 
     def write(self, frame: bytes, binary: bool):
-        self.writes.append([(frame, binary)])
-        return self._future()
+        return self.write_many([(frame, binary)])
 
     def write_many(self, frames):
         self.writes.append(list(frames))
+        self.wrote.set()
         return self._future()
+
+    async def until_writes(self, count: int, timeout: float = 5.0) -> list:
+        """The writes once there are ``count`` of them (the outbox's pump task writes later)."""
+        while len(self.writes) < count:
+            self.wrote.clear()
+            await asyncio.wait_for(self.wrote.wait(), timeout)
+        return self.writes
 
     def drain(self) -> None:
         for future in self.futures:
@@ -103,9 +111,7 @@ async def test_while_a_write_is_pending_frames_queue_and_go_out_together_after_i
     box.message(b'm2', False, 'topic', 0)
     assert sock.writes == [[(b'first', False)]]     # the rest waits behind the pending write
     sock.drain()
-    while len(sock.writes) < 2:
-        await asyncio.sleep(0)
-    assert sock.writes[1] == [(b'm1', False), (b'r1', False), (b'm2', False)]
+    assert (await sock.until_writes(2))[1] == [(b'm1', False), (b'r1', False), (b'm2', False)]
     box.close()
 
 
@@ -116,9 +122,7 @@ async def test_a_queued_topic_message_beyond_its_queue_length_is_not_written():
     for i in range(5):
         box.message(b'm%d' % i, False, 'topic', 2)   # queue_length 2: the two newest stay
     sock.drain()
-    while len(sock.writes) < 2:
-        await asyncio.sleep(0)
-    assert sock.writes[1] == [(b'm3', False), (b'm4', False)]
+    assert (await sock.until_writes(2))[1] == [(b'm3', False), (b'm4', False)]
     assert box.dropped == 3
     box.close()
 

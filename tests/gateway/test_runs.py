@@ -197,7 +197,7 @@ rt.log("cwd %s" % os.getcwd())
 rt.log("env %s" % " ".join(sorted(os.environ)))
 signal.signal(signal.SIGINT, signal.SIG_IGN)
 while True:
-    time.sleep(1)
+    signal.pause()
 '''), '/t6')
     body = wait_for(lambda: (lambda b: b if 'env ' in b['output'] else None)(state_of(runs_gw, run_id)), 30)
     lines = dict(line.split(' ', 1) for line in body['output'].splitlines() if ' ' in line)
