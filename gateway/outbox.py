@@ -39,13 +39,13 @@ class Entry:
 
 
 class Outbox:
-    def __init__(self, write: Callable[[bytes, bool], Awaitable[None] | None], *,
-                 write_many: Callable[[Frames], Awaitable[None] | None] | None = None,
+    def __init__(self, write: Callable[[bytes, bool], Awaitable[None] | None],
+                 write_many: Callable[[Frames], Awaitable[None] | None], *,
                  byte_limit: int = 16 * 2**20, on_overflow: Callable[[int], None] | None = None,
                  warn_interval: float = 5.0, reply_limit: int = REPLY_LIMIT,
                  on_reply_overflow: Callable[[int, int], None] | None = None):
         self._write = write          # ws.write_message(frame, binary=...) -> Future
-        self._write_many = write_many or self._one_by_one   # several frames, one socket write
+        self._write_many = write_many   # several frames in one socket write -> Future
         self._held: Frames | None = None   # frames written while corked, not yet sent
         self._queue: deque[Entry] = deque()
         self._per_key: dict[object, deque[Entry]] = {}
@@ -154,12 +154,6 @@ class Outbox:
             self._last_write = self._write(*frames[0]) if len(frames) == 1 else self._write_many(frames)
         except Exception:   # the connection went away; the handler cleans up
             self._closed = True
-
-    def _one_by_one(self, frames: Frames):
-        last = None
-        for frame, binary in frames:
-            last = self._write(frame, binary)
-        return last
 
     def forget(self, key: object) -> None:
         """Drop everything still queued for a subscription that went away."""

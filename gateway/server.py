@@ -87,8 +87,8 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
 
     def open(self, *args, **kwargs) -> None:
         self.set_nodelay(True)   # without it Nagle's algorithm stalls small messages
-        self.session = ClientSession(self.gateway, self._send, self.close, self.request.remote_ip or '',
-                                     send_many=self._send_many)
+        self.session = ClientSession(self.gateway, self._send, self._send_many, self.close,
+                                     self.request.remote_ip or '')
         self.session.attrs.update(self.gateway.policy.connect_attrs(self.request))
         self.session.open()
         for hook in self.gateway.hooks:   # e.g. a robot-side run knowing its own connection
@@ -97,19 +97,26 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
                 on_connect(self.session, self.request)
         self.gateway.client_count_changed()
 
-    def _send(self, payload: bytes, binary: bool):
-        """One message. Without compression the frame goes to the stream as the gateway builds
-        it, once for every client a fan-out sends the same payload to (tornado's write_message
-        builds it per client and wraps each write in a task of its own)."""
+    def _plain_stream(self):
+        """The connection's stream when frames may be written to it as the gateway builds them
+        (no compression, open); else None, and tornado's write_message builds each frame."""
         conn = self.ws_connection
         if self.gateway.settings.use_compression or conn is None or conn.is_closing():
+            return None
+        return conn.stream
+
+    def _send(self, payload: bytes, binary: bool):
+        """One message, framed once for every client a fan-out sends the same payload to
+        (tornado's write_message frames it per client and wraps each write in a task)."""
+        stream = self._plain_stream()
+        if stream is None:
             return self.write_message(payload, binary=binary)
-        return conn.stream.write(_wire(payload, binary))
+        return stream.write(_wire(payload, binary))
 
     def _send_many(self, frames: list[tuple[bytes, bool]]):
         """Several messages in one write to the socket (one send, one wake-up of the reader)."""
-        conn = self.ws_connection
-        if self.gateway.settings.use_compression or conn is None or conn.is_closing():
+        stream = self._plain_stream()
+        if stream is None:
             last = None
             for payload, binary in frames:
                 last = self.write_message(payload, binary=binary)
@@ -118,7 +125,7 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
         for payload, binary in frames:
             parts.append(_frame_header(len(payload), binary))
             parts.append(payload)
-        return conn.stream.write(b''.join(parts))
+        return stream.write(b''.join(parts))
 
     def on_message(self, message: str | bytes):
         if self.session is None or self.failed:

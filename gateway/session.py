@@ -25,14 +25,14 @@ _session_ids = itertools.count(1)
 
 class ClientSession:
     def __init__(self, gateway: Gateway, send: Callable[[bytes, bool], Any],
-                 close: Callable[[int, str], None], remote: str = '', *,
-                 send_many: Callable[[list[tuple[bytes, bool]]], Any] | None = None):
+                 send_many: Callable[[list[tuple[bytes, bool]]], Any],
+                 close: Callable[[int, str], None], remote: str = ''):
         settings = gateway.settings
         self.id = next(_session_ids)
         self.gateway, self.backend, self.remote = gateway, gateway.backend, remote
         self.proto = Session(fragment_timeout=settings.fragment_timeout,
                              max_message_size=settings.max_message_size)
-        self.outbox = Outbox(send, write_many=send_many, byte_limit=settings.send_buffer_limit,
+        self.outbox = Outbox(send, send_many, byte_limit=settings.send_buffer_limit,
                              on_overflow=self._overflow, on_reply_overflow=self._reply_overflow)
         self._close_connection = close
         self.subscriptions: dict[str, Any] = {}        # topic -> fanout.Subscriber

@@ -113,10 +113,14 @@ def _read_op(plan, f: Field, sub):
     return _read_numbers(code, f.array)
 
 
-def _read_string(data: bytes, pos: int):
+def _length(data: bytes, pos: int) -> tuple[int, int]:
+    """A string's or sequence's length (uint32, 4-aligned) and where its contents start."""
     pos += _pad(pos, 4)
-    n = U32.unpack_from(data, pos)[0]
-    pos += 4
+    return U32.unpack_from(data, pos)[0], pos + 4
+
+
+def _read_string(data: bytes, pos: int):
+    n, pos = _length(data, pos)
     end = pos + n
     if n == 0 or end > len(data):
         raise Slow('bad string length')
@@ -132,9 +136,7 @@ def _read_bytes(fixed: int):
     def read(data: bytes, pos: int):
         n = fixed
         if not n:
-            pos += _pad(pos, 4)
-            n = U32.unpack_from(data, pos)[0]
-            pos += 4
+            n, pos = _length(data, pos)
         end = pos + n
         if end > len(data):
             raise Slow('short byte array')
@@ -148,9 +150,7 @@ def _read_numbers(code: str, fixed: int):
     def read(data: bytes, pos: int):
         n = fixed
         if not n:
-            pos += _pad(pos, 4)
-            n = U32.unpack_from(data, pos)[0]
-            pos += 4
+            n, pos = _length(data, pos)
         if n:
             pos += _pad(pos, size)
         end = pos + n * size
@@ -270,22 +270,25 @@ def _write_string(bound: int):
             data = v.encode()
         except UnicodeEncodeError:
             raise Slow('not encodable') from None
-        pad = _pad(pos, 4)
-        if pad:
-            parts.append(_ZEROS[:pad])
-        parts.append(U32.pack(len(data) + 1))
+        pos = _write_length(len(data) + 1, parts, pos)
         parts.append(data)
         parts.append(b'\x00')
-        return pos + pad + 4 + len(data) + 1
+        return pos + len(data) + 1
     return write
 
 
 def _write_bytes(v, parts, pos):
     if type(v) is not bytes:
         raise Slow('not bytes')
+    pos = _write_length(len(v), parts, pos)
+    parts.append(v)
+    return pos + len(v)
+
+
+def _write_length(n: int, parts: list, pos: int) -> int:
+    """A string's or sequence's length (uint32, 4-aligned); where its contents start."""
     pad = _pad(pos, 4)
     if pad:
         parts.append(_ZEROS[:pad])
-    parts.append(U32.pack(len(v)))
-    parts.append(v)
-    return pos + pad + 4 + len(v)
+    parts.append(U32.pack(n))
+    return pos + pad + 4

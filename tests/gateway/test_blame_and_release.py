@@ -25,6 +25,7 @@ async def _session():
     gateway = Gateway(Settings(), backend)
     sent: list[dict] = []
     session = ClientSession(gateway, lambda payload, binary: sent.append(orjson.loads(payload)),
+                            lambda frames: sent.extend(orjson.loads(payload) for payload, _ in frames),
                             lambda code, reason: None)
     session.open()
     return backend, gateway, session, sent

@@ -50,7 +50,7 @@ class Socket:
 
 
 def started(sock: Socket) -> Outbox:
-    box = Outbox(sock.write, write_many=sock.write_many)
+    box = Outbox(sock.write, sock.write_many)
     box.start()
     return box
 
