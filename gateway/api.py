@@ -45,21 +45,15 @@ def check_origin(handler: tornado.web.RequestHandler, policy) -> None:
         raise tornado.web.HTTPError(403, f'requests from {origin} are not allowed (--allowed-origins)')
 
 
-def json_content(handler: tornado.web.RequestHandler) -> None:
-    """The body was sent as application/json: a page of another origin cannot send that without
-    a CORS preflight, which this server never grants (a form can post text/plain)."""
-    kind = handler.request.headers.get('Content-Type', '').split(';')[0].strip().lower()
-    if kind != 'application/json':
-        raise tornado.web.HTTPError(415, 'send the body as application/json')
-
-
 def body_json(handler: tornado.web.RequestHandler, limit: int) -> dict:
     """The request body as a JSON object (sent as application/json, so browsers of other
     origins cannot send it without a preflight that this server never grants)."""
     body = handler.request.body
     if len(body) > limit:
         raise tornado.web.HTTPError(413, f'body larger than {limit} bytes')
-    json_content(handler)
+    kind = handler.request.headers.get('Content-Type', '').split(';')[0].strip().lower()
+    if kind != 'application/json':
+        raise tornado.web.HTTPError(415, 'send the body as application/json')
     try:
         value = json.loads(body)
     except ValueError as e:

@@ -27,7 +27,7 @@ import tempfile
 
 import tornado.web
 
-from .api import JsonHandler, check_origin, json_content
+from .api import JsonHandler, body_json, check_origin
 from .assets import data_dir
 
 MAX_PROGRAM_BYTES = 2 * 1024 * 1024
@@ -127,16 +127,7 @@ class ProgramHandler(_Base):
     def put(self, name: str) -> None:
         self._may_write()
         path = self._path(name)
-        body = self.request.body
-        if len(body) > MAX_PROGRAM_BYTES:
-            raise tornado.web.HTTPError(413, "program larger than %d bytes" % MAX_PROGRAM_BYTES)
-        json_content(self)
-        try:
-            program = json.loads(body)
-        except ValueError as e:
-            raise tornado.web.HTTPError(400, "body is not JSON: %s" % e)
-        if not isinstance(program, dict):
-            raise tornado.web.HTTPError(400, "a program is a JSON object")
+        program = body_json(self, MAX_PROGRAM_BYTES)
         data = json.dumps(program, separators=(",", ":")).encode()
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".json")

@@ -57,16 +57,13 @@ class RclpyPublisher:
     def publish(self, msg: Message) -> None:
         if self._pub is None:
             return
+        data = None
         if self._cdr is not None:
             try:
                 data = self._cdr(msg)
             except Slow:
                 pass
-            else:
-                self._pub.publish(data)
-                self._backend.published(self.topic)
-                return
-        self._pub.publish(self._backend.convert.from_dict(self._cls, msg))
+        self._pub.publish(self._backend.convert.from_dict(self._cls, msg) if data is None else data)
         self._backend.published(self.topic)
 
     def destroy(self) -> None:

@@ -133,7 +133,7 @@ class Pump:
         self._context, self._loop, self._scope = context, loop, scope
         self._gc = _rclpy().GuardCondition(context.handle)
         self._lock = threading.Lock()
-        self._take_lock = threading.RLock()   # held by whoever takes: pump thread or loop
+        self._take_lock = threading.Lock()   # held by whoever takes: pump thread or loop
         self._here = False                    # the loop is inside take_here
         self._entities: list[Entity] = []
         self._doomed: list[Entity] = []
@@ -279,9 +279,5 @@ class Pump:
         batch = self._batch
         with self._scope():
             while batch:
-                fn, arg = batch.popleft()
-                try:
-                    fn(arg)
-                except Exception:
-                    log.exception('delivering %s', getattr(fn, '__qualname__', fn))
+                self._call(*batch.popleft())
         self._room.set()
