@@ -17,10 +17,11 @@ import os
 
 import tornado.web
 
-# Top-level entries of ide/ that the pages load, besides the pages (*.html) themselves;
-# everything else there (node_modules/, package files, the build script) is for building them.
+# Top-level entries of ide/ that anyone may load; everything else there (node_modules/, package
+# files, the build script) is for building them, and class.html only goes out through /class,
+# which checks who asks.
 PUBLIC_DIRS = frozenset({'blocks', 'css', 'generators', 'js', 'runtime', 'vendor'})
-PUBLIC_FILES = frozenset({'toolbox.json'})
+PUBLIC_FILES = frozenset({'index.html', 'teleop.html', 'toolbox.json'})
 MAX_HTTP_BODY = 4 * 2**20   # the largest request body any route takes (a program is at most 2 MiB)
 
 
@@ -86,7 +87,7 @@ class PublicFileHandler(tornado.web.StaticFileHandler):
     def validate_absolute_path(self, root: str, absolute_path: str) -> str | None:
         relative = os.path.relpath(absolute_path, os.path.abspath(root))
         top = relative.replace(os.sep, '/').split('/', 1)
-        public = top[0] in PUBLIC_FILES or top[0].endswith('.html') if len(top) == 1 else top[0] in PUBLIC_DIRS
+        public = top[0] in PUBLIC_FILES if len(top) == 1 else top[0] in PUBLIC_DIRS
         if not public:
             if relative != '.':   # '.' is the root: StaticFileHandler redirects to index.html
                 raise tornado.web.HTTPError(404)

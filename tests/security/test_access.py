@@ -282,3 +282,12 @@ def test_wss_with_self_signed_certificate(launch, tokens_file, certificate):
         opener.open(request, timeout=5)
     assert info.value.code == 303
     assert '; secure' in info.value.headers['Set-Cookie'].lower()
+
+
+def test_the_class_page_goes_out_only_through_its_admin_check(secured):
+    """/class sends the signed-out to sign in; its file is not served as a public file."""
+    status, headers, _ = http(secured, '/class')
+    assert status == 302 and headers['Location'].startswith('/login'), (status, dict(headers))
+    assert http(secured, '/class.html')[0] == 404
+    assert http(secured, '/class.html', headers={'Authorization': f'Bearer {TOKENS["operator"]}'})[0] == 404
+    assert http(secured, '/teleop.html')[0] == 200     # the public pages still are
