@@ -115,10 +115,10 @@ class Lease:
 
     # --- commands -------------------------------------------------------------------------------
 
-    def require(self, session, name: str, type: str | None = None, moving: bool = True) -> None:
+    def require(self, session, name: str, type: str | None = None, msg: dict | None = None) -> None:
         """Grant a free lease to a commanding client; refuse everyone but the holder. A client an
         admin stopped may not move the robot until it takes it again; its zero commands (its page
-        stopping the program) pass without taking the lease."""
+        stopping the program) pass without taking the lease. msg: the command (None: a moving one)."""
         if not self.is_command(name, type):
             return
         group = self.group(name)
@@ -127,6 +127,7 @@ class Lease:
             return
         stopper = self.benched.get(group, {}).get(session.id)
         if stopper is not None:
+            moving = msg is None or type not in self.types or _moving(msg)   # only asked here: rare
             if not moving and holder is None:
                 return
             raise ProtocolError(f'{name}: {stopper} stopped {group}; send "take {group}" (the Take button) to '
@@ -142,7 +143,7 @@ class Lease:
         if pub.topic == CONTROL_TOPIC:
             self._command(session, str(msg.get('data', '')).split())
             return None
-        self.require(session, pub.topic, pub.type, moving=pub.type not in self.types or _moving(msg))
+        self.require(session, pub.topic, pub.type, msg)
         return msg
 
     def _may_override(self, session) -> bool:

@@ -91,6 +91,25 @@ def stalled_client(gateway, ops: list[dict]) -> socket.socket:
     return sock
 
 
+async def warm_up(sub: Client, publish, topic: str, timeout: float = 20.0) -> None:
+    """Until DDS has matched the publisher with the gateway's subscription of topic."""
+    deadline = asyncio.get_running_loop().time() + timeout
+    while True:
+        assert asyncio.get_running_loop().time() < deadline, f'{topic}: the subscription never matched'
+        publish('warm-up')
+        try:
+            await sub.expect(lambda m: m.get('op') == 'publish' and m.get('topic') == topic, timeout=0.2)
+            return
+        except asyncio.TimeoutError:
+            continue
+
+
+def through(client: Client, topic: str):
+    """publish(text) on topic through a websocket client (std_msgs/String, advertised)."""
+    return lambda text: asyncio.ensure_future(
+        client.send({'op': 'publish', 'topic': topic, 'msg': {'data': text}}))
+
+
 async def test_a_stalled_client_costs_the_others_nothing(gateway):
     topic, payload = '/rclpy_flood', 'z' * 100_000
     slow = stalled_client(gateway, [{'op': 'subscribe', 'topic': topic, 'type': 'std_msgs/msg/String'}])
@@ -99,14 +118,7 @@ async def test_a_stalled_client_costs_the_others_nothing(gateway):
         await fast.send({'op': 'subscribe', 'topic': topic, 'type': 'std_msgs/msg/String'})
         await fast.sync()
         await pub.send({'op': 'advertise', 'topic': topic, 'type': 'std_msgs/msg/String'})
-        # until DDS has matched the gateway's publisher with its subscription
-        while True:
-            await pub.send({'op': 'publish', 'topic': topic, 'msg': {'data': 'warm-up'}})
-            try:
-                await fast.expect(lambda m: m.get('op') == 'publish', timeout=0.2)
-                break
-            except asyncio.TimeoutError:
-                continue
+        await warm_up(fast, through(pub, topic), topic)
         count = 300    # 30 MB past a client that never reads
         for i in range(count):   # lock-step: each message reaches the fast client, in order
             await pub.send({'op': 'publish', 'topic': topic, 'msg': {'data': f'{i:06d}' + payload}})
@@ -200,17 +212,6 @@ async def test_browser_served_service_and_action_answer_ros_callers_under_load(g
     assert gateway.alive
 
 
-async def warm_up(sub: Client, publish, topic: str) -> None:
-    """Until DDS has matched the publisher with the gateway's subscription of topic."""
-    while True:
-        publish('warm-up')
-        try:
-            await sub.expect(lambda m: m.get('op') == 'publish' and m.get('topic') == topic, timeout=0.2)
-            return
-        except asyncio.TimeoutError:
-            continue
-
-
 async def test_messages_of_a_client_and_a_ros_node_on_one_topic_keep_their_order(gateway, caller):
     """The gateway takes what it published itself at once, on the loop; a ROS node's messages on
     the same topic come through the pump thread: each source's messages arrive in order, all."""
@@ -221,8 +222,7 @@ async def test_messages_of_a_client_and_a_ros_node_on_one_topic_keep_their_order
         await sub.send({'op': 'subscribe', 'topic': topic, 'type': 'std_msgs/msg/String', 'queue_length': 1000})
         await sub.sync()
         await pub.send({'op': 'advertise', 'topic': topic, 'type': 'std_msgs/msg/String'})
-        await warm_up(sub, lambda text: asyncio.ensure_future(
-            pub.send({'op': 'publish', 'topic': topic, 'msg': {'data': text}})), topic)
+        await warm_up(sub, through(pub, topic), topic)
         await warm_up(sub, node_publish, topic)
         got: dict[str, list[int]] = {'c': [], 'n': []}
         rounds, step = 300, 20    # at most 2 x 20 in flight: within the gateway reader's history

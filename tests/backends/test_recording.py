@@ -42,7 +42,6 @@ async def test_record_then_play(world, topic, tmp_path):
             pub.publish({'data': f'message {i}'})
             sent += 1
             await until(lambda: rec.messages > base, what=f'message {i} recorded')
-        await until(lambda: rec.messages >= sent + 1, what='every message recorded')
         manager.stop(rec, 'done')
     finally:
         pub.destroy()
