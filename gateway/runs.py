@@ -333,9 +333,9 @@ class RunManager:
             session.attrs['role'] = run.role
             session.attrs.pop('auth_error', None)
         lease = getattr(self.gateway.policy, 'lease', None)
-        if lease is not None:   # as if it published "take NS" on /rosgate/control
+        if lease is not None:
             try:
-                lease.publish_hook(session, _CONTROL, {'data': f'take {run.ns}'.strip()})
+                lease.take(session, run.ns)
             except ProtocolError as e:
                 self._line(run, f'[driver lease: {e.message}]\n', ours=True)
 
@@ -368,15 +368,6 @@ class RunManager:
                 await asyncio.wait_for(asyncio.shield(run.done), KILL_AFTER + 1)
             except asyncio.TimeoutError:
                 self._signal(run, signal.SIGKILL)
-
-
-class _Control:
-    """The driver lease's control topic, as a publish hook sees it."""
-    topic = '/rosgate/control'
-    type = STRING
-
-
-_CONTROL = _Control()
 
 
 # --- HTTP ---------------------------------------------------------------------------------------

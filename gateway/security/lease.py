@@ -157,6 +157,11 @@ class Lease:
         it (None: it is free, or ``role`` may take it over)."""
         return None if self.may_take_over(role) else self.holders.get(self.group_of_namespace(ns))
 
+    def take(self, session, ns: str | None = None) -> None:
+        """What "take NS" on the control topic does, for a client that does not send it itself
+        (a robot-side run); ProtocolError when someone else drives and session may not take over."""
+        self._command(session, ['take', ns] if ns else ['take'])
+
     def _command(self, session, words: list[str]) -> None:
         verb = words[0].lower() if words else ''
         if verb not in ('take', 'release', 'stop') or len(words) > 2 or (verb == 'stop' and len(words) != 2):

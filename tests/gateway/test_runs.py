@@ -217,10 +217,7 @@ while True:
 
 def test_a_library_program_runs_by_name(runs_gw):
     source = program('rt.log("from the library")')
-    req = urllib.request.Request(f'{runs_gw.http_url}api/programs/lib%20run', method='PUT',
-                                 data=json.dumps({'format': 'rosgate-program', 'python': source}).encode(),
-                                 headers={'Content-Type': 'application/json'})
-    urllib.request.urlopen(req, timeout=10).close()
+    assert api(runs_gw, 'PUT', '/api/programs/lib%20run', {'format': 'rosgate-program', 'python': source})[0] == 200
     status, body = api(runs_gw, 'POST', '/api/runs', {'program': 'lib run', 'ns': '/t7'})
     assert status == 201, body
     final = ended(runs_gw, body['id'])

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from .conftest import IdePage
+from .conftest import TABLET, IdePage
 from .test_ide_features import ex, program
 
 TOKENS = {"viewer": "ide-viewer-token-11", "operator": "ide-operator-token-22", "admin": "ide-admin-token-33"}
@@ -30,7 +30,7 @@ def browser_page(chromium):
     contexts = []
 
     def make(gateway) -> IdePage:
-        ctx = chromium.new_context(viewport={"width": 1180, "height": 820}, has_touch=True)
+        ctx = chromium.new_context(viewport=TABLET, has_touch=True)
         contexts.append(ctx)
         return IdePage(ctx.new_page(), gateway)
 

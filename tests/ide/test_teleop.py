@@ -7,7 +7,7 @@ import time
 
 import pytest
 
-from .conftest import ARTIFACTS, open_teleop, wait_for
+from .conftest import ARTIFACTS, PHONE, open_teleop, wait_for
 
 
 def drag(cdp, x0, y0, dx, dy, steps=8):
@@ -106,7 +106,7 @@ def test_keys_slider_and_widgets(chromium, rover):
         wait_for(lambda: cmd.latest()["angular"]["z"] == 0, timeout=1, what="zero after the on-screen key")
         assert all(m["angular"]["z"] < 0 for t, m in cmd.since(t1)[:-1])
         page.screenshot(path=str(ARTIFACTS / "teleop-tablet.png"))
-        page.set_viewport_size({"width": 390, "height": 844})
+        page.set_viewport_size(PHONE)
         page.wait_for_function("document.querySelector('#drive').getBoundingClientRect().width < 400")
         page.screenshot(path=str(ARTIFACTS / "teleop-phone.png"), full_page=True)
         assert not errors, errors
