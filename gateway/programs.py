@@ -61,6 +61,16 @@ def stored_program(programs_dir: pathlib.Path, name: str, owner: str | None) -> 
     return program
 
 
+def space_owner(identity, asked: str | None, verb: str = "open") -> str | None:
+    """Whose space a request is about: an admin (or anyone, with auth off) names it (None: the
+    shared space); anyone else gets their own and may not name someone else's."""
+    if identity is None or identity.role == "admin":
+        return asked
+    if asked is not None and asked != identity.name:
+        raise tornado.web.HTTPError(403, "%s may %s only their own programs" % (identity.name, verb))
+    return identity.name
+
+
 class _Base(JsonHandler):
     identity = None      # who asks (security.http sets it when auth is on); None: an admin
 
@@ -73,12 +83,7 @@ class _Base(JsonHandler):
     def _owner(self) -> str | None:
         """The space this request is about: ?owner= for an admin (none: the shared space), the
         caller's own for anyone else."""
-        asked = self.get_query_argument("owner", None) or None
-        if self._admin():
-            return asked
-        if asked is not None and asked != self.identity.name:
-            raise tornado.web.HTTPError(403, "%s may open only their own programs" % self.identity.name)
-        return self.identity.name
+        return space_owner(self.identity, self.get_query_argument("owner", None) or None)
 
     def _space(self, owner: str | None) -> pathlib.Path:
         return space_dir(self.programs_dir, owner)

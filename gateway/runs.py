@@ -419,12 +419,9 @@ class RunListHandler(JsonHandler):
     def _library(self, name: str, identity, owner) -> str:
         """The Python stored with a library program, from the space the library would open for
         this caller: an operator's own (with --auth), else the shared one or an admin's "owner"."""
-        from .programs import stored_program
+        from .programs import space_owner, stored_program
         programs_dir = self.manager.gateway.settings.programs_dir
-        if identity is not None and identity.role != 'admin':
-            if owner is not None and owner != identity.name:
-                raise tornado.web.HTTPError(403, f'{identity.name} may run only their own programs')
-            owner = identity.name
+        owner = space_owner(identity, owner, 'run')
         if programs_dir is None or not (owner is None or isinstance(owner, str) and owner):
             raise tornado.web.HTTPError(400, f'no program library entry {name!r}')
         try:
