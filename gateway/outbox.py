@@ -62,6 +62,8 @@ class Outbox:
         self._last_warn = -1e9
         self._dropped_since_warn = 0
         self._wakeup = asyncio.Event()
+        self.idle = asyncio.Event()  # set while nothing is queued (the pump has written it all)
+        self.idle.set()
         self._closed = False
         self._task: asyncio.Task | None = None
         self._last_write = None      # Future of the latest write: done once the socket took it
@@ -71,6 +73,7 @@ class Outbox:
 
     def close(self) -> None:
         self._closed = True
+        self.idle.set()
         self._queue.clear()
         self._per_key.clear()
         self.queued_bytes = self.reply_count = self.reply_bytes = 0
@@ -95,6 +98,7 @@ class Outbox:
             return
         entry = Entry(frame, binary, None)
         self._queue.append(entry)
+        self.idle.clear()
         self.queued_bytes += entry.size
         self.reply_count += 1
         self.reply_bytes += entry.size
@@ -123,6 +127,7 @@ class Outbox:
                 self.queued_bytes -= old.size
                 self.dropped += 1
         self._queue.append(entry)
+        self.idle.clear()
         self.queued_bytes += entry.size
         if self.queued_bytes > self.peak_bytes:
             self.peak_bytes = self.queued_bytes
@@ -183,6 +188,7 @@ class Outbox:
         queue = self._queue
         while not self._closed:
             if not queue:
+                self.idle.set()
                 self._wakeup.clear()
                 await self._wakeup.wait()
                 continue

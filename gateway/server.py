@@ -61,7 +61,6 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
         self.gateway = gateway
         self.session: ClientSession | None = None
         self.text_frame = False   # set by TextAsBytesProtocol while it delivers a text message
-        self.failed = False       # a frame failed the connection: later ones are not handled
 
     async def get(self, *args, **kwargs) -> None:
         if self.request.headers.get('Upgrade', '').lower() != 'websocket':
@@ -128,7 +127,7 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
         return stream.write(b''.join(parts))
 
     def on_message(self, message: str | bytes):
-        if self.session is None or self.failed:
+        if self.session is None or self.session.closing:
             return None
         text = self.text_frame
         if text and not message.isascii():   # ASCII is UTF-8: the JSON parser reads those bytes as they are
@@ -143,7 +142,6 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
     async def _invalid_text(self, problem: str) -> None:
         """A text message that is not UTF-8 fails the connection (RFC 6455: close 1007). The
         client is told why first; tornado reads no further frame while this runs."""
-        self.failed = True
         self.session.status('error', f'text frame is not valid UTF-8 ({problem}); closing the connection (1007)')
         await self.session.hang_up(1007, 'text frame is not valid UTF-8', FLUSH_BEFORE_CLOSE)
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import itertools
 import logging
 from collections.abc import Callable, Coroutine
@@ -45,7 +46,7 @@ class ClientSession:
         self.tasks: set[asyncio.Task] = set()
         self.attrs: dict[str, Any] = {}                # role, lease, ... for policy hooks
         self.closed = False
-        self.closing = False   # the server closed the connection: later ops are not handled
+        self.closing = False   # the server is closing the connection: later ops are not handled
         self.connected_at = gateway.backend.now()
         self._counter = itertools.count(1)
 
@@ -143,11 +144,12 @@ class ClientSession:
         self._close_connection(code, reason)
 
     async def hang_up(self, code: int, reason: str, flush: float = 1.0) -> None:
-        """Close after what is queued for the client went out (at most ``flush`` s)."""
-        loop = asyncio.get_running_loop()
-        deadline = loop.time() + flush
-        while self.outbox.queued_bytes and not self.closed and loop.time() < deadline:
-            await asyncio.sleep(0.01)   # the outbox's pump is writing what came before
+        """Close after what is queued for the client went out (at most ``flush`` s); from now
+        on its frames are not handled."""
+        self.closing = True
+        if not self.closed:   # the outbox's pump is writing what came before
+            with contextlib.suppress(asyncio.TimeoutError):
+                await asyncio.wait_for(self.outbox.idle.wait(), flush)
         if not self.closed:
             self.close_connection(code, reason)
 
