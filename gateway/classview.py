@@ -10,6 +10,8 @@ from urllib.parse import quote
 
 import tornado.web
 
+from .web import write_page
+
 
 class ClassHandler(tornado.web.RequestHandler):
     def initialize(self, gateway, page) -> None:
@@ -29,11 +31,7 @@ class ClassHandler(tornado.web.RequestHandler):
             if identity.role != 'admin':
                 raise tornado.web.HTTPError(403, f'the class view is for admins; {identity.name} is '
                                                  f'{identity.role}')
-        if not self.page.is_file():
-            raise tornado.web.HTTPError(404)
-        self.set_header('Content-Type', 'text/html; charset=UTF-8')
-        self.set_header('Cache-Control', 'no-store')
-        self.write(self.page.read_bytes())
+        write_page(self, self.page, cache='no-store')
 
     def write_error(self, status_code: int, **kwargs) -> None:
         exc = kwargs.get('exc_info')

@@ -15,7 +15,7 @@ from .classview import ClassHandler
 from .core import Gateway
 from .session import ClientSession
 from .settings import Settings
-from .web import Application, PublicFileHandler
+from .web import Application, PublicFileHandler, write_page
 
 log = logging.getLogger('rosgate')
 HARD_LIMIT_FACTOR = 4   # frames up to this many times max_message_size get a status; larger ones close 1009
@@ -64,11 +64,7 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
 
     async def get(self, *args, **kwargs) -> None:
         if self.request.headers.get('Upgrade', '').lower() != 'websocket':
-            index = self.gateway.settings.ide_dir / 'index.html'
-            if not index.is_file():
-                raise tornado.web.HTTPError(404)
-            self.set_header('Content-Type', 'text/html; charset=UTF-8')
-            self.write(index.read_bytes())
+            write_page(self, self.gateway.settings.ide_dir / 'index.html')
             return
         await super().get(*args, **kwargs)
 
@@ -196,11 +192,7 @@ class TeleopHandler(tornado.web.RequestHandler):
         self.page = page
 
     def get(self) -> None:
-        if not self.page.is_file():
-            raise tornado.web.HTTPError(404)
-        self.set_header('Content-Type', 'text/html; charset=UTF-8')
-        self.set_header('Cache-Control', 'no-cache')
-        self.write(self.page.read_bytes())
+        write_page(self, self.page)
 
 
 class IdeFileHandler(tornado.web.StaticFileHandler):

@@ -95,3 +95,12 @@ class PublicFileHandler(tornado.web.StaticFileHandler):
 
     def set_extra_headers(self, path: str) -> None:
         self.set_header('Cache-Control', 'no-cache')
+
+
+def write_page(handler: tornado.web.RequestHandler, page, cache: str = 'no-cache') -> None:
+    """One of the IDE's pages as the response (404 when the IDE is not built)."""
+    if not page.is_file():
+        raise tornado.web.HTTPError(404)
+    handler.set_header('Content-Type', 'text/html; charset=UTF-8')
+    handler.set_header('Cache-Control', cache)
+    handler.write(page.read_bytes())
