@@ -8,6 +8,10 @@ byte arrays and numeric arrays (decoding), scalars, strings, nested messages and
 (encoding). Everything else, and any value the fast path does not expect (a missing field, a value
 of another type, out of range, a string with NUL), goes through the Converter and rclpy as before,
 so what a client sees (values and errors) does not change.
+
+protocol/cdr.py (rosbags) also turns dicts into CDR, for the sim's cbor-raw and recordings; it is
+not used here because its dicts follow rosbags' objects, not rclpy's conversions (what rclpy
+coerces, rejects or defaults is what the rclpy backend must match).
 """
 
 from __future__ import annotations
