@@ -36,6 +36,9 @@ IN_FLIGHT = 8
 # history of the gateway's own subscriptions: the loop may publish a burst of a client's messages
 # before the pump takes the first (they share the GIL); a history of 10 lost most of 32 in flight
 READER_DEPTH = 100
+TAKE_EVERY = 32     # a client's burst is taken from the gateway's readers at least this often
+COOL = 0.005        # seconds without the gateway publishing before the pump waits on a topic again
+UNHELD_FOR = 10.0   # seconds a topic stays with the pump once the middleware delivered late
 
 
 def fq_name(namespace: str, name: str) -> str:
@@ -70,6 +73,16 @@ class RclpyPublisher:
         if self._pub is not None:
             self._backend.node.destroy_publisher(self._pub)
             self._pub = None
+
+
+class Held:
+    """A topic the gateway is publishing to, whose readers the loop takes from (not the pump)."""
+
+    __slots__ = ('owed', 'busy')
+
+    def __init__(self):
+        self.owed = 0       # messages published since the last take
+        self.busy = True    # published to since the last cool-down check
 
 
 class RclpySubscription:
@@ -184,7 +197,9 @@ class RclpyBackend:
         self._action_servers: dict[str, RclpyActionServer] = {}
         self._closing: dict[str, RclpyActionServer] = {}
         self.readers: dict[str, list[TopicReader]] = {}   # the gateway's subscriptions by topic
-        self._took = False
+        self._round = False     # the loop has a take scheduled for the end of this round
+        self._held: dict[str, Held] = {}        # topics whose readers the loop takes from
+        self._unheld: dict[str, float] = {}     # topic -> loop time before which it is not held
         # the pump delivers each batch of messages inside this (the gateway: one write per client)
         self.batch_scope: Callable[[], Any] = contextlib.nullcontext
 
@@ -344,23 +359,78 @@ class RclpyBackend:
                                  self.convert.cdr_reader(cls))
         self.pump.add(handle.sub)
         self.readers.setdefault(topic, []).append(handle.sub)
+        if topic in self._held:
+            self.pump.hold([handle.sub])
         return handle
 
     def published(self, topic: str) -> None:
-        """The gateway published on topic: its own subscriptions of it may hold the message now.
+        """The gateway published on topic: its own subscriptions of it hold the message now.
 
-        Taken here once per round of the loop: the first message of a client's burst goes out at
-        once (64 B, one in flight: p50 0.36 vs 0.44-0.49 ms through the pump), the rest of the
-        burst goes through the pump in batches (taking each here woke the pump for nothing per
-        message: 64 B, 32 in flight, 8.2-8.7k instead of 12-13k msg/s)."""
+        Fast DDS (and CycloneDDS) deliver to a process's own readers inside the publish call,
+        so the loop takes them itself: at the first message of a round of the loop (a lone
+        message goes out at once), then every TAKE_EVERY messages and at the end of the round,
+        in one batch. While the gateway keeps publishing to a topic, the pump stops waiting on
+        its readers (``Pump.hold``); it would wake for each message and find nothing. A ROS
+        node's messages on the topic are taken along, and within COOL seconds of the gateway's
+        last message the pump waits on the readers again. A middleware that delivers later
+        (a take finds fewer messages than were published) leaves the topic to the pump.
+
+        Measured (64 KiB, 32 in flight, three paired runs): 4,326-4,656 msg/s and 215-230 µs
+        of gateway CPU a message, against 2,811-3,301 and 319-375 µs with one take per round
+        and the pump waiting on every reader; 64 B: 14.9-18.9k against 13.8-14.8k msg/s."""
         readers = self.readers.get(topic)
-        if readers and not self._took:
-            self._took = True
-            self.loop.call_soon(self._next_round)
-            self.pump.take_here(readers)
+        if not readers:
+            return
+        held = self._held.get(topic)
+        if held is None and self.loop.time() >= self._unheld.get(topic, 0.0):
+            held = self._held[topic] = Held()
+            self.pump.hold(readers)
+            self.loop.call_later(COOL, self._cool, topic, held)
+        if held is None:
+            if not self._round:     # left to the pump: take the first message of the round here
+                self._start_round()
+                self.pump.take_here(readers)
+            return
+        held.busy = True
+        held.owed += 1
+        if not self._round:
+            self._start_round()
+            self._take(topic, held)
+        elif held.owed >= TAKE_EVERY:
+            self._take(topic, held)
 
-    def _next_round(self) -> None:
-        self._took = False
+    def _start_round(self) -> None:
+        self._round = True
+        self.loop.call_soon(self._round_end)
+
+    def _round_end(self) -> None:
+        self._round = False
+        for topic, held in list(self._held.items()):
+            if held.owed:
+                self._take(topic, held)
+
+    def _take(self, topic: str, held: Held) -> None:
+        taken = self.pump.take_here(self.readers.get(topic, []))
+        if taken is None:       # published from inside a delivery: taken at the end of the round
+            return
+        if taken < held.owed:   # this middleware delivers later: the pump takes this topic
+            self._unhold(topic, held)
+            self._unheld[topic] = self.loop.time() + UNHELD_FOR
+        held.owed = 0
+
+    def _cool(self, topic: str, held: Held) -> None:
+        if self._held.get(topic) is not held or self.node is None:
+            return
+        if held.busy:
+            held.busy = False
+            self.loop.call_later(COOL, self._cool, topic, held)
+        else:
+            self._unhold(topic, held)
+
+    def _unhold(self, topic: str, held: Held) -> None:
+        if self._held.get(topic) is held:
+            del self._held[topic]
+            self.pump.release(self.readers.get(topic, []))
 
     def _adapted_qos(self, topic: str) -> QoS:
         """Transient-local if every publisher is, best-effort if any publisher is."""

@@ -14,9 +14,10 @@ The loop sends (requests, responses) itself; rcl allows that from any thread. En
 destroyed by the pump thread after its wait, so a handle is never destroyed while waited on.
 
 Each batch is delivered inside the gateway's outbox cork, so a client gets its share of a batch
-in one socket write. Right after the gateway publishes, the loop may take from its own readers
-of that topic itself (``take_here``): Fast DDS delivers to a process's own readers inside the
-publish call, and the message then skips the hop through the pump and back.
+in one socket write. When the gateway publishes, the loop takes from its own readers of that
+topic itself (``take_here``): Fast DDS delivers to a process's own readers inside the publish
+call, and the message then skips the hop through the pump and back. While the gateway keeps
+publishing to a topic, the pump does not wait on its readers (``hold``/``release``).
 """
 
 from __future__ import annotations
@@ -70,19 +71,21 @@ class TopicReader(Entity):
             from rclpy.serialization import deserialize_message  # noqa: PLC0415
             return self._convert(deserialize_message(data, self.msg_type))
 
-    def take(self, push) -> None:
-        """Pushes ``(deliver, (message dict, CDR bytes as taken or None))``."""
+    def take(self, push) -> int:
+        """Pushes ``(deliver, (message dict, CDR bytes as taken or None))``; returns how many
+        messages it took (at most BUDGET)."""
         raw = self._decode is not None
         take, msg_type, deliver = self.handle.take_message, self.msg_type, self._deliver
         convert = self._from_cdr if raw else self._convert
-        for _ in range(BUDGET):
+        for n in range(BUDGET):
             got = take(msg_type, raw)
             if got is None:
-                return
+                return n
             try:
                 push(deliver, (convert(got[0]), got[0] if raw else None))
             except Exception as e:  # noqa: BLE001 (a message the converter cannot express)
                 push(self._report, e)
+        return BUDGET
 
 
 class ServiceCaller(Entity):
@@ -136,6 +139,7 @@ class Pump:
         self._take_lock = threading.Lock()   # held by whoever takes: pump thread or loop
         self._here = False                    # the loop is inside take_here
         self._entities: list[Entity] = []
+        self._held: set[Entity] = set()      # readers the loop takes from itself, for now
         self._doomed: list[Entity] = []
         self._changed = True
         self._stopping = False
@@ -160,9 +164,25 @@ class Pump:
             self._changed = True
         self._gc.trigger_guard_condition()
 
+    def hold(self, readers: list[TopicReader]) -> None:
+        """Stop waiting on these readers until ``release``: the loop takes what they get
+        (``take_here``). Otherwise every message the gateway publishes to them wakes the pump."""
+        self._hold(self._held.update, readers)
+
+    def release(self, readers: list[TopicReader]) -> None:
+        self._hold(self._held.difference_update, readers)
+
+    def _hold(self, change: Callable, readers: list[TopicReader]) -> None:
+        with self._lock:
+            change(readers)
+            self._changed = True
+        if self._thread.is_alive():
+            self._gc.trigger_guard_condition()
+
     def remove(self, entity: Entity) -> None:
         """Stop waiting on the entity; the pump destroys its handle."""
         with self._lock:
+            self._held.discard(entity)
             if entity in self._entities:
                 self._entities.remove(entity)
                 self._doomed.append(entity)
@@ -184,7 +204,7 @@ class Pump:
                 if self._changed:
                     with self._lock:
                         self._changed = False
-                        entities = list(self._entities)
+                        entities = [e for e in self._entities if e not in self._held]
                     self._destroy_doomed()
                     kinds = {k: [e for e in entities if e.kind == k]
                              for k in ('subscription', 'client', 'service')}
@@ -245,27 +265,30 @@ class Pump:
 
     # --- loop ---------------------------------------------------------------------------------
 
-    def take_here(self, readers: list[TopicReader]) -> None:
-        """Take and deliver on the loop, now, what these readers hold: called right after the
-        gateway published to their topic. A middleware that delivers to a process's own readers
-        inside the publish call (Fast DDS does) then costs no hop through the pump thread and
-        back; where nothing is there yet, the pump takes it as usual. Messages stay in order:
-        whatever the pump took before is delivered first, and the two never take at once.
-        """
+    def take_here(self, readers: list[TopicReader]) -> int | None:
+        """Take and deliver on the loop, now, all these readers hold: called after the gateway
+        published to their topic. A middleware that delivers to a process's own readers inside
+        the publish call (Fast DDS, CycloneDDS) then costs no hop through the pump thread and
+        back. Messages stay in order: whatever the pump took before is delivered first, and the
+        two never take at once. Returns how many messages were delivered (the pump's pending
+        ones included), or None when called from inside a delivery (the caller takes later)."""
         if self._here:
-            return      # a delivery published again: the outer call (or the pump) takes it
+            return None
         with self._take_lock:
             self._here = True
             try:
-                self._drain()
+                count = self._drain()
                 with self._scope():
                     for reader in readers:
                         try:
-                            reader.take(self._call)
+                            while (n := reader.take(self._call)) == BUDGET:
+                                count += n
+                            count += n
                         except Exception as e:  # noqa: BLE001 (the reader was destroyed meanwhile)
                             log.debug('taking from %s: %s', reader, e)
             finally:
                 self._here = False
+        return count
 
     @staticmethod
     def _call(fn: Callable, arg) -> None:
@@ -274,10 +297,12 @@ class Pump:
         except Exception:
             log.exception('delivering %s', getattr(fn, '__qualname__', fn))
 
-    def _drain(self) -> None:
+    def _drain(self) -> int:
         self._scheduled = False
         batch = self._batch
+        count = len(batch)
         with self._scope():
             while batch:
                 self._call(*batch.popleft())
         self._room.set()
+        return count

@@ -68,6 +68,16 @@ def rclpy_helpers():
     helpers.stop()
 
 
+@pytest_asyncio.fixture(loop_scope='session')
+async def caller(rclpy_helpers):
+    """A plain rclpy node of its own context: calls services and actions, publishes."""
+    from .rclpy_nodes import RosCaller
+    ros = RosCaller()
+    ros.start()
+    yield ros
+    ros.stop()
+
+
 @pytest_asyncio.fixture(scope='session', loop_scope='session', params=['sim', 'rclpy'])
 async def world(request):
     """One started backend per kind, shared by the suite (tests use fresh names)."""

@@ -12,11 +12,9 @@ import socket
 
 import cbor2
 import pytest
-import pytest_asyncio
 from tornado.websocket import websocket_connect
 
 from .conftest import rclpy_missing
-from .rclpy_nodes import RosCaller
 from .support import until
 
 pytestmark = [
@@ -28,14 +26,6 @@ pytestmark = [
 @pytest.fixture(scope='module')
 def gateway(rclpy_helpers, start_gateway):
     return start_gateway('--backend', 'rclpy', '--send-buffer-limit', str(2 * 2**20))
-
-
-@pytest_asyncio.fixture(loop_scope='session')
-async def caller(rclpy_helpers):
-    ros = RosCaller()
-    ros.start()
-    yield ros
-    ros.stop()
 
 
 class Client:
@@ -235,6 +225,38 @@ async def test_messages_of_a_client_and_a_ros_node_on_one_topic_keep_their_order
                 if data != 'warm-up':
                     got[data[0]].append(int(data[1:]))
         assert got == {'c': list(range(rounds)), 'n': list(range(rounds))}
+    finally:
+        sub.close()
+        pub.close()
+    assert gateway.alive
+
+
+async def test_a_client_that_subscribes_again_hears_a_ros_node_after_another_client_published(gateway, caller):
+    """While a client publishes, the pump leaves the topic's readers to the loop; a reader made
+    meanwhile (the subscriber came back) is handed back to the pump with the rest."""
+    topic = '/rclpy_handover'
+    subscribe = {'op': 'subscribe', 'id': 's', 'topic': topic, 'type': 'std_msgs/msg/String', 'queue_length': 100}
+    sub, pub = await Client.open(gateway), await Client.open(gateway)
+    node_publish, _count = caller.string_publisher(topic)
+    try:
+        await sub.send(subscribe)
+        await sub.sync()
+        await pub.send({'op': 'advertise', 'topic': topic, 'type': 'std_msgs/msg/String'})
+        await warm_up(sub, through(pub, topic), topic)
+        for i in range(50):
+            await pub.send({'op': 'publish', 'topic': topic, 'msg': {'data': f'c{i}'}})
+        await sub.send({'op': 'unsubscribe', 'id': 's', 'topic': topic})   # the gateway's reader goes
+        await sub.send(subscribe)                                            # and a new one comes
+        await sub.sync()
+        await warm_up(sub, node_publish, topic)
+        for i in range(50):
+            node_publish(f'n{i}')
+        got = []
+        while len(got) < 50:
+            data = (await sub.expect(lambda m: m.get('op') == 'publish'))['msg']['data']
+            if data.startswith('n'):
+                got.append(data)
+        assert got == [f'n{i}' for i in range(50)]
     finally:
         sub.close()
         pub.close()
