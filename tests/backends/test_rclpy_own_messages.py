@@ -58,9 +58,9 @@ async def test_a_ros_node_is_heard_again_once_the_gateway_stops_publishing(rclpy
     pub = backend.create_publisher(topic, STRING, QoS())
     try:
         await roundtrip(pub, queue, {'data': 'warm-up'})
-        assert topic in backend._held      # the loop takes this topic's messages itself
         for i in range(100):               # one round of the loop: taken every 32 and at its end
             pub.publish({'data': str(i)})
+        assert topic in backend._held      # the loop takes this topic's messages itself
         assert await received(queue, 100) == [str(i) for i in range(100)]
         await until(lambda: topic not in backend._held, what='the topic handed back to the pump')
         publish, _count = caller.string_publisher(topic)
