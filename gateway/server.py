@@ -7,6 +7,7 @@ import struct
 import time
 
 import orjson
+import tornado.iostream
 import tornado.web
 import tornado.websocket
 
@@ -101,12 +102,12 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
         return conn.stream
 
     def _send(self, payload: bytes, binary: bool):
-        """One message, framed once for every client a fan-out sends the same payload to
-        (tornado's write_message frames it per client and wraps each write in a task)."""
+        """One message: its frame header and payload go to the socket as they are (tornado's
+        write_message copies them into one frame and wraps each write in a task)."""
         stream = self._plain_stream()
         if stream is None:
             return self.write_message(payload, binary=binary)
-        return stream.write(_wire(payload, binary))
+        return _write(stream, [_frame_header(len(payload), binary), payload])
 
     def _send_many(self, frames: list[tuple[bytes, bool]]):
         """Several messages in one write to the socket (one send, one wake-up of the reader)."""
@@ -116,11 +117,7 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
             for payload, binary in frames:
                 last = self.write_message(payload, binary=binary)
             return last
-        parts = []
-        for payload, binary in frames:
-            parts.append(_frame_header(len(payload), binary))
-            parts.append(payload)
-        return stream.write(b''.join(parts))
+        return _write(stream, _frame_parts(frames))
 
     def on_message(self, message: str | bytes):
         if self.session is None or self.session.closing:
@@ -147,19 +144,51 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
             self.gateway.client_count_changed()
 
 
-_last_wire: tuple = (None, False, b'')   # (payload, binary, frame) of the latest _wire
+SMALL = 2048       # payloads below this are copied together with their header into one part
+MAX_PARTS = 512    # parts of one sendmsg (Linux allows 1024)
 
 
-def _wire(payload: bytes, binary: bool) -> bytes:
-    """The whole frame of one message; the same payload written to many clients in a row (a
-    fan-out) is framed once."""
-    global _last_wire
-    last = _last_wire
-    if last[0] is payload and last[1] == binary:
-        return last[2]
-    frame = _frame_header(len(payload), binary) + payload
-    _last_wire = (payload, binary, frame)
-    return frame
+def _write(stream, parts: list) -> object:
+    """Write the parts in order. While the stream has nothing queued they go to the socket in
+    one sendmsg, without joining them (a 64 KiB message is not copied to put a header before
+    it); what the socket does not take now, or everything when tornado is still writing or the
+    stream is TLS, goes through the stream's buffer. Returns the stream's future, or None when
+    the socket took it all."""
+    if (type(stream) is tornado.iostream.IOStream and not stream.writing()
+            and len(parts) <= MAX_PARTS):
+        try:
+            sent = stream.socket.sendmsg(parts)
+        except BlockingIOError:
+            sent = 0
+        except OSError:   # the connection is gone: tornado's write below finds out and closes
+            sent = 0
+        if sent:
+            for i, part in enumerate(parts):
+                if sent < len(part):
+                    parts = [memoryview(part)[sent:], *parts[i + 1:]]
+                    break
+                sent -= len(part)
+            else:
+                return None
+    return stream.write(b''.join(parts))
+
+
+def _frame_parts(frames: list[tuple[bytes, bool]]) -> list:
+    """The frames of several messages as parts for _write: small frames joined, each large
+    payload a part of its own after its header."""
+    parts: list = []
+    small = bytearray()
+    for payload, binary in frames:
+        small += _frame_header(len(payload), binary)
+        if len(payload) < SMALL:
+            small += payload
+        else:
+            parts.append(small)
+            parts.append(payload)
+            small = bytearray()
+    if small:
+        parts.append(small)
+    return parts
 
 
 def _frame_header(size: int, binary: bool) -> bytes:
