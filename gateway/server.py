@@ -22,6 +22,7 @@ log = logging.getLogger('rosgate')
 HARD_LIMIT_FACTOR = 4   # frames up to this many times max_message_size get a status; larger ones close 1009
 TEXT, BINARY, CLOSE = 0x1, 0x2, 0x8  # websocket opcodes
 FLUSH_BEFORE_CLOSE = 1.0  # seconds a failing connection waits for its last status to go out
+READ_CHUNK = 128 * 1024   # bytes a connection asks its socket for at once (more when a frame needs it)
 
 
 class TextAsBytesProtocol(tornado.websocket.WebSocketProtocol13):
@@ -34,6 +35,37 @@ class TextAsBytesProtocol(tornado.websocket.WebSocketProtocol13):
     A close frame whose reason is not UTF-8 (tornado raises decoding it, and the connection
     ends without an answer) is echoed with its code alone, as tornado echoes every close.
     """
+
+    _rview: memoryview | None = None   # bytes read from the socket and not yet taken, in _rview[_rstart:_rend]
+    _rstart = _rend = 0
+
+    async def _read_bytes(self, n: int) -> bytes:
+        """The next n bytes of the connection. Tornado reads each frame's header, length, mask
+        and payload with a read of its own and copies every payload twice before unmasking it;
+        here one read takes all the socket holds (many small frames, or one large frame), into
+        a buffer that is let go once its bytes are taken."""
+        if not n:
+            return b''
+        if self._rend - self._rstart < n:
+            await self._fill(n)
+        start = self._rstart
+        data = bytes(self._rview[start:start + n])
+        self._rstart = start + n
+        if self._rstart == self._rend:
+            self._rview, self._rstart, self._rend = None, 0, 0
+        self._wire_bytes_in += n
+        return data
+
+    async def _fill(self, n: int) -> None:
+        old, start, end = self._rview, self._rstart, self._rend
+        # a read may not pass the stream's max_buffer_size (the hard frame limit): tornado
+        # closes the connection when it does
+        view = memoryview(bytearray(max(n, min(READ_CHUNK, self.stream.max_buffer_size // 2))))
+        if old is not None:
+            view[:end - start] = old[start:end]
+        self._rview, self._rstart, self._rend = view, 0, end - start
+        while self._rend < n:
+            self._rend += await self.stream.read_into(view[self._rend:], partial=True)
 
     def _handle_message(self, opcode: int, data: bytes):
         if opcode != TEXT:
