@@ -190,9 +190,7 @@ def _write(stream, parts: list) -> object:
             and len(parts) <= MAX_PARTS):
         try:
             sent = stream.socket.sendmsg(parts)
-        except BlockingIOError:
-            sent = 0
-        except OSError:   # the connection is gone: tornado's write below finds out and closes
+        except OSError:   # the socket is full, or gone (tornado's write below finds out and closes)
             sent = 0
         if sent:
             for i, part in enumerate(parts):
