@@ -93,6 +93,15 @@ def gateway(start_gateway):
     return start_gateway('--fibonacci-interval', '0.05', '--unregister-timeout', '0.5')
 
 
+def proc_bytes(pid: int, field: str = 'VmRSS') -> int:
+    """A memory figure of a process from /proc/PID/status (VmRSS, VmHWM, ...), in bytes."""
+    with open(f'/proc/{pid}/status') as f:
+        for line in f:
+            if line.startswith(f'{field}:'):
+                return int(line.split()[1]) * 1024
+    raise AssertionError(f'no {field} for {pid}')
+
+
 def wait_for(predicate, timeout: float = 5.0, interval: float = 0.01):
     """Poll until predicate() is truthy; return its value or fail."""
     deadline = time.monotonic() + timeout

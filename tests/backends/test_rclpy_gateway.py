@@ -15,6 +15,8 @@ import pytest
 from tornado.websocket import websocket_connect
 
 from .conftest import rclpy_missing
+from tests.rawsocket import client_frame, raw_websocket
+
 from .support import until
 
 pytestmark = [
@@ -63,21 +65,9 @@ class Client:
 
 def stalled_client(gateway, ops: list[dict]) -> socket.socket:
     """A websocket client that sends ``ops`` and then never reads."""
-    sock = socket.create_connection((gateway.host, gateway.port))
-    sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
-    sock.sendall((f'GET {gateway.path} HTTP/1.1\r\nHost: {gateway.host}:{gateway.port}\r\n'
-                  'Upgrade: websocket\r\nConnection: Upgrade\r\n'
-                  'Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n').encode())
-    reply = b''
-    while b'\r\n\r\n' not in reply:
-        reply += sock.recv(1)
-    assert b' 101 ' in reply.split(b'\r\n')[0], reply
+    sock, _rest = raw_websocket(gateway.host, gateway.port, gateway.path, rcvbuf=4096)
     for op in ops:
-        payload = json.dumps(op).encode()
-        assert len(payload) < 126
-        mask = b'\x01\x02\x03\x04'
-        sock.sendall(bytes((0x81, 0x80 | len(payload))) + mask
-                     + bytes(b ^ mask[i % 4] for i, b in enumerate(payload)))
+        sock.sendall(client_frame(0x1, json.dumps(op).encode()))
     return sock
 
 

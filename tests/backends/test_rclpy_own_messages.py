@@ -13,9 +13,13 @@ import pytest
 
 from gateway.backends.base import QoS
 
+from .conftest import rclpy_missing
 from .support import roundtrip, until
 
-pytestmark = pytest.mark.asyncio(loop_scope='session')
+pytestmark = [
+    pytest.mark.asyncio(loop_scope='session'),
+    pytest.mark.skipif(rclpy_missing() is not None, reason='rclpy does not import here'),
+]
 STRING = 'std_msgs/msg/String'
 
 

@@ -80,11 +80,3 @@ class FuzzConn:
     def close(self) -> None:
         self.ws.close()
         self.thread.join(10)
-
-
-def rss_bytes(pid: int) -> int:
-    with open(f'/proc/{pid}/status') as f:
-        for line in f:
-            if line.startswith('VmRSS:'):
-                return int(line.split()[1]) * 1024
-    raise RuntimeError('no VmRSS')

@@ -29,8 +29,10 @@ import urllib.request
 from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
 
-from tests.fuzz.client import Closed, FuzzConn, rss_bytes
+from tests.conftest import proc_bytes
+from tests.fuzz.client import Closed, FuzzConn
 from tests.fuzz.frames import frame
+from tests.rawsocket import upgrade_request
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SET_LEVEL = json.dumps({'op': 'set_level', 'level': 'error'})
@@ -98,7 +100,7 @@ def fuzz(url: str, pid: int, ops: int, connections: int, seed: int) -> None:
     warm = FuzzConn(url)
     warm.barrier()
     warm.close()
-    rss0 = rss_bytes(pid)
+    rss0 = proc_bytes(pid)
     tally = Tally()
     t0 = time.monotonic()
     threads = [threading.Thread(target=fuzz_worker, args=(url, ops // connections, seed + i, tally))
@@ -107,9 +109,9 @@ def fuzz(url: str, pid: int, ops: int, connections: int, seed: int) -> None:
         t.start()
     peak = rss0
     while any(t.is_alive() for t in threads):
-        peak = max(peak, rss_bytes(pid))
+        peak = max(peak, proc_bytes(pid))
         time.sleep(0.2)
-    rss1 = rss_bytes(pid)
+    rss1 = proc_bytes(pid)
     print(f'fuzz: {tally.frames} frames ({tally.bad} with a definite defect) over {connections} connections '
           f'in {time.monotonic() - t0:.1f} s')
     print(f'fuzz: closes by code {tally.closes or "{} (none)"}; server-initiated 1006: {tally.closes.get(1006, 0)}')
@@ -126,7 +128,7 @@ def clients(port: int) -> int:
 
 
 def non_reader(url: str, port: int, pid: int, seconds: float, rate: float, log: str) -> None:
-    rss0 = rss_bytes(pid)
+    rss0 = proc_bytes(pid)
     ws = connect(url, max_size=None, compression=None, open_timeout=10, max_queue=1, legacy=True)
     peak, calls, t0, ended = rss0, 0, time.monotonic(), 'still open'
     try:
@@ -134,12 +136,12 @@ def non_reader(url: str, port: int, pid: int, seconds: float, rate: float, log: 
             ws.send(json.dumps({'op': 'call_service', 'service': '/rosapi/topics_and_raw_types', 'id': f'c{calls}'}))
             calls += 1
             if calls % 100 == 0:
-                peak = max(peak, rss_bytes(pid))
+                peak = max(peak, proc_bytes(pid))
             if rate:
                 time.sleep(max(0.0, t0 + calls / rate - time.monotonic()))
     except ConnectionClosed:
         pass
-    during = rss_bytes(pid)
+    during = proc_bytes(pid)
     peak = max(peak, during)
     try:   # read what is left to learn how the server ended it
         while True:
@@ -152,7 +154,7 @@ def non_reader(url: str, port: int, pid: int, seconds: float, rate: float, log: 
     deadline = time.monotonic() + 30   # the gateway has released the client (and its memory)
     while clients(port) and time.monotonic() < deadline:
         time.sleep(0.05)
-    after = rss_bytes(pid)
+    after = proc_bytes(pid)
     with open(log) as f:
         said = [line.split(': ', 1)[-1].strip() for line in f if 'does not read its replies' in line]
     print(f'non-reader: {calls} calls in {time.monotonic() - t0:.1f} s; the client saw: {ended}; '
@@ -164,9 +166,7 @@ def non_reader(url: str, port: int, pid: int, seconds: float, rate: float, log: 
 def rebinding(port: int) -> None:
     host = f'evil.example:{port}'
     with socket.create_connection(('127.0.0.1', port), timeout=10) as s:
-        s.sendall((f'GET / HTTP/1.1\r\nHost: {host}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n'
-                   f'Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n'
-                   f'Origin: http://{host}\r\n\r\n').encode())
+        s.sendall(upgrade_request(host, origin=f'http://{host}'))
         status = s.recv(4096).split(b'\r\n', 1)[0].decode()
         print(f'rebinding upgrade (Host and Origin {host}): {status}')
 

@@ -18,7 +18,8 @@ import pytest
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
-from tests.fuzz.client import Closed, FuzzConn, rss_bytes
+from tests.conftest import proc_bytes
+from tests.fuzz.client import Closed, FuzzConn
 from tests.fuzz.frames import frame
 from tests.gateway.rawclient import Raw
 
@@ -36,7 +37,7 @@ class State:
         self.control = Raw(gw.ws_url)
         self.control.sync()
         self.conn.barrier()
-        self.rss_start = rss_bytes(gw.pid)
+        self.rss_start = proc_bytes(gw.pid)
         self.frames = self.bad = self.reconnects = 0
         self.closes: dict[int, int] = {}   # close code -> count
         self.deadline = time.monotonic() + BUDGET
@@ -104,5 +105,5 @@ def test_after_fuzzing_the_gateway_lives_and_rss_is_bounded(state):
     assert state.closes.get(1007), f'no frame that is not UTF-8 was sent (closes {state.closes})'
     assert state.gw.alive
     assert state.control.call('/add_two_ints', {'a': 2, 'b': 3})['values'] == {'sum': 5}
-    growth = rss_bytes(state.gw.pid) - state.rss_start
+    growth = proc_bytes(state.gw.pid) - state.rss_start
     assert growth < RSS_GROWTH, f'RSS grew by {growth / 2**20:.1f} MiB'

@@ -4,8 +4,6 @@ and everyone else's service carry on, and nothing the failed op began is left be
 from __future__ import annotations
 
 import json
-import os
-import socket
 import struct
 from urllib.request import urlopen
 
@@ -14,8 +12,9 @@ import pytest
 from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
 
-from tests.conftest import wait_for
+from tests.conftest import proc_bytes, wait_for
 from tests.gateway.rawclient import Raw
+from tests.rawsocket import client_frame, raw_websocket
 
 
 @pytest.fixture
@@ -121,14 +120,6 @@ NON_READER_BATCH = 5           # calls per round trip of another client
 NON_READER_GROWTH = 50_000_000   # issue 11: "< 50 MB"
 
 
-def proc_kib(pid: int, field: str) -> int:
-    with open(f'/proc/{pid}/status') as f:
-        for line in f:
-            if line.startswith(f'{field}:'):
-                return int(line.split()[1]) * 1024
-    raise AssertionError(f'no {field} for {pid}')
-
-
 def test_a_client_that_does_not_read_its_replies_costs_the_server_little_memory(start_gateway):
     """A client that stops reading and calls /rosapi/topics_and_raw_types 10,000 times (default
     limits): the gateway's peak RSS grows by less than 50 MB, and the memory is given back.
@@ -146,7 +137,7 @@ def test_a_client_that_does_not_read_its_replies_costs_the_server_little_memory(
                 f.write('5')
         except OSError as e:
             pytest.skip(f'cannot reset the peak RSS of the gateway: {e}')
-        before = proc_kib(gw.pid, 'VmRSS')
+        before = proc_bytes(gw.pid, 'VmRSS')
         with Raw(gw.ws_url, max_queue=1) as lazy:
             try:
                 for i in range(0, NON_READER_CALLS, NON_READER_BATCH):
@@ -159,11 +150,11 @@ def test_a_client_that_does_not_read_its_replies_costs_the_server_little_memory(
                 pytest.fail('the server never closed the connection of a client that does not read')
             except ConnectionClosed:
                 pass
-        growth = proc_kib(gw.pid, 'VmHWM') - before
+        growth = proc_bytes(gw.pid, 'VmHWM') - before
         assert 'does not read its replies' in gw.log_text()
         assert growth < NON_READER_GROWTH, f'peak RSS grew by {growth / 2**20:.1f} MiB'
         wait_for(lambda: json.loads(urlopen(gw.http_url + 'health').read())['clients'] == 1, timeout=15)
-        left = proc_kib(gw.pid, 'VmRSS') - before
+        left = proc_bytes(gw.pid, 'VmRSS') - before
         assert left < 10 * 2**20, f'RSS is still {left / 2**20:.1f} MiB above where it was'
         assert other.call('/rosapi/get_time')['values']['time']['sec'] > 0
 
@@ -204,18 +195,9 @@ def test_invalid_utf8_in_a_text_frame_gets_a_status_and_a_1007_close(gateway, st
 
 def test_a_close_frame_whose_reason_is_not_utf8_is_answered(gateway):
     """websockets will not send such a frame: the handshake and frames are written by hand."""
-    with socket.create_connection((gateway.host, gateway.port), timeout=10) as s:
-        s.sendall(f'GET {gateway.path} HTTP/1.1\r\nHost: {gateway.host}:{gateway.port}\r\nUpgrade: websocket\r\n'
-                  'Connection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n'
-                  'Sec-WebSocket-Version: 13\r\n\r\n'.encode())
-        head = b''
-        while b'\r\n\r\n' not in head:
-            head += s.recv(4096)
-        assert head.startswith(b'HTTP/1.1 101'), head
-        payload = struct.pack('!H', 1000) + b'bye \xff'
-        mask = os.urandom(4)
-        s.sendall(bytes([0x88, 0x80 | len(payload)]) + mask + bytes(b ^ mask[i % 4] for i, b in enumerate(payload)))
-        answer = head.split(b'\r\n\r\n', 1)[1]
+    s, answer = raw_websocket(gateway.host, gateway.port, gateway.path)
+    with s:
+        s.sendall(client_frame(0x8, struct.pack('!H', 1000) + b'bye \xff'))
         while len(answer) < 4:
             chunk = s.recv(4096)
             assert chunk, f'the server dropped the connection without a close frame (got {answer!r})'

@@ -11,6 +11,7 @@ import urllib.request
 
 import pytest
 
+from tests.rawsocket import upgrade_request
 from tests.security.conftest import TOKENS
 
 
@@ -39,9 +40,7 @@ def raw_request(gw, head: str) -> str:
 
 
 def upgrade(gw, host: str, origin: str) -> str:
-    return raw_request(gw, f'GET / HTTP/1.1\r\nHost: {host}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n'
-                           f'Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n'
-                           f'Origin: {origin}\r\n\r\n')
+    return raw_request(gw, upgrade_request(host, origin=origin).decode())
 
 
 @pytest.fixture(scope='module')
