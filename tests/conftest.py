@@ -19,22 +19,19 @@ ROOT = Path(__file__).resolve().parent.parent
 LINE = re.compile(r'websocket (wss?)://([^:/]+|\[[^\]]+\]):(\d+)(/\S*)')
 
 
-class GatewayProcess:
-    """``python -m gateway --port 0`` on 127.0.0.1, its address read from the startup line."""
+class Started:
+    """A rosgate command started in ``cwd``, its address read from its startup line. Its log goes
+    to a file: a pipe nobody reads would block a gateway that logs a lot."""
 
-    def __init__(self, *args: str, env: dict | None = None):
-        self.programs_dir = tempfile.mkdtemp(prefix='rosgate-programs-')
-        cmd = [sys.executable, '-m', 'gateway', '--port', '0', '--address', '127.0.0.1',
-               '--programs-dir', self.programs_dir, *args]
-        # the log goes to a file: a pipe nobody reads would block a gateway that logs a lot
+    def __init__(self, cmd: list, cwd: Path = ROOT, env: dict | None = None, timeout: float = 30):
         self.log = tempfile.TemporaryFile(mode='w+', prefix='rosgate-log-')
-        self.proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=self.log,
-                                     text=True, env={**os.environ, **(env or {})})
-        line = self._read_line(timeout=30)
-        m = LINE.search(line)
+        self.proc = subprocess.Popen([str(c) for c in cmd], cwd=cwd, stdout=subprocess.PIPE, stderr=self.log,
+                                     text=True, env=env)
+        self.line = self._read_line(timeout)
+        m = LINE.search(self.line)
         if not m:
             self.stop()
-            raise RuntimeError(f'rosgate did not start: {line!r}\n{self.log_text()}')
+            raise RuntimeError(f'rosgate did not start: {self.line!r}\n{self.log_text()[-4000:]}')
         scheme, self.host, port, self.path = m.groups()
         self.port = int(port)
         self.ws_url = f'{scheme}://{self.host}:{self.port}{self.path}'
@@ -61,7 +58,7 @@ class GatewayProcess:
     def alive(self) -> bool:
         return self.proc.poll() is None
 
-    def stop(self, sig: int = signal.SIGTERM, timeout: float = 10) -> int:
+    def stop(self, sig: int = signal.SIGTERM, timeout: float = 15) -> int:
         if self.proc.poll() is None:
             self.proc.send_signal(sig)
             try:
@@ -70,6 +67,15 @@ class GatewayProcess:
                 self.proc.kill()
                 self.proc.wait()
         return self.proc.returncode
+
+
+class GatewayProcess(Started):
+    """``python -m gateway --port 0`` of this checkout on 127.0.0.1, with a programs folder of its own."""
+
+    def __init__(self, *args: str, env: dict | None = None):
+        self.programs_dir = tempfile.mkdtemp(prefix='rosgate-programs-')
+        super().__init__([sys.executable, '-m', 'gateway', '--port', '0', '--address', '127.0.0.1',
+                          '--programs-dir', self.programs_dir, *args], env={**os.environ, **(env or {})})
 
 
 @pytest.fixture(scope='session')

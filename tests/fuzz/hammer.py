@@ -15,40 +15,23 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import random
-import re
 import socket
-import subprocess
-import sys
-import tempfile
 import threading
 import time
 import urllib.request
+from collections.abc import Callable
 
 from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
 
-from tests.conftest import proc_bytes
+from tests.conftest import GatewayProcess, proc_bytes
 from tests.fuzz.client import Closed, FuzzConn
 from tests.fuzz.frames import frame
 from tests.rawsocket import upgrade_request
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SET_LEVEL = json.dumps({'op': 'set_level', 'level': 'error'})
 MB = 2**20
-
-
-def start(flags: list[str]):
-    log = tempfile.NamedTemporaryFile('w', prefix='rosgate-hammer-', suffix='.log', delete=False)
-    proc = subprocess.Popen([sys.executable, '-m', 'gateway', '--port', '0', '--address', '127.0.0.1',
-                             '--programs-dir', tempfile.mkdtemp(), *flags],
-                            cwd=ROOT, stdout=subprocess.PIPE, stderr=log, text=True)
-    line = proc.stdout.readline()
-    m = re.search(r'(ws://127\.0\.0\.1:(\d+)/\S*)', line)
-    if not m:
-        raise SystemExit(f'gateway did not start: {line!r}')
-    return proc, m.group(1), int(m.group(2)), log.name
 
 
 class Tally:
@@ -127,7 +110,7 @@ def clients(port: int) -> int:
         return json.load(r)['clients']
 
 
-def non_reader(url: str, port: int, pid: int, seconds: float, rate: float, log: str) -> None:
+def non_reader(url: str, port: int, pid: int, seconds: float, rate: float, log: Callable[[], str]) -> None:
     rss0 = proc_bytes(pid)
     ws = connect(url, max_size=None, compression=None, open_timeout=10, max_queue=1, legacy=True)
     peak, calls, t0, ended = rss0, 0, time.monotonic(), 'still open'
@@ -155,8 +138,7 @@ def non_reader(url: str, port: int, pid: int, seconds: float, rate: float, log: 
     while clients(port) and time.monotonic() < deadline:
         time.sleep(0.05)
     after = proc_bytes(pid)
-    with open(log) as f:
-        said = [line.split(': ', 1)[-1].strip() for line in f if 'does not read its replies' in line]
+    said = [line.split(': ', 1)[-1].strip() for line in log().splitlines() if 'does not read its replies' in line]
     print(f'non-reader: {calls} calls in {time.monotonic() - t0:.1f} s; the client saw: {ended}; '
           f'the gateway logged: {said[-1] if said else "nothing"}')
     print(f'non-reader: RSS {rss0 / MB:.1f} MiB before, {peak / MB:.1f} MiB peak (growth {(peak - rss0) / MB:+.1f} MiB), '
@@ -179,15 +161,14 @@ def main() -> None:
     p.add_argument('--flood-seconds', type=float, default=20.0)
     p.add_argument('--flood-rate', type=float, default=500.0, help='calls per second, 0: as fast as possible')
     args = p.parse_args()
-    proc, url, port, log = start(['--fibonacci-interval', '0.01', '--max-message-size', '262144'])
+    gw = GatewayProcess('--fibonacci-interval', '0.01', '--max-message-size', '262144')
     try:
-        fuzz(url, proc.pid, args.ops, args.connections, args.seed)
-        non_reader(url, port, proc.pid, args.flood_seconds, args.flood_rate, log)
-        rebinding(port)
-        print(f'gateway alive: {proc.poll() is None}; log: {log}')
+        fuzz(gw.ws_url, gw.pid, args.ops, args.connections, args.seed)
+        non_reader(gw.ws_url, gw.port, gw.pid, args.flood_seconds, args.flood_rate, gw.log_text)
+        rebinding(gw.port)
+        print(f'gateway alive: {gw.alive}')
     finally:
-        proc.terminate()
-        proc.wait(10)
+        gw.stop()
 
 
 if __name__ == '__main__':

@@ -5,9 +5,7 @@ built by colcon. Everything happens in a temporary directory; the checkout is on
 from __future__ import annotations
 
 import os
-import select
 import shutil
-import signal
 import subprocess
 import tarfile
 import venv
@@ -15,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import LINE, ROOT
+from tests.conftest import ROOT, Started
 
 # Tools a developer or a ROS 2 user has; they live in their own venv, not in the project's.
 TOOLS = ['build>=1', 'colcon-core>=0.15', 'colcon-ros>=0.4']
@@ -107,29 +105,7 @@ def sdist_tree(sdist, work) -> Path:
     return top
 
 
-class Started:
-    """A rosgate command started in `cwd`; its address comes from the startup line."""
-
-    def __init__(self, cmd: list, cwd: Path, env: dict | None = None):
-        clean = {k: v for k, v in os.environ.items() if k not in ('PYTHONPATH', 'VIRTUAL_ENV', 'PYTHONHOME')}
-        self.log = Path(cwd) / f'rosgate-{id(self)}.log'   # a file: an unread stderr pipe could block the gateway
-        with open(self.log, 'w') as log:
-            self.proc = subprocess.Popen([str(c) for c in cmd], cwd=cwd, env={**clean, **(env or {})},
-                                         stdout=subprocess.PIPE, stderr=log, text=True)
-        ready, _, _ = select.select([self.proc.stdout], [], [], 60)
-        self.line = self.proc.stdout.readline() if ready else ''
-        m = LINE.search(self.line)
-        if not m:
-            self.stop()
-            raise AssertionError(f'rosgate did not start: {self.line!r}\n{self.log.read_text()[-4000:]}')
-        self.host, self.port = m.group(2), int(m.group(3))
-        self.http_url = f'http://{self.host}:{self.port}/'
-
-    def stop(self) -> None:
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGTERM)
-            try:
-                self.proc.wait(15)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
+def started(cmd: list, cwd: Path, env: dict | None = None) -> Started:
+    """An installed rosgate command started in cwd, without this checkout's Python environment."""
+    clean = {k: v for k, v in os.environ.items() if k not in ('PYTHONPATH', 'VIRTUAL_ENV', 'PYTHONHOME')}
+    return Started(cmd, cwd, {**clean, **(env or {})}, timeout=60)

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from .conftest import Started
+from .conftest import started
 
 try:
     import rclpy  # noqa: F401
@@ -22,7 +22,7 @@ except ImportError as e:   # the main test environment has no rclpy
 
 
 def test_rosgate_command_starts_on_rclpy_and_bridges_the_graph(tmp_path):
-    gw = Started([Path(sys.executable).parent / 'rosgate', '--backend', 'rclpy', '--port', '0',
+    gw = started([Path(sys.executable).parent / 'rosgate', '--backend', 'rclpy', '--port', '0',
                   '--address', '127.0.0.1', '--programs-dir', tmp_path / 'programs'], cwd=tmp_path)
     try:
         assert gw.line.rstrip().endswith('backend rclpy'), gw.line

@@ -16,7 +16,7 @@ import pytest
 
 from tests.conftest import ROOT
 
-from .conftest import Started, run
+from .conftest import started, run
 
 # rosbridge_server's launch/rosbridge_websocket_launch.xml (ros2 branch): its arguments.
 ROSBRIDGE_ARGS = {
@@ -120,7 +120,7 @@ def test_colcon_installed_gateway_serves_the_ide(colcon_install, user_venv, tmp_
     env = {'PYTHONPATH': str(site), 'AMENT_PREFIX_PATH': str(colcon_install)}
     where = run([user_venv, '-c', 'import gateway; print(gateway.__file__)'], cwd=tmp_path, env=env).stdout
     assert where.startswith(str(site))
-    gw = Started([user_venv, colcon_install / 'lib/rosgate/rosgate', 'port:=0', 'address:=127.0.0.1',
+    gw = started([user_venv, colcon_install / 'lib/rosgate/rosgate', 'port:=0', 'address:=127.0.0.1',
                   'backend:=sim', 'use_compression:=false', f'programs_dir:={tmp_path / "programs"}'],
                  cwd=tmp_path, env=env)
     try:
@@ -142,7 +142,7 @@ def test_colcon_symlink_install_serves_the_source_tree(tools, sdist_tree, user_v
     env = {'PYTHONPATH': str(ws / 'build' / 'rosgate'), 'AMENT_PREFIX_PATH': str(install)}   # colcon's hook
     script = 'import gateway.assets as a; print(a.ide_dir().resolve())'
     assert run([user_venv, '-c', script], cwd=tmp_path, env=env).stdout.strip() == str((ws / 'src/rosgate/ide').resolve())
-    gw = Started([user_venv, install / 'lib/rosgate/rosgate', 'port:=0', 'address:=127.0.0.1', 'backend:=sim',
+    gw = started([user_venv, install / 'lib/rosgate/rosgate', 'port:=0', 'address:=127.0.0.1', 'backend:=sim',
                   f'programs_dir:={tmp_path / "programs"}'], cwd=tmp_path, env=env)
     try:
         with urllib.request.urlopen(gw.http_url + 'teleop', timeout=10) as r:

@@ -13,7 +13,7 @@ import pytest
 from tests.conftest import client
 from tests.ide.conftest import CHROMIUM, CHROMIUM_ARGS
 
-from .conftest import Started, copy_source, run
+from .conftest import started, copy_source, run
 
 # Files of ide/ that only build the IDE or describe it; everything else must reach users.
 IDE_BUILD_ONLY = {'package.json', 'package-lock.json', 'build.mjs', 'README.md', 'vendor/.built'}
@@ -63,7 +63,7 @@ def test_the_installed_package_is_not_the_checkout(user_venv, tmp_path):
 def installed(user_venv, tmp_path_factory):
     """`rosgate` of the clean venv, started in an empty directory elsewhere."""
     elsewhere = tmp_path_factory.mktemp('elsewhere')
-    gw = Started([user_venv.parent / 'rosgate', '--port', '0', '--address', '127.0.0.1', '--backend', 'sim',
+    gw = started([user_venv.parent / 'rosgate', '--port', '0', '--address', '127.0.0.1', '--backend', 'sim',
                   '--programs-dir', elsewhere / 'programs'], cwd=elsewhere)
     yield gw
     gw.stop()
@@ -115,7 +115,7 @@ def test_startup_line_says_when_the_ide_is_missing(user_venv, installed, tmp_pat
     aside = tmp_path / 'vendor'
     shutil.move(vendor, aside)
     try:
-        gw = Started([user_venv.parent / 'rosgate', '--port', '0', '--address', '127.0.0.1', '--backend', 'sim',
+        gw = started([user_venv.parent / 'rosgate', '--port', '0', '--address', '127.0.0.1', '--backend', 'sim',
                       '--programs-dir', tmp_path / 'programs'], cwd=tmp_path)
         gw.stop()
     finally:
