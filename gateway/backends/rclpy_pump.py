@@ -268,9 +268,10 @@ class Pump:
     def take_here(self, readers: list[TopicReader]) -> int | None:
         """Take and deliver on the loop, now, all these readers hold: called after the gateway
         published to their topic. A middleware that delivers to a process's own readers inside
-        the publish call (Fast DDS does) then costs no hop through the pump thread and back. Messages stay in order: whatever the pump took before is delivered first, and the
-        two never take at once. Returns how many messages were delivered (the pump's pending
-        ones included), or None when called from inside a delivery (the caller takes later)."""
+        the publish call (Fast DDS does) then costs no hop through the pump thread and back.
+        Messages stay in order: whatever the pump took before is delivered first, and the two
+        never take at once. Returns how many messages were delivered (the pump's pending ones
+        included), or None when called from inside a delivery (the caller takes later)."""
         if self._here:
             return None
         with self._take_lock:

@@ -25,7 +25,7 @@ from collections.abc import Callable
 from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
 
-from tests.conftest import GatewayProcess, proc_bytes
+from tests.conftest import GatewayProcess, proc_bytes, wait_for
 from tests.fuzz.client import Closed, FuzzConn
 from tests.fuzz.frames import frame
 from tests.rawsocket import upgrade_request
@@ -134,9 +134,7 @@ def non_reader(url: str, port: int, pid: int, seconds: float, rate: float, log: 
     except TimeoutError:
         ended = 'no close within 30 s'
     ws.close()
-    deadline = time.monotonic() + 30   # the gateway has released the client (and its memory)
-    while clients(port) and time.monotonic() < deadline:
-        time.sleep(0.05)
+    wait_for(lambda: not clients(port), timeout=30)   # the gateway has released the client (and its memory)
     after = proc_bytes(pid)
     said = [line.split(': ', 1)[-1].strip() for line in log().splitlines() if 'does not read its replies' in line]
     print(f'non-reader: {calls} calls in {time.monotonic() - t0:.1f} s; the client saw: {ended}; '
