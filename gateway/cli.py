@@ -14,8 +14,14 @@ from pathlib import Path
 import tornado.httpserver
 import tornado.netutil
 
-from .assets import data_dir
-from .settings import Settings
+from . import rules
+from .backends.rclpy import RclpyBackend
+from .backends.sim import SimBackend, robots
+from .bridge import rosapi
+from .bridge.gateway import Gateway
+from .settings import Settings, data_dir
+from .web.app import make_app
+from .web.pages import ide_problem
 
 log = logging.getLogger('rosgate')
 
@@ -74,24 +80,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help='record from start-up into DIR (also where /api/recordings keeps its files)')
     r.add_argument('--record-topics', metavar='GLOBS', help='topics --record takes, e.g. "[\'/turtle1/*\']" [all]')
     b.add_argument('--log-level', default='info', choices=('debug', 'info', 'warning', 'error'))
-    for extension in _extensions():
-        extension.add_arguments(p)
+    robots.add_arguments(p)
+    rules.add_arguments(p)
     return p
-
-
-def _extensions() -> list:
-    """Optional parts that add flags of their own (robots, security)."""
-    found = []
-    for name in ('gateway.backends.sim.robots', 'gateway.security'):
-        try:
-            module = __import__(name, fromlist=['add_arguments'])
-        except ModuleNotFoundError as e:
-            if e.name != name:
-                raise
-            continue
-        if hasattr(module, 'add_arguments'):
-            found.append(module)
-    return found
 
 
 def ros_style(argv: list[str], parser: argparse.ArgumentParser | None = None) -> list[str]:
@@ -133,31 +124,17 @@ def make_backend(args: argparse.Namespace, ros_args: list[str]):
         except ImportError:
             choice = 'sim'
     if choice == 'rclpy':
-        from .backends.rclpy_backend import RclpyBackend
         return RclpyBackend(node_name=args.node_name, ros_args=ros_args)
-    from .backends.sim import SimBackend
-    robots = ()
-    try:
-        from .backends.sim import robots as robot_module
-    except ModuleNotFoundError:
-        robot_module = None
-    if hasattr(robot_module, 'specs_from_args'):
-        robots = robot_module.specs_from_args(args)
     return SimBackend(node_name=args.node_name, talker=args.talker,
-                      fibonacci_interval=args.fibonacci_interval, robots=robots)
+                      fibonacci_interval=args.fibonacci_interval, robots=robots.specs_from_args(args))
 
 
 async def serve(settings: Settings, backend, *, announce=print) -> None:
-    from .server import client_count_publisher, make_app
-
     await backend.start()
-    app, gateway = make_app(settings, backend)
-    gateway.on_client_count = client_count_publisher(gateway)
-    gateway.on_client_count()
-    for extension in _extensions():
-        install = getattr(extension, 'install', None)
-        if install:
-            install(gateway, app)
+    gateway = Gateway(settings, backend)
+    rules.install(gateway, reads=rosapi.handles)
+    app = make_app(gateway)
+    gateway.count_clients()
     ssl_ctx = None
     if settings.certfile and settings.keyfile:
         ssl_ctx = ssl.create_default_context(ssl.Purpose.CLIENT_AUTH)
@@ -170,7 +147,6 @@ async def serve(settings: Settings, backend, *, announce=print) -> None:
     host = f'[{host}]' if ':' in host else host
     http, ws = ('https', 'wss') if ssl_ctx else ('http', 'ws')
     path = settings.url_path if settings.url_path.startswith('/') else '/' + settings.url_path
-    from .assets import ide_problem
     problem = ide_problem(settings.ide_dir)
     ide = f'IDE {http}://{host}:{port}/' if problem is None else f'IDE unavailable ({problem})'
     announce(f'rosgate: {ide} websocket {ws}://{host}:{port}{path} backend {backend.name}')

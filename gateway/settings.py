@@ -1,11 +1,45 @@
-"""Gateway settings: one frozen object built by the CLI (names follow rosbridge_server's parameters)."""
+"""Gateway settings: one frozen object built by the CLI (names follow rosbridge_server's
+parameters), and where things are on disk.
+
+An installed wheel (or a colcon install) carries the IDE pages and the example programs as
+package data in ``gateway/_assets/`` (copied there by setup.py at build time); a checkout, and an
+editable install of it, serves the checkout's own ``ide/`` and ``examples/``, so a developer's
+edits show on reload. What the gateway stores (programs, runs, recordings) goes under the user's
+XDG data directory.
+"""
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from . import assets
+PACKAGE = Path(__file__).resolve().parent
+PACKAGED = PACKAGE / '_assets'        # in a wheel
+CHECKOUT = PACKAGE.parent             # the repository root, beside gateway/
+
+
+def _locate(name: str) -> Path:
+    for base in (PACKAGED, CHECKOUT):
+        if (base / name).is_dir():
+            return base / name
+    return PACKAGED / name
+
+
+def ide_dir() -> Path:
+    """The directory served at ``/`` (index.html, teleop.html, js/, css/, vendor/, ...)."""
+    return _locate('ide')
+
+
+def examples_dir() -> Path:
+    """The example programs served at ``/examples/``."""
+    return _locate('examples')
+
+
+def data_dir(name: str) -> Path:
+    """``$XDG_DATA_HOME/rosgate/NAME`` (``~/.local/share/rosgate/NAME`` when unset)."""
+    base = os.environ.get('XDG_DATA_HOME') or os.path.join(os.path.expanduser('~'), '.local', 'share')
+    return Path(base) / 'rosgate' / name
 
 
 @dataclass(frozen=True)
@@ -34,8 +68,8 @@ class Settings:
     topics_sub_glob: str | None = None
     backend: str = 'auto'
     node_name: str = 'rosgate'
-    ide_dir: Path = field(default_factory=assets.ide_dir)             # package data, or the checkout's ide/
-    examples_dir: Path = field(default_factory=assets.examples_dir)
+    ide_dir: Path = field(default_factory=ide_dir)             # package data, or the checkout's ide/
+    examples_dir: Path = field(default_factory=examples_dir)
     programs_dir: Path | None = None
     allow_runs: bool = False                   # POST /api/runs executes programs on this machine
     runs_dir: Path | None = None               # runs' working directories (None: the XDG data dir)

@@ -91,7 +91,7 @@ async def world(request):
         if missing:
             pytest.skip(f'rclpy does not import here: {missing}')
         helpers = request.getfixturevalue('rclpy_helpers')
-        from gateway.backends.rclpy_backend import RclpyBackend
+        from gateway.backends.rclpy.backend import RclpyBackend
         backend = RclpyBackend(ros_args=[], service_timeout=5.0)
         await backend.start()
         w = World(backend, helpers.add_type, helpers.fib_type, helpers)

@@ -1,4 +1,4 @@
-"""The rclpy backend's own CDR path (gateway.backends.rclpy_cdr) against rclpy's: for every message
+"""The rclpy backend's own CDR path (gateway.backends.rclpy.cdr) against rclpy's: for every message
 it compiles, the same bytes out and the same dict in; anything it does not take exactly as given
 is left to the Converter."""
 
@@ -36,7 +36,7 @@ TYPES = list(COMPILED)
 
 @pytest.fixture(scope='module')
 def convert():
-    from gateway.backends.rclpy_types import Converter, RosDefinitions
+    from gateway.backends.rclpy.types import Converter, RosDefinitions
     defs = RosDefinitions()
     return defs, Converter(defs)
 
@@ -95,8 +95,8 @@ def test_same_bytes_and_dicts_as_rclpy(convert, type):
 
 
 def test_left_to_the_converter(convert):
-    """Values rclpy would coerce, reject or default are not encoded here (rclpy_cdr.Slow)."""
-    from gateway.backends.rclpy_cdr import Slow
+    """Values rclpy would coerce, reject or default are not encoded here (gateway.backends.rclpy.cdr.Slow)."""
+    from gateway.backends.rclpy.cdr import Slow
     _import('test_msgs/msg/BasicTypes')
     defs, conv = convert
     plain = {f.name: f for f in defs.msg('test_msgs/msg/BasicTypes').fields if f.type not in ('byte', 'char')}
@@ -104,7 +104,7 @@ def test_left_to_the_converter(convert):
 
     def plan(cls):
         return [(n, f, s) for n, f, s in conv._plan(cls) if n in plain]
-    from gateway.backends.rclpy_cdr import writer
+    from gateway.backends.rclpy.cdr import writer
     write = writer(plan, defs.msg_class('test_msgs/msg/BasicTypes'))
     good = {k: v for k, v in _sample(defs, 'test_msgs/msg/BasicTypes').items() if k in plain}
     write(good)
@@ -130,7 +130,7 @@ def test_left_to_the_converter(convert):
 
 
 def test_reader_leaves_odd_bytes_to_rclpy(convert):
-    from gateway.backends.rclpy_cdr import Slow
+    from gateway.backends.rclpy.cdr import Slow
     defs, conv = convert
     read = conv.cdr_reader(defs.msg_class('std_msgs/msg/String'))
     assert read(b'\x00\x01\x00\x00\x03\x00\x00\x00ab\x00') == {'data': 'ab'}

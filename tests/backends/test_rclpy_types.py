@@ -9,7 +9,7 @@ import sys
 
 import pytest
 
-from gateway.backends.rclpy_types import parse_idl_type
+from gateway.backends.rclpy.types import parse_idl_type
 from protocol.msgdefs import Field, UnknownType
 
 from .conftest import rclpy_missing
@@ -50,7 +50,7 @@ def test_parse_idl_type_rejects_unknown():
 
 def test_import_without_rclpy():
     """The gateway imports the backend module on machines without ROS."""
-    code = ('import sys; import gateway.backends.rclpy_backend as m; '
+    code = ('import sys; import gateway.backends.rclpy.backend as m; '
             'assert "rclpy" not in sys.modules; print(m.RclpyBackend.name)')
     out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr
@@ -71,7 +71,7 @@ def _test_msgs():
 def test_every_field_kind_round_trips():
     """test_msgs/Arrays and BoundedSequences hold every primitive as fixed and bounded arrays."""
     _test_msgs()
-    from gateway.backends.rclpy_types import Converter, RosDefinitions
+    from gateway.backends.rclpy.types import Converter, RosDefinitions
     from protocol.convert import from_json
     defs = RosDefinitions()
     convert = Converter(defs)
@@ -110,7 +110,7 @@ def test_every_field_kind_round_trips():
 @needs_rclpy
 def test_constants_and_bounds():
     _test_msgs()
-    from gateway.backends.rclpy_types import RosDefinitions
+    from gateway.backends.rclpy.types import RosDefinitions
     defs = RosDefinitions()
     consts = {name: value for name, _, value in defs.msg('test_msgs/msg/Constants').constants}
     assert consts['BOOL_CONST'] is True and isinstance(consts['INT64_CONST'], int)
@@ -127,7 +127,7 @@ def test_constants_and_bounds():
 async def test_ros_args_remap():
     import os
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
-    from gateway.backends.rclpy_backend import RclpyBackend
+    from gateway.backends.rclpy.backend import RclpyBackend
     backend = RclpyBackend('gw', ros_args=['--ros-args', '-r', '__ns:=/robot7'])
     await backend.start()
     try:

@@ -9,8 +9,8 @@ import contextlib
 import pytest
 
 from gateway.backends.base import QoS
-from gateway.core import Gateway
-from gateway.recordings import RecordingManager
+from gateway.bridge.gateway import Gateway
+from gateway.web.recordings import RecordingManager
 from gateway.settings import Settings
 
 from .support import until
@@ -75,7 +75,7 @@ async def test_record_then_play(world, topic, tmp_path):
 async def test_bounds(world, topic, tmp_path):
     import tornado.web
 
-    from gateway.recordings import RecordingLimits
+    from gateway.web.recordings import RecordingLimits
 
     backend = world.backend
     gateway = Gateway(Settings(), backend)

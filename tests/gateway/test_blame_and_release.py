@@ -11,9 +11,9 @@ import logging
 import orjson
 
 from gateway.backends.sim import SimBackend
-from gateway.capabilities import topics
-from gateway.core import Gateway
-from gateway.session import ClientSession
+from gateway.bridge.capabilities import topics
+from gateway.bridge.gateway import Gateway
+from gateway.bridge.session import ClientSession
 from gateway.settings import Settings
 from protocol.errors import ProtocolError
 from protocol.ops import Subscribe

@@ -10,7 +10,7 @@ import asyncio
 
 import pytest
 
-from gateway.outbox import Outbox, corked
+from gateway.bridge.outbox import Outbox, corked
 
 pytestmark = pytest.mark.asyncio
 

@@ -140,7 +140,7 @@ def test_colcon_symlink_install_serves_the_source_tree(tools, sdist_tree, user_v
     assert (install / 'share/rosgate/launch/rosgate_launch.xml').resolve() == \
         (ws / 'src/rosgate/launch/rosgate_launch.xml').resolve()
     env = {'PYTHONPATH': str(ws / 'build' / 'rosgate'), 'AMENT_PREFIX_PATH': str(install)}   # colcon's hook
-    script = 'import gateway.assets as a; print(a.ide_dir().resolve())'
+    script = 'import gateway.settings as a; print(a.ide_dir().resolve())'
     assert run([user_venv, '-c', script], cwd=tmp_path, env=env).stdout.strip() == str((ws / 'src/rosgate/ide').resolve())
     gw = started([user_venv, install / 'lib/rosgate/rosgate', 'port:=0', 'address:=127.0.0.1', 'backend:=sim',
                   f'programs_dir:={tmp_path / "programs"}'], cwd=tmp_path, env=env)

@@ -52,7 +52,7 @@ def test_wheel_carries_every_served_file(wheel, source):
 
 
 def test_the_installed_package_is_not_the_checkout(user_venv, tmp_path):
-    out = run([user_venv, '-c', 'import gateway.assets as a; print(a.ide_dir()); print(a.examples_dir())'],
+    out = run([user_venv, '-c', 'import gateway.settings as a; print(a.ide_dir()); print(a.examples_dir())'],
               cwd=tmp_path).stdout.split()
     site = user_venv.parent.parent / 'lib'
     for path in map(Path, out):
@@ -110,7 +110,7 @@ def test_roslibpy_round_trip(installed):
 
 def test_startup_line_says_when_the_ide_is_missing(user_venv, installed, tmp_path):
     """A package whose IDE is incomplete says so instead of advertising pages that answer 404."""
-    vendor = Path(run([user_venv, '-c', 'import gateway.assets as a; print(a.ide_dir() / "vendor")'],
+    vendor = Path(run([user_venv, '-c', 'import gateway.settings as a; print(a.ide_dir() / "vendor")'],
                       cwd=tmp_path).stdout.strip())
     aside = tmp_path / 'vendor'
     shutil.move(vendor, aside)

@@ -98,7 +98,7 @@ class Graph:
 
 
 def test_stations_are_the_namespaces_of_robot_nodes():
-    from gateway.security.lease import find_stations, glob_group
+    from gateway.rules.lease import find_stations, glob_group
     stamped = 'geometry_msgs/msg/TwistStamped'
     graph = Graph({
         '/robot1/cmd_vel': (TWIST, ['/robot1/base_controller']),

@@ -9,6 +9,7 @@ from typing import Any
 from protocol.msgdefs import ActionDef, Definitions, MsgDef, SrvDef, normalize
 
 from ..base import ActionServerCallbacks, BackendError, Handle, NodeInfo, QoS
+from .demo import start_demo_nodes
 from .graph import Graph, Node, SimClientGoal, SimPublisher, resolve
 
 Message = dict[str, Any]
@@ -29,7 +30,6 @@ class SimBackend:
     async def start(self) -> None:
         self._node = self.graph.node(self.node_name)
         if self._demo:
-            from .demo import start_demo_nodes
             start_demo_nodes(self.graph, talker=self._talker, fibonacci_interval=self._fib_interval)
         for spec in self._robot_specs:
             self.robots.append(await spec(self.graph))

@@ -18,7 +18,7 @@ from typing import Any
 
 from protocol.msgdefs import Definitions, normalize
 
-from ... import blame
+from .. import blame
 from ..base import (
     STATUS_ABORTED, STATUS_ACCEPTED, STATUS_CANCELED, STATUS_CANCELING, STATUS_EXECUTING,
     STATUS_SUCCEEDED, ActionResult, ActionServerCallbacks, BackendError, QoS, ServiceTimeout,

@@ -1,6 +1,10 @@
 """Playing a recording back into the graph: each message on its topic (under an optional prefix)
 at its recorded time offset divided by ``rate``.
 
+A playback publishes for the person who started it, through the gateway's one door: the name
+globs, the driver lease, clamps and stops apply as to that person's own ``publish`` ops. When
+a rule refuses a message (someone else drives that robot, an admin stopped it) the playback ends.
+
 Messages are decoded with the definitions stored in the bag itself (not the backend's), so a
 recording plays on any backend that knows the types' names.
 """
@@ -12,22 +16,25 @@ import logging
 from pathlib import Path
 
 from protocol.convert import from_cdr
+from protocol.errors import ProtocolError
 from protocol.msgdefs import Definitions
 
-from .backends.base import QoS
+from ..backends.base import QoS
 
 log = logging.getLogger('rosgate.recordings')
 
 
 class Playback:
-    def __init__(self, backend, path: Path, rate: float, prefix: str):
+    def __init__(self, gateway, path: Path, rate: float, prefix: str, name: str, role: str | None):
         from rosbags.rosbag2 import Reader
 
-        self.backend, self.path, self.rate, self.prefix = backend, path, rate, prefix
+        self.gateway, self.path, self.rate, self.prefix = gateway, path, rate, prefix
+        self.who = (name, role)
         self.reader = Reader(path)
         self.reader.open()
         self.defs = _definitions(self.reader)
         self.published = 0
+        self.refused: str | None = None   # why a rule ended the playback
 
     def summary(self) -> dict:
         r = self.reader
@@ -37,10 +44,12 @@ class Playback:
 
     async def run(self) -> int:
         loop = asyncio.get_running_loop()
+        gw = self.gateway
+        sender = gw.open_sender(*self.who, remote=f'playback of {self.path.name}')
         pubs = {}
         try:
             for conn in self.reader.connections:
-                pubs[conn.id] = self.backend.create_publisher(self.prefix + conn.topic, conn.msgtype, QoS())
+                pubs[conn.id] = gw.open_publisher(sender, self.prefix + conn.topic, conn.msgtype, QoS())
             t0, start = None, loop.time()
             for conn, stamp, data in self.reader.messages():
                 if t0 is None:
@@ -48,14 +57,18 @@ class Playback:
                 delay = start + (stamp - t0) / 1e9 / self.rate - loop.time()
                 if delay > 0:
                     await asyncio.sleep(delay)
-                pubs[conn.id].publish(from_cdr(self.defs, conn.msgtype, bytes(data)))
-                self.published += 1
+                if gw.publish(sender, pubs[conn.id], from_cdr(self.defs, conn.msgtype, bytes(data))):
+                    self.published += 1
             log.info('played %s: %d messages', self.path.name, self.published)
-            return self.published
+        except ProtocolError as e:
+            self.refused = e.message
+            log.info('playing %s ended after %d messages: %s', self.path.name, self.published, e.message)
         finally:
+            gw.close_sender(sender)   # its moving commands stop, its leases go
             for pub in pubs.values():
-                pub.destroy()
+                pub.detach(sender.id)
             self.reader.close()
+        return self.published
 
 
 def _definitions(reader) -> Definitions:

@@ -14,8 +14,8 @@ from protocol.ops import (
     ActionFeedback, ActionResult, AdvertiseAction, CancelActionGoal, SendActionGoal, UnadvertiseAction,
 )
 
-from .. import blame
-from ..backends.base import (
+from ...backends import blame
+from ...backends.base import (
     STATUS_ABORTED, STATUS_CANCELED, STATUS_SUCCEEDED, STATUS_UNKNOWN, ActionServerCallbacks,
 )
 from .topics import absolute

@@ -5,10 +5,10 @@ from __future__ import annotations
 import asyncio
 from typing import TYPE_CHECKING, Any
 
-from .base import BackendError
+from ..base import BackendError
 
 if TYPE_CHECKING:
-    from .rclpy_backend import RclpyBackend
+    from .backend import RclpyBackend
 
 PARAM_NOT_SET, PARAM_DOUBLE, PARAM_DOUBLE_ARRAY = 0, 3, 8
 

@@ -1,19 +1,28 @@
-"""SecurePolicy: roles, the auth gate, per-client caps and op rate, on top of the name globs."""
+"""The policy: what a client may see and do.
+
+``Policy`` applies rosbridge's name globs and the Host and Origin checks; ``SecurePolicy`` adds
+roles and the auth gate, per-client caps and op rate. ``gateway.policy`` is one of them.
+"""
 
 from __future__ import annotations
 
 import asyncio
 import re
+from collections.abc import Callable
 from dataclasses import dataclass
+from fnmatch import fnmatchcase
+from urllib.parse import urlsplit
 
 from protocol import ops
 from protocol.errors import ProtocolError
 
-from .. import rosapi
-from ..policy import Policy, refuse, target
+from .names import ACTION_KINDS, LOCAL_HOSTS, host_name, is_ip, own_names, parse_globs, refuse, target
 from .tokens import AuthError, Authenticator
 
 COOKIE = 'rosgate_token'
+GATEWAY_ROLE = 'gateway'   # the role of what the gateway publishes itself (stops): passes the lease, never moves
+OWN_PREFIX = '/rosgate/'              # the gateway's own topics (driver, runs' state and output)
+CONTROL_TOPIC = '/rosgate/control'    # where clients ask for the driver lease
 PERMISSIONS = {
     'viewer': frozenset({'subscribe', 'read'}),
     'operator': frozenset({'subscribe', 'read', 'publish', 'call', 'send_goal'}),
@@ -30,9 +39,10 @@ _NAME = re.compile(r'[^A-Za-z0-9 _.@-]')
 SMALL_BODY = 64 * 1024   # bodies up to this size are read without a token (the login form)
 
 
-def permission(action: str, name: str) -> str:
-    """The permission an action needs; rosapi calls are reads, except the parameter writes."""
-    if action == 'call' and rosapi.handles(name):
+def permission(action: str, name: str, reads: Callable[[str], bool]) -> str:
+    """The permission an action needs; calls of the gateway's own rosapi services (``reads``)
+    are reads, except the parameter writes."""
+    if action == 'call' and reads(name):
         return 'param' if name in WRITING_ROSAPI else 'read'
     return action
 
@@ -50,6 +60,82 @@ def token_from_request(request) -> str | None:
     return cookie.value if cookie is not None else None
 
 
+class Policy:
+    def __init__(self, settings, *, reads: Callable[[str], bool] = lambda name: False):
+        self.auth: Authenticator | None = None
+        self.reads = reads     # the gateway's own read-only services (rosapi)
+        self.allowed_origins = parse_globs(settings.allowed_origins)
+        self.allowed_hosts = parse_globs(settings.allowed_hosts)
+        self.own_names = own_names()
+        self.globs = {
+            kind: parse_globs(getattr(settings, f'{kind}_glob'))
+            for kind in ('topics', 'topics_pub', 'topics_sub', 'services', 'params', 'actions')
+        }
+
+    def matches(self, kind: str, name: str) -> bool:
+        globs = self.globs.get(kind)
+        return globs is None or any(fnmatchcase(name, g) for g in globs)
+
+    def allows(self, session, action: str, name: str) -> bool:
+        if action == 'publish' and name.startswith(OWN_PREFIX) and name != CONTROL_TOPIC:
+            return False   # the gateway's own announcements: only the gateway publishes there
+        return all(self.matches(kind, name) for kind in ACTION_KINDS[action])
+
+    def admit(self, session, op) -> bool:
+        """Called before every incoming op is handled: raise ProtocolError to refuse it with a
+        status; return False to drop it silently (a client already being disconnected).
+        Here every op that names a topic, service or action is checked, once."""
+        wanted = target(op)
+        if wanted is not None:
+            try:
+                self.check(session, *wanted, op.OP, op.id)
+            except ProtocolError as e:
+                refuse(session, op, e.message)
+        return True
+
+    def check(self, session, action: str, name: str, op: str, id: str | None) -> None:
+        if not self.allows(session, action, name):
+            raise ProtocolError(f'{name} is not allowed for {action} by this gateway', op=op, id=id)
+
+    def visible(self, session, kind: str, name: str) -> bool:
+        """For rosapi listings: kind is topics, services, actions or params."""
+        if kind == 'topics':
+            return self.matches('topics', name) and (
+                self.matches('topics_pub', name) or self.matches('topics_sub', name))
+        return self.matches(kind, name)
+
+    def authenticate(self, session, op) -> None:
+        session.status('info', 'authentication is not required by this gateway', op.OP, op.id)
+
+    def host_allowed(self, host: str) -> bool:
+        """The Host header of any request (DNS rebinding: a page on evil.example that resolves to
+        this machine sends Host: evil.example). Passed: IP literals, this machine's names and
+        *.localhost, mDNS names (*.local: resolved on the local network only), --allowed-hosts."""
+        name = host_name(host)
+        if name in self.own_names or is_ip(name) or name.endswith(('.localhost', '.local')):
+            return True
+        return self.allowed_hosts is not None and any(
+            fnmatchcase(name, g.lower()) or fnmatchcase(host.lower(), g.lower()) for g in self.allowed_hosts)
+
+    def body_refusal(self, request, size: int) -> tuple[int, str] | None:
+        """(status, reason) to refuse an HTTP request body of this size (-1: chunked) by its
+        headers, before it is read; None to read it."""
+        return None
+
+    def origin_allowed(self, origin: str, request) -> bool:
+        """Browsers send Origin: the gateway's own origin and localhost pass, others only if listed."""
+        if self.allowed_origins is not None and any(fnmatchcase(origin, g) for g in self.allowed_origins):
+            return True
+        host = urlsplit(origin).hostname or ''
+        own = (request.host or '').rsplit(':', 1)[0].strip('[]')
+        return host == own or host in LOCAL_HOSTS
+
+    def connect_attrs(self, request) -> dict:
+        """Per-connection facts (role, identity) known at the websocket upgrade."""
+        return {}
+
+
+
 @dataclass(frozen=True)
 class Limits:
     max_subscriptions: int = 1000
@@ -59,8 +145,9 @@ class Limits:
 
 
 class SecurePolicy(Policy):
-    def __init__(self, settings, *, auth: Authenticator | None = None, limits: Limits = Limits(), lease=None):
-        super().__init__(settings)
+    def __init__(self, settings, *, auth: Authenticator | None = None, limits: Limits = Limits(), lease=None,
+                 reads: Callable[[str], bool] = lambda name: False):
+        super().__init__(settings, reads=reads)
         self.auth, self.limits, self.lease = auth, limits, lease
 
     # --- the gate in front of every op -------------------------------------------------------
@@ -129,7 +216,7 @@ class SecurePolicy(Policy):
             role = session.attrs.get('role')
             if role is None:
                 raise ProtocolError(NOT_AUTHENTICATED, op=op, id=id)
-            need = permission(action, name)
+            need = permission(action, name, self.reads)
             if need not in PERMISSIONS[role]:
                 raise ProtocolError(f'role {role} may not {VERBS[need]} {name}', op=op, id=id)
         super().check(session, action, name, op, id)

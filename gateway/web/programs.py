@@ -27,8 +27,8 @@ import tempfile
 
 import tornado.web
 
-from .api import JsonHandler, body_json, check_origin
-from .assets import data_dir
+from .api import JsonHandler, body_json, check_origin, require
+from ..settings import data_dir
 
 MAX_PROGRAM_BYTES = 2 * 1024 * 1024
 _NAME = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9 _-]{0,63}")
@@ -72,10 +72,14 @@ def space_owner(identity, asked: str | None, verb: str = "open") -> str | None:
 
 
 class _Base(JsonHandler):
-    identity = None      # who asks (security.http sets it when auth is on); None: an admin
+    identity = None      # who asks (set in prepare when auth is on); None: an admin
 
     def initialize(self, programs_dir: pathlib.Path, policy) -> None:
         self.programs_dir, self.policy = programs_dir, policy
+
+    def prepare(self) -> None:
+        """With auth on, every request needs a valid token; each name keeps to its own space."""
+        self.identity = require(self, self.policy, "read")
 
     def _admin(self) -> bool:
         return self.identity is None or self.identity.role == "admin"

@@ -1,25 +1,17 @@
-"""The tornado application: the rosbridge websocket, the IDE, and a small HTTP API."""
+"""The rosbridge websocket: frames read and written with as few copies as the socket allows, each
+message handed to its client's session (``bridge.session``), which answers through its outbox."""
 
 from __future__ import annotations
 
-import logging
 import struct
-import time
 
-import orjson
 import tornado.iostream
-import tornado.web
 import tornado.websocket
 
-from .backends.base import BackendError, QoS
-from .classview import ClassHandler
-from .core import Gateway
-from .session import ClientSession
-from .settings import Settings
-from .web import Application, PublicFileHandler, write_page
+from ..bridge.gateway import Gateway
+from ..bridge.session import ClientSession
+from .pages import write_page
 
-log = logging.getLogger('rosgate')
-HARD_LIMIT_FACTOR = 4   # frames up to this many times max_message_size get a status; larger ones close 1009
 TEXT, BINARY, CLOSE = 0x1, 0x2, 0x8  # websocket opcodes
 FLUSH_BEFORE_CLOSE = 1.0  # seconds a failing connection waits for its last status to go out
 READ_CHUNK = 128 * 1024   # bytes a connection asks its socket for at once (more when a frame needs it)
@@ -123,7 +115,7 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
             on_connect = getattr(hook, 'on_connect', None)
             if on_connect:
                 on_connect(self.session, self.request)
-        self.gateway.client_count_changed()
+        self.gateway.count_clients()
 
     def _plain_stream(self):
         """The connection's stream when frames may be written to it as the gateway builds them
@@ -173,7 +165,7 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
     def on_close(self) -> None:
         if self.session is not None:
             self.session.close()
-            self.gateway.client_count_changed()
+            self.gateway.count_clients()
 
 
 SMALL = 2048       # payloads below this are copied together with their header into one part
@@ -229,81 +221,3 @@ def _frame_header(size: int, binary: bool) -> bytes:
     if size <= 0xFFFF:
         return struct.pack('!BBH', first, 126, size)
     return struct.pack('!BBQ', first, 127, size)
-
-
-class HealthHandler(tornado.web.RequestHandler):
-    def initialize(self, gateway: Gateway) -> None:
-        self.gateway = gateway
-
-    def get(self) -> None:
-        gw = self.gateway
-        self.set_header('Content-Type', 'application/json')
-        self.write(orjson.dumps({
-            'status': 'ok', 'backend': gw.backend.name, 'clients': len(gw.sessions),
-            'uptime': round(time.time() - gw.started, 3), 'topics': len(gw.fanouts),
-        }))
-
-
-class TeleopHandler(tornado.web.RequestHandler):
-    """GET /teleop: the teleop page (its relative asset paths resolve from the root)."""
-
-    def initialize(self, page) -> None:
-        self.page = page
-
-    def get(self) -> None:
-        write_page(self, self.page)
-
-
-class IdeFileHandler(tornado.web.StaticFileHandler):
-    """The static IDE; vendored files may change between installs, so revalidate them."""
-
-    def set_extra_headers(self, path: str) -> None:
-        self.set_header('Cache-Control', 'no-cache')
-
-
-def make_app(settings: Settings, backend) -> tuple[tornado.web.Application, Gateway]:
-    gateway = Gateway(settings, backend)
-    ws_path = settings.url_path.rstrip('/') or '/'
-    routes: list = [(ws_path if ws_path == '/' else ws_path + '/?', RosbridgeHandler, {'gateway': gateway})]
-    routes += [
-        (r'/health', HealthHandler, {'gateway': gateway}),
-        (r'/teleop/', tornado.web.RedirectHandler, {'url': '/teleop'}),
-        (r'/teleop', TeleopHandler, {'page': settings.ide_dir / 'teleop.html'}),
-        (r'/class/?', ClassHandler, {'gateway': gateway, 'page': settings.ide_dir / 'class.html'}),
-        (r'/examples/(.*)', IdeFileHandler, {'path': str(settings.examples_dir)}),
-    ]
-    if settings.programs_dir is not None:
-        from .programs import program_routes
-        routes += program_routes(settings.programs_dir, gateway.policy)
-    from .recordings import recording_routes
-    from .runs import run_routes
-    routes += run_routes(gateway) + recording_routes(gateway)
-    routes += gateway.policy.http_routes()
-    routes.append((r'/(.*)', PublicFileHandler, {'path': str(settings.ide_dir), 'default_filename': 'index.html'}))
-    app = Application(
-        gateway, routes,
-        websocket_max_message_size=settings.max_message_size * HARD_LIMIT_FACTOR,
-        websocket_ping_interval=settings.websocket_ping_interval or None,
-        websocket_ping_timeout=settings.websocket_ping_timeout,
-        compress_response=True,
-    )
-    return app, gateway
-
-
-def client_count_publisher(gateway: Gateway):
-    """As rosbridge: /client_count (std_msgs/Int32) and /connected_clients, both latched."""
-    latched = QoS(depth=1, transient_local=True)
-    count = gateway.backend.create_publisher('/client_count', 'std_msgs/msg/Int32', latched)
-    try:
-        clients = gateway.backend.create_publisher('/connected_clients', 'rosbridge_msgs/msg/ConnectedClients', latched)
-    except (LookupError, BackendError):   # a ROS install without rosbridge_msgs
-        clients = None
-
-    def publish() -> None:
-        count.publish({'data': len(gateway.sessions)})
-        if clients is not None:
-            clients.publish({'clients': [
-                {'ip_address': s.remote, 'connection_time': {'sec': s.connected_at[0], 'nanosec': s.connected_at[1]}}
-                for s in gateway.sessions.values()]})
-
-    return publish

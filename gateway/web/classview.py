@@ -10,7 +10,8 @@ from urllib.parse import quote
 
 import tornado.web
 
-from .web import write_page
+from .api import require
+from .pages import write_page
 
 
 class ClassHandler(tornado.web.RequestHandler):
@@ -20,7 +21,6 @@ class ClassHandler(tornado.web.RequestHandler):
     def get(self) -> None:
         policy = self.gateway.policy
         if getattr(policy, 'auth', None) is not None:
-            from .security.http import require
             try:
                 identity = require(self, policy, 'read')
             except tornado.web.HTTPError as e:

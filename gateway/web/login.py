@@ -1,5 +1,4 @@
-"""HTTP side of access control: a small login page that sets the token cookie, /whoami, and the
-token guard in front of the program library (/api/programs), which keeps a space per name."""
+"""Signing in: a small login page that sets the token cookie, sign-out, and /whoami."""
 
 from __future__ import annotations
 
@@ -7,9 +6,9 @@ import html
 
 import tornado.web
 
-from ..api import JsonHandler
-from .policy import COOKIE, PERMISSIONS, token_from_request
-from .tokens import AuthError
+from ..rules.policy import COOKIE
+from ..rules.tokens import AuthError
+from .api import JsonHandler, require
 
 PAGE = """<!doctype html>
 <html lang="en"><head><meta charset="utf-8"><meta name="viewport" content="width=device-width">
@@ -90,39 +89,3 @@ def login_routes(policy, *, secure_cookie: bool) -> list:
     kw = {'policy': policy, 'secure_cookie': secure_cookie}
     return [(r'/login/?', LoginHandler, kw), (r'/logout/?', LogoutHandler),
             (r'/whoami', WhoAmIHandler, {'policy': policy})]
-
-
-def require(handler: tornado.web.RequestHandler, policy, permission: str):
-    """The caller's Identity (None when auth is off); raise 401 (no or bad token), 429 (too many
-    failures) or 403 (role too low)."""
-    auth = policy.auth
-    if auth is None:
-        return None
-    token = token_from_request(handler.request)
-    if not token:
-        raise tornado.web.HTTPError(401, 'a token is required: sign in at /login or send Authorization: Bearer')
-    try:
-        identity = auth.token(handler.request.remote_ip or '?', token)
-    except AuthError as e:
-        raise tornado.web.HTTPError(e.status, str(e)) from None
-    if permission not in PERMISSIONS[identity.role]:
-        raise tornado.web.HTTPError(403, f'role {identity.role} may not use this; it needs admin')
-    return identity
-
-
-def guarded_program_routes(policy, programs_dir) -> list:
-    """The program library's own routes behind a valid token when auth is on; the handlers keep
-    each signed-in name in its own space (admin: all of them, viewer: read only)."""
-    from ..programs import program_routes
-
-    routes = []
-    for spec in program_routes(programs_dir, policy):
-        base = spec.handler_class
-
-        def prepare(self, _base=base):
-            self.identity = require(self, policy, 'read')
-            return _base.prepare(self)
-
-        guarded = type(f'Guarded{base.__name__}', (base,), {'prepare': prepare})
-        routes.append(tornado.web.url(spec.regex.pattern, guarded, spec.kwargs))
-    return routes

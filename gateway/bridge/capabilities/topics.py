@@ -9,7 +9,7 @@ from protocol.errors import ProtocolError, json_type, shown
 from protocol.msgdefs import normalize
 from protocol.ops import MAX_INT, MAX_SECONDS, Advertise, Publish, Subscribe, Unadvertise, Unsubscribe
 
-from ..backends.base import QoS
+from ...backends.base import QoS
 
 if TYPE_CHECKING:
     from ..session import ClientSession
@@ -89,12 +89,7 @@ def publish(s: ClientSession, op: Publish) -> None:
     if pub is None:   # rosbridge auto-advertises when the type can be resolved
         type = _resolve_type(s, topic, op.type, op.OP, op.id)
         pub = _advertise(s, topic, type, qos_for(op.latch, op.queue_size, None), op.OP, op.id)
-    msg = from_json(s.backend.defs, pub.msgdef, op.msg)
-    for hook in s.gateway.publish_hooks:
-        msg = hook(s, pub, msg)
-        if msg is None:
-            return
-    pub.publisher.publish(msg)
+    s.gateway.publish(s, pub, from_json(s.backend.defs, pub.msgdef, op.msg))
 
 
 def subscribe(s: ClientSession, op: Subscribe) -> None:

@@ -31,9 +31,9 @@ from fnmatch import fnmatchcase
 from protocol.errors import ProtocolError
 
 from ..backends.base import QoS
-from ..safety import _moving
+from .policy import CONTROL_TOPIC, GATEWAY_ROLE
+from .safety import moving_command
 
-CONTROL_TOPIC = '/rosgate/control'
 DRIVER_TOPIC = '/rosgate/driver'
 STRING = 'std_msgs/msg/String'
 ROOT = '/'
@@ -77,7 +77,7 @@ class Lease:
         self._stations: tuple[str, ...] = ()
         self._stations_at = -float('inf')
         backend = gateway.backend
-        self._driver = backend.create_publisher(DRIVER_TOPIC, STRING, QoS(depth=1, transient_local=True))
+        self._driver = gateway.own_topic(DRIVER_TOPIC, STRING, QoS(depth=1, transient_local=True))
         # declares the control topic so clients may publish to it without a type
         self._control = backend.subscribe(CONTROL_TOPIC, STRING, lambda msg: None)
         self._announced = None
@@ -121,13 +121,15 @@ class Lease:
         stopping the program) pass without taking the lease. msg: the command (None: a moving one)."""
         if not self.is_command(name, type):
             return
+        if session.attrs.get('role') == GATEWAY_ROLE and msg is not None and not moving_command(msg):
+            return   # a stop the gateway publishes itself
         group = self.group(name)
         holder = self.holders.get(group)
         if holder is session:
             return
         stopper = self.benched.get(group, {}).get(session.id)
         if stopper is not None:
-            moving = msg is None or type not in self.types or _moving(msg)   # only asked here: rare
+            moving = msg is None or type not in self.types or moving_command(msg)   # only asked here: rare
             if not moving and holder is None:
                 return
             raise ProtocolError(f'{name}: {stopper} stopped {group}; send "take {group}" (the Take button) to '
@@ -178,7 +180,7 @@ class Lease:
                 raise ProtocolError(f'only an admin can stop {group}')
             self.stopped[group] = round(time.time(), 3)
             # a stop sticks: nobody connected now moves this robot again without taking it
-            self.benched[group] = {sid: who(session) for sid in self.gateway.sessions if sid != session.id}
+            self.benched[group] = {s.id: who(session) for s in self.gateway.everyone() if s is not session}
             if holder is not None:
                 self._grant(group, None, by=session, why='stopped the robot and freed')
             self.stop_group(group)

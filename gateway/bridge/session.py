@@ -12,13 +12,14 @@ from typing import TYPE_CHECKING, Any
 from protocol.errors import ProtocolError
 from protocol.session import Session
 
-from . import blame, encode
+from ..backends import blame
+from . import encode
 from .capabilities import HANDLERS
-from .backends.base import BackendError
+from ..backends.base import BackendError
 from .outbox import Outbox
 
 if TYPE_CHECKING:
-    from .core import Gateway
+    from .gateway import Gateway
 
 log = logging.getLogger('rosgate')
 _session_ids = itertools.count(1)
@@ -161,13 +162,7 @@ class ClientSession:
             return
         self.closed = True
         gateway = self.gateway
-        for hook in gateway.hooks:
-            on_close = getattr(hook, 'on_close', None)
-            if on_close:
-                try:
-                    on_close(self)
-                except Exception:
-                    log.exception('close hook failed')
+        gateway.left(self)
         for task in list(self.tasks):
             task.cancel()
         for goal in list(self.client_goals.values()):

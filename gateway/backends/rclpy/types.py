@@ -18,6 +18,8 @@ from typing import Any
 
 from protocol.msgdefs import ActionDef, Definitions, Field, MsgDef, SrvDef, UnknownType, normalize
 
+from . import cdr as rclpy_cdr
+
 # IDL names (as get_fields_and_field_types() reports them) -> .msg primitive names
 IDL_PRIMITIVES = {
     'double': 'float64', 'float': 'float32', 'boolean': 'bool', 'octet': 'byte', 'char': 'char',
@@ -238,13 +240,11 @@ class Converter:
 
     def cdr_reader(self, cls):
         """CDR bytes -> the dict to_dict makes (raising rclpy_cdr.Slow where it cannot), or None."""
-        from . import rclpy_cdr  # noqa: PLC0415
         return rclpy_cdr.reader(self._plan, cls)
 
     def cdr_writer(self, cls):
         """A dict -> the CDR bytes rclpy would publish for from_dict(cls, dict) (raising
         rclpy_cdr.Slow for a dict it leaves to from_dict), or None."""
-        from . import rclpy_cdr  # noqa: PLC0415
         return rclpy_cdr.writer(self._plan, cls)
 
     def from_dict(self, cls, data: dict):

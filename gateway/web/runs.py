@@ -36,10 +36,12 @@ import tornado.web
 
 from protocol.errors import ProtocolError
 
+from ..rules.lease import who
 from .api import JsonHandler, body_json, caller
-from .assets import data_dir
-from .backends.base import QoS
-from .safety import Safety, _moving
+from .programs import space_owner, stored_program
+from ..settings import data_dir
+from ..backends.base import QoS
+from ..rules.safety import Safety, moving_command
 
 log = logging.getLogger('rosgate.runs')
 STRING = 'std_msgs/msg/String'
@@ -161,9 +163,9 @@ class RunManager:
         run = Run(run_id, name, ns, timeout, workdir)
         run.role = role
         latched = QoS(depth=1, transient_local=True)
-        backend = self.gateway.backend
-        run.state_pub = backend.create_publisher(f'/rosgate/runs/{run_id}/state', STRING, latched)
-        run.output_pub = backend.create_publisher(f'/rosgate/runs/{run_id}/output', STRING, QoS(depth=100))
+        gateway = self.gateway
+        run.state_pub = gateway.own_topic(f'/rosgate/runs/{run_id}/state', STRING, latched)
+        run.output_pub = gateway.own_topic(f'/rosgate/runs/{run_id}/output', STRING, QoS(depth=100))
         self.runs[run_id] = run
         self._forget_old()
         self._announce(run)
@@ -179,7 +181,6 @@ class RunManager:
         holder = lease.holder_against(role, ns) if lease is not None else None
         if holder is None:
             return
-        from .security.lease import who
         raise tornado.web.HTTPError(409, f'{who(holder)} holds the driver lease{f" of {ns}" if ns else ""} '
                                          '(exclusive control); a run needs it: wait for "release" or ask an admin')
 
@@ -346,7 +347,7 @@ class RunManager:
         if run_id is None:
             return msg
         run = self.runs.get(run_id)
-        if run is not None and run.ending and _moving(msg) and self._is_velocity(pub.type):
+        if run is not None and run.ending and moving_command(msg) and self._is_velocity(pub.type):
             return None
         return msg
 
@@ -419,7 +420,6 @@ class RunListHandler(JsonHandler):
     def _library(self, name: str, identity, owner) -> str:
         """The Python stored with a library program, from the space the library would open for
         this caller: an operator's own (with --auth), else the shared one or an admin's "owner"."""
-        from .programs import space_owner, stored_program
         programs_dir = self.manager.gateway.settings.programs_dir
         owner = space_owner(identity, owner, 'run')
         if programs_dir is None or not (owner is None or isinstance(owner, str) and owner):
@@ -463,7 +463,7 @@ def run_routes(gateway) -> list:
     settings = gateway.settings
     manager = RunManager(gateway, allowed=settings.allow_runs, runs_dir=Path(settings.runs_dir or default_runs_dir()))
     gateway.hooks.append(manager)
-    gateway.publish_hooks.insert(0, manager.publish_hook)
+    gateway.rules.insert(0, manager.publish_hook)
     kw = {'manager': manager}
     return [(r'/api/runs/?', RunListHandler, kw), (r'/api/runs/(r[0-9a-f]{8})/?', RunHandler, kw),
             (r'/api/runs/([^/]+)', RunHandler, kw)]

@@ -32,8 +32,10 @@ from pathlib import Path
 import cbor2
 import tornado.web
 
+from ..rules.names import parse_globs
 from .api import JsonHandler, body_json, caller
-from .assets import data_dir
+from .playback import Playback
+from ..settings import data_dir
 
 log = logging.getLogger('rosgate.recordings')
 _ID = re.compile(r'rec-\d{8}-\d{6}-[0-9a-f]{4}')
@@ -241,14 +243,14 @@ class RecordingManager:
 
     # --- playback -----------------------------------------------------------------------------
 
-    def play(self, rec_id: str, rate: float, prefix: str) -> dict:
-        from .playback import Playback
+    def play(self, rec_id: str, rate: float, prefix: str, identity=None) -> dict:
 
         if rec_id in self.plays and not self.plays[rec_id].done():
             raise tornado.web.HTTPError(409, f'recording {rec_id} is already playing')
         path = self.path(rec_id)
         try:
-            playback = Playback(self.gateway.backend, path, rate, prefix)
+            name, role = (identity.name, identity.role) if identity is not None else ('playback', None)
+            playback = Playback(self.gateway, path, rate, prefix, name, role)
         except Exception as e:   # a damaged file, a type rosbags cannot parse
             raise tornado.web.HTTPError(422, f'cannot play {rec_id}: {e}') from None
         task = self.plays[rec_id] = asyncio.ensure_future(playback.run())
@@ -343,7 +345,7 @@ class RecordingFileHandler(_Handler):
 class PlayHandler(_Handler):
     def post(self, rec_id: str) -> None:
         m = self.manager
-        caller(self, m.gateway, change=True, roles=('operator', 'admin'))
+        identity = caller(self, m.gateway, change=True, roles=('operator', 'admin'))
         body = body_json(self, 4096) if self.request.body else {}
         rate = body.get('rate', 1.0)
         if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not 0.01 <= rate <= 100:
@@ -352,7 +354,7 @@ class PlayHandler(_Handler):
         if not isinstance(prefix, str) or (prefix and not re.fullmatch(r'(/[A-Za-z][A-Za-z0-9_]*)+', prefix)):
             raise tornado.web.HTTPError(400, '"prefix" is a namespace like /replay')
         self.set_status(202)
-        self.finish(m.play(rec_id, float(rate), prefix))
+        self.finish(m.play(rec_id, float(rate), prefix, identity))
 
     def delete(self, rec_id: str) -> None:
         caller(self, self.manager.gateway, change=True, roles=('operator', 'admin'))
@@ -366,7 +368,6 @@ def recording_routes(gateway) -> list:
     manager = RecordingManager(gateway, Path(record) if record else default_recordings_dir())
     gateway.hooks.append(manager)
     if record:
-        from .policy import parse_globs
         globs = parse_globs(settings.record_topics) or ('/*',)
         asyncio.get_running_loop().call_soon(_start_up, manager, globs)
     kw = {'manager': manager}

@@ -11,8 +11,9 @@ from protocol.errors import ProtocolError
 from protocol.msgdefs import normalize
 from protocol.ops import AdvertiseService, CallService, ServiceResponse, UnadvertiseService
 
-from .. import blame, rosapi
-from ..backends.base import BackendError
+from ...backends import blame
+from .. import rosapi
+from ...backends.base import BackendError
 from .topics import absolute
 
 if TYPE_CHECKING:

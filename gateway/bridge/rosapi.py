@@ -15,7 +15,7 @@ from protocol.convert import from_args
 from protocol.errors import ProtocolError
 from protocol.msgdefs import Definitions, MsgDef, normalize
 
-from .backends.base import BackendError
+from ..backends.base import BackendError
 
 if TYPE_CHECKING:
     from .session import ClientSession

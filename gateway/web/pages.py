@@ -6,6 +6,7 @@
 - Request bodies are judged by their headers before a byte of them is read: over
   ``MAX_HTTP_BODY`` they get 413, and bodies the policy refuses (over ``SMALL_BODY`` without a
   valid token, when auth is on) get 401; the connection is closed after the answer.
+- ``ide_problem`` says whether the IDE can be served from a directory at all.
 - ``PublicFileHandler`` serves only what the pages load from the IDE directory: the pages, their
   scripts, styles and block files, and the built ``vendor/`` bundles, never ``node_modules/``,
   the build script or package files.
@@ -14,6 +15,7 @@
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 import tornado.web
 
@@ -23,6 +25,8 @@ import tornado.web
 PUBLIC_DIRS = frozenset({'blocks', 'css', 'generators', 'js', 'runtime', 'vendor'})
 PUBLIC_FILES = frozenset({'index.html', 'teleop.html', 'toolbox.json'})
 MAX_HTTP_BODY = 4 * 2**20   # the largest request body any route takes (a program is at most 2 MiB)
+# What the pages cannot work without (the bundles come from `npm run build` in ide/).
+IDE_REQUIRED = ('index.html', 'teleop.html', 'vendor/roslib.mjs', 'vendor/blockly/blockly_compressed.js')
 
 
 @tornado.web.stream_request_body
@@ -104,3 +108,14 @@ def write_page(handler: tornado.web.RequestHandler, page, cache: str = 'no-cache
     handler.set_header('Content-Type', 'text/html; charset=UTF-8')
     handler.set_header('Cache-Control', cache)
     handler.write(page.read_bytes())
+
+
+def ide_problem(ide: Path) -> str | None:
+    """None when the pages can be served from `ide`, else a sentence saying what is missing."""
+    missing = [f for f in IDE_REQUIRED if not (ide / f).is_file()]
+    if not missing:
+        return None
+    if not (ide / 'index.html').is_file():
+        return f'no IDE pages in {ide}'
+    return (f'the IDE in {ide} is not built (missing {", ".join(missing)}): '
+            'run `make ide` (npm ci && npm run build in ide/)')

@@ -7,6 +7,9 @@ import json
 
 import tornado.web
 
+from ..rules.policy import PERMISSIONS, token_from_request
+from ..rules.tokens import AuthError
+
 
 class JsonHandler(tornado.web.RequestHandler):
     def set_default_headers(self) -> None:
@@ -25,8 +28,6 @@ def caller(handler: tornado.web.RequestHandler, gateway, *, change: bool = False
     """The caller's Identity (None when auth is off). Anyone with a valid token may read; a
     request that changes something must come from an allowed browser origin (or no browser) and,
     with auth, from one of ``roles``."""
-    from .security.http import require
-
     policy = gateway.policy
     if change:
         check_origin(handler, policy)
@@ -61,3 +62,21 @@ def body_json(handler: tornado.web.RequestHandler, limit: int) -> dict:
     if not isinstance(value, dict):
         raise tornado.web.HTTPError(400, 'the body is a JSON object')
     return value
+
+
+def require(handler: tornado.web.RequestHandler, policy, permission: str):
+    """The caller's Identity (None when auth is off); raise 401 (no or bad token), 429 (too many
+    failures) or 403 (role too low)."""
+    auth = policy.auth
+    if auth is None:
+        return None
+    token = token_from_request(handler.request)
+    if not token:
+        raise tornado.web.HTTPError(401, 'a token is required: sign in at /login or send Authorization: Bearer')
+    try:
+        identity = auth.token(handler.request.remote_ip or '?', token)
+    except AuthError as e:
+        raise tornado.web.HTTPError(e.status, str(e)) from None
+    if permission not in PERMISSIONS[identity.role]:
+        raise tornado.web.HTTPError(403, f'role {identity.role} may not use this; it needs admin')
+    return identity

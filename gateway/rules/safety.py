@@ -21,7 +21,8 @@ from fnmatch import fnmatchcase
 from protocol.convert import from_json
 from protocol.errors import ProtocolError
 
-from .backends.base import QoS
+from ..backends.base import QoS
+from .policy import GATEWAY_ROLE
 
 log = logging.getLogger('rosgate.safety')
 DEFAULT_TYPES = ('geometry_msgs/msg/Twist', 'geometry_msgs/msg/TwistStamped')
@@ -83,14 +84,14 @@ def _scale(vector: dict, limit: float | None, where: str) -> None:
             vector[k] = v * factor
 
 
-def _moving(value, key: str = '') -> bool:
+def moving_command(value, key: str = '') -> bool:
     """Any non-zero number outside the header."""
     if key == 'header':
         return False
     if isinstance(value, dict):
-        return any(_moving(v, k) for k, v in value.items())
+        return any(moving_command(v, k) for k, v in value.items())
     if isinstance(value, (list, tuple)):
-        return any(_moving(v) for v in value)
+        return any(moving_command(v) for v in value)
     if isinstance(value, bool):
         return value
     if isinstance(value, (int, float)):
@@ -129,7 +130,7 @@ class Safety:
             clamp = self.limits.for_topic(pub.topic)
             _scale(part['linear'], clamp.max_linear, 'linear')
             _scale(part['angular'], clamp.max_angular, 'angular')
-        if self.stop_on_disconnect or self.cmd_timeout > 0:
+        if (self.stop_on_disconnect or self.cmd_timeout > 0) and session.attrs.get('role') != GATEWAY_ROLE:
             self._track(session, pub, msg)
         return msg
 
@@ -141,7 +142,7 @@ class Safety:
         now = asyncio.get_running_loop().time()
         stream.count = stream.count + 1 if now - stream.last <= self.cmd_timeout else 1
         stream.last = now
-        stream.moving = _moving(msg)
+        stream.moving = moving_command(msg)
         header = msg.get('header')
         if isinstance(header, dict):
             stream.frame_id = header.get('frame_id')
@@ -183,8 +184,8 @@ class Safety:
             pub = gw.publisher(topic, stream.type, QoS())
             pub.attach(0)
         try:
-            pub.publisher.publish(self.zero(stream))
-            self.stops += 1
+            if gw.publish(gw.itself, pub, self.zero(stream)):
+                self.stops += 1
         finally:
             if temporary:
                 pub.detach(0)
@@ -212,7 +213,7 @@ class Safety:
 
     async def on_shutdown(self) -> None:
         count = 0
-        for session in list(self.gateway.sessions.values()):
+        for session in self.gateway.everyone():
             count += self.stop_session(session)
         self.stopped = True
         if not count:

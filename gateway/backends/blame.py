@@ -12,7 +12,7 @@ from __future__ import annotations
 from protocol.errors import ProtocolError
 from protocol.msgdefs import UnknownType
 
-from .backends.base import BackendError
+from .base import BackendError
 
 ANSWERABLE = (ProtocolError, BackendError, UnknownType)
 

@@ -21,12 +21,12 @@ from typing import Any
 
 from protocol.msgdefs import ActionDef, MsgDef, SrvDef, normalize
 
-from . import rclpy_params
-from .base import ActionServerCallbacks, BackendError, Message, NodeInfo, QoS, ServiceTimeout
-from .rclpy_actions import RclpyActionServer, send_goal
-from .rclpy_cdr import Slow
-from .rclpy_pump import Pump, ServiceCaller, ServiceServer, TopicReader
-from .rclpy_types import Converter, RosDefinitions
+from . import params as rclpy_params
+from ..base import ActionServerCallbacks, BackendError, Message, NodeInfo, QoS, ServiceTimeout
+from .actions import RclpyActionServer, send_goal
+from .cdr import Slow
+from .pump import Pump, ServiceCaller, ServiceServer, TopicReader
+from .types import Converter, RosDefinitions
 
 log = logging.getLogger('rosgate.rclpy')
 

@@ -1,8 +1,12 @@
-"""Access control and live-control safety: flags, and wiring into the gateway.
+"""The rules: who may do what, and keeping robots safe.
 
-``add_arguments(parser)`` adds the flags; ``install(gateway, app)`` replaces the gateway's policy
-with a SecurePolicy, adds the publish and close hooks of the safety layer and the driver lease,
-the login page, and the admin guard of the program library.
+Name globs and the Host/Origin checks (``names``), roles, tokens, caps and op rate (``policy``,
+``tokens``: one policy), the driver lease per station (``lease``), velocity clamps and stops
+(``safety``). ``add_arguments(parser)`` adds their flags; ``install(gateway, reads)`` puts the
+policy in front of every op and the lease and safety at the publish door (``Gateway.publish``).
+
+May import: ``protocol`` and ``backends`` (for QoS and types), never ``bridge`` or ``web``: the
+gateway is handed in.
 """
 
 from __future__ import annotations
@@ -10,11 +14,10 @@ from __future__ import annotations
 import argparse
 import logging
 
-from ..policy import parse_globs
-from ..safety import DEFAULT_TYPES, Clamp, Safety, VelocityLimits
-from .http import guarded_program_routes, login_routes
 from .lease import Lease
-from .policy import Limits, SecurePolicy
+from .names import parse_globs
+from .policy import GATEWAY_ROLE, Limits, SecurePolicy  # noqa: F401 (GATEWAY_ROLE: for the bridge)
+from .safety import DEFAULT_TYPES, Clamp, Safety, VelocityLimits
 from .tokens import Authenticator, Brake, TokenStore
 
 log = logging.getLogger('rosgate.security')
@@ -73,7 +76,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                                           'glob its own lease, e.g. "[\'/turtle1/*\', \'/turtle2/*\']"')
 
 
-def install(gateway, app) -> None:
+def install(gateway, reads=lambda name: False) -> None:
+    """reads: the gateway's own read-only services (rosapi), which viewers may call."""
     settings, extra = gateway.settings, gateway.settings.extra
     types = tuple(t.strip() for t in (extra.get('stop_types') or ','.join(DEFAULT_TYPES)).split(',') if t.strip())
     per_topic = extra.get('velocity_limits')
@@ -92,7 +96,7 @@ def install(gateway, app) -> None:
             return lambda topic: lease.group(topic) == group
 
         def stop_group(group):
-            for session in list(gateway.sessions.values()):
+            for session in gateway.everyone():
                 safety.stop_session(session, in_group(group))
 
         lease = Lease(gateway, types=frozenset(types), globs=parse_globs(extra.get('control_glob')),
@@ -102,18 +106,12 @@ def install(gateway, app) -> None:
     d = Limits()
     limits = Limits(**{k: extra.get(k, getattr(d, k)) for k in
                        ('max_subscriptions', 'max_publishers', 'max_pending_calls', 'max_op_rate')})
-    gateway.policy = SecurePolicy(settings, auth=auth, limits=limits, lease=lease)
+    gateway.policy = SecurePolicy(settings, auth=auth, limits=limits, lease=lease, reads=reads)
 
     if lease is not None:
-        gateway.publish_hooks.append(lease.publish_hook)
+        gateway.rules.append(lease.publish_hook)
         gateway.hooks.append(lease)
-    gateway.publish_hooks.append(safety.publish_hook)
+    gateway.rules.append(safety.publish_hook)
     gateway.hooks.append(safety)
-
-    tls = bool(settings.certfile and settings.keyfile)
-    routes = login_routes(gateway.policy, secure_cookie=tls)
-    if settings.programs_dir is not None:
-        routes += guarded_program_routes(gateway.policy, settings.programs_dir)
-    app.add_handlers(r'.*$', routes)
     log.info('security: auth %s, exclusive control %s, stop on disconnect %s, cmd timeout %s s',
              'on' if auth else 'off', 'on' if lease else 'off', safety.stop_on_disconnect, safety.cmd_timeout)

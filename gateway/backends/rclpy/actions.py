@@ -14,13 +14,13 @@ import logging
 import uuid
 from typing import TYPE_CHECKING
 
-from .base import (
+from ..base import (
     STATUS_ABORTED, STATUS_CANCELED, STATUS_SUCCEEDED, ActionResult, ActionServerCallbacks,
     BackendError, Message,
 )
 
 if TYPE_CHECKING:
-    from .rclpy_backend import RclpyBackend
+    from .backend import RclpyBackend
 
 log = logging.getLogger('rosgate.rclpy')
 

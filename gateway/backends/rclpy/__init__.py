@@ -1,0 +1,11 @@
+"""The rclpy backend: the gateway as one node of a real ROS 2 (Jazzy) graph.
+
+``backend`` (the node, its graph queries and entities), ``pump`` (the thread that waits on the
+gateway's rcl entities and hands batches to the loop), ``cdr`` (a per-type CDR reader and writer),
+``types`` (definitions and converters of the installed interface packages), ``actions`` and
+``params``. rclpy is imported when the backend starts, so importing this package works without ROS.
+"""
+
+from .backend import RclpyBackend
+
+__all__ = ['RclpyBackend']

@@ -1,0 +1,222 @@
+"""The gateway: what all client sessions share (backend, shared subscriptions and publishers),
+and the one door through which everything the process publishes for someone passes.
+
+``Gateway.publish(sender, pub, msg)`` applies the rules (``rules``: the run guard, the driver lease,
+velocity clamps and stream tracking) once, then publishes. A client's ``publish`` op, a playback,
+a robot-side run (a client like any other) and the zero commands of a stop all come through it;
+``SharedPublisher`` keeps its backend handle to itself. The gateway's own announcements
+(``/client_count``, ``/rosgate/driver``, ``/rosgate/runs/...``) are ``own_topic`` publishers,
+which clients may not publish to.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import inspect
+import itertools
+import logging
+import time
+from typing import TYPE_CHECKING
+
+from ..backends.base import BackendError, QoS
+from .fanout import TopicFanout
+from .outbox import corked
+from ..rules import GATEWAY_ROLE
+from ..rules.policy import Policy
+
+if TYPE_CHECKING:
+    from .session import ClientSession
+    from ..settings import Settings
+
+log = logging.getLogger('rosgate')
+_sender_ids = itertools.count(-1, -1)   # clients count up from 1; senders that are not clients down from -1
+
+
+class SharedPublisher:
+    """One backend publisher per topic, used by every client that advertised it."""
+
+    def __init__(self, gateway: Gateway, topic: str, type: str, qos: QoS):
+        self.gateway, self.topic, self.type, self.qos = gateway, topic, type, qos
+        self.msgdef = gateway.backend.msg_def(type)
+        self._handle = gateway.backend.create_publisher(topic, type, qos)   # published to only by Gateway.publish
+        self.clients: set[int] = set()
+        self._release: asyncio.TimerHandle | None = None
+
+    def attach(self, session_id: int) -> None:
+        self.clients.add(session_id)
+        if self._release is not None:
+            self._release.cancel()
+            self._release = None
+
+    def detach(self, session_id: int) -> None:
+        self.clients.discard(session_id)
+        if not self.clients and self._release is None:
+            delay = self.gateway.settings.unregister_timeout
+            self._release = asyncio.get_running_loop().call_later(delay, self._destroy)
+
+    def _destroy(self) -> None:
+        self._release = None
+        if not self.clients:
+            self.gateway.publishers.pop(self.topic, None)
+            self._handle.destroy()
+
+
+class Sender:
+    """Someone the gateway publishes for who is not a websocket client: the gateway itself (its
+    stops) or a person's playback. Shaped like a client session as far as the rules look."""
+
+    def __init__(self, name: str, role: str | None, remote: str = ''):
+        self.id = next(_sender_ids)
+        self.attrs = {'name': name, 'role': role}
+        self.remote = remote
+        self.closed = False
+        self.notes: list[str] = []   # what the rules told this sender (a client gets them as status)
+
+    def status(self, level: str, msg: str, op: str | None = None, id: str | None = None) -> None:
+        self.notes.append(msg)
+        log.info('%s: %s', self.attrs['name'], msg)
+
+
+class Gateway:
+    def __init__(self, settings: Settings, backend):
+        self.settings, self.backend = settings, backend
+        self.sessions: dict[int, ClientSession] = {}
+        self.fanouts: dict[str, TopicFanout] = {}
+        self.publishers: dict[str, SharedPublisher] = {}
+        self.started = time.time()
+        self.policy = Policy(settings)
+        self.service_owners: dict[str, ClientSession] = {}
+        self.hooks: list = []          # objects with an optional on_close(session)
+        self.rules: list = []          # (sender, SharedPublisher, msg) -> msg, or None to drop; may raise
+        self.senders: dict[int, Sender] = {}   # open senders that are not clients (playbacks)
+        self.itself = Sender('the gateway', GATEWAY_ROLE)
+        self._client_count = None
+        if hasattr(backend, 'batch_scope'):   # a backend delivering messages in batches
+            backend.batch_scope = corked      # sends each client its share in one write
+
+    # --- topics ------------------------------------------------------------------------------
+
+    def topic_type(self, topic: str) -> str | None:
+        for name, type in self.backend.topics():
+            if name == topic:
+                return type
+        return None
+
+    def fanout(self, topic: str, type: str) -> TopicFanout:
+        fan = self.fanouts.get(topic)
+        if fan is None:
+            fan = self.fanouts[topic] = TopicFanout(self, topic, type)
+        elif fan.type != type:
+            raise BackendError(f'topic {topic} is subscribed with type {fan.type}, not {type}')
+        return fan
+
+    def drop_fanout(self, fan: TopicFanout) -> None:
+        if self.fanouts.get(fan.topic) is fan:
+            del self.fanouts[fan.topic]
+        fan.destroy()
+
+    def publisher(self, topic: str, type: str, qos: QoS) -> SharedPublisher:
+        pub = self.publishers.get(topic)
+        if pub is None:
+            pub = self.publishers[topic] = SharedPublisher(self, topic, type, qos)
+        elif pub.type != type:
+            raise BackendError(f'topic {topic} is already advertised with type {pub.type}, not {type}')
+        return pub
+
+    def open_publisher(self, sender, topic: str, type: str, qos: QoS) -> SharedPublisher:
+        """A publisher for a sender that is not a client: the name globs and roles apply as to
+        a client's advertise (ProtocolError when they refuse)."""
+        self.policy.check(sender, 'publish', topic, 'advertise', None)
+        pub = self.publisher(topic, type, qos)
+        pub.attach(sender.id)
+        return pub
+
+    def publish(self, sender, pub: SharedPublisher, msg: dict) -> bool:
+        """The one door: the rules, once, then the backend. False when a rule dropped the
+        message; a ProtocolError when one refused it."""
+        for rule in self.rules:
+            msg = rule(sender, pub, msg)
+            if msg is None:
+                return False
+        pub._handle.publish(msg)
+        return True
+
+    def own_topic(self, topic: str, type: str, qos: QoS):
+        """A publisher of the gateway's own announcements; clients' publish ops on the topic
+        are refused (``rules.policy``)."""
+        return self.backend.create_publisher(topic, type, qos)
+
+    # --- senders that are not clients ---------------------------------------------------------
+
+    def open_sender(self, name: str, role: str | None, remote: str = '') -> Sender:
+        sender = Sender(name, role, remote)
+        self.senders[sender.id] = sender
+        return sender
+
+    def close_sender(self, sender: Sender) -> None:
+        """What a client's leaving does for a sender: its leases go, its moving commands stop."""
+        if sender.closed:
+            return
+        sender.closed = True
+        self.senders.pop(sender.id, None)
+        self.left(sender)
+
+    def left(self, who) -> None:
+        """Tell the hooks (lease, safety, runs, ...) that a client or sender is gone."""
+        for hook in self.hooks:
+            on_close = getattr(hook, 'on_close', None)
+            if on_close:
+                try:
+                    on_close(who)
+                except Exception:
+                    log.exception('close hook failed')
+
+    def everyone(self) -> list:
+        """Every client session and open sender."""
+        return [*self.sessions.values(), *self.senders.values()]
+
+    # --- lifecycle ---------------------------------------------------------------------------
+
+    def count_clients(self) -> None:
+        """As rosbridge: /client_count (std_msgs/Int32) and /connected_clients, both latched."""
+        if self._client_count is None:
+            latched = QoS(depth=1, transient_local=True)
+            count = self.own_topic('/client_count', 'std_msgs/msg/Int32', latched)
+            try:
+                clients = self.own_topic('/connected_clients', 'rosbridge_msgs/msg/ConnectedClients', latched)
+            except (LookupError, BackendError):   # a ROS install without rosbridge_msgs
+                clients = None
+            self._client_count = count, clients
+        count, clients = self._client_count
+        count.publish({'data': len(self.sessions)})
+        if clients is not None:
+            clients.publish({'clients': [
+                {'ip_address': s.remote, 'connection_time': {'sec': s.connected_at[0], 'nanosec': s.connected_at[1]}}
+                for s in self.sessions.values()]})
+
+    def add(self, session: ClientSession) -> None:
+        self.sessions[session.id] = session
+
+    def remove(self, session: ClientSession) -> None:
+        self.sessions.pop(session.id, None)
+
+    async def shutdown(self) -> None:
+        for hook in self.hooks:   # e.g. stop commands, while publishers and clients still exist
+            on_shutdown = getattr(hook, 'on_shutdown', None)
+            if on_shutdown:
+                try:
+                    result = on_shutdown()
+                    if inspect.isawaitable(result):
+                        await result
+                except Exception:
+                    log.exception('shutdown hook failed')
+        for session in list(self.sessions.values()):
+            session.close_connection(1001, 'server shutting down')
+        for fan in list(self.fanouts.values()):
+            fan.destroy()
+        self.fanouts.clear()
+        for sender in list(self.senders.values()):
+            self.close_sender(sender)
+        for pub in list(self.publishers.values()):
+            pub._handle.destroy()
+        self.publishers.clear()

@@ -1,0 +1,99 @@
+"""Names: rosbridge's name globs (topics, services, params, actions), the names this machine
+goes by (for Host and Origin checks), and which name an incoming op asks for."""
+
+from __future__ import annotations
+
+import ipaddress
+import socket
+from fnmatch import fnmatchcase
+from urllib.parse import urlsplit
+
+from typing import NoReturn
+
+from protocol import ops
+from protocol.errors import ProtocolError
+
+# what each checked action needs: (glob kinds that must all match)
+ACTION_KINDS = {
+    'publish': ('topics', 'topics_pub'),
+    'subscribe': ('topics', 'topics_sub'),
+    'call': ('services',),
+    'advertise_service': ('services',),
+    'send_goal': ('actions',),
+    'advertise_action': ('actions',),
+    'param': ('params',),
+}
+
+
+def parse_globs(value: str | None) -> tuple[str, ...] | None:
+    """rosbridge style: "['/turtle1/*', '/rosout']" or a plain comma/space separated list."""
+    if value is None:
+        return None
+    text = value.strip().strip('[]')
+    items = [item.strip().strip('\'"') for item in text.replace(',', ' ').split()]
+    items = [item for item in items if item]
+    return tuple(items) if items else None
+
+
+LOCAL_HOSTS = frozenset({'localhost', '127.0.0.1', '::1', '[::1]'})
+
+
+def host_name(host: str) -> str:
+    """The name in a Host header: no port, no brackets, no trailing dot, lower case."""
+    host = host.strip().lower()
+    if host.startswith('['):
+        host = host[1:].split(']', 1)[0]
+    elif host.count(':') == 1:
+        host = host.split(':', 1)[0]
+    return host.rstrip('.')
+
+
+def own_names() -> frozenset[str]:
+    """This machine's names: localhost and its host name, bare and as an mDNS .local name."""
+    names = {'localhost'}
+    full = socket.gethostname().lower().rstrip('.')
+    if full:
+        short = full.split('.', 1)[0]
+        names |= {full, short, f'{short}.local'}
+    return frozenset(names)
+
+
+def is_ip(name: str) -> bool:
+    try:
+        ipaddress.ip_address(name.split('%', 1)[0])
+    except ValueError:
+        return False
+    return True
+
+
+def _absolute(name: str) -> str:
+    return name if name.startswith('/') else '/' + name
+
+
+def target(op) -> tuple[str, str] | None:
+    """(action, name) that an incoming op asks for, or None for ops that need no check."""
+    if isinstance(op, ops.Subscribe):
+        return 'subscribe', _absolute(op.topic)
+    if isinstance(op, (ops.Publish, ops.Advertise)):
+        return 'publish', _absolute(op.topic)
+    if isinstance(op, ops.CallService):
+        return 'call', _absolute(op.service)
+    if isinstance(op, ops.SendActionGoal):
+        return 'send_goal', _absolute(op.action)
+    if isinstance(op, ops.AdvertiseService):
+        return 'advertise_service', _absolute(op.service)
+    if isinstance(op, ops.AdvertiseAction):
+        return 'advertise_action', _absolute(op.action)
+    return None
+
+
+def refuse(session, op, message: str) -> NoReturn:
+    """A status error naming op and id; calls and goals also get their failed reply so clients
+    waiting on them (roslibjs, roslibpy) fail at once instead of timing out."""
+    if isinstance(op, ops.CallService):
+        session.reply({'op': 'service_response', 'service': op.service, 'id': op.id,
+                       'values': message, 'result': False})
+    elif isinstance(op, ops.SendActionGoal):
+        session.reply({'op': 'action_result', 'action': op.action, 'id': op.id,
+                       'values': message, 'status': 0, 'result': False})
+    raise ProtocolError(message, op=op.OP, id=op.id)

@@ -1,0 +1,79 @@
+"""The tornado application: every route in one place.
+
+``/`` upgrades to the rosbridge websocket (``socket``) and, as a plain GET, serves the IDE;
+``/teleop`` and ``/class`` are the other pages; ``/health``; the JSON API apps (``/api/programs``,
+``/api/runs``, ``/api/recordings``) and the login pages; the IDE's static files last.
+"""
+
+from __future__ import annotations
+
+import time
+
+import orjson
+import tornado.web
+
+from ..bridge.gateway import Gateway
+from .classview import ClassHandler
+from .login import login_routes
+from .pages import Application, PublicFileHandler, write_page
+from .programs import program_routes
+from .recordings import recording_routes
+from .runs import run_routes
+from .socket import RosbridgeHandler
+
+HARD_LIMIT_FACTOR = 4   # frames up to this many times max_message_size get a status; larger ones close 1009
+
+
+class HealthHandler(tornado.web.RequestHandler):
+    def initialize(self, gateway: Gateway) -> None:
+        self.gateway = gateway
+
+    def get(self) -> None:
+        gw = self.gateway
+        self.set_header('Content-Type', 'application/json')
+        self.write(orjson.dumps({
+            'status': 'ok', 'backend': gw.backend.name, 'clients': len(gw.sessions),
+            'uptime': round(time.time() - gw.started, 3), 'topics': len(gw.fanouts),
+        }))
+
+
+class TeleopHandler(tornado.web.RequestHandler):
+    """GET /teleop: the teleop page (its relative asset paths resolve from the root)."""
+
+    def initialize(self, page) -> None:
+        self.page = page
+
+    def get(self) -> None:
+        write_page(self, self.page)
+
+
+class IdeFileHandler(tornado.web.StaticFileHandler):
+    """The static IDE; vendored files may change between installs, so revalidate them."""
+
+    def set_extra_headers(self, path: str) -> None:
+        self.set_header('Cache-Control', 'no-cache')
+
+
+def make_app(gateway: Gateway) -> tornado.web.Application:
+    settings, policy = gateway.settings, gateway.policy
+    ws_path = settings.url_path.rstrip('/') or '/'
+    routes: list = [(ws_path if ws_path == '/' else ws_path + '/?', RosbridgeHandler, {'gateway': gateway})]
+    routes += [
+        (r'/health', HealthHandler, {'gateway': gateway}),
+        (r'/teleop/', tornado.web.RedirectHandler, {'url': '/teleop'}),
+        (r'/teleop', TeleopHandler, {'page': settings.ide_dir / 'teleop.html'}),
+        (r'/class/?', ClassHandler, {'gateway': gateway, 'page': settings.ide_dir / 'class.html'}),
+        (r'/examples/(.*)', IdeFileHandler, {'path': str(settings.examples_dir)}),
+    ]
+    routes += login_routes(policy, secure_cookie=bool(settings.certfile and settings.keyfile))
+    if settings.programs_dir is not None:
+        routes += program_routes(settings.programs_dir, policy)
+    routes += run_routes(gateway) + recording_routes(gateway)
+    routes.append((r'/(.*)', PublicFileHandler, {'path': str(settings.ide_dir), 'default_filename': 'index.html'}))
+    return Application(
+        gateway, routes,
+        websocket_max_message_size=settings.max_message_size * HARD_LIMIT_FACTOR,
+        websocket_ping_interval=settings.websocket_ping_interval or None,
+        websocket_ping_timeout=settings.websocket_ping_timeout,
+        compress_response=True,
+    )

@@ -1,0 +1,154 @@
+"""gateway/ by role, imports pointing one way: web -> bridge -> rules -> backends (-> protocol).
+
+Every import of a gateway module is found (relative or absolute, at the top, inside a function or
+under TYPE_CHECKING) and checked against what its role may use; the run-time imports (those at a
+module's top) form no circle; and no gateway module is imported inside a function, the usual way
+to hide a circle.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+GATEWAY = Path(__file__).resolve().parents[2] / 'gateway'
+MAY_USE = {   # role -> the roles its modules may import
+    'web': {'web', 'bridge', 'rules', 'backends', 'settings'},
+    'bridge': {'bridge', 'rules', 'backends', 'settings'},
+    'rules': {'rules', 'backends', 'settings'},
+    'backends': {'backends'},
+    'settings': {'settings'},
+}
+
+
+def module_name(path: Path) -> str:
+    parts = list(path.relative_to(GATEWAY.parent).with_suffix('').parts)
+    return '.'.join(parts[:-1] if parts[-1] == '__init__' else parts)
+
+
+def package_of(path: Path) -> str:
+    name = module_name(path)
+    return name if path.name == '__init__.py' else name.rpartition('.')[0]
+
+
+def role(module: str) -> str | None:
+    parts = module.split('.')
+    return parts[1] if len(parts) > 1 and parts[0] == 'gateway' else None
+
+
+def gateway_imports(source: str, package: str) -> list[tuple[str, bool]]:
+    """(module, at run time from the top of the file) for every gateway module the source imports;
+    ``from . import x`` counts as importing the package and its module x."""
+    tree = ast.parse(source)
+    found: list[tuple[str, bool]] = []
+
+    def visit(node, top: bool) -> None:
+        for child in ast.iter_child_nodes(node):
+            inner = top
+            if isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)):
+                inner = False
+            elif isinstance(child, ast.If) and 'TYPE_CHECKING' in ast.unparse(child.test):
+                inner = None   # only for type checkers
+            if isinstance(child, ast.Import):
+                found.extend((a.name, inner) for a in child.names if a.name.split('.')[0] == 'gateway')
+            elif isinstance(child, ast.ImportFrom):
+                if child.level:
+                    base = package.split('.')[:len(package.split('.')) - child.level + 1]
+                    module = '.'.join(base + ([child.module] if child.module else []))
+                else:
+                    module = child.module or ''
+                if module.split('.')[0] == 'gateway':
+                    found.append((module, inner))
+                    found.extend((f'{module}.{a.name}', inner) for a in child.names)
+            visit(child, inner)
+
+    visit(tree, True)
+    return found
+
+
+def existing(module: str, modules: set[str]) -> str | None:
+    while module and module not in modules:   # 'gateway.rules.policy.COOKIE' -> 'gateway.rules.policy'
+        module = module.rpartition('.')[0]
+    return module or None
+
+
+def scan() -> dict[str, list[tuple[str, bool]]]:
+    files = {module_name(p): p for p in GATEWAY.rglob('*.py')}
+    out = {}
+    for name, path in files.items():
+        imports = gateway_imports(path.read_text(), package_of(path))
+        out[name] = [(m, top) for m, top in ((existing(m, set(files)), top) for m, top in imports) if m]
+    return out
+
+
+def forbidden(graph) -> list[str]:
+    bad = []
+    for module, imports in graph.items():
+        mine = role(module)
+        for target, _ in imports:
+            theirs = role(target)
+            if mine in MAY_USE and theirs is not None and theirs not in MAY_USE[mine]:
+                bad.append(f'{module} imports {target} ({mine} may not use {theirs})')
+    return bad
+
+
+def circles(graph) -> list[list[str]]:
+    """Circles among run-time imports (a module's package __init__ runs before it)."""
+    edges = {m: {t for t, top in imports if top and t != m} for m, imports in graph.items()}
+    for m in graph:
+        parent = m.rpartition('.')[0]
+        if parent in graph and parent != m:
+            edges[m].add(parent)
+    found, state = [], {}
+
+    def walk(node, stack):
+        state[node] = 1
+        for nxt in sorted(edges.get(node, ())):
+            if state.get(nxt) == 1 and not (node.startswith(nxt + '.') or nxt.startswith(node + '.')):
+                found.append(stack[stack.index(nxt):] + [nxt] if nxt in stack else [node, nxt])
+            elif nxt not in state:
+                walk(nxt, stack + [nxt])
+        state[node] = 2
+
+    for m in sorted(graph):
+        if m not in state:
+            walk(m, [m])
+    return found
+
+
+def test_the_roles_are_the_packages():
+    entries = {p.name for p in GATEWAY.iterdir() if not p.name.startswith(('_', '.')) or p.name == '__init__.py'}
+    assert entries <= {'__init__.py', 'cli.py', 'settings.py', 'bridge', 'rules', 'web', 'backends'}, entries
+    for package in ('bridge', 'rules', 'web', 'backends', 'backends/sim', 'backends/rclpy'):
+        assert ast.get_docstring(ast.parse((GATEWAY / package / '__init__.py').read_text())), package
+
+
+def test_imports_point_one_way():
+    assert forbidden(scan()) == []
+
+
+def test_no_run_time_import_circle():
+    assert circles(scan()) == []
+
+
+def test_no_gateway_module_imported_inside_a_function():
+    late = [f'{module} imports {target}' for module, imports in scan().items()
+            for target, top in imports if top is False]
+    assert late == []
+
+
+def test_the_checks_see_what_they_forbid():
+    """A forbidden import, a hidden one and a circle, each in the shapes the code uses."""
+    backend = gateway_imports('def f():\n    from ...bridge import session\n', 'gateway.backends.sim')
+    assert ('gateway.bridge.session', False) in backend
+    graph = {'gateway.backends.sim.graph': backend, 'gateway.bridge.session': [],
+             'gateway.rules.lease': gateway_imports('from ..web.runs import x\n', 'gateway.rules'),
+             'gateway.web.runs': []}
+    bad = forbidden(graph)
+    assert any(b.startswith('gateway.backends.sim.graph imports gateway.bridge.session') for b in bad)
+    assert any(b.startswith('gateway.rules.lease imports gateway.web.runs') for b in bad)
+    typed = gateway_imports('from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from .session import S\n',
+                            'gateway.bridge')
+    assert typed and all(top is None for _, top in typed)
+    loop = {'gateway.web.api': [('gateway.web.login', True)], 'gateway.web.login': [('gateway.web.api', True)]}
+    assert circles(loop)
