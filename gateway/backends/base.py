@@ -89,7 +89,7 @@ class NodeInfo:
 
 
 class Backend(Protocol):
-    """One ROS graph. Implementations: backends.sim.SimBackend, backends.rclpy_backend.RclpyBackend."""
+    """One ROS graph. Implementations: backends.sim.SimBackend, backends.rclpy.RclpyBackend."""
     name: str            # 'sim' or 'rclpy'
     node_name: str       # the gateway's own node, e.g. '/rosgate'
     defs: Any            # has .msg(type) -> MsgDef (nested lookups of protocol.convert)

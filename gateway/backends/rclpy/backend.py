@@ -3,7 +3,7 @@
 rclpy is imported when the backend starts, so importing this module works without ROS. One node
 (``rosgate`` by default; ROS arguments such as ``--ros-args -r __node:=x`` honoured). Topic
 subscriptions, service clients and services served by the gateway are moved by the pump
-(``rclpy_pump``): one thread with its own rcl wait set that hands what it takes to the IOLoop in
+(``pump``): one thread with its own rcl wait set that hands what it takes to the IOLoop in
 batches; the loop publishes and sends requests and responses itself. Actions go through a
 SingleThreadedExecutor in a thread of its own: their callbacks that wait for the gateway are
 coroutines in a reentrant callback group, hold no thread while they wait, and the loop wakes the

@@ -67,7 +67,7 @@ class TopicReader(Entity):
     def _from_cdr(self, data: bytes):
         try:
             return self._decode(data)
-        except Exception:  # noqa: BLE001 (rclpy_cdr.Slow, or a malformed message: rclpy decides)
+        except Exception:  # noqa: BLE001 (cdr.Slow, or a malformed message: rclpy decides)
             from rclpy.serialization import deserialize_message  # noqa: PLC0415
             return self._convert(deserialize_message(data, self.msg_type))
 
