@@ -152,3 +152,16 @@ def test_the_checks_see_what_they_forbid():
     assert typed and all(top is None for _, top in typed)
     loop = {'gateway.web.api': [('gateway.web.login', True)], 'gateway.web.login': [('gateway.web.api', True)]}
     assert circles(loop)
+
+
+def test_one_door_to_publish():
+    """Only the gateway creates backend publishers (the shared ones behind its door, and its own
+    announcements): nothing else in the process can publish past the rules."""
+    outside = []
+    for path in GATEWAY.rglob('*.py'):
+        if 'backends' in path.relative_to(GATEWAY).parts or path == GATEWAY / 'bridge' / 'gateway.py':
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Attribute) and node.attr in ('create_publisher', '_handle'):
+                outside.append(f'{path.relative_to(GATEWAY)}:{node.lineno} {node.attr}')
+    assert outside == []
