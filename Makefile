@@ -12,7 +12,7 @@ VENV_FLAGS := $(if $(ROS_DISTRO),--system-site-packages,)
 # environment, inside a network namespace with only loopback: DDS discovery stays on this machine.
 ROSVENV  := .venv-ros
 # What the suite needs besides the project's [ros] extra (rclpy with Fast DDS, common_interfaces).
-ROS_TEST_PKGS := ros-jazzy-test-msgs==2.0.3 pytest pytest-asyncio pytest-timeout hypothesis
+ROS_TEST_PKGS := ros-jazzy-test-msgs==2.0.3 cyclonedds==11.0.1 pytest pytest-asyncio pytest-timeout hypothesis
 
 system:
 	@tools/system-packages run
