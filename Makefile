@@ -52,7 +52,7 @@ test: system-test install-test ide tests/node/node_modules/.installed $(ROSVENV)
 	cd tests/node && node --test
 	$(MAKE) --no-print-directory test-rclpy
 
-$(ROSVENV)/.installed: pyproject.toml
+$(ROSVENV)/.installed: pyproject.toml Makefile
 	$(PYTHON) -m venv $(ROSVENV)
 	$(ROSVENV)/bin/pip install -q -e '.[ros]' $(ROS_TEST_PKGS)
 	touch $@
