@@ -5,10 +5,12 @@ from __future__ import annotations
 import argparse
 import asyncio
 import logging
+import re
 import signal
+import socket
 import ssl
 import sys
-from dataclasses import fields
+from dataclasses import fields, replace
 from pathlib import Path
 
 import tornado.httpserver
@@ -64,7 +66,8 @@ def build_parser() -> argparse.ArgumentParser:
     b = p.add_argument_group('backend')
     b.add_argument('--backend', choices=('auto', 'sim', 'rclpy'), default='auto',
                    help='auto: rclpy when it imports, else the embedded sim [%(default)s]')
-    b.add_argument('--node-name', default=d.node_name, help='the gateway node name [%(default)s]')
+    b.add_argument('--node-name', default=d.node_name,
+                   help='the gateway node name [rosgate_<host>_<port>: gateways on one graph differ]')
     b.add_argument('--talker', action='store_true', help='sim: publish /chatter once a second')
     b.add_argument('--fibonacci-interval', type=float, default=1.0,
                    help='sim: seconds between /fibonacci steps [%(default)s]')
@@ -115,7 +118,16 @@ def settings_from(args: argparse.Namespace) -> Settings:
     return Settings(**values, extra=extra)
 
 
-def make_backend(args: argparse.Namespace, ros_args: list[str]):
+def default_node_name(port: int, host: str | None = None) -> str:
+    """``rosgate_<host>_<port>``: the same name at every start of a gateway, and different names
+    for gateways on one graph (another port or another machine). A valid ROS node name: letters,
+    digits and single underscores."""
+    host = (host if host is not None else socket.gethostname()).split('.')[0]
+    name = re.sub(r'[^A-Za-z0-9]+', '_', f'rosgate_{host}_{port}', flags=re.ASCII)
+    return re.sub(r'_+', '_', name).strip('_')
+
+
+def make_backend(args: argparse.Namespace, ros_args: list[str], node_name: str):
     choice = args.backend
     if choice == 'auto':
         try:
@@ -124,12 +136,13 @@ def make_backend(args: argparse.Namespace, ros_args: list[str]):
         except ImportError:
             choice = 'sim'
     if choice == 'rclpy':
-        return RclpyBackend(node_name=args.node_name, ros_args=ros_args)
-    return SimBackend(node_name=args.node_name, talker=args.talker,
+        return RclpyBackend(node_name=node_name, ros_args=ros_args)
+    return SimBackend(node_name=node_name, talker=args.talker,
                       fibonacci_interval=args.fibonacci_interval, robots=robots.specs_from_args(args))
 
 
-async def serve(settings: Settings, backend, *, announce=print) -> None:
+async def serve(settings: Settings, backend, sockets: list[socket.socket], *, announce=print) -> None:
+    """Run the gateway on sockets already bound (``tornado.netutil.bind_sockets``)."""
     await backend.start()
     gateway = Gateway(settings, backend)
     rules.install(gateway, reads=rosapi.handles)
@@ -140,7 +153,6 @@ async def serve(settings: Settings, backend, *, announce=print) -> None:
         ssl_ctx = ssl.create_default_context(ssl.Purpose.CLIENT_AUTH)
         ssl_ctx.load_cert_chain(settings.certfile, settings.keyfile)
     server = tornado.httpserver.HTTPServer(app, ssl_options=ssl_ctx, max_buffer_size=settings.max_message_size * 4)
-    sockets = tornado.netutil.bind_sockets(settings.port, settings.address or None)
     server.add_sockets(sockets)
     port = sockets[0].getsockname()[1]
     host = settings.address if settings.address not in ('', '0.0.0.0', '::') else 'localhost'
@@ -149,7 +161,8 @@ async def serve(settings: Settings, backend, *, announce=print) -> None:
     path = settings.url_path if settings.url_path.startswith('/') else '/' + settings.url_path
     problem = ide_problem(settings.ide_dir)
     ide = f'IDE {http}://{host}:{port}/' if problem is None else f'IDE unavailable ({problem})'
-    announce(f'rosgate: {ide} websocket {ws}://{host}:{port}{path} backend {backend.name}')
+    announce(f'rosgate: {ide} websocket {ws}://{host}:{port}{path} backend {backend.name} '
+             f'node {backend.node_name}')
 
     stop = asyncio.Event()
     loop = asyncio.get_running_loop()
@@ -175,9 +188,13 @@ def main(argv: list[str] | None = None) -> int:
                         stream=sys.stderr)
     logging.getLogger('tornado.access').setLevel(logging.WARNING)
     settings = settings_from(args)
-    backend = make_backend(args, ros_args)
+    # bound before the backend starts: the default node name holds the port (also when it is 0)
+    sockets = tornado.netutil.bind_sockets(settings.port, settings.address or None)
+    node_name = settings.node_name or default_node_name(sockets[0].getsockname()[1])
+    settings = replace(settings, node_name=node_name)
+    backend = make_backend(args, ros_args, node_name)
     try:
-        asyncio.run(serve(settings, backend, announce=lambda line: print(line, flush=True)))
+        asyncio.run(serve(settings, backend, sockets, announce=lambda line: print(line, flush=True)))
     except KeyboardInterrupt:
         pass
     return 0

@@ -67,7 +67,7 @@ class Settings:
     topics_pub_glob: str | None = None
     topics_sub_glob: str | None = None
     backend: str = 'auto'
-    node_name: str = 'rosgate'
+    node_name: str = ''                        # empty: rosgate_<host>_<port> (cli.default_node_name)
     ide_dir: Path = field(default_factory=ide_dir)             # package data, or the checkout's ide/
     examples_dir: Path = field(default_factory=examples_dir)
     programs_dir: Path | None = None

@@ -17,6 +17,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 LINE = re.compile(r'websocket (wss?)://([^:/]+|\[[^\]]+\]):(\d+)(/\S*)')
+NODE = re.compile(r' node (\S+)')
 
 
 class Started:
@@ -36,6 +37,7 @@ class Started:
         self.port = int(port)
         self.ws_url = f'{scheme}://{self.host}:{self.port}{self.path}'
         self.http_url = f"{'https' if scheme == 'wss' else 'http'}://{self.host}:{self.port}/"
+        self.node = NODE.search(self.line).group(1) if NODE.search(self.line) else None   # its ROS node
         self.pid = self.proc.pid
 
     def _read_line(self, timeout: float) -> str:

@@ -62,6 +62,7 @@ class TopicFanout:
         self.subscribers: dict[int, Subscriber] = {}
         self.last: dict | None = None
         self.handle = backend.subscribe(topic, type, self._on_message, cdr=True)
+        self._cdr_wanted = False    # a subscriber takes cbor-raw: the backend keeps the CDR as received
 
     def add(self, session: ClientSession, sid: str | None, options: tuple) -> Subscriber:
         """Add or change one subscribe id; on failure the subscriber is as it was (or absent)."""
@@ -79,6 +80,7 @@ class TopicFanout:
                 sub.update(self.gateway.settings.default_queue_length)
             raise
         self.subscribers[session.id] = sub
+        self._want_cdr()
         return sub
 
     def remove(self, session: ClientSession, sid: str | None) -> bool:
@@ -92,12 +94,21 @@ class TopicFanout:
             sub.options.clear()
         if sub.options:
             sub.update(self.gateway.settings.default_queue_length)
+            self._want_cdr()
             return False
         sub.cancel()
         del self.subscribers[session.id]
         if not self.subscribers:
             self.gateway.drop_fanout(self)
+        else:
+            self._want_cdr()
         return True
+
+    def _want_cdr(self) -> None:
+        wanted = any(sub.compression == 'cbor-raw' for sub in self.subscribers.values())
+        if wanted != self._cdr_wanted:
+            self._cdr_wanted = wanted
+            self.handle.want_cdr(wanted)
 
     def destroy(self) -> None:
         for sub in self.subscribers.values():

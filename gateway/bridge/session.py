@@ -108,6 +108,8 @@ class ClientSession:
     def reply(self, op: dict, compression: str = 'none', fragment_size: int | None = None, **kw) -> None:
         if self.closed:
             return
+        if 'id' in op and op['id'] is None:   # an op sent without an id: its reply has none either
+            op = {k: v for k, v in op.items() if k != 'id'}
         for payload, binary in encode.frames(op, compression, fragment_size, **kw):
             self.outbox.reply(payload, binary)
 

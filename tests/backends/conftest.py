@@ -51,6 +51,25 @@ class World:
             return {'int64_value': total}
         return {'sum': total}
 
+    def late_server(self, kind: str, name: str):
+        """A node created now serving name ('service': the adder, 'action': Fibonacci), as one
+        started after the gateway; returns a function that destroys it."""
+        if self.helpers:
+            return self.helpers.late_server(kind, name)
+        from gateway.backends.sim.graph import SimServerGoal
+
+        node = self.backend.graph.node(f'late_{uuid.uuid4().hex[:8]}')
+        if kind == 'service':
+            node.create_service(name, self.add_type, lambda r: {'sum': r['a'] + r['b']})
+        else:
+            async def fibonacci(goal: SimServerGoal) -> dict:
+                sequence = [0, 1]
+                for _ in range(1, goal.request['order']):
+                    sequence.append(sequence[-1] + sequence[-2])
+                return {'sequence': sequence}
+            node.create_simple_action_server(name, self.fib_type, fibonacci)
+        return node.destroy
+
     def full(self, type: str, partial: dict) -> dict:
         """A complete message: ``partial`` with every other field at its default."""
         from protocol.convert import from_json

@@ -64,36 +64,13 @@ class HelperNodes:
         talker.create_timer(0.1, lambda: chatter.publish(String(data=f'Hello World: {next(count)}')))
 
         adder = rclpy.create_node('add_two_ints_server', context=self.context)
-        two_ints = self.add_type.endswith('AddTwoInts')
-
-        def add(request, response):
-            if two_ints:
-                response.sum = request.a + request.b
-            else:
-                response.int64_value = request.int64_value + request.int32_value
-            return response
-
-        adder.create_service(self._add, '/add_two_ints', add)
+        adder.create_service(self._add, '/add_two_ints', self._add_two_ints)
 
         fib = rclpy.create_node('fibonacci_action_server', context=self.context,
                                 allow_undeclared_parameters=True)
         fib.declare_parameter('step_interval', self.step_interval)
-        Fibonacci = self._fib
-
-        def execute(goal_handle):
-            sequence = [0, 1]
-            goal_handle.publish_feedback(Fibonacci.Feedback(sequence=sequence))
-            for _ in range(1, goal_handle.request.order):
-                if goal_handle.is_cancel_requested:
-                    goal_handle.canceled()
-                    return Fibonacci.Result(sequence=sequence)
-                time.sleep(fib.get_parameter('step_interval').value)
-                sequence.append(sequence[-1] + sequence[-2])
-                goal_handle.publish_feedback(Fibonacci.Feedback(sequence=sequence))
-            goal_handle.succeed()
-            return Fibonacci.Result(sequence=sequence)
-
-        self._server = ActionServer(fib, Fibonacci, '/fibonacci', execute, callback_group=group,
+        self._group, self._fib_node = group, fib
+        self._server = ActionServer(fib, self._fib, '/fibonacci', self._fibonacci, callback_group=group,
                                     cancel_callback=lambda goal: CancelResponse.ACCEPT)
         self.nodes = [talker, adder, fib]
         self.executor = MultiThreadedExecutor(num_threads=4, context=self.context)
@@ -101,6 +78,49 @@ class HelperNodes:
             self.executor.add_node(node)
         self.thread = threading.Thread(target=self.executor.spin, name='helper-nodes', daemon=True)
         self.thread.start()
+
+    def _add_two_ints(self, request, response):
+        if self.add_type.endswith('AddTwoInts'):
+            response.sum = request.a + request.b
+        else:
+            response.int64_value = request.int64_value + request.int32_value
+        return response
+
+    def _fibonacci(self, goal_handle):
+        Fibonacci, sequence = self._fib, [0, 1]
+        goal_handle.publish_feedback(Fibonacci.Feedback(sequence=sequence))
+        for _ in range(1, goal_handle.request.order):
+            if goal_handle.is_cancel_requested:
+                goal_handle.canceled()
+                return Fibonacci.Result(sequence=sequence)
+            time.sleep(self._fib_node.get_parameter('step_interval').value)
+            sequence.append(sequence[-1] + sequence[-2])
+            goal_handle.publish_feedback(Fibonacci.Feedback(sequence=sequence))
+        goal_handle.succeed()
+        return Fibonacci.Result(sequence=sequence)
+
+    def late_server(self, kind: str, name: str):
+        """A node created now that serves name ('service': the adder, 'action': Fibonacci), as a
+        node started after the gateway would; returns a function that destroys it."""
+        import rclpy
+        from rclpy.action import ActionServer
+
+        node = rclpy.create_node(f'late_{len(self.nodes)}', context=self.context)
+        if kind == 'service':
+            node.create_service(self._add, name, self._add_two_ints)
+            server = None
+        else:
+            server = ActionServer(node, self._fib, name, self._fibonacci, callback_group=self._group)
+        self.nodes.append(node)
+        self.executor.add_node(node)
+
+        def stop() -> None:
+            self.executor.remove_node(node)
+            if server is not None:
+                server.destroy()
+            node.destroy_node()
+            self.nodes.remove(node)
+        return stop
 
     def stop(self) -> None:
         self.executor.shutdown(timeout_sec=2.0)
@@ -160,6 +180,16 @@ class RosCaller:
 
         pub = self.node.create_publisher(String, topic, depth)
         return lambda text: pub.publish(String(data=text)), pub.get_subscription_count
+
+    def publisher(self, cls, topic: str, depth: int = 1000):
+        """``publish(msg)`` of a message class on topic."""
+        return self.node.create_publisher(cls, topic, depth).publish
+
+    def raw_listener(self, cls, topic: str, depth: int = 1000) -> list[bytes]:
+        """The CDR of every message on topic as DDS delivers it, appended as it comes."""
+        got: list[bytes] = []
+        self.node.create_subscription(cls, topic, got.append, depth, raw=True)
+        return got
 
     def ready(self, service: str, action: str) -> bool:
         return self._client(service).service_is_ready() and self._action_client(action).server_is_ready()

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import asyncio
+import time
 
 import pytest
 
 from gateway.backends.base import (
-    STATUS_ABORTED, STATUS_CANCELED, STATUS_SUCCEEDED, ActionServerCallbacks, BackendError,
+    SERVER_WAIT, STATUS_ABORTED, STATUS_CANCELED, STATUS_SUCCEEDED, ActionServerCallbacks, BackendError,
 )
 
 from .support import until
@@ -38,8 +39,24 @@ async def test_fibonacci_cancel(world):
 
 
 async def test_unknown_action(world):
+    started = time.monotonic()
     with pytest.raises(BackendError, match='/no_such_action'):
         await world.backend.send_goal('/no_such_action', world.fib_type, {'order': 1}, None)
+    assert SERVER_WAIT - 0.05 <= time.monotonic() - started < SERVER_WAIT + 1
+
+
+async def test_an_action_server_that_appears_while_the_goal_waits_takes_it(world, topic):
+    action = topic + '/late_fib'
+    send = asyncio.ensure_future(world.backend.send_goal(action, world.fib_type, {'order': 4}, None))
+    await asyncio.sleep(0)      # the goal is under way before the server exists
+    assert not send.done()
+    stop = world.late_server('action', action)
+    try:
+        goal = await asyncio.wait_for(send, 10)
+        result = await asyncio.wait_for(goal.result(), 10)
+        assert (result.status, result.result) == (STATUS_SUCCEEDED, {'sequence': [0, 1, 1, 2, 3]})
+    finally:
+        stop()
 
 
 class Served:

@@ -318,3 +318,138 @@ async def test_cbor_raw_clients_get_the_cdr_as_the_ros_node_published_it(gateway
         raw.close()
         plain.close()
     assert gateway.alive
+
+
+async def test_cbor_raw_clients_get_the_cdr_dds_delivered_for_types_without_a_compiled_reader(gateway, caller):
+    """JointState (string[]) is taken as a message object for JSON clients; for cbor-raw ones the
+    gateway keeps the CDR it took: the bytes another subscriber of the graph gets, not a rebuild."""
+    from rclpy.serialization import deserialize_message
+    from sensor_msgs.msg import JointState
+
+    topic, type = '/rclpy_raw_joints', 'sensor_msgs/msg/JointState'
+    delivered = caller.raw_listener(JointState, topic)
+    publish = caller.publisher(JointState, topic)
+    raw, plain = await Client.open(gateway), await Client.open(gateway)
+    sent = [JointState(name=[f'joint_{i}' * i for i in range(1, n + 1)], position=[0.5 * n] * n,
+                       effort=[-1.0] * (n % 2)) for n in range(1, 6)]
+
+    def warm(data: bytes) -> bool:
+        return deserialize_message(data, JointState).name == ['warm-up']
+
+    def heard_all() -> list[bytes] | None:
+        heard = [d for d in delivered if not warm(d)]
+        return heard if len(heard) >= len(sent) else None
+    try:
+        await raw.send({'op': 'subscribe', 'topic': topic, 'type': type, 'compression': 'cbor-raw',
+                        'queue_length': 100})
+        await plain.send({'op': 'subscribe', 'topic': topic, 'type': type, 'queue_length': 100})
+        await raw.sync()
+        await plain.sync()
+        await warm_up(plain, lambda text: publish(JointState(name=[text])), topic)
+        for msg in sent:
+            publish(msg)
+        got = []
+        while len(got) < len(sent):
+            frame = await asyncio.wait_for(raw.conn.read_message(), 20)
+            assert isinstance(frame, bytes), frame
+            msg = cbor2.loads(frame)
+            if msg.get('op') == 'publish' and not warm(msg['msg']['bytes']):
+                got.append(msg['msg']['bytes'])
+        heard = await until(heard_all, what='the ROS subscriber hearing them')
+        assert [deserialize_message(d, JointState) for d in got] == sent
+        assert got == heard[-len(sent):]
+    finally:
+        raw.close()
+        plain.close()
+    assert gateway.alive
+
+
+async def test_a_service_and_an_action_that_appear_while_the_call_waits_answer_it(gateway, rclpy_helpers):
+    """A client calls a service (sends a goal) that a node is creating at that moment: the gateway
+    has not discovered it when the call arrives, and waits for it as rosbridge does (1 s)."""
+    helpers, client, stops = rclpy_helpers, await Client.open(gateway), []
+
+    async def services() -> list[str]:
+        await client.send({'op': 'call_service', 'id': 'services', 'service': '/rosapi/services'})
+        return (await client.expect(lambda m: m.get('id') == 'services'))['values']['services']
+
+    try:
+        deadline = asyncio.get_running_loop().time() + 15
+        while '/add_two_ints' not in await services():    # the gateway knows the helpers' participant
+            assert asyncio.get_running_loop().time() < deadline, 'the helper nodes were never discovered'
+        for n, typed in enumerate((True, False)):      # roslibjs sends no type: resolved once seen
+            service = f'/rclpy_late_add_{n}'
+            call = {'op': 'call_service', 'id': f'late{n}', 'service': service,
+                    'args': helpers.add_request(2, n)}
+            await client.send({**call, 'type': helpers.add_type} if typed else call)
+            await client.sync()         # the gateway has the call: the server does not exist yet
+            stops.append(helpers.late_server('service', service))
+            reply = await client.expect(lambda m: m.get('id') == f'late{n}')
+            assert reply['result'] is True, reply
+            assert helpers.add_sum(reply['values']) == 2 + n
+        await client.send({'op': 'send_action_goal', 'id': 'late_goal', 'action': '/rclpy_late_fib',
+                           'action_type': helpers.fib_type, 'args': {'order': 3}})
+        await client.sync()
+        stops.append(helpers.late_server('action', '/rclpy_late_fib'))
+        result = await client.expect(lambda m: m.get('id') == 'late_goal' and m.get('op') == 'action_result')
+        assert (result['result'], result['values']) == (True, {'sequence': [0, 1, 1, 2]}), result
+    finally:
+        for stop in stops:
+            stop()
+        client.close()
+    assert gateway.alive
+
+
+async def test_a_serving_client_gets_requests_named_as_it_advertised_them(gateway, caller, rclpy_helpers):
+    """A ROS node calls a service and sends a goal to an action a browser advertised under a
+    relative name and a short type: the browser gets those back (roslibjs routes by them)."""
+    helpers, browser = rclpy_helpers, await Client.open(gateway)
+    short_fib = helpers.fib_type.replace('/action/', '/')
+    try:
+        await browser.send({'op': 'advertise_service', 'service': 'rclpy_echo_add',
+                            'type': helpers.add_type.replace('/srv/', '/')})
+        await browser.send({'op': 'advertise_action', 'action': 'rclpy_echo_fib', 'type': short_fib})
+        await browser.sync()
+        await until(lambda: caller.ready('/rclpy_echo_add', '/rclpy_echo_fib'), timeout=15,
+                    what='the ROS caller seeing the browser-served service and action')
+        call = asyncio.ensure_future(caller.call('/rclpy_echo_add', helpers.add_request(1, 2)))
+        request = await browser.expect(lambda m: m.get('op') == 'call_service')
+        assert request['service'] == 'rclpy_echo_add' and 'type' not in request
+        await browser.send({'op': 'service_response', 'service': 'rclpy_echo_add', 'id': request['id'],
+                            'values': {'sum': 3} if 'a' in request['args'] else {'int64_value': 3},
+                            'result': True})
+        assert helpers.add_sum(await call) == 3
+        goal = asyncio.ensure_future(caller.goal('/rclpy_echo_fib', 2))
+        request = await browser.expect(lambda m: m.get('op') == 'send_action_goal')
+        assert (request['action'], request['action_type']) == ('rclpy_echo_fib', short_fib)
+        await browser.send({'op': 'action_result', 'action': 'rclpy_echo_fib', 'id': request['id'],
+                            'status': 4, 'values': {'sequence': [0, 1, 1]}, 'result': True})
+        result, _feedback = await goal
+        assert list(result.sequence) == [0, 1, 1]
+    finally:
+        browser.close()
+    assert gateway.alive
+
+
+async def test_two_gateways_on_one_graph_are_two_nodes(gateway, start_gateway, caller):
+    """Each gateway's node is rosgate_<host>_<port> unless --node-name says otherwise."""
+    from gateway.cli import default_node_name
+
+    second = start_gateway('--backend', 'rclpy')
+    names = [gateway.node, second.node]
+    assert names == ['/' + default_node_name(g.port) for g in (gateway, second)]
+    assert names[0] != names[1]
+
+    def seen() -> list[str]:
+        found = [ns.rstrip('/') + '/' + n for n, ns in caller.node.get_node_names_and_namespaces()]
+        return found if set(names) <= set(found) else []
+    found = await until(seen, timeout=15, what='both gateways in the graph')
+    assert [found.count(name) for name in names] == [1, 1]
+    client = await Client.open(second)
+    try:
+        await client.send({'op': 'call_service', 'id': 'nodes', 'service': '/rosapi/nodes'})
+        reply = await client.expect(lambda m: m.get('id') == 'nodes')
+        assert set(names) <= set(reply['values']['nodes'])
+    finally:
+        client.close()
+    second.stop()

@@ -6,6 +6,7 @@ import base64
 import json
 import math
 import struct
+import time
 
 import cbor2
 import pytest
@@ -168,3 +169,61 @@ def test_client_served_service_without_values_does_not_hang(gateway, raw):
         raw.send({'op': 'service_response', 'service': '/raw/trigger', 'id': request['id'], 'result': True})
         reply = caller.expect(lambda m: m.get('id') == 'c1')
         assert reply['result'] is True and reply['values'] == {'success': False, 'message': ''}
+
+
+def test_a_serving_client_gets_requests_named_as_it_advertised_them(gateway, raw):
+    """The service and action names and the action type come back as the serving client wrote
+    them (relative, short type): roslibjs and roslibpy route requests by the name."""
+    raw.send({'op': 'advertise_service', 'service': 'raw/echo_trigger', 'type': 'std_srvs/Trigger'})
+    raw.send({'op': 'advertise_action', 'action': 'raw/echo_fib', 'type': 'example_interfaces/Fibonacci'})
+    raw.sync()
+    with Raw(gateway.ws_url) as caller:
+        caller.send({'op': 'call_service', 'id': 'c', 'service': '/raw/echo_trigger'})
+        request = raw.expect(lambda m: m.get('op') == 'call_service')
+        assert request['service'] == 'raw/echo_trigger' and 'type' not in request
+        raw.send({'op': 'service_response', 'service': 'raw/echo_trigger', 'id': request['id'],
+                  'values': {'success': True, 'message': 'echoed'}, 'result': True})
+        assert caller.expect(lambda m: m.get('id') == 'c')['values'] == {'success': True, 'message': 'echoed'}
+        caller.send({'op': 'send_action_goal', 'id': 'g', 'action': '/raw/echo_fib',
+                     'action_type': 'example_interfaces/action/Fibonacci', 'args': {'order': 2}})
+        goal = raw.expect(lambda m: m.get('op') == 'send_action_goal')
+        assert (goal['action'], goal['action_type']) == ('raw/echo_fib', 'example_interfaces/Fibonacci')
+        raw.send({'op': 'action_result', 'action': 'raw/echo_fib', 'id': goal['id'], 'status': 4,
+                  'result': True, 'values': {'sequence': [0, 1, 1]}})
+        result = caller.expect(lambda m: m.get('id') == 'g' and m.get('op') == 'action_result')
+        assert (result['result'], result['values']) == (True, {'sequence': [0, 1, 1]})
+
+
+def test_replies_to_ops_sent_without_an_id_have_no_id(raw):
+    raw.send({'op': 'call_service', 'service': '/rosapi/get_time'})
+    reply = raw.expect(lambda m: m.get('op') == 'service_response')
+    assert reply['result'] is True and 'id' not in reply, reply
+    raw.send({'op': 'call_service', 'service': '/add_two_ints', 'args': {'a': 'one', 'b': 2}})
+    reply = raw.expect(lambda m: m.get('op') == 'service_response')
+    assert reply['result'] is False and 'id' not in reply, reply
+    raw.send({'op': 'subscribe', 'topic': '/raw/no_type_yet'})
+    status = raw.status()
+    assert 'cannot infer the type' in status['msg'] and 'id' not in status, status
+
+
+def test_a_call_waits_for_a_service_that_appears_meanwhile(gateway, raw):
+    """As rosbridge: a service that is not there yet is waited for up to a second."""
+    with Raw(gateway.ws_url) as server:
+        for n, typed in enumerate((True, False)):       # roslibjs sends no type
+            service = f'/raw/late_{n}'
+            call = {'op': 'call_service', 'id': f'late{n}', 'service': service}
+            raw.send({**call, 'type': 'std_srvs/srv/Trigger'} if typed else call)
+            raw.sync()          # the gateway has the call: the service does not exist yet
+            server.send({'op': 'advertise_service', 'service': service, 'type': 'std_srvs/srv/Trigger'})
+            request = server.expect(lambda m: m.get('op') == 'call_service')
+            server.send({'op': 'service_response', 'service': service, 'id': request['id'],
+                         'values': {'success': True, 'message': str(n)}, 'result': True})
+            reply = raw.expect(lambda m: m.get('id') == f'late{n}')
+            assert (reply['result'], reply['values']) == (True, {'success': True, 'message': str(n)})
+    for typed in (True, False):
+        started = time.monotonic()
+        call = {'op': 'call_service', 'id': f'never{typed}', 'service': '/raw/never'}
+        raw.send({**call, 'type': 'std_srvs/srv/Trigger'} if typed else call)
+        reply = raw.expect(lambda m: m.get('id') == f'never{typed}')
+        assert reply['result'] is False and '/raw/never' in reply['values'], reply
+        assert 0.95 <= time.monotonic() - started < 2.5

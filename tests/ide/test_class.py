@@ -161,7 +161,7 @@ def test_without_the_lease_stop_publishes_zero(start_gateway, chromium):
         assert "--exclusive-control" in page.inner_text("#count")
         cmd = ros.watch("/s02/turtle1/cmd_vel", TWIST)
         wait_for(lambda: ros.call("/rosapi/subscribers", "rosapi/srv/Subscribers",
-                                  {"topic": "/s02/turtle1/cmd_vel"})["subscribers"].count("/rosgate"),
+                                  {"topic": "/s02/turtle1/cmd_vel"})["subscribers"].count(gw.node),
                  what="the watcher subscribed")
         page.click(f"{tile(page, '/s02')} .stop")
         msg = wait_for(cmd.latest, what="a command on /s02")

@@ -85,7 +85,7 @@ def test_globs_hide_in_rosapi(globbed):
         assert '/client_count' not in values('topics_and_raw_types')['topics']
         assert values('publishers', {'topic': '/client_count'})['publishers'] == []
         assert values('subscribers', {'topic': '/open/a'})['subscribers'] != []
-        details = values('node_details', {'node': '/rosgate'})
+        details = values('node_details', {'node': globbed.node})
         assert '/client_count' not in details['publishing'] and '/open/a' in details['subscribing']
         services = values('services')['services']
         assert '/add_two_ints' in services and not any(s.startswith('/fibonacci') for s in services)

@@ -22,7 +22,7 @@ from typing import Any
 from protocol.msgdefs import ActionDef, MsgDef, SrvDef, normalize
 
 from . import params as rclpy_params
-from ..base import ActionServerCallbacks, BackendError, Message, NodeInfo, QoS, ServiceTimeout
+from ..base import SERVER_WAIT, ActionServerCallbacks, BackendError, Message, NodeInfo, QoS, ServiceTimeout
 from .actions import RclpyActionServer, send_goal
 from .cdr import Slow
 from .pump import Pump, ServiceCaller, ServiceServer, TopicReader
@@ -98,6 +98,11 @@ class RclpySubscription:
                 self._callback(*item)
             else:
                 self._callback(item[0])
+
+    def want_cdr(self, wanted: bool) -> None:
+        """A type with a compiled CDR reader is taken as CDR anyway; any other only while wanted."""
+        if self.sub is not None:
+            self.sub.keep_cdr = wanted and self._with_cdr
 
     def destroy(self) -> None:
         sub, self.sub = self.sub, None
@@ -297,14 +302,18 @@ class RclpyBackend:
     def report(what: str, error: BaseException) -> None:
         log.warning('%s: %s', what, error)
 
-    async def _until(self, ready: Callable[[], bool], timeout: float, error: Exception) -> None:
-        """Wait for discovery to match a new client with its server (rclpy has no event for it)."""
+    async def _until(self, ready: Callable[[], bool], timeout: float) -> bool:
+        """Wait for discovery (a new server in the graph, a new client matched with its server):
+        rclpy has no event for it, and its own wait_for_service sleeps 0.25 s between looks. The
+        loop looks again after 1, 2, 4, ... ms, at most 50 ms apart. False: not within timeout s."""
         deadline, delay = self.loop.time() + timeout, 0.001
         while not ready():
-            if self.loop.time() >= deadline:
-                raise error
-            await asyncio.sleep(delay)
+            left = deadline - self.loop.time()
+            if left <= 0:
+                return False
+            await asyncio.sleep(min(delay, left))
             delay = min(delay * 2, 0.05)
+        return True
 
     # --- types --------------------------------------------------------------------------------
 
@@ -482,8 +491,8 @@ class RclpyBackend:
         wait = timeout or self.service_timeout
         try:
             async with asyncio.timeout(timeout), limit:
-                await self._until(handle.service_server_is_available, wait, ServiceTimeout(
-                    f'service {service} did not become ready within {wait} s'))
+                if not await self._until(handle.service_server_is_available, wait):
+                    raise ServiceTimeout(f'service {service} did not become ready within {wait} s')
                 future = self.loop.create_future()
                 with handle:
                     sequence = handle.send_request(request)
@@ -503,13 +512,19 @@ class RclpyBackend:
         client = self._clients.get((service, full))
         # a client matched with a server needs no look at the graph: DDS matches only equal types
         if client is None or not client.handle.service_server_is_available():
-            types = self.served_types().get(service)
+            wait = SERVER_WAIT if not timeout else min(timeout, SERVER_WAIT)
+            types = await self.wait_for_service(service, wait)
             if not types:
                 raise BackendError(f'service {service} is not available')
             if full not in types:
                 raise BackendError(f'service {service} has type {types[0]}, not {full}')
         response = await self._call(service, full, cls, self.convert.from_dict(cls.Request, request), timeout)
         return self.convert.to_dict(response)
+
+    async def wait_for_service(self, service: str, timeout: float) -> list[str]:
+        service = self.node.resolve_service_name(service)
+        await self._until(lambda: self.node.count_services(service) > 0, timeout)
+        return self.served_types().get(service, [])
 
     def advertise_service(self, service: str, type: str,
                           handler: Callable[[Message], Awaitable[Message]]) -> RclpyService:
@@ -567,6 +582,8 @@ class RclpyBackend:
         self.defs.action(full)
         cls = self.defs.action_class(full)
         action = self.node.resolve_service_name(action)
+        status = f'{action}/_action/status'     # published by an action's servers only
+        await self._until(lambda: self.node.count_publishers(status) > 0, SERVER_WAIT)
         served = dict(self.actions()).get(action)
         if served is None:
             raise BackendError(f'action server {action} is not available')
@@ -576,8 +593,8 @@ class RclpyBackend:
         if client is None:
             client = ActionClient(self.node, cls, action, callback_group=self.reentrant)
             self._action_clients[(action, full)] = client
-        await self._until(client.server_is_ready, self.service_timeout,
-                          BackendError(f'action server {action} did not become ready'))
+        if not await self._until(client.server_is_ready, self.service_timeout):
+            raise BackendError(f'action server {action} did not become ready')
         return await send_goal(self, action, client, cls, goal, on_feedback, self.service_timeout)
 
     def advertise_action(self, action: str, type: str, callbacks: ActionServerCallbacks) -> RclpyActionServer:

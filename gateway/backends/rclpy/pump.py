@@ -59,22 +59,29 @@ class TopicReader(Entity):
     def __init__(self, handle, msg_type, convert: Callable, deliver: Callable, report: Callable,
                  decode: Callable | None = None):
         """decode: CDR bytes -> dict (raising for what it leaves to convert); with it the reader
-        takes raw messages, which costs less than rclpy's message objects."""
+        takes raw messages, which costs less than rclpy's message objects. Without it the reader
+        takes raw messages only while ``keep_cdr`` is set (by the loop: someone wants the CDR as
+        received): taking the CDR and deserializing it costs more than taking the message object
+        (measured, Fast DDS, one process: a 1 MB PointCloud2 356-380 µs against 197-215 µs; a
+        JointState of 12 joints about the same, 22-34 µs)."""
         super().__init__(handle)
         self.msg_type, self._convert, self._deliver, self._report = msg_type, convert, deliver, report
         self._decode = decode
+        self.keep_cdr = False
 
     def _from_cdr(self, data: bytes):
-        try:
-            return self._decode(data)
-        except Exception:  # noqa: BLE001 (cdr.Slow, or a malformed message: rclpy decides)
-            from rclpy.serialization import deserialize_message  # noqa: PLC0415
-            return self._convert(deserialize_message(data, self.msg_type))
+        if self._decode is not None:
+            try:
+                return self._decode(data)
+            except Exception:  # noqa: BLE001 (cdr.Slow, or a malformed message: rclpy decides)
+                pass
+        from rclpy.serialization import deserialize_message  # noqa: PLC0415
+        return self._convert(deserialize_message(data, self.msg_type))
 
     def take(self, push) -> int:
         """Pushes ``(deliver, (message dict, CDR bytes as taken or None))``; returns how many
         messages it took (at most BUDGET)."""
-        raw = self._decode is not None
+        raw = self._decode is not None or self.keep_cdr
         take, msg_type, deliver = self.handle.take_message, self.msg_type, self._deliver
         convert = self._from_cdr if raw else self._convert
         for n in range(BUDGET):

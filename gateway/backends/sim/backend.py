@@ -90,6 +90,10 @@ class SimBackend:
         return list(t.latched) if t else []
 
     # --- services ----------------------------------------------------------------------------
+    async def wait_for_service(self, service: str, timeout: float) -> list[str]:
+        svc = await self.graph.wait_for_service(resolve(service), timeout)
+        return [svc.type] if svc is not None else []
+
     async def call_service(self, service: str, type: str, request: Message, timeout: float) -> Message:
         return await self.graph.call_service(resolve(service), request, timeout)
 

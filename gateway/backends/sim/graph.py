@@ -21,7 +21,7 @@ from protocol.msgdefs import Definitions, normalize
 from .. import blame
 from ..base import (
     STATUS_ABORTED, STATUS_ACCEPTED, STATUS_CANCELED, STATUS_CANCELING, STATUS_EXECUTING,
-    STATUS_SUCCEEDED, ActionResult, ActionServerCallbacks, BackendError, QoS, ServiceTimeout,
+    STATUS_SUCCEEDED, SERVER_WAIT, ActionResult, ActionServerCallbacks, BackendError, QoS, ServiceTimeout,
 )
 
 log = logging.getLogger('rosgate.sim')
@@ -93,6 +93,9 @@ class SimSubscription:
                 self.callback(self.backlog.popleft())
             except Exception:  # as in publish: a faulty subscriber must not break the others
                 log.exception('subscription callback on %s failed', self.topic)
+
+    def want_cdr(self, wanted: bool) -> None:
+        """The sim holds messages as dicts: there is no CDR as received to keep."""
 
     def destroy(self) -> None:
         self.node.graph._remove_endpoint(self._topic, self, 'subscriptions')
@@ -225,6 +228,7 @@ class Node:
         svc = SimService(self, name, type, handler)
         self.graph._services[name] = svc
         self._owned.add(svc)
+        self.graph._created('service', name)
         return svc
 
     # actions
@@ -238,6 +242,7 @@ class Node:
         server = SimActionServer(self, name, type, callbacks)
         self.graph._actions[name] = server
         self._owned.add(server)
+        self.graph._created('action', name)
         return server
 
     def create_simple_action_server(self, name: str, type: str,
@@ -321,6 +326,7 @@ class Graph:
         self._actions: dict[str, SimActionServer] = {}
         self._nodes: dict[str, Node] = {}
         self._ids = itertools.count(1)
+        self._waiting: dict[tuple[str, str], list[asyncio.Future]] = {}   # (kind, name) -> callers
 
     @property
     def loop(self) -> asyncio.AbstractEventLoop:
@@ -358,8 +364,37 @@ class Graph:
 
     # --- clients -----------------------------------------------------------------------------
 
+    def _created(self, kind: str, name: str) -> None:
+        for waiter in self._waiting.pop((kind, name), ()):
+            if not waiter.done():
+                waiter.set_result(None)
+
+    async def _server(self, kind: str, name: str, timeout: float | None):
+        """The service or action server of name, waiting up to timeout s for one to be created."""
+        table = self._services if kind == 'service' else self._actions
+        server = table.get(name)
+        if server is None and timeout:
+            waiter = self.loop.create_future()
+            waiters = self._waiting.setdefault((kind, name), [])
+            waiters.append(waiter)
+            try:
+                await asyncio.wait_for(waiter, timeout)
+            except asyncio.TimeoutError:
+                pass
+            finally:
+                if waiter in waiters:
+                    waiters.remove(waiter)
+                    if not waiters and self._waiting.get((kind, name)) is waiters:
+                        del self._waiting[(kind, name)]
+            server = table.get(name)
+        return server
+
+    async def wait_for_service(self, name: str, timeout: float | None) -> SimService | None:
+        return await self._server('service', name, timeout)
+
     async def call_service(self, name: str, request: Message, timeout: float | None) -> Message:
-        svc = self._services.get(name)
+        wait = SERVER_WAIT if timeout is None else min(timeout, SERVER_WAIT)
+        svc = await self._server('service', name, wait)
         if svc is None:
             raise BackendError(f'service {name} is not available')
         try:
@@ -377,7 +412,7 @@ class Graph:
 
     async def send_goal(self, name: str, request: Message,
                         on_feedback: Callable[[Message], None] | None) -> SimClientGoal:
-        server = self._actions.get(name)
+        server = await self._server('action', name, SERVER_WAIT)
         if server is None:
             raise BackendError(f'action server {name} is not available')
         goal = SimServerGoal(server, request)

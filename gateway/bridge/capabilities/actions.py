@@ -77,7 +77,8 @@ def advertise_action(s: ClientSession, op: AdvertiseAction) -> None:
 
     def on_goal(goal) -> None:
         s.server_goals[goal.goal_id] = (goal, name, adef)
-        s.reply({'op': 'send_action_goal', 'action': op.action, 'action_type': type,
+        # the name and type as the client advertised them: clients match on them (rosbridge echoes them)
+        s.reply({'op': 'send_action_goal', 'action': op.action, 'action_type': op.type,
                  'id': goal.goal_id, 'args': goal.request, 'feedback': True})
 
     def on_cancel(goal) -> None:

@@ -13,7 +13,7 @@ from protocol.ops import AdvertiseService, CallService, ServiceResponse, Unadver
 
 from ...backends import blame
 from .. import rosapi
-from ...backends.base import BackendError
+from ...backends.base import SERVER_WAIT, BackendError
 from .topics import absolute
 
 if TYPE_CHECKING:
@@ -32,7 +32,7 @@ async def _call(s: ClientSession, op: CallService) -> None:
             values = await rosapi.call(s, name, op.args)
             srv = None
         else:
-            type = normalize(op.type, 'srv') if op.type else service_type(s, name)
+            type = normalize(op.type, 'srv') if op.type else await service_type(s, name)
             srv = s.backend.srv_def(type)
             request = from_args(s.backend.defs, srv.request, op.args)
             timeout = op.timeout if op.timeout is not None else s.gateway.settings.default_call_service_timeout
@@ -48,11 +48,12 @@ async def _call(s: ClientSession, op: CallService) -> None:
             msgdef=srv.response if srv else None, defs=s.backend.defs, body='values')
 
 
-def service_type(s: ClientSession, name: str) -> str:
-    for service, type in s.backend.services():
-        if service == name:
-            return type
-    raise BackendError(f'service {name} does not exist')
+async def service_type(s: ClientSession, name: str) -> str:
+    """The type of a service with a server (one just created may take a moment to be discovered)."""
+    types = await s.backend.wait_for_service(name, SERVER_WAIT)
+    if not types:
+        raise BackendError(f'service {name} does not exist')
+    return types[0]
 
 
 def advertise_service(s: ClientSession, op: AdvertiseService) -> None:
@@ -72,7 +73,8 @@ def advertise_service(s: ClientSession, op: AdvertiseService) -> None:
         rid = f'service_request:{name}:{next(s._counter)}'
         fut = asyncio.get_running_loop().create_future()
         s.service_requests[rid] = (fut, srv)
-        s.reply({'op': 'call_service', 'id': rid, 'service': name, 'args': request})
+        # the name as the client advertised it: roslibjs and roslibpy route requests by it
+        s.reply({'op': 'call_service', 'id': rid, 'service': op.service, 'args': request})
         try:
             return await asyncio.wait_for(fut, s.gateway.settings.default_call_service_timeout)
         except asyncio.TimeoutError:
