@@ -3,6 +3,7 @@
 // every statement, for highlighting, Pause/Step and Stop.
 /* global Blockly, javascript */
 import { specToCode } from './spec.js';
+import { isLoose, NameScope, NAME_KINDS } from './scope.js';
 
 const { Order } = javascript;
 
@@ -38,6 +39,7 @@ class RosJavascriptGenerator extends javascript.JavascriptGenerator {
     super('JavaScript');
     Object.assign(this.forBlock, javascript.javascriptGenerator.forBlock);
     this.addReservedWords('rt,await,async');
+    this.scope = new NameScope();   // the page shares one with the Python generator
   }
 
   // Generated code for a workspace; `instrument` adds rt.step()/rt.tick() calls.
@@ -53,8 +55,21 @@ class RosJavascriptGenerator extends javascript.JavascriptGenerator {
   }
 
   msgArg(block, name) { return this.valueToCode(block, name, Order.COMMA) || '{}'; }
+  // A generic ROS block's topic, service or action name: in the robot namespace or as it is.
+  nameArg(block, nameField) {
+    const name = block.getFieldValue(nameField) ?? '';
+    const quoted = this.quote_(name);
+    return this.scope.inNamespace(NAME_KINDS[nameField], name) ? `rt.ns(${quoted})` : quoted;
+  }
+
   topicArgs(block, nameField) {
-    return `${this.quote_(block.getFieldValue(nameField))}, ${this.quote_(block.getFieldValue('TYPE') || '')}`;
+    return `${this.nameArg(block, nameField)}, ${this.quote_(block.getFieldValue('TYPE') || '')}`;
+  }
+
+  // A loose value block (see scope.js) is not part of the program: no code.
+  blockToCode(block, thisOnly) {
+    if (block && isLoose(block)) return '';
+    return super.blockToCode(block, thisOnly);
   }
 }
 
@@ -123,7 +138,7 @@ F.ros_send_goal = (block, g) => {
     g.statementToCode(block, 'RESULT').replace(new RegExp(`^${g.INDENT}`, 'gm'), '');
 };
 
-F.ros_cancel = (block, g) => `rt.cancel(${g.quote_(block.getFieldValue('ACTION'))});\n`;
+F.ros_cancel = (block, g) => `rt.cancel(${g.nameArg(block, 'ACTION')});\n`;
 
 F.ros_field = (block, g) =>
   [`rt.field(${g.valueToCode(block, 'OBJ', Order.COMMA) || 'null'}, ${g.quote_(block.getFieldValue('FIELD'))})`, Order.FUNCTION_CALL];

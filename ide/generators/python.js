@@ -3,6 +3,7 @@
 //   pip install roslibpy && python3 program.py --url ws://HOST:9090/
 /* global Blockly, python */
 import { specToCode } from './spec.js';
+import { isLoose, NameScope, NAME_KINDS } from './scope.js';
 
 const { Order } = python;
 
@@ -45,10 +46,11 @@ class RosPythonGenerator extends python.PythonGenerator {
     super('Python');
     Object.assign(this.forBlock, python.pythonGenerator.forBlock);
     this.addReservedWords('rt,run,main,field,fmt,pick,yaw,range_at,angle_diff,pose_of,roslibpy,Runtime,' +
-      'StopProgram,RosError,argparse,json,math,os,random,signal,sys,threading,time,traceback,message,queue,GAIN,is_velocity_type,zero_velocity,' +
+      'StopProgram,RosError,argparse,json,math,os,random,signal,sys,threading,time,traceback,message,queue,GAIN,SETTLE_SERVICE,is_velocity_type,zero_velocity,' +
       'norm_namespace,with_namespace,re');
     this.programName = 'program';
     this.namespace = '';      // the robot namespace the file runs in unless --ns says otherwise
+    this.scope = new NameScope();
   }
 
   init(workspace) {
@@ -98,8 +100,21 @@ class RosPythonGenerator extends python.PythonGenerator {
   }
 
   msgArg(block, name) { return this.valueToCode(block, name, Order.NONE) || '{}'; }
+  // A generic ROS block's topic, service or action name: in the robot namespace or as it is.
+  nameArg(block, nameField) {
+    const name = block.getFieldValue(nameField) ?? '';
+    const quoted = this.quote_(name);
+    return this.scope.inNamespace(NAME_KINDS[nameField], name) ? `rt.ns(${quoted})` : quoted;
+  }
+
   topicArgs(block, nameField) {
-    return `${this.quote_(block.getFieldValue(nameField))}, ${this.quote_(block.getFieldValue('TYPE') || '')}`;
+    return `${this.nameArg(block, nameField)}, ${this.quote_(block.getFieldValue('TYPE') || '')}`;
+  }
+
+  // A loose value block (see scope.js) is not part of the program: no code.
+  blockToCode(block, thisOnly) {
+    if (block && isLoose(block)) return '';
+    return super.blockToCode(block, thisOnly);
   }
 }
 
@@ -149,7 +164,7 @@ F.ros_send_goal = (block, g) => {
     g.statementToCode(block, 'RESULT').replace(new RegExp(`^${g.INDENT}`, 'gm'), '');
 };
 
-F.ros_cancel = (block, g) => `rt.cancel(${g.quote_(block.getFieldValue('ACTION'))})\n`;
+F.ros_cancel = (block, g) => `rt.cancel(${g.nameArg(block, 'ACTION')})\n`;
 
 F.ros_field = (block, g) =>
   [`field(${g.valueToCode(block, 'OBJ', Order.NONE) || 'None'}, ${g.quote_(block.getFieldValue('FIELD'))})`, Order.FUNCTION_CALL];

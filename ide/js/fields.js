@@ -1,5 +1,6 @@
 import { messageState } from './msgblock.js';
 import { shared } from './graph.js';
+import { withNamespace } from '../runtime/util.js';
 
 // A dropdown of live ROS names (topics, services, actions, types, fields) that also
 // takes free text, and the block extensions that fill a block's TYPE from its name.
@@ -26,7 +27,7 @@ export class FieldRosName extends Blockly.FieldDropdown {
     if (!g()) return [];
     const block = this.getSourceBlock();
     switch (this.kind) {
-      case 'topic': case 'service': case 'action': return g().names(this.kind);
+      case 'topic': case 'service': case 'action': return g().names(this.kind, shared.scope?.ns() ?? '');
       case 'msgtype': return g().messageTypes();
       case 'srvtype': return g().serviceTypes();
       case 'actiontype': return g().actionTypes();
@@ -96,6 +97,8 @@ Blockly.Extensions.register('ros_typed_name', function () {
   block.getField(nameField).setValidator(function (name) {
     if (name === OTHER) return undefined;
     if (block.isInFlyout || block.workspace.isFlyout) return undefined;
+    // a block being loaded (a program, undo, a drag out of the toolbox) keeps its saved message
+    if (!Blockly.Events.isEnabled()) return undefined;
     if (!g() || name === this.getValue()) return undefined;
     setTimeout(() => fillType(block, kind, name), 0);
     return undefined;
@@ -111,8 +114,15 @@ Blockly.Extensions.register('ros_typed_name', function () {
   }
 });
 
-async function fillType(block, kind, name) {
+// The name a generic block's field stands for on this page (its station's, or as it is).
+export function resolvedName(kind, name) {
+  const scope = shared.scope;
+  return scope?.inNamespace(kind, name) ? withNamespace(scope.ns(), name) : name;
+}
+
+async function fillType(block, kind, picked) {
   if (block.isDeadOrDying?.() || block.disposed) return;
+  const name = resolvedName(kind, picked);
   let type = g().typeOf(kind, name);
   if (!type && g().connected) {
     try {
@@ -135,16 +145,25 @@ async function fillType(block, kind, name) {
 }
 
 // Puts a message block of `type` into the block's input unless one of that type is there.
+// The message block it replaces is deleted, never left loose; of two calls for one block (the
+// name picked twice quickly) the last one wins.
 export async function attachMessage(block, inputName, detailKind, type) {
   const input = block.getInput(inputName);
-  const current = input.connection.targetBlock();
-  if (current && current.type === 'ros_message' && current.msgType === type) return;
-  if (current && current.type !== 'ros_message') return;   // a user's own expression stays
+  const wanted = (current) => !current || (current.type === 'ros_message' && current.msgType !== type);
+  if (!wanted(input.connection.targetBlock())) return;   // that type already, or a user's own expression
+  const ticket = (block.attachTicket_ = (block.attachTicket_ ?? 0) + 1);
   let defs;
   try { defs = await g().details(detailKind, type); } catch { return; }
-  if (block.disposed) return;
-  if (current) current.dispose(false);
-  const state = messageState(detailKind, type, defs);
-  const child = Blockly.serialization.blocks.append(state, block.workspace);
-  input.connection.connect(child.outputConnection);
+  if (block.disposed || ticket !== block.attachTicket_) return;
+  const current = input.connection.targetBlock();
+  if (!wanted(current)) return;
+  const group = Blockly.Events.getGroup();
+  if (!group) Blockly.Events.setGroup(true);
+  try {
+    if (current) current.dispose(false);
+    const child = Blockly.serialization.blocks.append(messageState(detailKind, type, defs), block.workspace);
+    input.connection.connect(child.outputConnection);
+  } finally {
+    if (!group) Blockly.Events.setGroup(false);
+  }
 }

@@ -16,10 +16,12 @@ export class RosGraph extends EventTarget {
     this.actions = new Map();
     this.typedefs = new Map();  // 'kind:type' -> typedefs[]
     this._refreshing = null;
+    this.loaded = false;
   }
 
   setRos(ros) {
     this.ros = ros;
+    this.loaded = false;         // true once refresh() has read this connection's graph
     this.typedefs.clear();
   }
 
@@ -46,6 +48,7 @@ export class RosGraph extends EventTarget {
 
   refresh() {
     if (this._refreshing) return this._refreshing;
+    const ros = this.ros;
     this._refreshing = (async () => {
       try {
         const t = await this.call('/rosapi/topics');
@@ -70,6 +73,7 @@ export class RosGraph extends EventTarget {
           } catch { actions.set(name, ''); }
         }));
         this.actions = actions;
+        if (this.ros === ros) this.loaded = true;
         this.dispatchEvent(new Event('change'));
       } finally {
         this._refreshing = null;
@@ -78,14 +82,31 @@ export class RosGraph extends EventTarget {
     return this._refreshing;
   }
 
-  names(kind) {
-    const m = { topic: this.topics, service: this.services, action: this.actions }[kind];
-    return m ? [...m.keys()].sort() : [];
+  _map(kind) { return { topic: this.topics, service: this.services, action: this.actions }[kind]; }
+
+  // The names of a kind, sorted. With a robot namespace `ns` (a station of a fleet) its own names
+  // come first, written without it ('/turtle1/cmd_vel' for /s07/turtle1/cmd_vel: the generic
+  // blocks put such a name in the page's station, see generators/scope.js), then the gateway's
+  // other names, then the other stations' copies of the station's names.
+  names(kind, ns = '') {
+    const all = [...(this._map(kind)?.keys() ?? [])].sort();
+    if (!ns) return all;
+    const own = all.filter((n) => n.startsWith(`${ns}/`)).map((n) => n.slice(ns.length));
+    const mine = new Set(own);
+    const others = (n) => /^\/[^/]+(\/.+)$/.exec(n)?.[1];
+    const rest = all.filter((n) => !n.startsWith(`${ns}/`));
+    return [...own, ...rest.filter((n) => !mine.has(others(n))), ...rest.filter((n) => mine.has(others(n)))];
   }
 
-  typeOf(kind, name) {
-    const m = { topic: this.topics, service: this.services, action: this.actions }[kind];
-    return m?.get(name) || '';
+  has(kind, name) { return !!this._map(kind)?.has(name); }
+
+  typeOf(kind, name) { return this._map(kind)?.get(name) || ''; }
+
+  // Resolves once the graph has been read since the page connected (at once when it has been),
+  // or after `timeout` ms: a run's names are written with what the graph knows.
+  ready(timeout = 3000) {
+    if (this.loaded || !this.connected) return Promise.resolve();
+    return Promise.race([this.refresh().catch(() => {}), new Promise((r) => setTimeout(r, timeout))]);
   }
 
   // All message types seen on topics (for the message block's type menu).
@@ -135,5 +156,6 @@ export class RosGraph extends EventTarget {
   }
 }
 
-// The graph the blocks' dropdowns read (set once by the page).
-export const shared = { graph: null };
+// The graph the blocks' dropdowns read and the scope their names are written in (generators/
+// scope.js), set once by the page.
+export const shared = { graph: null, scope: null };

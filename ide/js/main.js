@@ -19,6 +19,8 @@ import { bindNamespace, CLAIM_SERVICE } from './robotns.js';
 import { reportProgram } from './report.js';
 import { RobotRuns } from './robotruns.js';
 import { withNamespace } from '../runtime/util.js';
+import { NameScope } from '../generators/scope.js';
+import { markLooseBlocks } from './loose.js';
 
 const $ = (sel) => document.querySelector(sel);
 const getJson = async (url) => {
@@ -109,6 +111,7 @@ async function start() {
   });
   ide.workspace = workspace;
   bindLayout(workspace, $('#code-toggle'));
+  const looseBlocks = markLooseBlocks(workspace);
 
   const consoleView = new Console($('#console-lines'), (id) => {
     const b = workspace.getBlockById(id);
@@ -120,6 +123,12 @@ async function start() {
   const graph = new RosGraph();
   shared.graph = graph;
   ide.graph = graph;
+  // generic blocks' names are written in the page's robot namespace (a fleet's station) or as
+  // they are, from what the live graph has (generators/scope.js)
+  const scope = new NameScope({ ns: () => ide.ns ?? '', has: (kind, name) => graph.has(kind, name) });
+  shared.scope = scope;
+  jsGen.scope = scope;
+  pyGen.scope = scope;
   const robotNs = bindNamespace({
     call: (service, args) => graph.call(service, args),
     onError: (text) => consoleView.error(text),
@@ -145,6 +154,7 @@ async function start() {
   graph.addEventListener('change', () => {
     if (graph.topics.has(DRIVER_TOPIC)) lease.watch();
     robotNs.claimable(graph.services.has(CLAIM_SERVICE));
+    changedCode();            // names resolve against what the graph has
   });
   const url = $('#url');
   const params = new URLSearchParams(location.search);
@@ -185,7 +195,8 @@ async function start() {
   url.addEventListener('change', connect);
 
   // running
-  const runner = new Runner(workspace, () => ide.ros, consoleView, () => ide.ns);
+  const runner = new Runner(workspace, () => ide.ros, consoleView, () => ide.ns,
+    { ready: () => graph.ready(), loose: looseBlocks });
   ide.runner = runner;
   ide.robotRuns = new RobotRuns(ide);
   ide.robotRuns.init();
@@ -200,6 +211,7 @@ async function start() {
 
   // code panel, live
   let codeTimer = null;
+  const changedCode = () => { clearTimeout(codeTimer); codeTimer = setTimeout(updateCode, 120); };
   const updateCode = () => {
     pyGen.programName = ide.programName;
     pyGen.namespace = ide.ns;
@@ -242,8 +254,7 @@ async function start() {
 
   let saveTimer = null;
   const changed = () => {
-    clearTimeout(codeTimer);
-    codeTimer = setTimeout(updateCode, 120);
+    changedCode();
     clearTimeout(saveTimer);
     saveTimer = setTimeout(() => { storage.autosave(program()); ide.saved = (ide.saved ?? 0) + 1; }, 300);
   };

@@ -2,6 +2,9 @@
 // size while it records, and a dialog with the topics to record and the list of recordings
 // (download as .mcap, play back into the graph). HTTP only (/api/recordings), so the same
 // module serves both pages: it mounts itself into the page's #bar.
+// On a page with a robot (a fleet's station, the #ns field) a name typed without it records the
+// station's topic too ('/turtle1/pose' also asks for /s07/turtle1/pose), as the blocks do; a
+// recording that matches no topic, or ends with no message, says so.
 
 export const formatBytes = (n) => (n < 1024 ? `${n} B` : n < 2 ** 20 ? `${(n / 1024).toFixed(1)} KB`
   : `${(n / 2 ** 20).toFixed(1)} MB`);
@@ -42,9 +45,34 @@ export class Recorder {
     this.topics.onchange = () => localStorage.setItem('rosgate.recTopics', this.topics.value);
   }
 
-  defaultTopics() {
+  // The page's robot namespace ('/s07'), or ''.
+  namespace() {
     const ns = (document.querySelector('#ns')?.value || '').trim().replace(/\/+$/, '');
-    return ns ? `${ns.startsWith('/') ? '' : '/'}${ns}/*` : '/*';
+    return ns ? `${ns.startsWith('/') ? '' : '/'}${ns}` : '';
+  }
+
+  defaultTopics() {
+    const ns = this.namespace();
+    return ns ? `${ns}/*` : '/*';
+  }
+
+  // What to ask the gateway for: the typed names (or the default), each also in the station.
+  requested() {
+    const ns = this.namespace();
+    const typed = (this.topics.value.trim() || this.defaultTopics()).split(/[\s,]+/).filter(Boolean);
+    const out = [];
+    for (const t of typed) {
+      out.push(t);
+      if (ns && t.startsWith('/') && t !== ns && !t.startsWith(`${ns}/`)) out.push(`${ns}${t}`);
+    }
+    return [...new Set(out)];
+  }
+
+  // Why a recording records nothing: no topic matches, and (on a fleet) no robot chosen.
+  nothingText(rec) {
+    const fleet = document.querySelector('#claim')?.hidden === false;
+    const station = !this.namespace() && fleet ? ' This page has no robot: choose one ("robot") or press "Claim a robot".' : '';
+    return `No topic matches ${rec.requested.join(' ')}, so nothing is recorded.${station}`;
   }
 
   say(text, error = false) {
@@ -53,10 +81,15 @@ export class Recorder {
   }
 
   async start() {
-    const topics = (this.topics.value.trim() || this.defaultTopics()).split(/[\s,]+/).filter(Boolean);
+    const topics = this.requested();
     try {
       const rec = await api('', { method: 'POST', body: JSON.stringify({ topics, max_seconds: 600 }) });
       this.follow(rec);
+      if (!rec.topics.length) {           // it waits for such topics; say so at once
+        this.say(this.nothingText(rec), true);
+        this.dialog.showModal();
+        this.refresh();
+      }
     } catch (e) {
       this.say(`cannot record: ${e.message}`, true);
       this.dialog.showModal();
@@ -82,16 +115,21 @@ export class Recorder {
     const recording = rec.state === 'recording';
     document.body.dataset.recording = recording ? 'on' : 'off';
     this.button.classList.toggle('on', recording);
+    this.button.classList.toggle('empty', recording && !rec.topics.length);
     if (recording) {
-      this.button.textContent = `■ ${formatElapsed(Date.now() / 1000 - rec.started)} · ${formatBytes(rec.bytes)}`;
-      this.button.title = `recording ${rec.topics.join(', ') || rec.requested.join(', ')}: press to stop`;
+      const none = !rec.topics.length;
+      this.button.textContent = `■ ${formatElapsed(Date.now() / 1000 - rec.started)} · ${none ? 'no topics' : formatBytes(rec.bytes)}`;
+      this.button.title = none ? `${this.nothingText(rec)} Press to stop.`
+        : `recording ${rec.topics.join(', ')}: press to stop`;
       return;
     }
     clearInterval(this.timer);
     this.current = null;
     this.button.textContent = '● Rec';
     this.button.title = 'record topics to a bag file (MCAP)';
-    this.say(`${rec.id}: ${rec.messages ?? '?'} messages, ${formatBytes(rec.bytes)}${rec.reason ? ` (${rec.reason})` : ''}`);
+    const empty = rec.messages === 0;
+    this.say(`${rec.id}: ${rec.messages ?? '?'} messages, ${formatBytes(rec.bytes)}${rec.reason ? ` (${rec.reason})` : ''}`
+      + (!empty ? '' : rec.topics?.length ? `: nothing came on ${rec.topics.join(', ')}` : `. ${this.nothingText(rec)}`), empty);
     if (this.dialog.open) this.refresh();
   }
 

@@ -7,8 +7,10 @@ import { gen as jsGen } from '../generators/javascript.js';
 const AsyncFunction = Object.getPrototypeOf(async () => {}).constructor;
 
 export class Runner extends EventTarget {
-  constructor(workspace, getRos, console_, getNamespace = () => '') {
+  constructor(workspace, getRos, console_, getNamespace = () => '', { ready = async () => {}, loose = () => [] } = {}) {
     super();
+    this.ready = ready;          // resolves when the page knows enough to write the run's names
+    this.loose = loose;          // the loose blocks the run skips
     this.workspace = workspace;
     this.getRos = getRos;
     this.getNamespace = getNamespace;
@@ -39,6 +41,9 @@ export class Runner extends EventTarget {
       return;
     }
     this.clearErrors();
+    const run = ++this.runs;
+    await this.ready();
+    if (this.runs !== run) return;           // Run or Step pressed again meanwhile
     let code;
     try {
       code = jsGen.generate(this.workspace, { instrument: true });
@@ -46,7 +51,6 @@ export class Runner extends EventTarget {
       this.console.error(`Cannot generate code: ${e.message}`);
       return;
     }
-    const run = ++this.runs;
     const rt = new Runtime(ros, {
       log: (text, level) => this.console.log(text, level),
       highlight: (id) => { if (this.rt === rt) this.workspace.highlightBlock(id); },
@@ -56,7 +60,10 @@ export class Runner extends EventTarget {
     this.rt = rt;
     if (paused) rt.pause();
     this._setState(paused ? 'paused' : 'running');
-    this.console.info(`▶ run ${run}`);
+    this.console.info(paused ? `▷ run ${run}, step by step: Step runs the highlighted block, ▶ Run goes on`
+      : `▶ run ${run}`);
+    const loose = this.loose().length;
+    if (loose) this.console.info(`${loose} loose block${loose > 1 ? 's' : ''} skipped (grey: not plugged into anything)`);
     let fn;
     try {
       fn = new AsyncFunction('rt', code);
@@ -71,6 +78,8 @@ export class Runner extends EventTarget {
         this.console.info('main blocks done; message handlers keep running until Stop');
         return;
       }
+      await rt.settle();           // an error about the last block's publish still ends on its block
+      if (this.rt !== rt || rt.stopped) return;
       this._finish(rt, `■ run ${run} finished`);
     } catch (e) {
       if (e instanceof StopSignal) return;
@@ -113,8 +122,10 @@ export class Runner extends EventTarget {
 
   pause() {
     if (!this.rt) return;
+    const already = this.rt.paused && !this.rt.stepping;
     this.rt.pause();
     this._setState('paused');
+    if (!already) this.console.info('‖ paused (robot stopped): Step runs the highlighted block, ▶ Run goes on');
   }
 
   resume() {
@@ -122,14 +133,23 @@ export class Runner extends EventTarget {
     this.heldAt = null;
     this.rt.resume();
     this._setState('running');
+    this.console.info(`▶ run ${this.runs} goes on`);
   }
 
   // Runs the highlighted block to its end (a move, a wait), then holds before the next one
   // with the robot stopped; the first Step starts a paused run.
   step() {
     if (!this.rt) { this.run({ paused: true }); return; }
+    const block = this.heldAt ? this.workspace.getBlockById(this.heldAt) : null;
+    this.console.info(`▷ step${block ? `: ${blockText(block)}` : ''}`);
     this.heldAt = null;
     this.rt.stepOnce();
     this._setState('paused');
   }
+}
+
+// A block's words, short enough for one console line.
+function blockText(block) {
+  const text = block.toString(40).replace(/\s+/g, ' ').trim();
+  return text.length > 60 ? `${text.slice(0, 59)}…` : text;
 }

@@ -15,6 +15,7 @@ import traceback
 import roslibpy
 
 GAIN = 6.0  # proportional gain of move/turn near the goal (1/s)
+SETTLE_SERVICE = "/rosapi/get_time"  # the round trip at the end of the program (Runtime.settle)
 
 
 class StopProgram(Exception):
@@ -153,9 +154,10 @@ def norm_namespace(text):
 
 
 def with_namespace(ns, name):
-    """A robot block's name in a namespace: ('/s07', '/turtle1/cmd_vel') -> '/s07/turtle1/cmd_vel'."""
-    n, name = norm_namespace(ns), str(name)
-    return n + ("" if name.startswith("/") else "/") + name if n else name
+    """A robot block's name in a namespace: ('/s07', '/turtle1/cmd_vel') -> '/s07/turtle1/cmd_vel';
+    a relative name is in the namespace too, and under '/' without one: ('', 'odom') -> '/odom'."""
+    name = str(name)
+    return norm_namespace(ns) + ("" if name.startswith("/") else "/") + name
 
 
 def pose_of(msg, t=""):
@@ -192,6 +194,7 @@ class Runtime:
         self._actions = {}
         self._goals = {}
         self.handlers = 0
+        self._settled = threading.Event()
         self.ros.factory.on_ready(self._take_status)
 
     def ns(self, name):
@@ -207,9 +210,11 @@ class Runtime:
     def _on_status(self, message):
         # a status error about a publish or advertise of one of the program's topics ends it
         # (roslibpy's ids are "publish:/topic:N"; an older gateway names the topic in the text)
+        op_id = str(message.get("id") or "")
+        if op_id.startswith("call_service:%s:" % SETTLE_SERVICE):
+            self._settled.set()
         if message.get("level") != "error":
             return
-        op_id = str(message.get("id") or "")
         text = str(message.get("msg", "")).replace(" (id %s)" % op_id, "") if op_id else str(message.get("msg", ""))
         mine = re.match(r"(?:publish|advertise):(.+):\d+$", op_id)
         refused = re.match(r"publish: ([^:\s]+):", text)
@@ -417,6 +422,19 @@ class Runtime:
             if action is None or client.name == action:
                 client.cancel_goal(goal_id)
 
+    def settle(self, timeout=2.0):
+        """Waits until the gateway has answered every op the program sent: a publish has no reply,
+        so an error about the program's last publish could come after the end and be lost. The
+        gateway answers in order, so the reply to one more call (a cheap rosapi one, whatever its
+        result) comes after any status about the ops before it. Bounded: a server without rosapi
+        may never answer."""
+        if not self._topics or self.stopped.is_set():
+            return
+        self._settled.clear()
+        roslibpy.Service(self.ros, SETTLE_SERVICE, "rosapi/srv/GetTime").call(
+            roslibpy.ServiceRequest({}), lambda _: self._settled.set(), lambda _: self._settled.set())
+        self._settled.wait(timeout)
+
     # ---- robot helpers
     def stop_robot(self):
         for topic, t in list(self._velocity.items()):
@@ -502,6 +520,7 @@ def run(main, namespace=""):
     code = 0
     try:
         main()
+        rt.settle()
         while rt.handlers and not rt.stopped.wait(0.2):
             pass
         if rt.error is not None:

@@ -18,6 +18,7 @@ export class RosError extends Error {
 let runCounter = 0;
 const PAGE_TAG = Math.random().toString(36).slice(2, 8);   // ids of this page's runs, not another tab's
 const GAIN = 6;   // proportional gain of move/turn near the goal (1/s)
+const SETTLE_SERVICE = '/rosapi/get_time';   // the round trip at the end of a run (settle)
 
 export class Runtime {
   /**
@@ -294,6 +295,29 @@ export class Runtime {
     for (const [id, a] of this.goals) {
       if (!action || a === action) this._send({ op: 'cancel_action_goal', id, action: a });
     }
+  }
+
+  // ---- the end ---------------------------------------------------------
+  // Waits until the gateway has answered every op this run sent, before the run may say
+  // "finished": a publish has no reply, so a status error about the program's last publish
+  // could arrive after the end and be lost. The gateway answers ops in order, so the reply to
+  // one more call (a cheap rosapi one; its own result does not matter) comes after any status
+  // about the ops before it. Bounded by `timeout` s: a server without rosapi may never answer.
+  settle(timeout = 2) {
+    if (!this.owned.size) return Promise.resolve();
+    const id = this._id('call_service', SETTLE_SERVICE);
+    return this._track((resolve) => {
+      const done = () => {
+        clearTimeout(timer);
+        this.ros.off(id, done);
+        this.ros.off(`status:${id}`, done);
+        resolve();
+      };
+      const timer = setTimeout(done, timeout * 1000);
+      this.ros.on(id, done);
+      this.ros.on(`status:${id}`, done);
+      this._send({ op: 'call_service', id, service: SETTLE_SERVICE, args: {} });
+    });
   }
 
   // ---- robot helpers ---------------------------------------------------

@@ -116,9 +116,9 @@ export function normNamespace(text) {
   return parts.length ? `/${parts.join('/')}` : '';
 }
 
-// A robot block's name in a namespace: ('/s07', '/turtle1/cmd_vel') -> '/s07/turtle1/cmd_vel'.
+// A robot block's name in a namespace: ('/s07', '/turtle1/cmd_vel') -> '/s07/turtle1/cmd_vel';
+// a relative name is in the namespace too, and under '/' without one: ('', 'odom') -> '/odom'.
 export function withNamespace(ns, name) {
-  const n = normNamespace(ns);
   name = String(name);
-  return n ? `${n}${name.startsWith('/') ? '' : '/'}${name}` : name;
+  return `${normNamespace(ns)}${name.startsWith('/') ? '' : '/'}${name}`;
 }

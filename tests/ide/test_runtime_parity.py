@@ -63,7 +63,9 @@ def test_robot_namespace(util_page, py_runtime):
     typed = ["", "/", " / ", "s07", "/s07", "/s07/", "//s07//x/", " s07 "]
     assert js(util_page, "arg.map(u.normNamespace)", typed) == [py_runtime.norm_namespace(t) for t in typed]
     assert py_runtime.norm_namespace("s07/") == "/s07" and py_runtime.norm_namespace(" / ") == ""
-    cases = [["", "/turtle1/cmd_vel"], ["/s07", "/turtle1/cmd_vel"], ["s07/", "/spawn"], ["/s07", "odom"]]
+    cases = [["", "/turtle1/cmd_vel"], ["/s07", "/turtle1/cmd_vel"], ["s07/", "/spawn"], ["/s07", "odom"],
+             ["", "turtle1/pose"]]
     assert js(util_page, "arg.map(([n, x]) => u.withNamespace(n, x))", cases) == [
         py_runtime.with_namespace(n, x) for n, x in cases]
     assert py_runtime.with_namespace("s07/", "/spawn") == "/s07/spawn"
+    assert py_runtime.with_namespace("", "turtle1/pose") == "/turtle1/pose"   # a relative name, no namespace
