@@ -339,6 +339,20 @@ class RclpyBackend:
         from rclpy.serialization import serialize_message  # noqa: PLC0415
         return serialize_message(self.convert.from_dict(self.defs.msg_class(type), msg))
 
+    # --- entities -----------------------------------------------------------------------------
+
+    def _entity(self, kind: str, cls, name: str, profile=None):
+        """An rcl Subscription, Client or Service of the node for the pump (services and their
+        clients with ROS's service QoS); loading the type support first turns a type whose
+        support is missing into a clear error."""
+        from rclpy.qos import qos_profile_services_default  # noqa: PLC0415
+        from rclpy.type_support import check_is_valid_msg_type, check_is_valid_srv_type  # noqa: PLC0415
+
+        (check_is_valid_msg_type if kind == 'Subscription' else check_is_valid_srv_type)(cls)
+        profile = profile if profile is not None else qos_profile_services_default
+        with self.node.handle:
+            return getattr(self._rclpy, kind)(self.node.handle, cls, name, profile.get_c_qos_profile())
+
     # --- topics -------------------------------------------------------------------------------
 
     def _topic(self, topic: str, type: str) -> tuple[str, str, Any]:
@@ -356,14 +370,9 @@ class RclpyBackend:
 
     def subscribe(self, topic: str, type: str, callback: Callable[..., None],
                   qos: QoS | None = None, *, cdr: bool = False) -> RclpySubscription:
-        from rclpy.type_support import check_is_valid_msg_type  # noqa: PLC0415
-
         topic, full, cls = self._topic(topic, type)
-        check_is_valid_msg_type(cls)    # loads the type support
         handle = RclpySubscription(self, topic, full, callback, cdr)
-        profile = ros_qos(qos if qos is not None else self._adapted_qos(topic))
-        with self.node.handle:
-            sub = self._rclpy.Subscription(self.node.handle, cls, topic, profile.get_c_qos_profile())
+        sub = self._entity('Subscription', cls, topic, ros_qos(qos if qos is not None else self._adapted_qos(topic)))
         handle.sub = TopicReader(sub, cls, self.convert.to_dict, handle.deliver,
                                  lambda e: self.report(f'subscription {topic}', e),
                                  self.convert.cdr_reader(cls))
@@ -470,15 +479,9 @@ class RclpyBackend:
     # --- services -----------------------------------------------------------------------------
 
     def _client(self, service: str, type: str, cls) -> ServiceCaller:
-        from rclpy.qos import qos_profile_services_default  # noqa: PLC0415
-        from rclpy.type_support import check_is_valid_srv_type  # noqa: PLC0415
-
         client = self._clients.get((service, type))
         if client is None:
-            check_is_valid_srv_type(cls)
-            with self.node.handle:
-                handle = self._rclpy.Client(self.node.handle, cls, service,
-                                            qos_profile_services_default.get_c_qos_profile())
+            handle = self._entity('Client', cls, service)
             client = self._clients[(service, type)] = ServiceCaller(handle, cls)
             self.pump.add(client)
         return client
@@ -528,9 +531,6 @@ class RclpyBackend:
 
     def advertise_service(self, service: str, type: str,
                           handler: Callable[[Message], Awaitable[Message]]) -> RclpyService:
-        from rclpy.qos import qos_profile_services_default  # noqa: PLC0415
-        from rclpy.type_support import check_is_valid_srv_type  # noqa: PLC0415
-
         full = normalize(type, 'srv')
         self.defs.srv(full)
         cls = self.defs.srv_class(full)
@@ -543,10 +543,7 @@ class RclpyBackend:
             if others:
                 raise BackendError(f'service {service} is already provided by {", ".join(others)}')
         handle = RclpyService(self, service, full, cls, handler)
-        check_is_valid_srv_type(cls)
-        with self.node.handle:
-            srv = self._rclpy.Service(self.node.handle, cls, service,
-                                      qos_profile_services_default.get_c_qos_profile())
+        srv = self._entity('Service', cls, service)
         handle.srv = handle.entity = ServiceServer(srv, cls, handle.on_request)
         self.pump.add(handle.srv)
         self._served[service] = handle
