@@ -79,6 +79,10 @@ def build_parser() -> argparse.ArgumentParser:
                         'this executes code sent over the network')
     r.add_argument('--runs-dir', type=Path, help='where runs get their working directories '
                                                  '[$XDG_DATA_HOME/rosgate/runs]')
+    r.add_argument('--max-runs', type=_at_least_one, default=d.max_runs, metavar='N',
+                   help='runs going at once [%(default)s]')
+    r.add_argument('--max-runs-per-person', type=_at_least_one, default=d.max_runs_per_person, metavar='N',
+                   help='runs going at once for one signed-in person, admins excepted (with --auth) [%(default)s]')
     r.add_argument('--record', type=Path, metavar='DIR',
                    help='record from start-up into DIR (also where /api/recordings keeps its files)')
     r.add_argument('--record-topics', metavar='GLOBS', help='topics --record takes, e.g. "[\'/turtle1/*\']" [all]')
@@ -86,6 +90,13 @@ def build_parser() -> argparse.ArgumentParser:
     robots.add_arguments(p)
     rules.add_arguments(p)
     return p
+
+
+def _at_least_one(text: str) -> int:
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f'at least 1, not {value}')
+    return value
 
 
 def ros_style(argv: list[str], parser: argparse.ArgumentParser | None = None) -> list[str]:

@@ -6,22 +6,34 @@ GET    /api/runs       -> {"allowed": bool, "runs": [summary, ...]}
 GET    /api/runs/ID    -> {"id", "name", "ns", "state", "exit_code", "reason", "started", "ended", "output"}
 DELETE /api/runs/ID    -> stops it: zero on every velocity topic it drove, SIGINT, SIGKILL after 2 s
 
-The process is a fresh interpreter (the gateway's, where roslibpy is installed) in its own
-process group and working directory, with a clean environment and resource limits set by a
-tiny launcher right before it execs the program. The program connects back to the gateway as an
-ordinary rosbridge client, with a per-run key in its URL: the gateway knows that connection as
-the run's, so the safety layer can stop what it drove and the driver lease can be the run's.
-Each line of its output is published on /rosgate/runs/ID/output (std_msgs/msg/String), and its
-state (a JSON text) on /rosgate/runs/ID/state, latched.
+The process is a fresh interpreter (the gateway's, where roslibpy is installed) inside a
+bubblewrap sandbox (sandbox.py: namespaces of its own, a read-only view of the interpreter, no
+gateway process or file in sight; the whole tree dies with it), with a clean environment, a cgroup
+where the machine allows one, and resource limits set by a tiny launcher right before it execs the
+program. The program connects back to the gateway as an ordinary rosbridge client, with a per-run
+key in its URL: the gateway knows that connection as the run's, so the safety layer can stop what
+it drove and the driver lease can be the run's. Each line of its output is published on
+/rosgate/runs/ID/output (std_msgs/msg/String), and its state (a JSON text) on
+/rosgate/runs/ID/state, latched.
+
+At most ``--max-runs`` runs go at once, ``--max-runs-per-person`` of one signed-in person (an
+admin has only the first limit), each in a namespace of the graph (a station like /s07, or the
+root): a run's namespace is a name the gateway knows, not any text.
+
+Output past the cap (4 MiB) is not cut into lines: every DRAIN_PERIOD what the pipe holds is read
+and thrown away, so a program that floods its output blocks on a full pipe in between instead of
+keeping a core of the gateway busy (reading and splitting it as fast as it came took 97 % of one).
 """
 
 from __future__ import annotations
 
 import asyncio
+import fcntl
 import hmac
 import json
 import logging
 import os
+import re
 import secrets
 import shutil
 import signal
@@ -42,6 +54,7 @@ from .programs import space_owner, stored_program
 from ..settings import data_dir
 from ..backends.base import QoS
 from ..rules.safety import Safety, moving_command
+from .sandbox import HOME, Cgroups, RunCgroup, Sandbox, SandboxUnavailable, exit_code, kill_box
 
 log = logging.getLogger('rosgate.runs')
 STRING = 'std_msgs/msg/String'
@@ -50,6 +63,11 @@ LINE_LIMIT = 4096              # longer lines are cut
 KEEP_ENDED = 50                # ended runs kept (with their directories) before the oldest goes
 KILL_AFTER = 2.0               # s between SIGINT and SIGKILL
 MAX_SOURCE = 1024 * 1024
+DRAIN_PERIOD = 0.1             # s between the reads that drop output past the cap
+DRAIN_READS = 4                # of PIPE_SIZE each: output past the cap flows at up to 40 MiB/s
+PIPE_SIZE = 2**20
+CGROUP_GONE = 5.0              # s to wait for a run's cgroup to empty before leaving it behind
+NAMESPACE = re.compile(r'(/[A-Za-z_][A-Za-z0-9_]{0,63}){0,8}')   # ROS names, ASCII, a few levels
 
 # Runs between fork and exec of the program: limits first, then the program replaces it.
 # (A preexec_fn would do the same in the gateway's forked child, which is unsafe with the
@@ -71,8 +89,9 @@ class RunLimits:
     cpu_seconds: int = 600
     memory_mb: int = 1024           # address space; Python with roslibpy needs a few hundred MiB
     open_files: int = 256
-    processes: int = 4096           # counts every thread of the user (root is exempt)
-    output_bytes: int = 4 * 2**20   # published per run; past it output is read and dropped
+    processes: int = 512            # threads and processes of the run (its user namespace and cgroup)
+    cpus: float = 1.0               # share of the machine's cores with a cgroup
+    output_bytes: int = 4 * 2**20   # published per run; past it output is dropped at the pipe
 
 
 class Run:
@@ -83,7 +102,6 @@ class Run:
         self.started, self.ended = time.time(), None
         self.tail: deque[str] = deque()
         self.tail_bytes = 0
-        self.published = 0
         self.sessions: list = []
         self.ending: str | None = None     # 'stopped' or 'timed_out' once we end it
         self.pid: int | None = None        # also its process group
@@ -92,6 +110,8 @@ class Run:
         self.output_pub = self.state_pub = None
         self.memory_error = False
         self.role: str | None = None         # the starter's role, given to the run's connection
+        self.person: str | None = None       # who started it (with --auth), for the per-person limit
+        self.cgroup: RunCgroup | None = None
 
     def summary(self) -> dict:
         return {'id': self.id, 'name': self.name, 'ns': self.ns, 'state': self.state,
@@ -109,14 +129,32 @@ class Run:
 
 
 class _Output(asyncio.SubprocessProtocol):
-    """The process's stdout and stderr (one pipe), cut into lines, and when it ends."""
+    """The process's stdout and stderr (one pipe), cut into lines until ``limit`` bytes came (then
+    ``on_limit()``; the rest is read in large chunks now and then and thrown away), and when it ends."""
 
-    def __init__(self, on_line, loop):
-        self.on_line = on_line
+    def __init__(self, on_line, on_limit, limit: int, loop):
+        self.on_line, self.on_limit, self.limit, self.loop = on_line, on_limit, limit, loop
         self.pending = b''
+        self.received = 0
+        self.pipe = None
+        self.drain: asyncio.TimerHandle | None = None
         self.exited, self.eof = loop.create_future(), loop.create_future()
 
+    def connection_made(self, transport) -> None:
+        self.pipe = transport.get_pipe_transport(1)
+        try:      # fewer, larger reads (1 MiB is what an unprivileged process may ask by default)
+            fcntl.fcntl(self.pipe.get_extra_info('pipe').fileno(), fcntl.F_SETPIPE_SZ, PIPE_SIZE)
+        except (OSError, AttributeError):
+            pass
+
     def pipe_data_received(self, fd: int, data: bytes) -> None:
+        if self.received > self.limit:
+            self._drop()
+            return
+        self.received += len(data)
+        over = self.received > self.limit
+        if over:
+            data = data[:len(data) - (self.received - self.limit)]
         self.pending += data
         *lines, self.pending = self.pending.split(b'\n')
         for line in lines:
@@ -124,8 +162,35 @@ class _Output(asyncio.SubprocessProtocol):
         if len(self.pending) > LINE_LIMIT:
             self.on_line(self.pending[:LINE_LIMIT].decode('utf-8', 'replace') + '\n')
             self.pending = b''
+        if over:
+            self.pending = b''
+            self.on_limit()
+            self._drop()
+
+    def _drop(self) -> None:
+        """Past the limit: read again (and drop what comes) only after DRAIN_PERIOD."""
+        if self.pipe is not None and self.drain is None:
+            self.pipe.pause_reading()
+            self.drain = self.loop.call_later(DRAIN_PERIOD, self._resume)
+
+    def _resume(self) -> None:
+        """Drop what the pipe holds (up to a few MiB) with reads of our own, then let the transport
+        read again: the next thing it reads (or its end) comes to pipe_data_received."""
+        self.drain = None
+        if self.pipe.is_closing():
+            return
+        try:
+            fd = self.pipe.get_extra_info('pipe').fileno()
+            for _ in range(DRAIN_READS):
+                if not os.read(fd, PIPE_SIZE):
+                    break             # its end: the transport sees it too
+        except OSError:               # BlockingIOError: empty
+            pass
+        self.pipe.resume_reading()
 
     def pipe_connection_lost(self, fd: int, exc) -> None:
+        if self.drain is not None:
+            self.drain.cancel()
         if self.pending:
             self.on_line(self.pending.decode('utf-8', 'replace') + '\n')
             self.pending = b''
@@ -138,20 +203,35 @@ class _Output(asyncio.SubprocessProtocol):
 
 
 class RunManager:
-    def __init__(self, gateway, *, allowed: bool, runs_dir: Path | None, limits: RunLimits = RunLimits()):
+    def __init__(self, gateway, *, allowed: bool, runs_dir: Path | None, limits: RunLimits = RunLimits(),
+                 box: Sandbox | None = None, cgroups: Cgroups | None = None, max_runs: int = 4,
+                 max_per_person: int = 2):
         self.gateway, self.allowed, self.limits = gateway, allowed, limits
         self.runs_dir = runs_dir
+        self.box, self.cgroups = box, cgroups
+        self.max_runs, self.max_per_person = max_runs, max_per_person
         self.runs: dict[str, Run] = {}
 
     # --- starting -----------------------------------------------------------------------------
 
-    def start(self, source: str, name: str, ns: str, timeout: float, role: str | None, port: tuple[str, int, bool]):
-        """A new Run, its process being started; raises HTTPError 409 when the namespace is busy."""
-        busy = next((r for r in self.runs.values() if r.ns == ns and r.state in ('starting', 'running')), None)
+    def start(self, source: str, name: str, ns: str, timeout: float, role: str | None, port: tuple[str, int, bool],
+              person: str | None = None):
+        """A new Run, its process being started; raises HTTPError 404 for a namespace the graph does
+        not have, 409 when the namespace is busy, 429 past the limits on runs going at once."""
+        self._known(ns)
+        going = [r for r in self.runs.values() if r.state in ('starting', 'running')]
+        busy = next((r for r in going if r.ns == ns), None)
         if busy is not None:
             where = f'namespace {ns}' if ns else 'the root namespace'
             raise tornado.web.HTTPError(409, f'run {busy.id} ({busy.name}) is already running in {where}; '
                                              f'stop it first (DELETE /api/runs/{busy.id})')
+        if len(going) >= self.max_runs:
+            raise tornado.web.HTTPError(429, f'{len(going)} runs are going, the most this gateway runs at once '
+                                             '(--max-runs); wait for one to end or stop one')
+        mine = [r for r in going if person is not None and r.person == person]
+        if role != 'admin' and len(mine) >= self.max_per_person:
+            raise tornado.web.HTTPError(429, f'{person} has {len(mine)} runs going ({", ".join(r.id for r in mine)}), '
+                                             'the most one person may (--max-runs-per-person); stop one first')
         self._lease_free_for(role, ns)
         run_id = 'r' + secrets.token_hex(4)
         workdir = self.runs_dir / run_id
@@ -161,7 +241,7 @@ class RunManager:
         except OSError as e:
             raise tornado.web.HTTPError(500, f'cannot prepare the run directory: {e}') from None
         run = Run(run_id, name, ns, timeout, workdir)
-        run.role = role
+        run.role, run.person = role, person
         latched = QoS(depth=1, transient_local=True)
         gateway = self.gateway
         run.state_pub = gateway.own_topic(f'/rosgate/runs/{run_id}/state', STRING, latched)
@@ -174,6 +254,20 @@ class RunManager:
             'run %s: supervising it failed', run.id, exc_info=t.exception()))
         return run
 
+    def namespaces(self) -> set[str]:
+        """The root and the namespaces of the graph's nodes (/s07 of /s07/turtlesim, and so on)."""
+        known = {''}
+        for node in self.gateway.backend.nodes():
+            parts = node.strip('/').split('/')[:-1]
+            known.update('/' + '/'.join(parts[:i]) for i in range(1, len(parts) + 1))
+        return known
+
+    def _known(self, ns: str) -> None:
+        known = self.namespaces()
+        if ns not in known:
+            names = ', '.join(sorted(n for n in known if n)[:20]) or 'none but the root'
+            raise tornado.web.HTTPError(404, f'no robot namespace {ns} on this gateway (namespaces: {names})')
+
     def _lease_free_for(self, role: str | None, ns: str) -> None:
         """With --exclusive-control a run takes its namespace's driver lease: refuse at once a run
         that could not (someone else holds it and the starter may not take over)."""
@@ -185,8 +279,9 @@ class RunManager:
                                          '(exclusive control); a run needs it: wait for "release" or ask an admin')
 
     def _env(self, run: Run, url: str) -> dict:
-        """Only what a Python program needs: none of the gateway's own environment (tokens, keys)."""
-        return {'PATH': os.defpath, 'HOME': str(run.workdir), 'LANG': 'C.UTF-8', 'PYTHONUNBUFFERED': '1',
+        """Only what a Python program needs: none of the gateway's own environment (tokens, keys).
+        bwrap hands it on as it is (the run key stays out of every command line)."""
+        return {'PATH': '/usr/bin:/bin', 'HOME': HOME, 'LANG': 'C.UTF-8', 'PYTHONUNBUFFERED': '1',
                 'PYTHONDONTWRITEBYTECODE': '1', 'ROSBRIDGE_URL': url, 'ROSGATE_NS': run.ns,
                 'ROSGATE_RUN': run.id}
 
@@ -199,15 +294,20 @@ class RunManager:
         url = f"{'wss' if tls else 'ws'}://{host}:{number}{path}?run_key={run.key}&name=run-{run.id}"
         lim = self.limits
         limits = f'{lim.cpu_seconds},{lim.memory_mb * 2**20},{lim.open_files},{lim.processes}'
-        argv = [sys.executable, '-I', '-c', LAUNCHER, limits, 'program.py']
+        command = [sys.executable, '-I', '-c', LAUNCHER, limits, 'program.py']
         if run.ns:
-            argv += ['--ns', run.ns]
+            command += ['--ns', run.ns]
+        if self.cgroups is not None:
+            run.cgroup = self.cgroups.make(run.id, lim.memory_mb * 2**20, lim.processes, lim.cpus)
         loop = asyncio.get_running_loop()
-        output = _Output(lambda line: self._line(run, line), loop)
+        output = _Output(lambda line: self._line(run, line), lambda: self._limit_reached(run),
+                         self.limits.output_bytes, loop)
         try:
-            transport, _ = await loop.subprocess_exec(
-                lambda: output, *argv, cwd=run.workdir, env=self._env(run, url), stdin=subprocess.DEVNULL,
-                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, start_new_session=True)
+            with self.box.launch(command, run.workdir / 'program.py') as (argv, fds):
+                transport, _ = await loop.subprocess_exec(
+                    lambda: output, *(run.cgroup.join(argv) if run.cgroup else argv), cwd='/', pass_fds=fds,
+                    env=self._env(run, url), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                    stderr=subprocess.STDOUT, start_new_session=True)
         except OSError as e:
             self._line(run, f'could not start the program: {e}\n', ours=True)
             self._ended(run, None, f'could not start: {e}')
@@ -220,29 +320,26 @@ class RunManager:
         self._announce(run)
         run.timers.append(loop.call_later(run.timeout, self.stop, run, 'timed_out'))
         try:
-            await output.exited
-            self._signal(run, signal.SIGKILL)   # whatever it left behind in its group (and its pipe)
+            await output.exited                 # bwrap ended: its init, so every process of the box, is gone
             try:
                 await asyncio.wait_for(asyncio.shield(output.eof), KILL_AFTER)
-            except asyncio.TimeoutError:        # a descendant that left the group still holds the pipe
+            except asyncio.TimeoutError:        # cannot be, unless the kernel is slow to empty the box
                 self._line(run, '[output after the program ended is not shown]\n', ours=True)
         finally:
-            code = transport.get_returncode()
+            code = exit_code(transport.get_returncode())
             transport.close()
             self._ended(run, code, None)
 
     def _line(self, run: Run, line: str, *, ours: bool = False) -> None:
-        """One line of output (or, ``ours``, a note of the gateway's, which the cap never drops)."""
+        """One line of output (or, ``ours``, a note of the gateway's)."""
         if 'MemoryError' in line and not ours:
             run.memory_error = True
-        if not ours:
-            if run.published > self.limits.output_bytes:
-                return
-            run.published += len(line)
-            if run.published > self.limits.output_bytes:
-                line = f'[output limit of {self.limits.output_bytes} bytes reached: further output is dropped]\n'
         run.keep(line)
         run.output_pub.publish({'data': line.rstrip('\n')})
+
+    def _limit_reached(self, run: Run) -> None:
+        self._line(run, f'[output limit of {self.limits.output_bytes} bytes reached: further output is dropped]\n',
+                   ours=True)
 
     # --- ending -------------------------------------------------------------------------------
 
@@ -267,12 +364,9 @@ class RunManager:
         return sum(safety.stop_session(s) for s in run.sessions)
 
     def _signal(self, run: Run, sig: int) -> None:
-        if run.pid is None or run.ended is not None:
-            return
-        try:
-            os.killpg(run.pid, sig)
-        except (ProcessLookupError, PermissionError):
-            pass
+        """SIGINT to the program's process group; SIGKILL to the whole box."""
+        if run.pid is not None and run.ended is None:
+            kill_box(run.pid, sig)
 
     def _ended(self, run: Run, code: int | None, reason: str | None) -> None:
         for timer in run.timers:
@@ -293,10 +387,22 @@ class RunManager:
         self._announce(run)
         run.done.set_result(run.state)
         log.info('run %s (%s) %s%s', run.id, run.name, run.state, f': {reason}' if reason else '')
+        if run.cgroup is not None:
+            self._remove_cgroup(run.cgroup, time.monotonic() + CGROUP_GONE)
+
+    def _remove_cgroup(self, cgroup: RunCgroup, until: float) -> None:
+        """A cgroup goes once the kernel has emptied it (its last processes may take a moment)."""
+        if not cgroup.remove():
+            if time.monotonic() < until:
+                asyncio.get_running_loop().call_later(0.1, self._remove_cgroup, cgroup, until)
+            else:
+                log.warning('run cgroup %s still holds processes; left in place', cgroup.dirs[0])
 
     def _why(self, run: Run, code: int | None) -> str:
         if run.memory_error:
             return f'memory limit of {self.limits.memory_mb} MiB exceeded (MemoryError)'
+        if run.cgroup is not None and run.cgroup.oom_killed():
+            return f'memory limit of {self.limits.memory_mb} MiB exceeded (the kernel killed it)'
         if code is not None and code < 0:
             sig = signal.Signals(-code)
             if sig == signal.SIGXCPU:
@@ -369,6 +475,12 @@ class RunManager:
                 await asyncio.wait_for(asyncio.shield(run.done), KILL_AFTER + 1)
             except asyncio.TimeoutError:
                 self._signal(run, signal.SIGKILL)
+        left = [r.cgroup for r in self.runs.values() if r.cgroup is not None]
+        deadline = time.monotonic() + 1.0
+        while left and time.monotonic() < deadline:     # each goes once the kernel has emptied it
+            left = [c for c in left if not c.remove()]
+            if left:
+                await asyncio.sleep(0.02)
 
 
 # --- HTTP ---------------------------------------------------------------------------------------
@@ -406,14 +518,18 @@ class RunListHandler(JsonHandler):
         if not isinstance(name, str) or len(name) > 64:
             raise tornado.web.HTTPError(400, '"name" is a text of at most 64 characters')
         ns = body.get('ns') or ''
-        if not isinstance(ns, str) or not all(p.isidentifier() for p in ns.strip('/').split('/') if p):
-            raise tornado.web.HTTPError(400, f'"ns" is a robot namespace like /s07, not {ns!r}')
-        ns = '/' + '/'.join(p for p in ns.split('/') if p) if ns.strip('/') else ''
+        if isinstance(ns, str) and len(ns) <= 200:
+            ns = '/' + '/'.join(p for p in ns.split('/') if p) if ns.strip('/') else ''
+        if not isinstance(ns, str) or not NAMESPACE.fullmatch(ns):
+            shown = repr(ns[:40]) + ('...' if len(ns) > 40 else '') if isinstance(ns, str) else repr(ns)
+            raise tornado.web.HTTPError(400, f'"ns" is a robot namespace like /s07 (ASCII letters, digits and _), '
+                                             f'not {shown}')
         timeout = body.get('timeout', m.limits.timeout)
         if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not 0 < timeout <= m.limits.max_timeout:
             raise tornado.web.HTTPError(400, f'"timeout" is a number of seconds, 0 < timeout <= {m.limits.max_timeout:g}')
         role = identity.role if identity is not None else None
-        run = m.start(source, name, ns, float(timeout), role, _local_address(self))
+        person = identity.name if identity is not None else None
+        run = m.start(source, name, ns, float(timeout), role, _local_address(self), person)
         self.set_status(201)
         self.finish({'id': run.id, **run.summary()})
 
@@ -459,9 +575,24 @@ class RunHandler(JsonHandler):
 
 
 def run_routes(gateway) -> list:
-    """The /api/runs routes; their manager joins the gateway's hooks."""
+    """The /api/runs routes; their manager joins the gateway's hooks. With --allow-runs and no
+    working bwrap the gateway does not start (SystemExit naming what to install)."""
     settings = gateway.settings
-    manager = RunManager(gateway, allowed=settings.allow_runs, runs_dir=Path(settings.runs_dir or default_runs_dir()))
+    runs_dir = Path(settings.runs_dir or default_runs_dir())
+    box = cgroups = None
+    if settings.allow_runs:
+        private = [settings.programs_dir, runs_dir, settings.record, data_dir(''), settings.certfile,
+                   settings.keyfile, Path.home(), *(a for a in sys.argv[1:] if a.startswith('/'))]
+        try:
+            box = Sandbox.create(private)
+        except SandboxUnavailable as e:
+            raise SystemExit(f'rosgate: {e}') from None
+        cgroups, how = Cgroups.find()
+        if cgroups is not None:
+            cgroups.sweep()
+        log.info('runs: in a bwrap sandbox; %s', how if cgroups is not None else f'rlimits only ({how})')
+    manager = RunManager(gateway, allowed=settings.allow_runs, runs_dir=runs_dir, box=box, cgroups=cgroups,
+                         max_runs=settings.max_runs, max_per_person=settings.max_runs_per_person)
     gateway.hooks.append(manager)
     gateway.rules.insert(0, manager.publish_hook)
     kw = {'manager': manager}

@@ -9,6 +9,7 @@ import threading
 import time
 import urllib.error
 import urllib.request
+import uuid
 from pathlib import Path
 
 import pytest
@@ -112,7 +113,7 @@ for i in range(20):
     rt.log("line %d" % i)
 rt.drive("/turtle1/cmd_vel", "{TWIST}", {{"linear": {{"x": 2.0}}}}, 1.0)
 rt.log("done")
-'''), '/t1')
+'''), '')
     output = follow(client, f'/rosgate/runs/{run_id}/output')
     states = follow(client, f'/rosgate/runs/{run_id}/state')
     wait_for_subscriber(client, '/run_test/go')
@@ -145,7 +146,7 @@ rt.log("driving")
 while True:
     rt.publish("/turtle1/cmd_vel", "{TWIST}", {{"angular": {{"z": 1.0}}}})
     rt.sleep(0.05)
-'''), '/t2')
+'''), '')
     cmd = follow(client, '/turtle1/cmd_vel', TWIST)
     moving = lambda m: m['angular']['z'] != 0 or m['linear']['x'] != 0   # noqa: E731
     wait_for(lambda: any(moving(m) for _, m in iter_queue(cmd)), 30)
@@ -165,14 +166,14 @@ while True:
 
 
 def test_timeout_ends_the_run_timed_out(runs_gw):
-    run_id = start(runs_gw, program('rt.log("waiting")\nrt.sleep(120)'), '/t3', timeout=1)
+    run_id = start(runs_gw, program('rt.log("waiting")\nrt.sleep(120)'), '', timeout=1)
     body = ended(runs_gw, run_id)
     assert body['state'] == 'timed_out', body
     assert 'timeout' in body['reason']
 
 
 def test_memory_limit_fails_the_run_with_the_reason(runs_gw):
-    run_id = start(runs_gw, program('rt.log("allocating")\nhog = bytearray(3 * 2**30)\nrt.log("got it")'), '/t4')
+    run_id = start(runs_gw, program('rt.log("allocating")\nhog = bytearray(3 * 2**30)\nrt.log("got it")'), '')
     body = ended(runs_gw, run_id)
     assert body['state'] == 'failed', body
     assert 'memory limit' in body['reason'], body
@@ -180,45 +181,61 @@ def test_memory_limit_fails_the_run_with_the_reason(runs_gw):
 
 
 def test_second_run_in_a_namespace_is_refused_naming_the_first(runs_gw):
-    first = start(runs_gw, program('rt.sleep(60)'), '/t5', name='first one')
-    status, body = api(runs_gw, 'POST', '/api/runs', {'source': program('rt.sleep(1)'), 'ns': 't5'})
+    first = start(runs_gw, program('rt.sleep(60)'), '', name='first one')
+    status, body = api(runs_gw, 'POST', '/api/runs', {'source': program('rt.sleep(1)'), 'ns': '/'})
     assert status == 409, body
     assert first in body['error'] and 'first one' in body['error']
     api(runs_gw, 'DELETE', f'/api/runs/{first}')
     assert ended(runs_gw, first)['state'] == 'stopped'
 
 
+def alive(marker: str) -> list[int]:
+    """This machine's processes (zombies aside) with ``marker`` in their command line, seen from here."""
+    found = []
+    for entry in Path('/proc').iterdir():
+        try:
+            if entry.name.isdigit() and marker.encode() in (entry / 'cmdline').read_bytes() \
+                    and (entry / 'stat').read_text().rsplit(')', 1)[1].split()[0] != 'Z':
+                found.append(int(entry.name))
+        except OSError:
+            pass
+    return found
+
+
+def sleeper(marker: str) -> str:
+    """Program lines starting a child process that sleeps with ``marker`` in its command line."""
+    return f'child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(300)", "{marker}"])'
+
+
 def test_the_process_its_environment_directory_and_group(runs_gw):
-    run_id = start(runs_gw, program('''
+    marker = f'rosgate-test-{uuid.uuid4().hex}'
+    run_id = start(runs_gw, program(f'''
 import subprocess
-child = subprocess.Popen(["sleep", "300"])
-rt.log("child %d" % child.pid)
+{sleeper(marker)}
 rt.log("cwd %s" % os.getcwd())
 rt.log("env %s" % " ".join(sorted(os.environ)))
 signal.signal(signal.SIGINT, signal.SIG_IGN)
 while True:
     signal.pause()
-'''), '/t6')
+'''), '')
     body = wait_for(lambda: (lambda b: b if 'env ' in b['output'] else None)(state_of(runs_gw, run_id)), 30)
     lines = dict(line.split(' ', 1) for line in body['output'].splitlines() if ' ' in line)
-    assert Path(lines['cwd']) == runs_gw.runs_dir / run_id
+    assert lines['cwd'] == '/home/run'   # in the sandbox; the program is kept in the run's directory
     assert (runs_gw.runs_dir / run_id / 'program.py').is_file()
     assert 'ROSGATE_TEST_SECRET' not in lines['env'] and 'do-not-leak' not in body['output']
-    assert set(lines['env'].split()) <= {'PATH', 'HOME', 'LANG', 'LC_CTYPE', 'PYTHONUNBUFFERED',
+    assert set(lines['env'].split()) <= {'PATH', 'HOME', 'LANG', 'LC_CTYPE', 'PWD', 'PYTHONUNBUFFERED',
                                          'PYTHONDONTWRITEBYTECODE', 'ROSBRIDGE_URL', 'ROSGATE_NS', 'ROSGATE_RUN'}
-    child = int(lines['child'])
-    assert Path(f'/proc/{child}').exists()
+    wait_for(lambda: alive(marker), 10)
     api(runs_gw, 'DELETE', f'/api/runs/{run_id}')      # it ignores SIGINT: SIGKILL after 2 s
     final = ended(runs_gw, run_id)
     assert final['state'] == 'stopped' and final['exit_code'] == -9, final
-    wait_for(lambda: not Path(f'/proc/{child}').exists() or 'Z' in Path(f'/proc/{child}/stat').read_text().split()[2],
-             10)   # the whole process group went
+    wait_for(lambda: not alive(marker), 10)   # the whole process group went
 
 
 def test_a_library_program_runs_by_name(runs_gw):
     source = program('rt.log("from the library")')
     assert api(runs_gw, 'PUT', '/api/programs/lib%20run', {'format': 'rosgate-program', 'python': source})[0] == 200
-    status, body = api(runs_gw, 'POST', '/api/runs', {'program': 'lib run', 'ns': '/t7'})
+    status, body = api(runs_gw, 'POST', '/api/runs', {'program': 'lib run'})
     assert status == 201, body
     final = ended(runs_gw, body['id'])
     assert final['state'] == 'finished' and 'from the library' in final['output'] and final['name'] == 'lib run'
@@ -330,16 +347,15 @@ def test_run_takes_the_lease_when_it_starts(auth_gw):
 
 
 def test_a_child_left_behind_does_not_keep_the_run_going(runs_gw):
-    run_id = start(runs_gw, program('''
+    marker = f'rosgate-test-{uuid.uuid4().hex}'
+    run_id = start(runs_gw, program(f'''
 import subprocess
-child = subprocess.Popen(["sleep", "300"])
-rt.log("child %d" % child.pid)
-'''), '/t8')
+{sleeper(marker)}
+rt.log("child started")
+'''), '')
     final = ended(runs_gw, run_id)
     assert final['state'] == 'finished', final
-    child = int(final['output'].split('child ')[1].split()[0])
-    wait_for(lambda: not Path(f'/proc/{child}').exists() or 'Z' in Path(f'/proc/{child}/stat').read_text().split()[2],
-             10)
+    wait_for(lambda: not alive(marker), 10)
 
 
 def test_output_is_capped(runs_gw):
@@ -349,7 +365,7 @@ for i in range(6000):
     print(line)
 print("z" * 10000)
 rt.log("end")
-'''), '/t9')
+'''), '')
     final = ended(runs_gw, run_id)
     assert final['state'] == 'finished', final['reason']
     assert 'output limit of 4194304 bytes reached' in final['output']

@@ -1,0 +1,355 @@
+"""The box a robot-side run lives in: bubblewrap (``bwrap``) namespaces, a read-only view of the
+interpreter, and cgroup limits where this machine lets the gateway make cgroups.
+
+Why bwrap: it is one small program (Debian package ``bubblewrap``, what Flatpak uses) that builds
+user, pid, mount, ipc and uts namespaces without privileges where unprivileged user namespaces are
+on, and as root. A run then sees:
+
+- a file system of its own: /usr (and the /bin, /lib... links into it), a few files of /etc, the
+  interpreter's prefixes (a venv and the Python it was made from) read-only; a private /tmp and
+  home (tmpfs, size-capped) holding its program; a /proc of its own pid namespace, a minimal /dev.
+  Not the gateway's data, programs, recordings, tokens, TLS key or checkout (a path of the
+  gateway's own command line that falls inside the view is masked).
+- no other process: it is in a pid namespace whose init is bwrap's. When that init dies, the kernel
+  kills every process of the namespace, however it forked or setsid'd away: the program ending,
+  SIGKILL to the init (stop, timeout) and the gateway dying (``--die-with-parent``) all end the
+  whole tree.
+- the machine's network (the run connects back to the gateway over loopback), as uid 1000 with no
+  capabilities and no further user namespaces (``--disable-userns``).
+
+Measured on a 2-core VM (``python -m tests.bench.run_start``, medians of 15 runs, interleaved with
+the same on the code before the sandbox): the box and its cgroup add 15 to 25 ms to a start, from
+POST to the program's first statement 43 -> 58 ms, to a program that imports roslibpy, connects
+and logs 260 -> 285 ms.
+
+bwrap's init reports a program killed by signal N as exit code 128 + N, as a shell does; see
+``exit_code``.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import shutil
+import signal
+import site
+import subprocess
+import sys
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+
+log = logging.getLogger('rosgate.sandbox')
+PACKAGE = 'bubblewrap'          # the Debian/Ubuntu package that has bwrap
+HOME = '/home/run'              # the run's working directory and $HOME, where its program is
+UID = 1000                      # its user and group inside
+ETC = ('ld.so.cache', 'ld.so.conf', 'ld.so.conf.d', 'localtime', 'hosts', 'host.conf', 'nsswitch.conf',
+       'gai.conf', 'ssl/certs', 'ssl/openssl.cnf', 'ca-certificates')   # not ssl/private
+ROOT_LINKS = ('bin', 'sbin', 'lib', 'lib32', 'lib64', 'libx32')
+
+
+class SandboxUnavailable(Exception):
+    """bwrap is missing or cannot build its namespaces here; the message says what to do."""
+
+
+def _within(path: Path, parents) -> bool:
+    return any(path == p or p in path.parents for p in parents)
+
+
+def interpreter_paths() -> list[Path]:
+    """What the run's interpreter needs outside /usr: its prefixes and site-packages (a venv and
+    the Python it was made from), outermost first."""
+    found = []
+    for p in (sys.base_prefix, sys.base_exec_prefix, sys.prefix, sys.exec_prefix, *site.getsitepackages(),
+              os.path.dirname(os.path.realpath(sys.executable))):
+        path = Path(os.path.realpath(p))
+        if path.is_dir() and not _within(path, [Path('/usr'), *found]):
+            found = [f for f in found if not _within(f, [path])] + [path]
+    return found
+
+
+@dataclass(frozen=True)
+class Sandbox:
+    bwrap: str
+    mounts: tuple[str, ...]          # bwrap arguments that build the file system view
+    options: tuple[str, ...]         # namespace arguments this bwrap understands
+    tmp_bytes: int
+
+    @classmethod
+    def create(cls, private=(), tmp_bytes: int = 64 * 2**20, bwrap: str | None = None) -> Sandbox:
+        """The sandbox for this interpreter; ``private``: paths to keep out of the view (masked
+        where they fall inside it). Raises SandboxUnavailable, saying what to install or change."""
+        found = bwrap or shutil.which('bwrap')
+        if not found:
+            raise SandboxUnavailable(f'--allow-runs runs programs in a bubblewrap sandbox and bwrap is not installed '
+                                     f'here: install the Debian package {PACKAGE} (apt-get install {PACKAGE})')
+        try:
+            help_text = subprocess.run([found, '--help'], capture_output=True, text=True, timeout=10).stdout
+        except (OSError, subprocess.SubprocessError) as e:
+            raise SandboxUnavailable(f'{found} does not run: {e}') from None
+        options = ['--unshare-user', '--uid', str(UID), '--gid', str(UID), '--unshare-pid', '--unshare-ipc',
+                   '--unshare-uts', '--hostname', 'run', '--unshare-cgroup-try', '--die-with-parent',
+                   '--new-session', '--cap-drop', 'ALL']
+        if '--disable-userns' in help_text:          # bwrap >= 0.8
+            options.append('--disable-userns')
+        sized = '--size' in help_text                 # bwrap >= 0.5
+        box = cls(found, tuple(_mounts(private)), tuple(options), tmp_bytes if sized else 0)
+        box.probe()
+        return box
+
+    def argv(self, command: list[str], program_fd: int | None = None) -> list[str]:
+        """bwrap running ``command`` in the box, cwd and $HOME /home/run, with the file open at
+        ``program_fd`` there read-only as program.py. The environment is the caller's (give only
+        what the run needs)."""
+        size = lambda: ['--size', str(self.tmp_bytes)] if self.tmp_bytes else []   # noqa: E731
+        a = [self.bwrap, *self.options, *self.mounts, '--proc', '/proc', '--dev', '/dev',
+             '--perms', '1777', *size(), '--tmpfs', '/tmp', *size(), '--tmpfs', HOME]
+        if program_fd is not None:
+            a += ['--ro-bind-data', str(program_fd), f'{HOME}/program.py']
+        return [*a, '--chdir', HOME, '--', *command]
+
+    @contextmanager
+    def launch(self, command: list[str], program: Path):
+        """(argv, pass_fds) to start ``command`` in the box with ``program``: bwrap reads its
+        options from a pipe and the program from an open file, so the box's /proc/1 (bwrap is its
+        init), its mount table and ps on this machine show no path of the gateway's (the runs
+        folder, the data folder) but the interpreter's."""
+        program_fd = os.open(program, os.O_RDONLY | os.O_CLOEXEC)
+        read, write = os.pipe()
+        try:
+            options = self.argv([], program_fd)[1:-1]      # the command stays on the command line
+            args = b''.join(a.encode() + b'\0' for a in options)
+            if len(args) > 60000:     # a pipe holds 64 KiB: written at once, it never blocks
+                raise ValueError(f'{len(args)} bytes of bwrap arguments')
+            os.write(write, args)
+            os.close(write)
+            write = None
+            yield [self.bwrap, '--args', str(read), '--', *command], (read, program_fd)
+        finally:
+            for fd in (read, write, program_fd):
+                if fd is not None:
+                    os.close(fd)
+
+    def probe(self) -> None:
+        """Start the interpreter in the box once: bwrap installed but unable to make namespaces
+        (user namespaces off) shows here, at start-up, not at the first run."""
+        try:
+            done = subprocess.run(self.argv([sys.executable, '-I', '-c', 'pass']), capture_output=True, text=True,
+                                  timeout=30, env={'PATH': os.defpath}, stdin=subprocess.DEVNULL)
+        except (OSError, subprocess.SubprocessError) as e:
+            raise SandboxUnavailable(f'bwrap does not run: {e}') from None
+        if done.returncode != 0:
+            why = (done.stderr or done.stdout).strip()[-500:]
+            raise SandboxUnavailable(
+                f'bwrap cannot build the sandbox for runs here ({why or f"exit code {done.returncode}"}); '
+                'unprivileged user namespaces may be off (sysctl kernel.unprivileged_userns_clone=1, or on '
+                'Ubuntu 24.04 and later kernel.apparmor_restrict_unprivileged_userns=0)')
+
+
+def _mounts(private) -> list[str]:
+    """The read-only view: /usr, the root links into it, some of /etc, the interpreter."""
+    a = ['--ro-bind', '/usr', '/usr']
+    for name in ROOT_LINKS:
+        path = Path('/', name)
+        if path.is_symlink():
+            a += ['--symlink', os.readlink(path), str(path)]
+        elif path.is_dir():
+            a += ['--ro-bind', str(path), str(path)]
+    for name in ETC:
+        a += ['--ro-bind-try', f'/etc/{name}', f'/etc/{name}']
+    shown = interpreter_paths()
+    for path in shown:
+        a += ['--ro-bind', str(path), str(path)]
+    for path in sorted({Path(os.path.realpath(p)) for p in private if p}):
+        if _within(path, shown) and path.exists():       # e.g. a data folder inside the venv
+            a += ['--tmpfs', str(path)] if path.is_dir() else ['--ro-bind', '/dev/null', str(path)]
+    return a
+
+
+def exit_code(returncode: int | None) -> int | None:
+    """The program's exit code as subprocess reports it (negative: the signal that ended it): bwrap
+    passes on 128 + N for a program killed by signal N, and that is read back as -N (a program that
+    exits with 129..192 by itself reads as killed)."""
+    if returncode is not None and 128 < returncode <= 128 + 64:
+        return -(returncode - 128)
+    return returncode
+
+
+def init_pid(outer: int) -> int | None:
+    """The pid (in ours) of the box's init, the one child of the bwrap process we started; None
+    before bwrap made it or after it ended. The program is in its process group."""
+    try:
+        children = Path(f'/proc/{outer}/task/{outer}/children').read_text().split()
+    except OSError:
+        return None
+    return int(children[0]) if children else None
+
+
+def kill_box(outer: int, sig: int) -> None:
+    """SIGKILL: the init (the kernel then kills everything in the box) and bwrap; other signals:
+    the program's process group (processes that setsid'd away do not get them)."""
+    init = init_pid(outer)
+    targets = [(os.killpg, init)] if sig != signal.SIGKILL else [(os.kill, init), (os.kill, outer)]
+    for kill, pid in targets:
+        if pid is None:
+            continue
+        try:
+            kill(pid, sig)
+        except (ProcessLookupError, PermissionError):
+            pass
+
+
+# --- cgroups ------------------------------------------------------------------------------------
+
+CGROUP_FS = Path('/sys/fs/cgroup')
+JOIN = 'while [ "$1" != -- ]; do echo 0 > "$1" || exit 125; shift; done; shift; exec "$@"'
+
+
+@dataclass(frozen=True)
+class Cgroups:
+    """Where each run gets a cgroup with memory, process and CPU limits: under the gateway's own
+    cgroup, in cgroup v2 when its controllers are (or can be) delegated to children, else in the
+    v1 memory, pids and cpu hierarchies when they are writable. None of that is required: without
+    it a run has its rlimits only."""
+    parents: tuple[tuple[str, Path], ...]     # (controller, directory); v2: one ('v2', directory)
+
+    @classmethod
+    def find(cls, fs: Path = CGROUP_FS, own: str | None = None) -> tuple[Cgroups | None, str]:
+        """The cgroups the runs can have here and a sentence saying so (or why not)."""
+        try:
+            own = own if own is not None else Path('/proc/self/cgroup').read_text()
+        except OSError as e:
+            return None, f'no cgroups ({e})'
+        lines = [line.split(':', 2) for line in own.splitlines() if line.count(':') >= 2]
+        if (fs / 'cgroup.controllers').exists():
+            path = next((p for h, c, p in lines if h == '0'), None)
+            if path is None:
+                return None, 'no cgroup v2 entry in /proc/self/cgroup'
+            parent = fs / path.lstrip('/')
+            missing = _delegate(parent, ('memory', 'pids', 'cpu'))
+            if {'memory', 'pids'} & set(missing):
+                return None, (f'cgroup v2: {" and ".join(missing)} not delegated to {parent} (start the gateway '
+                              'in a cgroup of its own with Delegate=yes)')
+            return _writable([('v2', parent)])
+        parents = []
+        for controller in ('memory', 'pids', 'cpu'):
+            path = next((p for h, c, p in lines if controller in c.split(',')), None)
+            if path is not None and (fs / controller).is_dir():
+                parents.append((controller, fs / controller / path.lstrip('/')))
+            elif controller != 'cpu':
+                return None, f'cgroup v1 without a {controller} hierarchy'
+        return _writable(parents)
+
+    def make(self, run_id: str, memory: int, processes: int, cpus: float) -> RunCgroup | None:
+        """A cgroup per run with its limits, or None (logged) when the kernel refuses one."""
+        name = f'rosgate-{os.getpid()}-{run_id}'
+        made: list[Path] = []
+        try:
+            for controller, parent in self.parents:
+                made.append(parent / name)
+                made[-1].mkdir()
+                for file, value, needed in _limits(controller, memory, processes, cpus):
+                    try:
+                        (made[-1] / file).write_text(value)
+                    except OSError:
+                        if needed:
+                            raise
+        except OSError as e:
+            log.warning('run cgroup %s not made (%s): the run has its rlimits only', name, e)
+            RunCgroup(tuple(d for d in made if d.exists())).remove()
+            return None
+        return RunCgroup(tuple(made))
+
+
+    def sweep(self) -> None:
+        """Remove the empty run cgroups of gateways that are gone (killed before they could)."""
+        for _, parent in self.parents:
+            for d in parent.glob('rosgate-*-r*'):
+                pid = d.name.split('-')[1]
+                if pid.isdigit() and not Path(f'/proc/{pid}').exists():
+                    try:
+                        d.rmdir()
+                    except OSError:
+                        pass
+
+
+def _limits(controller: str, memory: int, processes: int, cpus: float) -> list[tuple[str, str, bool]]:
+    """(file, value, required) for a run cgroup of one v1 controller or of v2. The CPU weight
+    stays the default: a run as a whole weighs as much as one process of the machine (a lower one
+    starved runs on a loaded machine), and its quota keeps it to ``cpus`` cores."""
+    quota = str(max(1000, int(cpus * 100000)))
+    return {
+        'memory': [('memory.limit_in_bytes', str(memory), True), ('memory.memsw.limit_in_bytes', str(memory), False)],
+        'pids': [('pids.max', str(processes), True)],
+        'cpu': [('cpu.cfs_period_us', '100000', False), ('cpu.cfs_quota_us', quota, False)],
+        'v2': [('memory.max', str(memory), True), ('memory.swap.max', '0', False), ('pids.max', str(processes), True),
+               ('cpu.max', f'{quota} 100000', False)],
+    }[controller]
+
+
+def _delegate(parent: Path, controllers) -> list[str]:
+    """Enable controllers for the children of a v2 cgroup; those that stay off."""
+    try:
+        on = (parent / 'cgroup.subtree_control').read_text().split()
+    except OSError:
+        return list(controllers)
+    for c in controllers:
+        if c not in on:
+            try:
+                (parent / 'cgroup.subtree_control').write_text(f'+{c}')
+                on.append(c)
+            except OSError:
+                pass
+    return [c for c in controllers if c not in on]
+
+
+def _writable(parents: list[tuple[str, Path]]) -> tuple[Cgroups | None, str]:
+    """Those parents in which the gateway can make a cgroup (cpu is optional), with a sentence."""
+    probe = f'rosgate-probe-{os.getpid()}'
+    usable = []
+    for controller, parent in parents:
+        try:
+            (parent / probe).mkdir()
+            (parent / probe).rmdir()
+            usable.append((controller, parent))
+        except OSError as e:
+            if controller != 'cpu':
+                return None, f'cannot make cgroups in {parent} ({e.strerror})'
+    kinds = 'memory, pids, cpu' if usable[0][0] == 'v2' else ', '.join(c for c, _ in usable)
+    where = ', '.join(str(p) for _, p in usable)
+    return Cgroups(tuple(usable)), f'cgroup {"v2" if usable[0][0] == "v2" else "v1"} limits ({kinds}) in {where}'
+
+
+@dataclass(frozen=True)
+class RunCgroup:
+    dirs: tuple[Path, ...]
+
+    def join(self, argv: list[str]) -> list[str]:
+        """``argv`` started by a shell that first moves itself into the cgroup: bwrap and all it
+        starts are in it from their first instruction."""
+        return ['/bin/sh', '-c', JOIN, 'rosgate-run', *(str(d / 'cgroup.procs') for d in self.dirs), '--', *argv]
+
+    def oom_killed(self) -> bool:
+        """Whether the kernel killed a process of the run for its memory limit."""
+        for d in self.dirs:
+            for name in ('memory.events', 'memory.oom_control'):
+                try:
+                    text = (d / name).read_text()
+                except OSError:
+                    continue
+                counts = dict(line.split()[:2] for line in text.splitlines() if len(line.split()) >= 2)
+                if int(counts.get('oom_kill', 0)) > 0:
+                    return True
+        return False
+
+    def remove(self) -> bool:
+        """Remove the directories (each once it holds no process); True when all are gone."""
+        gone = True
+        for d in self.dirs:
+            try:
+                d.rmdir()
+            except FileNotFoundError:
+                pass
+            except OSError:
+                gone = False
+        return gone
