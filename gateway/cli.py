@@ -148,7 +148,9 @@ async def serve(settings: Settings, backend, *, announce=print) -> None:
     http, ws = ('https', 'wss') if ssl_ctx else ('http', 'ws')
     path = settings.url_path if settings.url_path.startswith('/') else '/' + settings.url_path
     problem = ide_problem(settings.ide_dir)
-    ide = f'IDE {http}://{host}:{port}/' if problem is None else f'IDE unavailable ({problem})'
+    base = f'{http}://{host}:{port}/'
+    ide = (f'IDE {base} teleop {base}teleop class {base}class' if problem is None
+           else f'IDE unavailable ({problem})')
     announce(f'rosgate: {ide} websocket {ws}://{host}:{port}{path} backend {backend.name}')
 
     stop = asyncio.Event()

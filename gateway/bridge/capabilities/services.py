@@ -28,9 +28,14 @@ async def _call(s: ClientSession, op: CallService) -> None:
     name = absolute(op.service)
     reply = {'op': 'service_response', 'service': op.service, 'id': op.id}
     try:
+        own = s.gateway.own_services.get(name)
         if rosapi.handles(name):
             values = await rosapi.call(s, name, op.args)
             srv = None
+        elif own is not None:   # answered by the gateway, knowing who asks (a station's claim)
+            type, answer = own
+            srv = s.backend.srv_def(type)
+            values = answer(s, from_args(s.backend.defs, srv.request, op.args))
         else:
             type = normalize(op.type, 'srv') if op.type else service_type(s, name)
             srv = s.backend.srv_def(type)
@@ -49,6 +54,8 @@ async def _call(s: ClientSession, op: CallService) -> None:
 
 
 def service_type(s: ClientSession, name: str) -> str:
+    if name in s.gateway.own_services:
+        return s.gateway.own_services[name][0]
     for service, type in s.backend.services():
         if service == name:
             return type
@@ -57,7 +64,7 @@ def service_type(s: ClientSession, name: str) -> str:
 
 def advertise_service(s: ClientSession, op: AdvertiseService) -> None:
     name = absolute(op.service)
-    if rosapi.handles(name):   # calls would still reach the gateway; listings would show it twice
+    if rosapi.handles(name) or name in s.gateway.own_services:   # calls would still reach the gateway
         raise ProtocolError(f'{name} is served by the gateway itself', op=op.OP, id=op.id)
     type = normalize(op.type, 'srv')
     srv = s.backend.srv_def(type)
