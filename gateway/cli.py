@@ -76,8 +76,12 @@ def build_parser() -> argparse.ArgumentParser:
                         'this executes code sent over the network')
     r.add_argument('--runs-dir', type=Path, help='where runs get their working directories '
                                                  '[$XDG_DATA_HOME/rosgate/runs]')
+    r.add_argument('--recordings-dir', type=Path, metavar='DIR',
+                   help='where recordings made from the pages and /api/recordings go '
+                        '[--record\'s DIR, else $XDG_DATA_HOME/rosgate/recordings]')
     r.add_argument('--record', type=Path, metavar='DIR',
-                   help='record from start-up into DIR (also where /api/recordings keeps its files)')
+                   help='record from start-up into DIR (also where /api/recordings keeps its files, '
+                        'unless --recordings-dir says otherwise)')
     r.add_argument('--record-topics', metavar='GLOBS', help='topics --record takes, e.g. "[\'/turtle1/*\']" [all]')
     b.add_argument('--log-level', default='info', choices=('debug', 'info', 'warning', 'error'))
     robots.add_arguments(p)

@@ -73,6 +73,7 @@ class Settings:
     programs_dir: Path | None = None
     allow_runs: bool = False                   # POST /api/runs executes programs on this machine
     runs_dir: Path | None = None               # runs' working directories (None: the XDG data dir)
+    recordings_dir: Path | None = None         # where recordings go (None: --record's, else the XDG data dir)
     record: Path | None = None                 # record from start-up into this directory
     record_topics: str | None = None           # globs of the topics --record takes
     extra: dict = field(default_factory=dict)  # options of optional parts (robots, security)
