@@ -130,3 +130,15 @@ def test_a_stop_sticks_until_the_owner_takes(fleet):
         control(teacher, 'release /s01')
         wait_for(lambda: '/s01' not in announced(teacher, '/rosgate/driver')['halted'], 5)
         call(teacher, '/fleet/release_all', 'std_srvs/srv/Empty')
+
+
+def test_a_station_lapses_after_its_owner_is_away_for_claim_idle(start_gateway, tokens_file):
+    gw = start_gateway('--robot', 'turtlesim', '--fleet', '2', '--exclusive-control', '--auth', tokens_file,
+                       '--claim-idle', '1')
+    with person(gw, 'admin') as teacher:
+        with person(gw, 'operator') as alice:
+            assert call(alice, '/fleet/claim')['message'] == '/s01'
+            held = announced(teacher, '/rosgate/stations')['owners']
+            assert held['/s01']['name'] == 'alice'
+        wait_for(lambda: '/s01' not in announced(teacher, '/rosgate/stations')['owners'], 10)
+        assert announced(teacher, '/rosgate/stations')['released'] == {}   # it lapsed: nobody released it
