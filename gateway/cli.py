@@ -83,8 +83,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help='runs going at once [%(default)s]')
     r.add_argument('--max-runs-per-person', type=_at_least_one, default=d.max_runs_per_person, metavar='N',
                    help='runs going at once for one signed-in person, admins excepted (with --auth) [%(default)s]')
+    r.add_argument('--recordings-dir', type=Path, metavar='DIR',
+                   help='where recordings made from the pages and /api/recordings go '
+                        '[--record\'s DIR, else $XDG_DATA_HOME/rosgate/recordings]')
     r.add_argument('--record', type=Path, metavar='DIR',
-                   help='record from start-up into DIR (also where /api/recordings keeps its files)')
+                   help='record from start-up into DIR (also where /api/recordings keeps its files, '
+                        'unless --recordings-dir says otherwise)')
     r.add_argument('--record-topics', metavar='GLOBS', help='topics --record takes, e.g. "[\'/turtle1/*\']" [all]')
     b.add_argument('--log-level', default='info', choices=('debug', 'info', 'warning', 'error'))
     robots.add_arguments(p)
@@ -171,7 +175,9 @@ async def serve(settings: Settings, backend, sockets: list[socket.socket], *, an
     http, ws = ('https', 'wss') if ssl_ctx else ('http', 'ws')
     path = settings.url_path if settings.url_path.startswith('/') else '/' + settings.url_path
     problem = ide_problem(settings.ide_dir)
-    ide = f'IDE {http}://{host}:{port}/' if problem is None else f'IDE unavailable ({problem})'
+    base = f'{http}://{host}:{port}/'
+    ide = (f'IDE {base} teleop {base}teleop class {base}class' if problem is None
+           else f'IDE unavailable ({problem})')
     announce(f'rosgate: {ide} websocket {ws}://{host}:{port}{path} backend {backend.name} '
              f'node {backend.node_name}')
 

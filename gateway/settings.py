@@ -75,6 +75,7 @@ class Settings:
     runs_dir: Path | None = None               # runs' working directories (None: the XDG data dir)
     max_runs: int = 4                          # runs going at once
     max_runs_per_person: int = 2               # of those, one signed-in non-admin's
+    recordings_dir: Path | None = None         # where recordings go (None: --record's, else the XDG data dir)
     record: Path | None = None                 # record from start-up into this directory
     record_topics: str | None = None           # globs of the topics --record takes
     extra: dict = field(default_factory=dict)  # options of optional parts (robots, security)

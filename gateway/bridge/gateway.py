@@ -89,6 +89,9 @@ class Gateway:
         self.hooks: list = []          # objects with an optional on_close(session)
         self.rules: list = []          # (sender, SharedPublisher, msg) -> msg, or None to drop; may raise
         self.senders: dict[int, Sender] = {}   # open senders that are not clients (playbacks)
+        # the gateway's own services besides rosapi (the stations' claims): name -> (type, answer),
+        # answer(session, request) -> response values, knowing who calls
+        self.own_services: dict[str, tuple[str, object]] = {}
         self.itself = Sender('the gateway', GATEWAY_ROLE)
         self._client_count = None
         if hasattr(backend, 'batch_scope'):   # a backend delivering messages in batches
@@ -145,6 +148,14 @@ class Gateway:
         """A publisher of the gateway's own announcements; clients' publish ops on the topic
         are refused (``rules.policy``)."""
         return self.backend.create_publisher(topic, type, qos)
+
+    def own_service(self, name: str, type: str, answer) -> None:
+        """A service the gateway answers itself, with the caller's session; clients may not
+        advertise one of the same name."""
+        self.own_services[name] = (type, answer)
+
+    def drop_own_service(self, name: str) -> None:
+        self.own_services.pop(name, None)
 
     # --- senders that are not clients ---------------------------------------------------------
 

@@ -62,7 +62,8 @@ def _topics(s):
 
 
 def _services(s):
-    return _visible(s, 'services', [*s.backend.services(), *listing()])
+    own = [(n, t) for n, (t, _) in s.gateway.own_services.items()]
+    return _visible(s, 'services', [*s.backend.services(), *listing(), *own])
 
 
 def topics(s):
@@ -107,8 +108,8 @@ def service_providers(s, service):
     name = _abs(service)
     if not s.gateway.policy.visible(s, 'services', name):
         return {'providers': []}
-    if handles(name):
-        return {'providers': [NODE]}
+    if handles(name) or name in s.gateway.own_services:
+        return {'providers': [NODE if handles(name) else '/' + s.gateway.settings.node_name.strip('/')]}
     return {'providers': s.backend.service_providers(name)}
 
 

@@ -1,8 +1,8 @@
 """The rules: who may do what, and keeping robots safe.
 
 Name globs and the Host/Origin checks (``names``), roles, tokens, caps and op rate (``policy``,
-``tokens``: one policy), the driver lease per station (``lease``), velocity clamps and stops
-(``safety``). ``add_arguments(parser)`` adds their flags; ``install(gateway, reads)`` puts the
+``tokens``: one policy), robot stations and the person who owns each (``stations``), the driver
+lease per station (``lease``), velocity clamps and stops (``safety``). ``add_arguments(parser)`` adds their flags; ``install(gateway, reads)`` puts the
 policy in front of every op and the lease and safety at the publish door (``Gateway.publish``).
 
 May import: ``protocol`` and ``backends`` (for QoS and types), never ``bridge`` or ``web``: the
@@ -18,6 +18,7 @@ from .lease import Lease
 from .names import parse_globs
 from .policy import GATEWAY_ROLE, Limits, SecurePolicy  # noqa: F401 (GATEWAY_ROLE: for the bridge)
 from .safety import DEFAULT_TYPES, Clamp, Safety, VelocityLimits
+from .stations import CLAIM_GRACE, CLAIM_IDLE, Stations
 from .tokens import Authenticator, Brake, TokenStore
 
 log = logging.getLogger('rosgate.security')
@@ -74,6 +75,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         '--control-glob group); see /rosgate/driver and /rosgate/control')
     s.add_argument('--control-glob', help='more names under the driver lease besides velocity topics, each '
                                           'glob its own lease, e.g. "[\'/turtle1/*\', \'/turtle2/*\']"')
+    c = parser.add_argument_group('stations (a class on --fleet N, or robots in their own namespaces)')
+    c.add_argument('--claim-idle', type=_positive(float), default=CLAIM_IDLE, metavar='S',
+                   help='a station stays its owner\'s (through reloads, closed tabs, sleeping tablets) until '
+                        'released, or until none of the owner\'s pages has been connected this long [%(default)s]')
+    c.add_argument('--claim-grace', type=_positive(float), default=CLAIM_GRACE, metavar='S',
+                   help='a station claimed by a client with no name and no browser id (a script) stays its '
+                        'own this long after it leaves [%(default)s]')
 
 
 def install(gateway, reads=lambda name: False) -> None:
@@ -90,6 +98,8 @@ def install(gateway, reads=lambda name: False) -> None:
     if extra.get('auth'):
         store = extra['auth'] if isinstance(extra['auth'], TokenStore) else TokenStore.load(extra['auth'])
         auth = Authenticator(store, Brake(base=extra.get('auth_backoff', 0.5)))
+    stations = Stations(gateway, types=frozenset(types), idle=extra.get('claim_idle', CLAIM_IDLE),
+                        grace=extra.get('claim_grace', CLAIM_GRACE), admin_role='admin' if auth else None)
     lease = None
     if extra.get('exclusive_control'):
         def in_group(group):
@@ -100,13 +110,14 @@ def install(gateway, reads=lambda name: False) -> None:
                 safety.stop_session(session, in_group(group))
 
         lease = Lease(gateway, types=frozenset(types), globs=parse_globs(extra.get('control_glob')),
-                      takeover_role='admin' if auth else None,
+                      takeover_role='admin' if auth else None, stations=stations,
                       on_lost=lambda session, group: safety.stop_session(session, in_group(group)),
                       stop_group=stop_group)
     d = Limits()
     limits = Limits(**{k: extra.get(k, getattr(d, k)) for k in
                        ('max_subscriptions', 'max_publishers', 'max_pending_calls', 'max_op_rate')})
-    gateway.policy = SecurePolicy(settings, auth=auth, limits=limits, lease=lease, reads=reads)
+    gateway.policy = SecurePolicy(settings, auth=auth, limits=limits, lease=lease, stations=stations, reads=reads)
+    gateway.hooks.append(stations)
 
     if lease is not None:
         gateway.rules.append(lease.publish_hook)

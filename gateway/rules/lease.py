@@ -8,16 +8,21 @@ Command names are topics of the velocity types plus anything matching ``--contro
 - else a ``--control-glob`` pattern (``/turtle1/*`` is the group ``/turtle1``);
 - else the gateway-wide group ``/``.
 
-The first client to command in a group takes its lease; others are refused with a status error
-and can watch. Publish std_msgs/String on /rosgate/control: "take [NS]" takes a free lease (an
-admin, or anyone when --auth is off, takes it over from its holder, whose motion is stopped);
-"release [NS]" gives one back (all of yours without NS; an admin may free another's); "stop NS"
-(admin) zeroes every command left moving in the group, frees it and tells the pages of that
-station to stop their programs; until they send "take NS", the clients connected then may not
-move that robot again. Leaving releases everything. Who drives is published, latched,
-on /rosgate/driver as JSON: {"driver": <holder of "/"> | null, "drivers": {group: holder | null},
-"stations": [...], "stopped": {group: unix time}}, a holder being {"client", "name", "role",
-"remote", "since"}.
+The first client to command in a group takes its lease, if the group is a station nobody owns or
+one its person owns (``stations``); others are refused with a status error and can watch.
+Publish std_msgs/String on /rosgate/control: "take [NS]" takes a free lease (an admin, or anyone
+when --auth is off, takes it over from its holder, whose motion is stopped; another client of the
+same person, such as her robot-side run, takes it quietly and, being a run, gives it back when it
+ends); "take-if-free NS" takes it only when it is free, not stopped and nobody else's station (what
+a page does by itself); "release [NS]" gives one back (all of yours without NS; an admin may free
+another's, which also ends a stop); "stop NS" (admin) zeroes every command left moving in the group,
+frees it and tells the pages of that station to stop their programs. A stop sticks: until the
+station's owner (or an admin) sends "take NS", or an admin releases it, no client and no run moves
+that robot. Leaving releases everything. Who drives is published, latched, on /rosgate/driver as
+JSON: {"driver": <holder of "/"> | null, "drivers": {group: holder | null}, "stations": [...],
+"stopped": {group: unix time}, "halted": {group: who stopped it, while the stop holds}}, a holder
+being {"client", "name", "role", "remote", "since", "owner": whether it is the station's owner's,
+"run": its run id or null}.
 """
 
 from __future__ import annotations
@@ -33,11 +38,11 @@ from protocol.errors import ProtocolError
 from ..backends.base import QoS
 from .policy import CONTROL_TOPIC, GATEWAY_ROLE
 from .safety import moving_command
+from .stations import Stations, person
 
 DRIVER_TOPIC = '/rosgate/driver'
 STRING = 'std_msgs/msg/String'
 ROOT = '/'
-STATIONS_TTL = 1.0        # s between looks at the graph for stations
 RESCAN_PERIOD = 2.0       # s between checks for new stations (announced when they change)
 
 
@@ -51,31 +56,18 @@ def glob_group(glob: str) -> str:
     return glob[:-2] if glob.endswith('/*') and glob.count('*') == 1 and len(glob) > 2 else glob
 
 
-def find_stations(backend, types: frozenset[str]) -> tuple[str, ...]:
-    """Top namespaces of nodes that subscribe to a velocity topic inside their namespace."""
-    found = set()
-    for name, type in backend.topics():
-        if type not in types:
-            continue
-        for node in backend.subscribers(name):
-            top = node.strip('/').split('/')
-            if len(top) > 1 and name.startswith(f'/{top[0]}/'):
-                found.add(f'/{top[0]}')
-    return tuple(sorted(found))
-
-
 class Lease:
     def __init__(self, gateway, *, types: frozenset[str], globs: tuple[str, ...] | None,
-                 takeover_role: str | None, on_lost: Callable[[object, str], None],
+                 takeover_role: str | None, on_lost: Callable[[object, str], None], stations: Stations,
                  stop_group: Callable[[str], None] = lambda group: None):
         self.gateway, self.types, self.globs = gateway, types, globs or ()
         self.takeover_role, self.on_lost, self.stop_group = takeover_role, on_lost, stop_group
+        self.owners = stations
         self.holders: dict[str, object] = {}     # group -> session
         self.since: dict[str, float] = {}
         self.stopped: dict[str, float] = {}      # group -> when an admin last stopped it
-        self.benched: dict[str, dict[int, str]] = {}   # group -> {session id: who stopped it}, until "take"
-        self._stations: tuple[str, ...] = ()
-        self._stations_at = -float('inf')
+        self.halted: dict[str, str] = {}         # group -> who stopped it, until "take" by its owner
+        self.lent: dict[str, object] = {}        # group -> the session a run of the same person took it from
         backend = gateway.backend
         self._driver = gateway.own_topic(DRIVER_TOPIC, STRING, QoS(depth=1, transient_local=True))
         # declares the control topic so clients may publish to it without a type
@@ -93,10 +85,7 @@ class Lease:
     # --- groups ---------------------------------------------------------------------------------
 
     def stations(self) -> tuple[str, ...]:
-        now = time.monotonic()
-        if now - self._stations_at > STATIONS_TTL:
-            self._stations, self._stations_at = find_stations(self.gateway.backend, self.types), now
-        return self._stations
+        return self.owners.stations()
 
     def group(self, name: str) -> str:
         for ns in self.stations():
@@ -116,9 +105,10 @@ class Lease:
     # --- commands -------------------------------------------------------------------------------
 
     def require(self, session, name: str, type: str | None = None, msg: dict | None = None) -> None:
-        """Grant a free lease to a commanding client; refuse everyone but the holder. A client an
-        admin stopped may not move the robot until it takes it again; its zero commands (its page
-        stopping the program) pass without taking the lease. msg: the command (None: a moving one)."""
+        """Grant a free lease to a commanding client of the station's owner (or of a station nobody
+        owns); refuse everyone but the holder. Nobody moves a stopped robot until its owner takes it
+        again; zero commands (a page stopping its program) pass without taking the lease.
+        msg: the command (None: a moving one)."""
         if not self.is_command(name, type):
             return
         if session.attrs.get('role') == GATEWAY_ROLE and msg is not None and not moving_command(msg):
@@ -127,16 +117,22 @@ class Lease:
         holder = self.holders.get(group)
         if holder is session:
             return
-        stopper = self.benched.get(group, {}).get(session.id)
+        moving = msg is None or type not in self.types or moving_command(msg)   # only asked here: rare
+        stopper = self.halted.get(group)
         if stopper is not None:
-            moving = msg is None or type not in self.types or moving_command(msg)   # only asked here: rare
             if not moving and holder is None:
                 return
             raise ProtocolError(f'{name}: {stopper} stopped {group}; send "take {group}" (the Take button) to '
                                 'drive it again')
         if holder is None:
-            self._grant(group, session)
-            return
+            owner = self.owners.owner(group)
+            if owner is None or owner.person == person(session):
+                self._grant(group, session)
+                return
+            if not moving:
+                return
+            raise ProtocolError(f'{name}: {group} is {owner.name}\'s station (exclusive control); claim a free '
+                                'robot, or ask the teacher')
         where = '' if group == ROOT else f' {group}'
         raise ProtocolError(f'{name}: {who(holder)} is driving{where} (exclusive control); watch, wait for '
                             f'"release", or ask an admin to take over')
@@ -154,10 +150,23 @@ class Lease:
     def may_take_over(self, role: str | None) -> bool:
         return self.takeover_role is None or role == self.takeover_role
 
-    def holder_against(self, role: str | None, ns: str):
-        """Who holds the lease of namespace ``ns`` such that a client of ``role`` could not take
-        it (None: it is free, or ``role`` may take it over)."""
-        return None if self.may_take_over(role) else self.holders.get(self.group_of_namespace(ns))
+    def refusal(self, key: str, role: str | None, ns: str) -> str | None:
+        """Why a robot-side run of person ``key`` (starter's ``role``) could not drive namespace
+        ``ns``, or None when it may (it then takes the lease, from its person's page quietly)."""
+        group = self.group_of_namespace(ns)
+        admin = self.takeover_role is not None and role == self.takeover_role
+        where = f' of {ns}' if ns else ''
+        stopper = self.halted.get(group)
+        if stopper is not None and not admin:
+            return f'{stopper} stopped {group}; press Take (send "take {group}") to drive it again, then run'
+        owner = self.owners.owner(group)
+        if owner is not None and owner.person != key and not self.may_take_over(role):
+            return f'{group} is {owner.name}\'s station; claim a free robot, or ask the teacher'
+        holder = self.holders.get(group)
+        if holder is not None and person(holder) != key and not self.may_take_over(role):
+            return (f'{who(holder)} holds the driver lease{where} (exclusive control); a run needs it: wait for '
+                    '"release" or ask an admin')
+        return None
 
     def take(self, session, ns: str | None = None) -> None:
         """What "take NS" on the control topic does, for a client that does not send it itself
@@ -166,35 +175,65 @@ class Lease:
 
     def _command(self, session, words: list[str]) -> None:
         verb = words[0].lower() if words else ''
-        if verb not in ('take', 'release', 'stop') or len(words) > 2 or (verb == 'stop' and len(words) != 2):
-            raise ProtocolError(f'{CONTROL_TOPIC} takes "take [NS]", "release [NS]" or "stop NS", '
-                                f'not {" ".join(words)!r}')
+        if (verb not in ('take', 'take-if-free', 'release', 'stop') or len(words) > 2
+                or (verb in ('stop', 'take-if-free') and len(words) != 2)):
+            raise ProtocolError(f'{CONTROL_TOPIC} takes "take [NS]", "take-if-free NS", "release [NS]" or '
+                                f'"stop NS", not {" ".join(words)!r}')
         if verb == 'release' and len(words) == 1:
             for group in [g for g, h in self.holders.items() if h is session]:
                 self._grant(group, None)
             return
         group = self.group_of_namespace(words[1]) if len(words) == 2 else ROOT
         holder = self.holders.get(group)
+        owner = self.owners.owner(group)
+        mine = owner is None or owner.person == person(session)
+        if verb == 'take-if-free':   # a page on its own station: never a stopped one, never another's
+            if holder is None and mine and group not in self.halted:
+                self._grant(group, session)
+            return
         if verb == 'stop':
             if not self._may_override(session):
                 raise ProtocolError(f'only an admin can stop {group}')
             self.stopped[group] = round(time.time(), 3)
-            # a stop sticks: nobody connected now moves this robot again without taking it
-            self.benched[group] = {s.id: who(session) for s in self.gateway.everyone() if s is not session}
+            self.halted[group] = who(session)   # sticks until the owner's "take" or an admin's "release"
             if holder is not None:
                 self._grant(group, None, by=session, why='stopped the robot and freed')
             self.stop_group(group)
             self._announce()
             return
-        if verb == 'take':
-            self.benched.get(group, {}).pop(session.id, None)
-        if holder is None or holder is session:
-            if verb == 'take':
-                self._grant(group, session)
-            elif holder is session:
+        if verb == 'release':
+            if holder is session:
                 self._grant(group, None)
+            elif self._may_override(session):
+                self.halted.pop(group, None)
+                if holder is not None:
+                    self._grant(group, None, by=session, why='released')
+                self._announce()
+            elif holder is not None:
+                raise ProtocolError(f'{who(holder)} is driving{"" if group == ROOT else " " + group}; '
+                                    'only an admin can release it')
+            return
+        # take
+        stopper = self.halted.get(group)
+        if stopper is not None and not mine and not (self.takeover_role and self._may_override(session)):
+            raise ProtocolError(f'{stopper} stopped {group}; only its owner ({owner.name}) can take it again, '
+                                'or an admin release it')
+        if not mine and not self._may_override(session):
+            raise ProtocolError(f'{group} is {owner.name}\'s station; only they or an admin can take it')
+        if holder is session:
+            self.halted.pop(group, None)
+            self._announce()
+        elif holder is None:
+            self.halted.pop(group, None)
+            self._grant(group, session)
+        elif person(holder) == person(session):   # her run, or another tab of hers: quietly
+            self.halted.pop(group, None)
+            self._grant(group, session)
+            if session.attrs.get('run') is not None and holder.attrs.get('run') is None:
+                self.lent[group] = holder
         elif self._may_override(session):
-            self._grant(group, session if verb == 'take' else None, by=session)
+            self.halted.pop(group, None)
+            self._grant(group, session, by=session)
         else:
             raise ProtocolError(f'{who(holder)} is driving{"" if group == ROOT else " " + group}; '
                                 'only an admin can take over')
@@ -202,6 +241,7 @@ class Lease:
     def _grant(self, group: str, session, *, by=None, why: str = 'took over') -> None:
         """Give the group's lease to session (None: free it); the previous holder stops moving."""
         previous = self.holders.get(group)
+        self.lent.pop(group, None)
         if session is None:
             self.holders.pop(group, None)
         else:
@@ -217,11 +257,14 @@ class Lease:
         self._announce()
 
     def on_close(self, session) -> None:
-        for benched in self.benched.values():
-            benched.pop(session.id, None)
+        for group in [g for g, s in self.lent.items() if s is session]:
+            del self.lent[group]
         held = [g for g, h in self.holders.items() if h is session]
         for group in held:
+            lender = self.lent.pop(group, None)
             del self.holders[group]
+            if lender is not None and not lender.closed and group not in self.halted:
+                self._grant(group, lender)   # a run ended: its person's page drives again
         if held:
             self._announce()
 
@@ -236,14 +279,15 @@ class Lease:
         h = self.holders.get(group)
         return None if h is None else {
             'client': h.id, 'name': h.attrs.get('name') or f'client {h.id}', 'role': h.attrs.get('role'),
-            'remote': h.remote, 'since': round(self.since.get(group, 0.0), 3)}
+            'remote': h.remote, 'since': round(self.since.get(group, 0.0), 3),
+            'owner': self.owners.is_owner(h, group), 'run': h.attrs.get('run')}
 
     def _announce(self) -> None:
         stations = self.stations()
         drivers = {g: None for g in stations}
         drivers.update({g: self._info(g) for g in self.holders})
         text = json.dumps({'driver': self._info(ROOT), 'drivers': drivers, 'stations': list(stations),
-                           'stopped': self.stopped})
+                           'stopped': self.stopped, 'halted': self.halted})
         if text != self._announced:
             self._announced = text
             self._driver.publish({'data': text})
@@ -254,6 +298,5 @@ class Lease:
             loop = asyncio.get_running_loop()
         except RuntimeError:
             return
-        self._stations_at = -float('inf')
         self._announce()
         self._timer = loop.call_later(RESCAN_PERIOD, self._rescan)

@@ -16,6 +16,7 @@ from urllib.parse import urlsplit
 from protocol import ops
 from protocol.errors import ProtocolError
 
+from .stations import person_of
 from .names import ACTION_KINDS, LOCAL_HOSTS, host_name, is_ip, own_names, parse_globs, refuse, target
 from .tokens import AuthError, Authenticator
 
@@ -146,9 +147,9 @@ class Limits:
 
 class SecurePolicy(Policy):
     def __init__(self, settings, *, auth: Authenticator | None = None, limits: Limits = Limits(), lease=None,
-                 reads: Callable[[str], bool] = lambda name: False):
+                 stations=None, reads: Callable[[str], bool] = lambda name: False):
         super().__init__(settings, reads=reads)
-        self.auth, self.limits, self.lease = auth, limits, lease
+        self.auth, self.limits, self.lease, self.stations = auth, limits, lease, stations
 
     # --- the gate in front of every op -------------------------------------------------------
 
@@ -238,7 +239,7 @@ class SecurePolicy(Policy):
                                     op=op.OP, id=op.id)
         except AuthError as e:
             raise ProtocolError(str(e), op=op.OP, id=op.id) from None
-        session.attrs.update(role=identity.role, name=identity.name)
+        session.attrs.update(role=identity.role, name=identity.name, person=person_of(identity, {}))
         session.attrs.pop('auth_error', None)
         session.status('info', f'authenticated as {identity.name} ({identity.role})', op.OP, op.id)
 
@@ -261,6 +262,9 @@ class SecurePolicy(Policy):
         if label:
             attrs['name'] = _NAME.sub('', label[-1].decode('utf-8', 'replace'))[:32]
         if self.auth is None:
+            key = person_of(None, request.cookies)   # the browser's id: its station stays its own
+            if key is not None:
+                attrs['person'] = key
             return attrs
         token = token_from_request(request)
         if token:
@@ -269,7 +273,7 @@ class SecurePolicy(Policy):
             except AuthError as e:
                 attrs['auth_error'] = str(e)
             else:
-                attrs.update(role=identity.role, name=identity.name)
+                attrs.update(role=identity.role, name=identity.name, person=person_of(identity, {}))
         return attrs
 
 

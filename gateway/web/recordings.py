@@ -365,7 +365,8 @@ def recording_routes(gateway) -> list:
     """The /api/recordings routes; with --record, the start-up recording begins here."""
     settings = gateway.settings
     record = settings.record
-    manager = RecordingManager(gateway, Path(record) if record else default_recordings_dir())
+    folder = settings.recordings_dir or record
+    manager = RecordingManager(gateway, Path(folder) if folder else default_recordings_dir())
     gateway.hooks.append(manager)
     if record:
         globs = parse_globs(settings.record_topics) or ('/*',)

@@ -48,7 +48,7 @@ import tornado.web
 
 from protocol.errors import ProtocolError
 
-from ..rules.lease import who
+from ..rules.stations import person_of
 from .api import JsonHandler, body_json, caller
 from .programs import space_owner, stored_program
 from ..settings import data_dir
@@ -110,7 +110,7 @@ class Run:
         self.output_pub = self.state_pub = None
         self.memory_error = False
         self.role: str | None = None         # the starter's role, given to the run's connection
-        self.person: str | None = None       # who started it (with --auth), for the per-person limit
+        self.person: str | None = None       # who started it: the run drives for them (rules.stations)
         self.cgroup: RunCgroup | None = None
 
     def summary(self) -> dict:
@@ -217,7 +217,9 @@ class RunManager:
     def start(self, source: str, name: str, ns: str, timeout: float, role: str | None, port: tuple[str, int, bool],
               person: str | None = None):
         """A new Run, its process being started; raises HTTPError 404 for a namespace the graph does
-        not have, 409 when the namespace is busy, 429 past the limits on runs going at once."""
+        not have, 409 when the namespace is busy or its lease is not the starter's, 429 past the
+        limits on runs going at once. person: who starts it (rules.stations.person_of), for whom
+        the run drives."""
         self._known(ns)
         going = [r for r in self.runs.values() if r.state in ('starting', 'running')]
         busy = next((r for r in going if r.ns == ns), None)
@@ -232,8 +234,9 @@ class RunManager:
         if role != 'admin' and len(mine) >= self.max_per_person:
             raise tornado.web.HTTPError(429, f'{person} has {len(mine)} runs going ({", ".join(r.id for r in mine)}), '
                                              'the most one person may (--max-runs-per-person); stop one first')
-        self._lease_free_for(role, ns)
         run_id = 'r' + secrets.token_hex(4)
+        person = person or f'run {run_id}'
+        self._lease_free_for(person, role, ns)
         workdir = self.runs_dir / run_id
         try:
             workdir.mkdir(parents=True, mode=0o700)
@@ -268,15 +271,14 @@ class RunManager:
             names = ', '.join(sorted(n for n in known if n)[:20]) or 'none but the root'
             raise tornado.web.HTTPError(404, f'no robot namespace {ns} on this gateway (namespaces: {names})')
 
-    def _lease_free_for(self, role: str | None, ns: str) -> None:
-        """With --exclusive-control a run takes its namespace's driver lease: refuse at once a run
-        that could not (someone else holds it and the starter may not take over)."""
+    def _lease_free_for(self, person: str, role: str | None, ns: str) -> None:
+        """With --exclusive-control a run takes its namespace's driver lease (from its starter's own
+        page quietly, and gives it back when it ends): refuse at once a run that could not (another
+        person's station or lease, or a stop that holds until Take)."""
         lease = getattr(self.gateway.policy, 'lease', None)
-        holder = lease.holder_against(role, ns) if lease is not None else None
-        if holder is None:
-            return
-        raise tornado.web.HTTPError(409, f'{who(holder)} holds the driver lease{f" of {ns}" if ns else ""} '
-                                         '(exclusive control); a run needs it: wait for "release" or ask an admin')
+        why = lease.refusal(person, role, ns) if lease is not None else None
+        if why is not None:
+            raise tornado.web.HTTPError(409, why)
 
     def _env(self, run: Run, url: str) -> dict:
         """Only what a Python program needs: none of the gateway's own environment (tokens, keys).
@@ -435,7 +437,7 @@ class RunManager:
         if run is None or run.state not in ('starting', 'running'):
             return
         run.sessions.append(session)
-        session.attrs.update(run=run.id, name=f'run {run.id}')
+        session.attrs.update(run=run.id, name=f'run {run.id}', person=run.person)
         if run.role is not None:
             session.attrs['role'] = run.role
             session.attrs.pop('auth_error', None)
@@ -528,8 +530,8 @@ class RunListHandler(JsonHandler):
         if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not 0 < timeout <= m.limits.max_timeout:
             raise tornado.web.HTTPError(400, f'"timeout" is a number of seconds, 0 < timeout <= {m.limits.max_timeout:g}')
         role = identity.role if identity is not None else None
-        person = identity.name if identity is not None else None
-        run = m.start(source, name, ns, float(timeout), role, _local_address(self), person)
+        run = m.start(source, name, ns, float(timeout), role, _local_address(self),
+                      person_of(identity, self.request.cookies))
         self.set_status(201)
         self.finish({'id': run.id, **run.summary()})
 

@@ -1,16 +1,17 @@
-// The teacher's view (/class): every robot station as a live tile — its world, who holds it,
-// whether its program runs, the last error — with Stop, Release and the student's program
-// (read-only). Stations are the gateway's (the driver lease's list, else the fleet's, else the
+// The teacher's view (/class): every robot station as a live tile — its world, whose station it
+// is and who drives it, whether its program runs, the last error — with Stop, Release and the
+// student's program (read-only). Owners come from the gateway's /rosgate/stations. Stations are the gateway's (the driver lease's list, else the fleet's, else the
 // namespaces of the graph), so a real multi-robot graph shows the same way as the sim's fleet.
 import { Ros } from 'roslib';
 import { WorldView } from './worldview.js';
 import { DriverLease, DRIVER_TOPIC } from './driver.js';
 import { isVelocityType, zeroVelocity, withNamespace } from '../runtime/util.js';
 import { showProgram } from './classprogram.js';
+import { STATIONS_TOPIC } from './robotns.js';
 
 const $ = (s) => document.querySelector(s);
 const REFRESH = 10000;   // ms between looks at the graph for new stations
-const view = { ros: null, lease: new DriverLease(), tiles: new Map(), topics: [], types: [], services: [], claimed: [], seq: 0 };
+const view = { ros: null, lease: new DriverLease(), tiles: new Map(), topics: [], types: [], services: [], owners: {}, seq: 0 };
 window.classView = view;
 
 function setStatus(s, text) { const el = $('#status'); el.dataset.state = s; el.textContent = text; document.body.dataset.connection = s; }
@@ -26,12 +27,23 @@ function connect() {
   ros.on('connection', () => {
     setStatus('connected', 'connected');
     view.lease.attach(ros);
+    watchOwners(ros);
     for (const t of view.tiles.values()) t.attach(ros);
     refresh();
   });
   ros.on('close', () => { if (view.ros === ros) { setStatus('closed', 'disconnected'); setTimeout(connect, 2000); } });
   ros.on('error', () => setStatus('error', 'cannot connect'));
   ros.connect(url).catch(() => setStatus('error', 'bad URL'));
+}
+
+// Who owns each station (a person: the signed-in name, or a browser), as the gateway announces it.
+function watchOwners(ros) {
+  ros.on(STATIONS_TOPIC, (m) => {
+    if (view.ros !== ros) return;
+    try { view.owners = JSON.parse(m.msg.data).owners ?? {}; } catch { view.owners = {}; }
+    for (const t of view.tiles.values()) t.show();
+  });
+  ros.callOnConnection({ op: 'subscribe', id: `subscribe:${STATIONS_TOPIC}:class`, topic: STATIONS_TOPIC, type: 'std_msgs/msg/String' });
 }
 
 function call(service, args = {}) {
@@ -64,11 +76,6 @@ async function refresh() {
     ({ topics: view.topics, types: view.types } = await call('/rosapi/topics'));
     ({ services: view.services } = await call('/rosapi/services'));
     if (view.topics.includes(DRIVER_TOPIC)) view.lease.watch();
-    if (view.services.includes('/fleet/claim')) {   // the fleet's claims, for tiles nobody drives
-      try {
-        view.claimed = JSON.parse((await call('/rosapi/get_param', { name: '/fleet:claimed', default_value: '[]' })).value) ?? [];
-      } catch { view.claimed = []; }
-    }
     await show(await stations());
     for (const t of view.tiles.values()) t.show();
   } catch (e) { notice(`cannot read the graph: ${e.message}`); }
@@ -116,10 +123,17 @@ class Tile {
   show() {
     const r = this.report;
     const d = view.lease.holderOf(this.ns);
-    const who = d?.name ?? (r?.user || '');
-    const claimed = view.claimed.includes(this.ns);
-    this.el.querySelector('.holder').textContent = d ? `${who} drives` : who ? `${who} (not driving)` : claimed ? 'claimed' : 'free';
+    const owner = view.owners[this.ns]?.name;
+    const halted = view.lease.info?.halted?.[this.ns];
+    let text;
+    if (d && (!owner || d.owner)) text = `${d.run && owner ? `${owner}'s run` : d.name} drives`;
+    else if (d) text = `${owner}'s station · ${d.name} drives`;
+    else if (owner) text = `${owner}'s station (${halted ? 'stopped' : 'not driving'})`;
+    else text = halted ? 'free (stopped)' : 'free';
+    this.el.querySelector('.holder').textContent = text;
     this.el.toggleAttribute('data-held', Boolean(d));
+    this.el.toggleAttribute('data-halted', Boolean(halted));
+    this.el.dataset.owner = owner ?? '';
     const state = r?.state ?? 'none';
     this.el.dataset.state = state;
     this.el.querySelector('.state').textContent = { none: 'no program', idle: 'idle', running: 'running', paused: 'paused' }[state] ?? state;

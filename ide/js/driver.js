@@ -2,7 +2,9 @@
 // station, robot namespace or --control-glob group). /rosgate/driver (latched JSON) names the
 // holders; "take NS" / "release NS" on /rosgate/control ask for one; the holder learns its own
 // client id from the status info the gateway sends it on grant. When an admin stops this page's
-// station (/class), a 'stop' event tells the page to stop its program.
+// station (/class), a 'stop' event tells the page to stop its program; the stop holds (the
+// announcement's "halted") until the station's owner presses Take. A holder that is the station's
+// owner's other client (her robot-side run) is 'yours' to a page on its own station.
 import { normNamespace } from '../runtime/util.js';
 
 export const DRIVER_TOPIC = '/rosgate/driver';
@@ -26,6 +28,7 @@ export class DriverLease extends EventTarget {
     super();
     this.ros = null;
     this.ns = '';
+    this.ownStation = false;    // this page's namespace is its person's own station (robotns.js)
   }
 
   // A new connection: nothing known until watch() finds the lease.
@@ -78,16 +81,23 @@ export class DriverLease extends EventTarget {
     return (g === '/' ? this.info?.driver : this.info?.drivers?.[g]) ?? null;
   }
 
-  // 'off' (no lease on this gateway), 'nobody', 'you' or 'other'
+  // 'off' (no lease on this gateway), 'nobody', 'you', 'yours' (your run, or another page of yours
+  // on your own station) or 'other'
   get state() {
     if (!this.available) return 'off';
     if (!this.driver) return 'nobody';
-    return this.driver.client === this.me ? 'you' : 'other';
+    if (this.driver.client === this.me) return 'you';
+    return this.driver.owner && this.ownStation ? 'yours' : 'other';
   }
 
   get label() {
-    return { off: '', nobody: 'nobody', you: 'you' }[this.state] ?? this.driver.name ?? `client ${this.driver.client}`;
+    const state = this.state;
+    if (state === 'yours') return this.driver.run ? `your run ${this.driver.run}` : 'you (another page)';
+    return { off: '', nobody: 'nobody', you: 'you' }[state] ?? this.driver.name ?? `client ${this.driver.client}`;
   }
+
+  // Whether the teacher's stop of this page's robot still holds (until Take).
+  get halted() { return Boolean(this.info?.halted?.[this.group]); }
 
   take() { this.command(this.group === '/' ? 'take' : `take ${this.group}`); }
   release() { this.command(this.group === '/' ? 'release' : `release ${this.group}`); }

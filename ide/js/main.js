@@ -179,6 +179,7 @@ async function start() {
       graph.setRos(ros);
       ide.robotRuns?.connected(ros);
       lease.attach(ros);
+      robotNs.attach(ros);
       world.attach(ros);
       graph.refresh().catch((e) => consoleView.error(`rosapi: ${e.message}`));
     });
@@ -201,12 +202,18 @@ async function start() {
   ide.robotRuns = new RobotRuns(ide);
   ide.robotRuns.init();
   runner.addEventListener('state', (e) => { document.body.dataset.run = e.detail; });
-  lease.addEventListener('stop', () => { runner.stop(); consoleView.error('The teacher stopped this robot.'); });
+  lease.addEventListener('stop', () => {
+    runner.stop();
+    consoleView.error(`Stopped by the teacher: ${ide.ns || 'this robot'} stays still until you press Take.`);
+  });
   ide.report = reportProgram(ide, { workspace, runner, consoleEl: $('#console-lines') });
   document.body.dataset.run = 'idle';
-  $('#run').onclick = () => (runner.state === 'paused' ? runner.resume() : runner.run());
+  // a program drives only this person's robot, and not while the teacher's stop holds: said here
+  // once per press, not as an error of the program's blocks
+  const mayDrive = () => { const why = robotNs.whyNot(); if (why) consoleView.error(why); return !why; };
+  $('#run').onclick = () => mayDrive() && (runner.state === 'paused' ? runner.resume() : runner.run());
   $('#pause').onclick = () => runner.pause();
-  $('#step').onclick = () => runner.step();
+  $('#step').onclick = () => mayDrive() && runner.step();
   $('#stop').onclick = () => runner.stop();
 
   // code panel, live

@@ -1,12 +1,21 @@
-// The robot namespace (a fleet station such as /s07, see rosgate --fleet): robot blocks, the
-// world view and the teleop page use it. It comes from ?ns= in the page's URL, else from what
-// this browser remembered; "Claim a robot" asks the gateway's /fleet/claim for a free one, and
-// on a fleet a page with no namespace claims one by itself. Under the driver lease
-// (--exclusive-control) the page takes its station's lease and says so when another holds it.
+// The robot namespace (a station such as /s07): robot blocks, the world view and the teleop page
+// use it. On a gateway with stations (rosgate --fleet N, or robots in their own namespaces) the
+// gateway says which one is yours: a station belongs to a person (the signed-in name, else this
+// browser's id, kept here and sent with every request as a cookie), so a reload, a closed tab or a
+// sleeping tablet comes back to the same one, and a page never lands on another person's.
+// ?ns=/s07 in the address asks for that station; "Claim a robot" asks for any free one; when none
+// is free the page says so and drives nothing. Without stations the namespace comes from ?ns= or
+// what this browser remembered. Under the driver lease (--exclusive-control) the page takes its
+// own station's lease when it is free, never after the teacher's Stop (only Take resumes), and
+// says who holds a station that is not its own.
 import { normNamespace } from '../runtime/util.js';
 
 export const CLAIM_SERVICE = '/fleet/claim';
+export const STATIONS_TOPIC = '/rosgate/stations';
 const KEY = 'rosgate.ns';
+const BROWSER_KEY = 'rosgate.browser';
+const BROWSER_COOKIE = 'rosgate_browser';
+const BROWSER_ID = /^[A-Za-z0-9_-]{8,64}$/;
 
 export function loadNamespace(search = location.search) {
   const fromUrl = new URLSearchParams(search).get('ns');
@@ -21,6 +30,19 @@ export function saveNamespace(ns) {
   try { localStorage.setItem(KEY, normNamespace(ns)); } catch { /* storage off */ }
 }
 
+// This browser's id (random, kept in localStorage), also set as a cookie so that the websocket
+// and the HTTP API know the browser: without --auth the gateway keeps a station for it.
+export function browserId() {
+  let id = '';
+  try { id = localStorage.getItem(BROWSER_KEY) ?? ''; } catch { /* storage off */ }
+  if (!BROWSER_ID.test(id)) {
+    id = Array.from(crypto.getRandomValues(new Uint8Array(16)), (b) => b.toString(16).padStart(2, '0')).join('');
+    try { localStorage.setItem(BROWSER_KEY, id); } catch { /* storage off: this page's id only */ }
+  }
+  document.cookie = `${BROWSER_COOKIE}=${id}; path=/; max-age=31536000; SameSite=Strict`;
+  return id;
+}
+
 // The page's URL with ?ns= replaced (or left out when it was not there and ns is the stored one).
 export function urlWithNamespace(ns, href = location.href) {
   const url = new URL(href);
@@ -31,12 +53,20 @@ export function urlWithNamespace(ns, href = location.href) {
 
 /**
  * Binds the namespace field and the "Claim a robot" button (#ns, #claim).
- * call(service, args) -> Promise of the response values; onChange(ns) runs on every change.
- * Returns {get(), set(ns), claimable(bool)}.
+ * call(service, args) -> Promise of the response values; onChange(ns) runs on every change;
+ * onError(text) tells the person (console or notice).
+ * Returns {get(), set(ns), claim(), claimable(bool), attach(ros), follow(lease), whyNot(), mine, fleet}.
  */
 export function bindNamespace({ call, onChange, onError = () => {}, $ = (s) => document.querySelector(s) }) {
+  browserId();
+  const asked = normNamespace(new URLSearchParams(location.search).get('ns'));   // a station asked for
   let ns = loadNamespace();
-  let claimed = '';           // the station this page claimed, given back when it claims another
+  let fleet = false;          // the gateway hands out stations
+  let known = false;          // ... and this page knows whether it does
+  let mine = '';              // the station the gateway says is this person's
+  let none = '';              // why this person has no station ('' : not known to be so)
+  let lease = null;
+  let ros = null;
   const followers = [];
   const input = $('#ns');
   input.value = ns;
@@ -50,40 +80,83 @@ export function bindNamespace({ call, onChange, onError = () => {}, $ = (s) => d
     for (const f of followers) f(ns);
     onChange(ns);
   };
-  input.addEventListener('change', () => set(input.value));
-  const claim = async () => {
+  // Asks the gateway for this person's station (target: that one, if nobody else has it).
+  const claim = async (target = '') => {
+    let r;
     try {
-      const r = await call(CLAIM_SERVICE, {});
-      if (!r.success) throw new Error(r.message || 'no robot is free');
-      if (claimed && claimed !== normNamespace(r.message)) call(`${claimed}/fleet/release`, {}).catch(() => {});
-      claimed = normNamespace(r.message);
-      set(claimed);
-    } catch (e) { onError(`cannot claim a robot: ${e.message}`); }
+      r = await call(target ? `${target}/fleet/claim` : CLAIM_SERVICE, {});
+    } catch (e) { onError(`cannot claim a robot: ${e.message}`); return; }
+    if (r.success) {
+      mine = normNamespace(r.message);
+      none = '';
+      set(mine);
+      for (const f of followers) f(ns);
+      return;
+    }
+    if (target) {             // another person's: this page may watch it, not drive it
+      set(target);
+      onError(`${r.message || `${target} is not free`}. You can watch it here; "Claim a robot" gives you one of your own.`);
+      return;
+    }
+    mine = '';
+    none = r.message || 'no robot is free';
+    set('');
+    onError(`No robot for you: ${none}. This page drives nothing until you have one ("Claim a robot").`);
   };
-  $('#claim').onclick = claim;
-  let fleet = false;
-  let autoClaimed = false;
+  input.addEventListener('change', () => (fleet ? claim(normNamespace(input.value)) : set(input.value)));
+  $('#claim').onclick = () => claim();
+  // what the gateway says about stations: a station of this person released by the teacher
+  const onStations = (info) => {
+    if (!mine || info.owners?.[mine]) return;
+    const by = info.released?.[mine]?.by;
+    onError(`${by ? `${by} released ${mine}` : `${mine} is no longer kept for you`}: it is not your robot any more. `
+      + 'Press "Claim a robot" for one.');
+    mine = '';
+    for (const f of followers) f(ns);
+  };
   const self = {
     get: () => ns,
     set,
     claim,
     get fleet() { return fleet; },
-    // The gateway runs a fleet: show Claim, and claim a station when this page has none.
+    get mine() { return mine; },
+    // The gateway hands out stations: show Claim, and ask for this person's station once.
     claimable: (yes) => {
+      const first = !known;
+      known = true;
       fleet = yes;
       $('#claim').hidden = !yes;
-      if (yes && !ns && !autoClaimed) { autoClaimed = true; claim(); }
+      if (yes && first) claim(asked);
     },
-    // Follows the driver lease: its namespace, a free station taken, another's station named.
-    follow: (lease) => {
-      followers.push((next) => lease.setNamespace(next));
-      followLease(self, lease, { onError, $ });
+    // A new connection: follow the gateway's announcement of who owns which station.
+    attach: (next) => {
+      ros = next;
+      ros.on(STATIONS_TOPIC, (m) => {
+        if (ros !== next) return;
+        try { onStations(JSON.parse(m.msg.data)); } catch { /* not ours */ }
+      });
+      ros.callOnConnection({ op: 'subscribe', id: `subscribe:${STATIONS_TOPIC}:ns`, topic: STATIONS_TOPIC, type: 'std_msgs/msg/String' });
+    },
+    // Why this page may not drive now ('' : it may): no robot of its own, another's, stopped.
+    whyNot: () => {
+      if (fleet && !ns) return none ? `No robot for you: ${none}.` : 'No robot yet: press "Claim a robot".';
+      if (lease?.halted && lease.state !== 'you') {
+        return `The teacher stopped ${ns || 'this robot'}: press Take to drive it again.`;
+      }
+      if (fleet && ns !== mine && lease?.state === 'other') return `${ns} is driven by ${lease.label}: it is not your robot.`;
+      return '';
+    },
+    // Follows the driver lease: its namespace, its own free station taken, another's named.
+    follow: (l) => {
+      lease = l;
+      followers.push((next) => { l.ownStation = Boolean(mine) && next === mine; l.setNamespace(next); });
+      followLease(self, l, { onError, $, ready: () => known });
     },
   };
   return self;
 }
 
-function followLease(robotNs, lease, { onError, $ }) {
+function followLease(robotNs, lease, { onError, $, ready }) {
   let taken = {};
   let warned = '';
   const list = document.createElement('datalist');
@@ -106,11 +179,13 @@ function followLease(robotNs, lease, { onError, $ }) {
       }));
     }
     const ns = robotNs.get();
-    if (!ns || lease.group === '/') return;
-    // once per connection and station: take it when free, say who holds it when not
-    if (lease.state === 'nobody' && !(taken.ros === lease.ros && taken.ns === ns)) {
+    if (!ns || lease.group === '/' || !ready()) return;
+    // once per connection and station: take this person's own station when it is free and not
+    // stopped (the gateway checks the same: "take-if-free")
+    const own = robotNs.fleet ? ns === robotNs.mine : true;
+    if (own && lease.state === 'nobody' && !lease.halted && !(taken.ros === lease.ros && taken.ns === ns)) {
       taken = { ros: lease.ros, ns };
-      lease.take();
+      lease.command(`take-if-free ${lease.group}`);
     }
     const warn = lease.state === 'other' ? `${ns} ${lease.driver.client}` : '';
     if (warn && warn !== warned) {

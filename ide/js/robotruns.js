@@ -53,6 +53,8 @@ export class RobotRuns extends EventTarget {
   }
 
   async start() {
+    const why = this.ide.robotNs?.whyNot();
+    if (why) { this.ide.console.error(`Run on robot: ${why}`); return; }
     let source;
     try { source = this.ide.generatePython(); } catch (e) { this.ide.console.error(`Cannot generate Python: ${e.message}`); return; }
     try {

@@ -39,7 +39,7 @@ function connect() {
   state.ros = ros;
   state.advertised = '';
   setStatus('connecting', 'connecting…');
-  ros.on('connection', () => { setStatus('connected', 'connected'); lease.attach(ros); onConnected(); });
+  ros.on('connection', () => { setStatus('connected', 'connected'); lease.attach(ros); state.robotNs.attach(ros); onConnected(); });
   ros.on('close', () => {
     if (state.ros !== ros) return;
     setStatus('closed', 'disconnected');
@@ -349,7 +349,7 @@ function setupRobot() {
   state.robotNs.follow(lease);
   lease.addEventListener('refused', (e) => showNotice(`Your commands are refused: ${e.detail}`));
   lease.addEventListener('change', () => { if (lease.state !== 'other' && !state.blocked) showNotice(''); });
-  lease.addEventListener('stop', () => { stopAll(); showNotice('The teacher stopped this robot.'); });
+  lease.addEventListener('stop', () => { stopAll(); showNotice('Stopped by the teacher: this robot stays still until you press Take.'); });
 }
 
 function showNotice(text) {

@@ -8,7 +8,7 @@ import uuid
 
 import pytest
 
-from gateway.rules.lease import find_stations
+from gateway.rules.stations import find_stations
 
 from .support import until
 

@@ -153,3 +153,13 @@ def test_at_most_n_at_once(rec_gw):
     finally:
         for rec_id in started:
             api(rec_gw, 'DELETE', f'/api/recordings/{rec_id}')
+
+
+def test_recordings_dir_without_recording_from_start_up(start_gateway, tmp_path):
+    """--recordings-dir says where recordings go and records nothing by itself (--record does both)."""
+    folder = tmp_path / 'class recordings'
+    gw = start_gateway('--robot', 'turtlesim', '--recordings-dir', str(folder))
+    assert api(gw, 'GET', '/api/recordings')[1]['recordings'] == []
+    done = record(gw, ['/turtle1/pose'], 0.5)
+    assert done['state'] == 'done', done
+    assert len(list(folder.rglob('*.mcap'))) == 1

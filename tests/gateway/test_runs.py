@@ -346,6 +346,30 @@ def test_run_takes_the_lease_when_it_starts(auth_gw):
         alice.close()
 
 
+def test_her_own_run_takes_her_lease_and_gives_it_back(auth_gw):
+    """Run on robot while she drives: no Release first; when the run ends she drives again."""
+    gw = auth_gw
+    alice = signed_in(gw, 'operator')
+    try:
+        drivers = follow(alice, '/rosgate/driver')
+        roslibpy.Topic(alice, '/rosgate/control', 'std_msgs/msg/String').publish(roslibpy.Message({'data': 'take'}))
+        seen: list = []
+        wait_for(lambda: (lambda d: d and d[-1] and d[-1]['name'] == 'alice')(drivers_seen(drivers, seen)), 10)
+        quiet = program('rt.log("holding")\nrt.wait_for_message("/run_test/done2", "std_msgs/msg/String")')
+        status, body = api(gw, 'POST', '/api/runs', {'source': quiet}, token=TOKENS['operator'])
+        assert status == 201, body
+        run_id = body['id']
+        wait_for(lambda: (lambda d: d[-1] and d[-1]['name'] == f'run {run_id}')(drivers_seen(drivers, seen)), 30)
+        wait_for_subscriber(alice, '/run_test/done2')
+        roslibpy.Topic(alice, '/run_test/done2', 'std_msgs/msg/String').publish(roslibpy.Message({'data': 'done'}))
+        final = ended(gw, run_id, token=TOKENS['viewer'])
+        assert final['state'] == 'finished' and 'driver lease' not in final['output'], final
+        wait_for(lambda: (lambda d: d and d[-1] and d[-1]['name'] == 'alice')(drivers_seen(drivers, seen)), 10)
+    finally:
+        roslibpy.Topic(alice, '/rosgate/control', 'std_msgs/msg/String').publish(roslibpy.Message({'data': 'release'}))
+        alice.close()
+
+
 def test_a_child_left_behind_does_not_keep_the_run_going(runs_gw):
     marker = f'rosgate-test-{uuid.uuid4().hex}'
     run_id = start(runs_gw, program(f'''

@@ -52,7 +52,7 @@ def test_fresh_teleop_claims_a_free_station_and_spares_a_held_one(fleet, chromiu
         # the teacher stops /s02 (no --auth: anyone may): the page says so, its keys stay refused
         # until its driver presses Take
         roslibpy.Topic(zed, "/rosgate/control", "std_msgs/msg/String").publish(roslibpy.Message({"data": "stop /s02"}))
-        page.wait_for_function("/teacher stopped/.test(document.querySelector('#notice').textContent)")
+        page.wait_for_function("/Stopped by the teacher/.test(document.querySelector('#notice').textContent)")
         n02 = len(cmd["/s02"].messages)
         page.keyboard.down("ArrowUp")
         page.wait_for_function("/stopped \\/s02; send \"take \\/s02\"/.test(document.querySelector('#notice').textContent)")

@@ -94,9 +94,12 @@ def test_fleet_claim_runs_the_program_on_the_claimed_robot(start_gateway, ide_fa
     ide = ide_factory(gw, url=gw.http_url + "?ns=/s02")
     page = ide.page
     assert ide.js("rosgateIde.world.topic") == "/s02/world/markers"
-    page.wait_for_function("!document.querySelector('#claim').hidden")
-    page.click("#claim")
-    page.wait_for_function("rosgateIde.ns === '/s01'")
+    page.wait_for_function("!document.querySelector('#claim').hidden && rosgateIde.robotNs.mine === '/s02'")
+    page.click("#claim")                                  # this browser's station is /s02 already
+    page.wait_for_function("rosgateIde.robotNs.mine === '/s02'")
+    page.fill("#ns", "/s01")                              # another free one: /s02 is given back
+    page.dispatch_event("#ns", "change")
+    page.wait_for_function("rosgateIde.ns === '/s01' && rosgateIde.robotNs.mine === '/s01'")
     assert page.input_value("#ns") == "/s01" and page.url.endswith("?ns=/s01")
     assert ide.js("rosgateIde.world.topic") == "/s01/world/markers"
     page.wait_for_function("(rosgateIde.world.summary().robots || 0) === 1")

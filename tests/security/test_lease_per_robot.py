@@ -98,7 +98,8 @@ class Graph:
 
 
 def test_stations_are_the_namespaces_of_robot_nodes():
-    from gateway.rules.lease import find_stations, glob_group
+    from gateway.rules.lease import glob_group
+    from gateway.rules.stations import find_stations
     stamped = 'geometry_msgs/msg/TwistStamped'
     graph = Graph({
         '/robot1/cmd_vel': (TWIST, ['/robot1/base_controller']),

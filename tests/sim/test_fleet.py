@@ -5,6 +5,7 @@ This gateway runs at --sim-speed 2: two simulated seconds per real second.
 
 from __future__ import annotations
 
+import json
 
 import pytest
 import roslibpy
@@ -26,26 +27,39 @@ def claim(ros) -> dict:
     return call(ros, '/fleet/claim', 'std_srvs/srv/Trigger')
 
 
+def owners(ros) -> list[str]:
+    box = []
+    topic = roslibpy.Topic(ros, '/rosgate/stations', 'std_msgs/msg/String')
+    topic.subscribe(lambda m: box.append(json.loads(m['data'])))
+    wait_for(lambda: box, 5)
+    topic.unsubscribe()
+    return sorted(box[-1]['owners'])
+
+
 def test_claiming_a_station(ros, fleet_gw):
+    """The gateway hands stations out (gateway/rules/stations.py): one per person, here per connection."""
     call(ros, '/fleet/release_all', 'std_srvs/srv/Empty')
     assert claim(ros) == {'success': True, 'message': '/s01'}
-    assert claim(ros) == {'success': True, 'message': '/s02'}
-    assert roslibpy.Param(ros, '/fleet:claimed').get(timeout=5) == ['/s01', '/s02']
-    assert call(ros, '/s01/fleet/release', 'std_srvs/srv/Trigger')['success'] is True
-    assert call(ros, '/s01/fleet/release', 'std_srvs/srv/Trigger')['success'] is False
-    assert claim(ros)['message'] == '/s01'
+    assert claim(ros) == {'success': True, 'message': '/s01'}      # the same client keeps its station
     with client(fleet_gw) as other:
+        assert claim(other) == {'success': True, 'message': '/s02'}
+        assert owners(ros) == ['/s01', '/s02']
+        assert call(other, '/s02/fleet/release', 'std_srvs/srv/Trigger')['success'] is True
+        assert call(other, '/s02/fleet/release', 'std_srvs/srv/Trigger')['success'] is False
         # a station someone already drives or watches is not handed out
-        poses = Inbox(other, '/s03/turtle1/pose', 'turtlesim/msg/Pose')
+        poses = Inbox(other, '/s02/turtle1/pose', 'turtlesim/msg/Pose')
         poses.wait()
-        refused = claim(ros)
-        assert refused['success'] is False and 'claimed' in refused['message']
-        # the overview of every world view does not count as using a station
-        poses.close()
-        Inbox(other, '/s03/world/markers', 'visualization_msgs/msg/MarkerArray').wait()
-        assert claim(ros) == {'success': True, 'message': '/s03'}
+        with client(fleet_gw) as third:
+            assert claim(third) == {'success': True, 'message': '/s03'}
+            with client(fleet_gw) as fourth:
+                refused = claim(fourth)
+                assert refused['success'] is False and 'taken' in refused['message']
+                # the overview of every world view does not count as using a station
+                poses.close()
+                Inbox(other, '/s02/world/markers', 'visualization_msgs/msg/MarkerArray').wait()
+                assert claim(fourth) == {'success': True, 'message': '/s02'}
     call(ros, '/fleet/release_all', 'std_srvs/srv/Empty')
-    assert roslibpy.Param(ros, '/fleet:claimed').get(timeout=5) == []
+    assert owners(ros) == []
 
 
 def test_every_station_has_its_own_robots(ros):

@@ -28,9 +28,14 @@ async def _call(s: ClientSession, op: CallService) -> None:
     name = absolute(op.service)
     reply = {'op': 'service_response', 'service': op.service, 'id': op.id}
     try:
+        own = s.gateway.own_services.get(name)
         if rosapi.handles(name):
             values = await rosapi.call(s, name, op.args)
             srv = None
+        elif own is not None:   # answered by the gateway, knowing who asks (a station's claim)
+            type, answer = own
+            srv = s.backend.srv_def(type)
+            values = answer(s, from_args(s.backend.defs, srv.request, op.args))
         else:
             type = normalize(op.type, 'srv') if op.type else await service_type(s, name)
             srv = s.backend.srv_def(type)
@@ -50,6 +55,8 @@ async def _call(s: ClientSession, op: CallService) -> None:
 
 async def service_type(s: ClientSession, name: str) -> str:
     """The type of a service with a server (one just created may take a moment to be discovered)."""
+    if name in s.gateway.own_services:
+        return s.gateway.own_services[name][0]
     types = await s.backend.wait_for_service(name, SERVER_WAIT)
     if not types:
         raise BackendError(f'service {name} does not exist')
@@ -58,7 +65,7 @@ async def service_type(s: ClientSession, name: str) -> str:
 
 def advertise_service(s: ClientSession, op: AdvertiseService) -> None:
     name = absolute(op.service)
-    if rosapi.handles(name):   # calls would still reach the gateway; listings would show it twice
+    if rosapi.handles(name) or name in s.gateway.own_services:   # calls would still reach the gateway
         raise ProtocolError(f'{name} is served by the gateway itself', op=op.OP, id=op.id)
     type = normalize(op.type, 'srv')
     srv = s.backend.srv_def(type)

@@ -5,7 +5,7 @@ Options (added by ``add_arguments``):
   --world NAME|PATH                the rover's world: ``arena``, ``maze`` or a JSON file (world.py).
   --twist-stamped                  the rover's ``cmd_vel`` is geometry_msgs/msg/TwistStamped.
   --fleet N                        N stations ``/s01`` .. ``/sNN``, each its own world and robots,
-                                   claimed through ``/fleet/claim`` (see fleet.py).
+                                   handed out by the gateway (``/fleet/claim``).
   --sim-speed F                    test-only: simulated seconds per real second (default 1.0).
 
 World view: every station publishes ``world/markers`` (visualization_msgs/msg/MarkerArray,
@@ -33,7 +33,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                        help="the rover's cmd_vel is geometry_msgs/msg/TwistStamped instead of Twist")
     group.add_argument('--fleet', type=int, default=0, metavar='N',
                        help='N namespaced stations /s01../sNN, each with its own robots; '
-                            'clients claim one with the /fleet/claim service')
+                            'people claim one with the /fleet/claim service')
     group.add_argument('--sim-speed', type=float, default=1.0, metavar='F',
                        help='simulation speed factor, for tests (default: 1.0, real time)')
 

@@ -2,28 +2,18 @@
 
 With ``--fleet N`` the gateway runs N stations, ``/s01`` .. ``/sNN``, each with its own world and
 its own copy of every selected robot (``/s07/turtle1/cmd_vel``, ``/s07/spawn``, ``/s07/cmd_vel``,
-``/s07/world/markers``, ...). A client claims one by calling ``/fleet/claim``
-(std_srvs/srv/Trigger): ``success`` true and ``message`` the namespace, e.g. "/s07", the lowest
-one neither claimed nor in use; ``success`` false when all are taken. It gives it back with
-``<namespace>/fleet/release`` (std_srvs/srv/Trigger), or the teacher frees all with
-``/fleet/release_all`` (std_srvs/srv/Empty). A station is "in use" while a client publishes on
-one of its topics or subscribes to one other than ``world/markers`` and ``rosgate/program`` (the
-teacher's overview of all stations watches those); a claim lapses once its station has not been in use for ``CLAIM_GRACE`` seconds.
-The ``/fleet`` node's parameters ``namespaces`` and ``claimed`` list the stations and the claims.
-Nothing is enforced: the teacher (and anyone) sees and can drive every station.
+``/s07/world/markers``, ...). The ``/fleet`` node's parameter ``namespaces`` lists them. Who may use
+which station is the gateway's business, not the robots': the gateway hands stations out to people
+(``/fleet/claim``, see ``gateway/rules/stations.py``).
+The robots enforce nothing: with --exclusive-control the gateway lets only the station's person drive it.
 """
 
 from __future__ import annotations
-
-import time
 
 from . import markers as mk
 from .rover import Rover
 from .turtlesim import Turtlesim
 from .world import World
-
-CLAIM_GRACE = 60.0
-CHECK_PERIOD = 5.0
 
 
 class FramedHub:
@@ -84,63 +74,12 @@ class Station:
 
 
 class Fleet:
-    """Hands out stations to clients (see the module docstring)."""
+    """The stations' names, for anyone who asks the graph (see the module docstring)."""
 
     def __init__(self, graph, namespaces: list[str]):
         self.graph, self.namespaces = graph, namespaces
-        self.claims: dict[str, float] = {}       # namespace -> last time it was claimed or in use
         self.node = graph.node('fleet')
         self.node.declare_parameter('namespaces', list(namespaces))
-        self.node.declare_parameter('claimed', [])
-        self.node.create_service('/fleet/claim', 'std_srvs/srv/Trigger', self.on_claim)
-        self.node.create_service('/fleet/release_all', 'std_srvs/srv/Empty', self.on_release_all)
-        for ns in namespaces:
-            self.node.create_service(f'{ns}/fleet/release', 'std_srvs/srv/Trigger',
-                                     lambda req, ns=ns: self.on_release(ns))
-        self.node.create_timer(CHECK_PERIOD, self.expire)
 
     def destroy(self) -> None:
         self.node.destroy()
-
-    def in_use(self, namespace: str) -> bool:
-        """Whether a node outside the station publishes on one of its topics or subscribes to
-        one (other than the world view and the program report, which the teacher's view watches)."""
-        prefix = namespace + '/'
-        watched = (prefix + 'world/markers', prefix + 'rosgate/program')
-        for topic in self.graph.topic_entries():
-            if topic.name.startswith(prefix):
-                endpoints = topic.publishers if topic.name in watched else (*topic.publishers, *topic.subscriptions)
-                if any(not e.node.name.startswith(prefix) for e in endpoints):
-                    return True
-        return False
-
-    def on_claim(self, req: dict) -> dict:
-        for ns in self.namespaces:
-            if ns not in self.claims and not self.in_use(ns):
-                self.claims[ns] = time.monotonic()
-                self._publish_claims()
-                return {'success': True, 'message': ns}
-        return {'success': False, 'message': f'all {len(self.namespaces)} stations are claimed or in use'}
-
-    def on_release(self, ns: str) -> dict:
-        if self.claims.pop(ns, None) is None:
-            return {'success': False, 'message': f'{ns} was not claimed'}
-        self._publish_claims()
-        return {'success': True, 'message': ns}
-
-    def on_release_all(self, req: dict) -> dict:
-        self.claims.clear()
-        self._publish_claims()
-        return {}
-
-    def expire(self) -> None:
-        now = time.monotonic()
-        for ns, since in list(self.claims.items()):
-            if self.in_use(ns):
-                self.claims[ns] = now
-            elif now - since > CLAIM_GRACE:
-                del self.claims[ns]
-                self._publish_claims()
-
-    def _publish_claims(self) -> None:
-        self.node.params['claimed'] = sorted(self.claims)
