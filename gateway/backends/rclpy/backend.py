@@ -25,6 +25,7 @@ from . import params as rclpy_params
 from ..base import ActionServerCallbacks, BackendError, Message, NodeInfo, QoS, ServiceTimeout
 from .actions import RclpyActionServer, send_goal
 from .cdr import Slow
+from .graphtypes import GraphTypes
 from .pump import Pump, ServiceCaller, ServiceServer, TopicReader
 from .types import Converter, RosDefinitions
 
@@ -226,6 +227,7 @@ class RclpyBackend:
         self._executor.add_node(self.node)
         self._thread = threading.Thread(target=self._spin, name='rosgate-rclpy', daemon=True)
         self._thread.start()
+        self.defs.graph = GraphTypes(self.node, self._thread, self.defs)    # types the install lacks
         self.pump = Pump(self._context, self.loop, scope=lambda: self.batch_scope())
         self.pump.start()
 
@@ -328,7 +330,10 @@ class RclpyBackend:
 
     def to_cdr(self, type: str, msg: Message) -> bytes:
         from rclpy.serialization import serialize_message  # noqa: PLC0415
-        return serialize_message(self.convert.from_dict(self.defs.msg_class(type), msg))
+        cls = self.defs.msg_class(type)
+        if getattr(cls, 'raw_only', False):     # described by the graph: no class
+            return self.convert.cdr_writer(cls)(msg)
+        return serialize_message(self.convert.from_dict(cls, msg))
 
     # --- topics -------------------------------------------------------------------------------
 

@@ -16,9 +16,10 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from protocol.msgdefs import ActionDef, Definitions, Field, MsgDef, SrvDef, UnknownType, normalize
+from protocol.msgdefs import ActionDef, Definitions, Field, MsgDef, SrvDef, UnknownType, normalize, parse_msg
 
 from . import cdr as rclpy_cdr
+from .rawtype import is_raw
 
 # IDL names (as get_fields_and_field_types() reports them) -> .msg primitive names
 IDL_PRIMITIVES = {
@@ -104,11 +105,14 @@ def import_type(full: str, kind: str):
 
 
 class RosDefinitions(Definitions):
-    """Definitions resolved on demand from the installed generated classes."""
+    """Definitions resolved on demand from the installed generated classes, and (once the backend
+    has a node) message types the install lacks from the graph (``graph``: graphtypes.GraphTypes)."""
 
     def __init__(self) -> None:
         super().__init__()
         self._classes: dict[str, Any] = {}
+        self.graph = None
+        self.described: set[str] = set()    # message types known from the graph, not installed
 
     def msg(self, name: str) -> MsgDef:
         try:
@@ -121,8 +125,30 @@ class RosDefinitions(Definitions):
             getattr(self, parts[1])(whole)
             return super().msg(name)
         full = normalize(name, 'msg')
-        self._add(full, self.msg_class(full))
+        try:
+            cls = self.msg_class(full)
+        except UnknownType:
+            if self.graph is None:
+                raise
+            self._add_described(full)
+            return self._msgs[full]
+        self._add(full, cls)
         return self._msgs[full]
+
+    def _add_described(self, full: str) -> None:
+        """A type the install lacks, with every type it references, from the graph's texts."""
+        texts = self.graph.describe(full).texts
+        new = []
+        for name, text in texts.items():
+            if name in self._msgs or (name != full and _installed(name)):
+                continue
+            self._msgs[name] = parse_msg(name, text)
+            self.described.add(name)
+            new.append(self._msgs[name])
+        for msgdef in new:     # installed types it references resolve as usual
+            for f in msgdef.fields:
+                if not f.primitive:
+                    self.msg(f.type)
 
     def srv(self, name: str) -> SrvDef:
         try:
@@ -148,7 +174,7 @@ class RosDefinitions(Definitions):
         return action
 
     def interfaces(self) -> list[str]:
-        return installed_interfaces()
+        return sorted({*installed_interfaces(), *self.described})
 
     # classes
     def msg_class(self, full: str):
@@ -163,7 +189,11 @@ class RosDefinitions(Definitions):
     def _class(self, full: str, kind: str):
         cls = self._classes.get(full)
         if cls is None:
-            cls = self._classes[full] = import_type(full, kind)
+            if full in self.described:
+                cls = self.graph.type_support(full)     # CDR only: see rawtype
+            else:
+                cls = import_type(full, kind)
+            self._classes[full] = cls
         return cls
 
     def _part(self, name: str, cls) -> MsgDef:
@@ -178,6 +208,14 @@ class RosDefinitions(Definitions):
         for f in msgdef.fields:
             if not f.primitive and f.type not in self._msgs:
                 self.msg(f.type)
+
+
+def _installed(full: str) -> bool:
+    try:
+        import_type(full, 'msg')
+    except UnknownType:
+        return False
+    return True
 
 
 def msgdef_of(name: str, cls) -> MsgDef:
@@ -239,12 +277,18 @@ class Converter:
         return out
 
     def cdr_reader(self, cls):
-        """CDR bytes -> the dict to_dict makes (raising rclpy_cdr.Slow where it cannot), or None."""
+        """CDR bytes -> the dict to_dict makes (raising rclpy_cdr.Slow where it cannot), or None.
+        For a type described by the graph (no class): the whole decoder."""
+        if is_raw(cls):
+            return self._defs.graph.reader(cls.raw_type.type)
         return rclpy_cdr.reader(self._plan, cls)
 
     def cdr_writer(self, cls):
         """A dict -> the CDR bytes rclpy would publish for from_dict(cls, dict) (raising
-        rclpy_cdr.Slow for a dict it leaves to from_dict), or None."""
+        rclpy_cdr.Slow for a dict it leaves to from_dict), or None. For a type described by the
+        graph (no class): the whole encoder (raising ConversionError for bad values)."""
+        if is_raw(cls):
+            return self._defs.graph.writer(cls.raw_type.type)
         return rclpy_cdr.writer(self._plan, cls)
 
     def from_dict(self, cls, data: dict):
