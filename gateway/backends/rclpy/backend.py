@@ -24,6 +24,7 @@ from protocol.msgdefs import ActionDef, MsgDef, SrvDef, normalize
 from . import params as rclpy_params
 from ..base import ActionServerCallbacks, BackendError, Message, NodeInfo, QoS, ServiceTimeout
 from .actions import RclpyActionServer, send_goal
+from .build import Builder
 from .cdr import Slow
 from .graphtypes import GraphTypes
 from .pump import Pump, ServiceCaller, ServiceServer, TopicReader
@@ -175,15 +176,18 @@ class RclpyService:
 class RclpyBackend:
     """Backend over rclpy. ``ros_args``: ROS arguments (``['--ros-args', '-r', '__ns:=/robot']``);
     None reads them from ``sys.argv``. ``service_timeout``: how long a ROS caller of a service
-    served by the gateway waits for its answer, and a goal for its acceptance."""
+    served by the gateway waits for its answer, and a goal for its acceptance. ``interfaces``:
+    directories of ``<pkg>/<kind>/<Name>.<kind>`` texts for services and actions the install lacks,
+    built on first use into ``interface_cache`` (``build``)."""
 
     name = 'rclpy'
 
     def __init__(self, node_name: str = 'rosgate', *, ros_args: list[str] | None = None,
-                 service_timeout: float = 5.0):
+                 service_timeout: float = 5.0, interfaces: tuple = (), interface_cache=None):
         self.node_name = '/' + node_name.strip('/')
         self.service_timeout = service_timeout
-        self.defs = RosDefinitions()
+        self.defs = RosDefinitions(tuple(interfaces))
+        self.builder = Builder(self.defs, interface_cache)
         self.convert = Converter(self.defs)
         self._args = None if ros_args is None else ['rosgate', *ros_args]
         self.loop: asyncio.AbstractEventLoop | None = None
@@ -503,7 +507,7 @@ class RclpyBackend:
     async def call_service(self, service: str, type: str, request: Message, timeout: float) -> Message:
         full = normalize(type, 'srv')
         self.defs.srv(full)
-        cls = self.defs.srv_class(full)
+        cls = await self.builder.cls(full, 'srv', timeout)
         service = self.node.resolve_service_name(service)
         client = self._clients.get((service, full))
         # a client matched with a server needs no look at the graph: DDS matches only equal types
@@ -570,7 +574,7 @@ class RclpyBackend:
 
         full = normalize(type, 'action')
         self.defs.action(full)
-        cls = self.defs.action_class(full)
+        cls = await self.builder.cls(full, 'action', None)
         action = self.node.resolve_service_name(action)
         served = dict(self.actions()).get(action)
         if served is None:
