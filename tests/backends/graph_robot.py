@@ -5,20 +5,24 @@ Run as ``python graph_robot.py`` with ``build.env_with(prefixes)``. Publishes ``
 (rosgate_robot_msgs/msg/Status), ``/turtle1/pose`` (turtlesim/msg/Pose) and ``/tf``
 (tf2_msgs/msg/TFMessage) ten times a second; prints each ``/robot/cmd_wheel`` it hears as
 ``wheel {json}``; serves ``/robot/configure`` (rosgate_robot_msgs/srv/Configure) and ``/spawn``
-(turtlesim/srv/Spawn). Prints ``ready`` once up; stops on SIGTERM.
+(turtlesim/srv/Spawn), and the action ``/turtle1/rotate_absolute`` (turtlesim/action/RotateAbsolute:
+three feedbacks, then the result). Prints ``ready`` once up; stops on SIGTERM.
 """
 
 from __future__ import annotations
 
 import json
 import signal
+import time
 
 import rclpy
 from geometry_msgs.msg import TransformStamped
+from rclpy.action import ActionServer
 from rclpy.node import Node
 from rosgate_robot_msgs.msg import Status, Wheel
 from rosgate_robot_msgs.srv import Configure
 from tf2_msgs.msg import TFMessage
+from turtlesim.action import RotateAbsolute
 from turtlesim.msg import Pose
 from turtlesim.srv import Spawn
 
@@ -54,6 +58,7 @@ class Robot(Node):
         self.create_subscription(Wheel, '/robot/cmd_wheel', self.on_wheel, 10)
         self.create_service(Configure, '/robot/configure', self.on_configure)
         self.create_service(Spawn, '/spawn', self.on_spawn)
+        self.rotate = ActionServer(self, RotateAbsolute, '/turtle1/rotate_absolute', self.on_rotate)
         self.create_timer(0.1, self.tick)
 
     def tick(self) -> None:
@@ -80,6 +85,14 @@ class Robot(Node):
     def on_spawn(self, request, response):
         response.name = request.name or 'turtle2'
         return response
+
+    def on_rotate(self, goal):
+        theta = goal.request.theta
+        for remaining in (theta * 2 / 3, theta / 3, 0.0):
+            goal.publish_feedback(RotateAbsolute.Feedback(remaining=remaining))
+            time.sleep(0.05)
+        goal.succeed()
+        return RotateAbsolute.Result(delta=-theta)
 
 
 def main() -> None:

@@ -30,6 +30,7 @@ from tornado.websocket import websocket_connect
 from protocol.msgdefs import INTERFACES_DIR
 
 from .conftest import rclpy_missing
+from .support import until
 
 pytestmark = [
     pytest.mark.asyncio(loop_scope='session'),
@@ -220,7 +221,7 @@ async def test_tf_without_tf2_msgs(client):
     assert t['transform']['translation']['x'] == 0.5 and t['transform']['rotation']['w'] == 1.0
 
 
-async def test_the_robot_hears_what_a_client_publishes(client, robot):
+async def test_the_robot_hears_what_a_client_publishes(client, robot, caller):
     await seen(client, '/robot/cmd_wheel')
     await client.send({'op': 'advertise', 'topic': '/robot/cmd_wheel', 'type': WHEEL})
     loop = asyncio.get_running_loop()
@@ -234,6 +235,13 @@ async def test_the_robot_hears_what_a_client_publishes(client, robot):
         except AssertionError:
             assert loop.time() < deadline, 'the robot heard nothing'
     assert json.loads(line.partition(' ')[2]) == {'side': 1, 'speed': 3.5, 'label': 'from a browser'}
+
+    def endpoints():
+        infos = (caller.node.get_publishers_info_by_topic('/robot/cmd_wheel')
+                 + caller.node.get_subscriptions_info_by_topic('/robot/cmd_wheel'))
+        return infos if {i.node_name for i in infos} >= {'robot', 'rosgate'} else None
+    infos = await until(endpoints, 10, 'both endpoints named in the graph')
+    assert len({str(i.topic_type_hash) for i in infos}) == 1, 'the gateway\'s endpoint has another type hash'
 
 
 async def test_rosapi_describes_the_robots_types(client):
@@ -285,6 +293,27 @@ async def test_turtlesim_spawn_from_the_shipped_text(client):
     values = await built_call(client, '/spawn', 'turtlesim/srv/Spawn', {'x': 1.0, 'y': 2.0, 'theta': 0.0,
                                                                        'name': 'leonardo'})
     assert values == {'name': 'leonardo'}
+
+
+async def test_an_action_of_a_type_the_gateway_lacks_gives_feedback_and_result(client):
+    deadline = time.monotonic() + 20
+    while '/turtle1/rotate_absolute' not in (await client.rosapi('action_servers'))['action_servers']:
+        assert time.monotonic() < deadline, '/turtle1/rotate_absolute never appeared'
+        await asyncio.sleep(0.1)
+    started = time.monotonic()
+    await client.send({'op': 'send_action_goal', 'id': 'rotate', 'action': '/turtle1/rotate_absolute',
+                       'action_type': 'turtlesim/action/RotateAbsolute', 'args': {'theta': 1.5}, 'feedback': True})
+    feedback = []
+    while True:
+        msg = await client.expect(lambda m: m.get('id') == 'rotate', 600)
+        if msg['op'] == 'action_feedback':
+            feedback.append(msg['values']['remaining'])
+            continue
+        break
+    print(f'turtlesim/action/RotateAbsolute: first goal done in {time.monotonic() - started:.1f} s')
+    assert msg['op'] == 'action_result' and msg['result'] is True, msg
+    assert msg['status'] == 4 and msg['values'] == {'delta': -1.5}
+    assert feedback == [1.0, 0.5, 0.0]
 
 
 # --- without the robot ----------------------------------------------------------------------------

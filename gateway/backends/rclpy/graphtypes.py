@@ -29,7 +29,7 @@ import time
 from dataclasses import dataclass, field
 
 from protocol.cdr import from_cdr, to_cdr
-from protocol.msgdefs import Definitions, MsgDef, UnknownType, definition_text, normalize, parse_msg
+from protocol.msgdefs import Definitions, MsgDef, UnknownType, definition_text, normalize
 
 from . import cdr as rclpy_cdr
 from .rawtype import RawType
@@ -315,11 +315,6 @@ class GraphTypes:
         if types:
             store.register(types)
         return cdr_defs
-
-
-def parse_texts(texts: dict[str, str]) -> dict[str, MsgDef]:
-    """The definitions of described types, keyed by type."""
-    return {name: parse_msg(name, text) for name, text in texts.items()}
 
 
 def _fq(info) -> str:
