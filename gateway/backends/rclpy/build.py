@@ -256,6 +256,7 @@ class Builder:
         self.defs, self.cache_dir = defs, Path(cache_dir or DEFAULT_CACHE)
         self._builds: dict[str, asyncio.Future] = {}
         self._loaded: set[str] = set()
+        self._checked: set[tuple[str, str]] = set()       # (name, type) checked against the graph
 
     def files(self, pkg: str) -> dict[str, str]:
         """Everything known of pkg: the texts of its directories (the operator's win), then the
@@ -271,11 +272,16 @@ class Builder:
                 files.setdefault(f'msg/{short}.msg', text)
         return files
 
-    async def cls(self, full: str, kind: str, timeout: float | None):
-        """The generated class of a service or action type, built first if it must be."""
+    async def cls(self, full: str, kind: str, timeout: float | None, name: str | None = None):
+        """The generated class of a service or action type, built first if it must be; a built
+        one is checked once against what the server of ``name`` on the graph speaks."""
         get = getattr(self.defs, f'{kind}_class')
         if full not in self.defs.unbuilt:
-            return get(full)
+            cls = get(full)
+            if name is not None and full.split('/')[0] in self._loaded and (name, full) not in self._checked:
+                self.defs.graph.check_built(name, kind, cls)
+                self._checked.add((name, full))
+            return cls
         pkg = full.split('/')[0]
         task = self._builds.get(pkg)
         if task is None:
@@ -301,4 +307,4 @@ class Builder:
             self._loaded.add(pkg)
             load(prefix)
             self.defs.forget_classes(pkg)
-        return get(full)
+        return await self.cls(full, kind, timeout, name)

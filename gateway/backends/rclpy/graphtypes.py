@@ -32,7 +32,7 @@ from protocol.cdr import from_cdr, to_cdr
 from protocol.msgdefs import Definitions, MsgDef, UnknownType, definition_text, normalize
 
 from . import cdr as rclpy_cdr
-from .rawtype import RawType
+from .rawtype import RawType, type_hash
 
 log = logging.getLogger('rosgate.rclpy')
 
@@ -251,6 +251,24 @@ class GraphTypes:
         finally:
             for h in handles:
                 h.destroy_when_not_in_use()
+
+    def check_built(self, name: str, kind: str, cls) -> None:
+        """A service or action built here from texts against what its server on the graph speaks:
+        UnknownType when the request hashes differ (the text is not the robot's)."""
+        name = self.node.resolve_service_name(name)
+        if kind == 'srv':
+            topic, request = f'rq{name}Request', cls.Request
+        else:
+            topic, request = f'rq{name}/_action/send_goalRequest', cls.Impl.SendGoalService.Request
+        me = self.node.get_fully_qualified_name()
+        infos = (self.node.get_publishers_info_by_topic(topic, no_mangle=True)
+                 + self.node.get_subscriptions_info_by_topic(topic, no_mangle=True))
+        theirs = {hash_string(i.topic_type_hash) for i in infos if _fq(i) != me} - {''}
+        ours = type_hash(request)
+        if theirs and ours not in theirs:
+            raise UnknownType(f'{name}: the {kind} type built here from its text is not the one its server '
+                              f'speaks (request hash {ours[:15]}..., the graph has {sorted(h[:15] + "..." for h in theirs)}): '
+                              f'give the robot\'s own text with --interfaces')
 
     # --- CDR ----------------------------------------------------------------------------------
 

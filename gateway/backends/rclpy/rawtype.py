@@ -225,6 +225,18 @@ class RawType:
         return 'RIHS%02d_%s' % (self.hash.version, bytes(self.hash.value).hex())
 
 
+def type_hash(cls) -> str:
+    """'RIHS01_<hex>' of a message class's type support (a generated class or a RawType's)."""
+    py, _ = _runtime()
+    meta = cls.__class__
+    if meta._TYPE_SUPPORT is None:
+        meta.__import_type_support__()
+    ts = MessageTypeSupport.from_address(py.pointer(meta._TYPE_SUPPORT))
+    get = ctypes.CFUNCTYPE(ctypes.POINTER(TypeHash), ctypes.c_void_p)(ts.get_type_hash_func)
+    h = get(ctypes.addressof(ts)).contents
+    return 'RIHS%02d_%s' % (h.version, bytes(h.value).hex())
+
+
 def is_raw(cls) -> bool:
     """Whether cls is a RawType's class (no message objects: CDR only)."""
     return getattr(cls, 'raw_only', False) is True
