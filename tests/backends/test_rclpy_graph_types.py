@@ -35,6 +35,7 @@ from .support import until
 pytestmark = [
     pytest.mark.asyncio(loop_scope='session'),
     pytest.mark.skipif(rclpy_missing() is not None, reason='rclpy does not import here'),
+    pytest.mark.timeout(600),   # the first run builds the robot's three packages (2-3 minutes on 2 cores)
 ]
 
 HERE = Path(__file__).parent
@@ -361,3 +362,16 @@ async def test_a_service_built_from_another_text_is_refused(rclpy_backend, rclpy
     graph.check_built('/add_two_ints', 'srv', right)
     with pytest.raises(UnknownType, match='is not the one its server speaks'):
         graph.check_built('/add_two_ints', 'srv', Trigger)
+
+
+async def test_a_failed_self_test_says_what_is_needed(rclpy_backend, monkeypatch):
+    from gateway.backends.rclpy.graphtypes import GraphTypes
+    from protocol.msgdefs import UnknownType
+
+    def broken():
+        raise RuntimeError('no message came through a raw type support')
+    graph = GraphTypes(rclpy_backend.node, None, rclpy_backend.defs)
+    monkeypatch.setattr(graph, '_self_test', broken)
+    for _ in range(2):      # decided once, said every time
+        with pytest.raises(UnknownType, match=r"self-test failed \(no message came.*rosgate\[ros\]"):
+            graph.type_support('rosgate_robot_msgs/msg/Status')
