@@ -4,7 +4,7 @@ turtlesim, tf2_msgs) exist only in its own prefixes, which the gateway does not 
 Run as ``python graph_robot.py`` with ``build.env_with(prefixes)``. Publishes ``/robot/status``
 (rosgate_robot_msgs/msg/Status), ``/turtle1/pose`` (turtlesim/msg/Pose) and ``/tf``
 (tf2_msgs/msg/TFMessage) ten times a second; prints each ``/robot/cmd_wheel`` it hears as
-``wheel {json}``; serves ``/robot/configure`` (rosgate_robot_msgs/srv/Configure) and ``/spawn``
+``wheel {json}`` and each ``/robot/status_in`` (Status) as ``status {json}``; serves ``/robot/configure`` (rosgate_robot_msgs/srv/Configure) and ``/spawn``
 (turtlesim/srv/Spawn), and the action ``/turtle1/rotate_absolute`` (turtlesim/action/RotateAbsolute:
 three feedbacks, then the result). Prints ``ready`` once up; stops on SIGTERM.
 """
@@ -56,6 +56,7 @@ class Robot(Node):
         self.pose = self.create_publisher(Pose, '/turtle1/pose', 10)
         self.tf = self.create_publisher(TFMessage, '/tf', 10)
         self.create_subscription(Wheel, '/robot/cmd_wheel', self.on_wheel, 10)
+        self.create_subscription(Status, '/robot/status_in', self.on_status, 10)
         self.create_service(Configure, '/robot/configure', self.on_configure)
         self.create_service(Spawn, '/spawn', self.on_spawn)
         self.rotate = ActionServer(self, RotateAbsolute, '/turtle1/rotate_absolute', self.on_rotate)
@@ -73,6 +74,14 @@ class Robot(Node):
 
     def on_wheel(self, msg: Wheel) -> None:
         say('wheel', json.dumps({'side': msg.side, 'speed': msg.speed, 'label': msg.label}))
+
+    def on_status(self, msg: Status) -> None:
+        say('status', json.dumps({
+            'frame_id': msg.header.frame_id, 'mode': msg.mode,
+            'wheels': [[w.side, w.speed, w.label] for w in msg.wheels],
+            'spare': [[w.side, w.speed, w.label] for w in msg.spare], 'readings': list(msg.readings),
+            'blob': list(msg.blob), 'short_name': msg.short_name, 'small': list(msg.small), 'ok': msg.ok,
+            'x': msg.pose.position.x, 'w': msg.pose.orientation.w, 'count': msg.count}))
 
     def on_configure(self, request, response):
         response.success = True

@@ -247,10 +247,34 @@ async def test_the_robot_hears_what_a_client_publishes(client, robot, caller):
     assert len({str(i.topic_type_hash) for i in infos}) == 1, 'the gateway\'s endpoint has another type hash'
 
 
+async def test_the_robot_hears_a_nested_message_with_arrays(client, robot):
+    """Published through the codec's general path (arrays of messages: rosbags)."""
+    await seen(client, '/robot/status_in')
+    status = {'header': {'stamp': {'sec': 1, 'nanosec': 2}, 'frame_id': 'map'}, 'mode': 0,
+              'wheels': [{'side': 0, 'speed': 1.0, 'label': 'l'}, {'side': 1, 'speed': -1.0, 'label': 'r'}],
+              'spare': [{'side': 1, 'speed': 0.5, 'label': 's'}] * 2, 'readings': [0.25],
+              'blob': base64.b64encode(b'\x00\xff').decode(), 'short_name': 'c3po', 'small': [4, 5, 6],
+              'ok': False, 'pose': {'position': {'x': 2.0}}, 'count': 42}
+    await client.send({'op': 'advertise', 'topic': '/robot/status_in', 'type': STATUS})
+    loop = asyncio.get_running_loop()
+    deadline = loop.time() + 20
+    while True:
+        await client.send({'op': 'publish', 'topic': '/robot/status_in', 'msg': status})
+        try:
+            line = await loop.run_in_executor(None, robot.wait_line, lambda s: s.startswith('status '), 0.3)
+            break
+        except AssertionError:
+            assert loop.time() < deadline, 'the robot heard nothing'
+    assert json.loads(line.partition(' ')[2]) == {
+        'frame_id': 'map', 'mode': 0, 'wheels': [[0, 1.0, 'l'], [1, -1.0, 'r']], 'spare': [[1, 0.5, 's']] * 2,
+        'readings': [0.25], 'blob': [0, 255], 'short_name': 'c3po', 'small': [4, 5, 6], 'ok': False,
+        'x': 2.0, 'w': 1.0, 'count': 42}
+
+
 async def test_rosapi_describes_the_robots_types(client):
     await seen(client, '/robot/status')
     assert (await client.rosapi('topic_type', topic='/robot/status'))['type'] == STATUS
-    assert (await client.rosapi('topics_for_type', type=STATUS))['topics'] == ['/robot/status']
+    assert '/robot/status' in (await client.rosapi('topics_for_type', type=STATUS))['topics']
     typedefs = (await client.rosapi('message_details', type=STATUS))['typedefs']
     by_type = {t['type']: t for t in typedefs}
     status, wheel = by_type['rosgate_robot_msgs/Status'], by_type['rosgate_robot_msgs/Wheel']
