@@ -11,7 +11,9 @@ VENV_FLAGS := $(if $(ROS_DISTRO),--system-site-packages,)
 # The rclpy backend's contract suite runs against real rclpy (Jazzy builds from PyPI) in a separate
 # environment, inside a network namespace with only loopback: DDS discovery stays on this machine.
 ROSVENV  := .venv-ros
-# What the suite needs besides the project's [ros] extra (rclpy with Fast DDS, common_interfaces).
+# What the suite needs besides the project's [ros] and [ros-build] extras (rclpy with Fast DDS,
+# common_interfaces; the generators that build the test robot's interfaces and types on first use),
+# and a robot on Cyclone DDS for the cross-vendor test.
 ROS_TEST_PKGS := ros-jazzy-test-msgs==2.0.3 cyclonedds==11.0.1 pytest pytest-asyncio pytest-timeout hypothesis
 
 system:
@@ -54,7 +56,7 @@ test: system-test install-test ide tests/node/node_modules/.installed $(ROSVENV)
 
 $(ROSVENV)/.installed: pyproject.toml Makefile
 	$(PYTHON) -m venv $(ROSVENV)
-	$(ROSVENV)/bin/pip install -q -e '.[ros]' $(ROS_TEST_PKGS)
+	$(ROSVENV)/bin/pip install -q -e '.[ros,ros-build]' $(ROS_TEST_PKGS)
 	touch $@
 
 test-rclpy: $(ROSVENV)/.installed

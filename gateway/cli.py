@@ -68,6 +68,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help='auto: rclpy when it imports, else the embedded sim [%(default)s]')
     b.add_argument('--node-name', default=d.node_name,
                    help='the gateway node name [rosgate_<host>_<port>: gateways on one graph differ]')
+    b.add_argument('--interfaces', type=Path, action='append', default=[], metavar='DIR',
+                   help='rclpy: <pkg>/srv/<Name>.srv (and action, msg) texts of services and actions '
+                        'this machine lacks; built on first use (repeatable)')
+    b.add_argument('--interface-cache', type=Path, metavar='DIR',
+                   help='rclpy: where interfaces built on first use are kept [~/.cache/rosgate/interfaces]')
     b.add_argument('--talker', action='store_true', help='sim: publish /chatter once a second')
     b.add_argument('--fibonacci-interval', type=float, default=1.0,
                    help='sim: seconds between /fibonacci steps [%(default)s]')
@@ -151,7 +156,8 @@ def make_backend(args: argparse.Namespace, ros_args: list[str], node_name: str):
         except ImportError:
             choice = 'sim'
     if choice == 'rclpy':
-        return RclpyBackend(node_name=node_name, ros_args=ros_args)
+        return RclpyBackend(node_name=node_name, ros_args=ros_args, interfaces=tuple(args.interfaces),
+                            interface_cache=args.interface_cache)
     return SimBackend(node_name=node_name, talker=args.talker,
                       fibonacci_interval=args.fibonacci_interval, robots=robots.specs_from_args(args))
 

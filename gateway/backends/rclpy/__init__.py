@@ -2,8 +2,9 @@
 
 ``backend`` (the node, its graph queries and entities), ``pump`` (the thread that waits on the
 gateway's rcl entities and hands batches to the loop), ``cdr`` (a per-type CDR reader and writer),
-``types`` (definitions and converters of the installed interface packages), ``actions`` and
-``params``. rclpy is imported when the backend starts, so importing this package works without ROS.
+``types`` (definitions and converters of the installed interface packages), ``graphtypes`` and
+``rawtype`` (message types the install lacks, described by the graph, moved as CDR), ``build``
+(service and action types the install lacks, built on first use), ``actions`` and ``params``. rclpy is imported when the backend starts, so importing this package works without ROS.
 """
 
 from .backend import RclpyBackend

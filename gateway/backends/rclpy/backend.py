@@ -24,7 +24,9 @@ from protocol.msgdefs import ActionDef, MsgDef, SrvDef, normalize
 from . import params as rclpy_params
 from ..base import SERVER_WAIT, ActionServerCallbacks, BackendError, Message, NodeInfo, QoS, ServiceTimeout
 from .actions import RclpyActionServer, send_goal
+from .build import Builder
 from .cdr import Slow
+from .graphtypes import GraphTypes
 from .pump import Pump, ServiceCaller, ServiceServer, TopicReader
 from .types import Converter, RosDefinitions
 
@@ -179,15 +181,18 @@ class RclpyService:
 class RclpyBackend:
     """Backend over rclpy. ``ros_args``: ROS arguments (``['--ros-args', '-r', '__ns:=/robot']``);
     None reads them from ``sys.argv``. ``service_timeout``: how long a ROS caller of a service
-    served by the gateway waits for its answer, and a goal for its acceptance."""
+    served by the gateway waits for its answer, and a goal for its acceptance. ``interfaces``:
+    directories of ``<pkg>/<kind>/<Name>.<kind>`` texts for services and actions the install lacks,
+    built on first use into ``interface_cache`` (``build``)."""
 
     name = 'rclpy'
 
     def __init__(self, node_name: str = 'rosgate', *, ros_args: list[str] | None = None,
-                 service_timeout: float = 5.0):
+                 service_timeout: float = 5.0, interfaces: tuple = (), interface_cache=None):
         self.node_name = '/' + node_name.strip('/')
         self.service_timeout = service_timeout
-        self.defs = RosDefinitions()
+        self.defs = RosDefinitions(tuple(interfaces))
+        self.builder = Builder(self.defs, interface_cache)
         self.convert = Converter(self.defs)
         self._args = None if ros_args is None else ['rosgate', *ros_args]
         self.loop: asyncio.AbstractEventLoop | None = None
@@ -231,6 +236,7 @@ class RclpyBackend:
         self._executor.add_node(self.node)
         self._thread = threading.Thread(target=self._spin, name='rosgate-rclpy', daemon=True)
         self._thread.start()
+        self.defs.graph = GraphTypes(self.node, self._thread, self.defs)    # types the install lacks
         self.pump = Pump(self._context, self.loop, scope=lambda: self.batch_scope())
         self.pump.start()
 
@@ -337,7 +343,10 @@ class RclpyBackend:
 
     def to_cdr(self, type: str, msg: Message) -> bytes:
         from rclpy.serialization import serialize_message  # noqa: PLC0415
-        return serialize_message(self.convert.from_dict(self.defs.msg_class(type), msg))
+        cls = self.defs.msg_class(type)
+        if getattr(cls, 'raw_only', False):     # described by the graph: no class
+            return self.convert.cdr_writer(cls)(msg)
+        return serialize_message(self.convert.from_dict(cls, msg))
 
     # --- entities -----------------------------------------------------------------------------
 
@@ -352,6 +361,7 @@ class RclpyBackend:
         profile = profile if profile is not None else qos_profile_services_default
         with self.node.handle:
             return getattr(self._rclpy, kind)(self.node.handle, cls, name, profile.get_c_qos_profile())
+
 
     # --- topics -------------------------------------------------------------------------------
 
@@ -510,7 +520,7 @@ class RclpyBackend:
     async def call_service(self, service: str, type: str, request: Message, timeout: float) -> Message:
         full = normalize(type, 'srv')
         self.defs.srv(full)
-        cls = self.defs.srv_class(full)
+        cls = await self.builder.cls(full, 'srv', timeout, service)
         service = self.node.resolve_service_name(service)
         client = self._clients.get((service, full))
         # a client matched with a server needs no look at the graph: DDS matches only equal types
@@ -577,7 +587,7 @@ class RclpyBackend:
 
         full = normalize(type, 'action')
         self.defs.action(full)
-        cls = self.defs.action_class(full)
+        cls = await self.builder.cls(full, 'action', None, action)
         action = self.node.resolve_service_name(action)
         status = f'{action}/_action/status'     # published by an action's servers only
         await self._until(lambda: self.node.count_publishers(status) > 0, SERVER_WAIT)

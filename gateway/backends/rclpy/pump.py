@@ -74,7 +74,8 @@ class TopicReader(Entity):
             try:
                 return self._decode(data)
             except Exception:  # noqa: BLE001 (cdr.Slow, or a malformed message: rclpy decides)
-                pass
+                if getattr(self.msg_type, 'raw_only', False):
+                    raise       # a type described by the graph: no class to decode with
         from rclpy.serialization import deserialize_message  # noqa: PLC0415
         return self._convert(deserialize_message(data, self.msg_type))
 

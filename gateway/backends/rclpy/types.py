@@ -16,9 +16,12 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from protocol.msgdefs import ActionDef, Definitions, Field, MsgDef, SrvDef, UnknownType, normalize
+from protocol.msgdefs import (
+    INTERFACES_DIR, ActionDef, Definitions, Field, MsgDef, SrvDef, UnknownType, normalize, parse_msg,
+)
 
 from . import cdr as rclpy_cdr
+from .rawtype import is_raw
 
 # IDL names (as get_fields_and_field_types() reports them) -> .msg primitive names
 IDL_PRIMITIVES = {
@@ -104,11 +107,18 @@ def import_type(full: str, kind: str):
 
 
 class RosDefinitions(Definitions):
-    """Definitions resolved on demand from the installed generated classes."""
+    """Definitions resolved on demand from the installed generated classes, and (once the backend
+    has a node) message types the install lacks from the graph (``graph``: graphtypes.GraphTypes)."""
 
-    def __init__(self) -> None:
+    def __init__(self, text_dirs: tuple[Path, ...] = ()) -> None:
+        """text_dirs: where ``<pkg>/<kind>/<Name>.<kind>`` texts of services and actions the
+        install lacks are found (the operator's first, then the ones rosgate ships)."""
         super().__init__()
         self._classes: dict[str, Any] = {}
+        self.graph = None
+        self.text_dirs = (*map(Path, text_dirs), INTERFACES_DIR)
+        self.described: dict[str, str] = {}     # message types known from the graph -> .msg text
+        self.unbuilt: set[str] = set()          # srv/action types known from texts, not installed
 
     def msg(self, name: str) -> MsgDef:
         try:
@@ -121,15 +131,40 @@ class RosDefinitions(Definitions):
             getattr(self, parts[1])(whole)
             return super().msg(name)
         full = normalize(name, 'msg')
-        self._add(full, self.msg_class(full))
+        try:
+            cls = self.msg_class(full)
+        except UnknownType:
+            if self.graph is None:
+                raise
+            self._add_described(full)
+            return self._msgs[full]
+        self._add(full, cls)
         return self._msgs[full]
+
+    def _add_described(self, full: str) -> None:
+        """A type the install lacks, with every type it references, from the graph's texts."""
+        texts = self.graph.describe(full).texts
+        new = []
+        for name, text in texts.items():
+            if name in self._msgs or (name != full and _installed(name)):
+                continue
+            self._msgs[name] = parse_msg(name, text)
+            self.described[name] = text
+            new.append(self._msgs[name])
+        for msgdef in new:     # installed types it references resolve as usual
+            for f in msgdef.fields:
+                if not f.primitive:
+                    self.msg(f.type)
 
     def srv(self, name: str) -> SrvDef:
         try:
             return super().srv(name)
         except UnknownType:
             full = normalize(name, 'srv')
-        cls = self.srv_class(full)
+        try:
+            cls = self.srv_class(full)
+        except UnknownType:
+            return self._from_text(full, 'srv')
         srv = SrvDef(full, self._part(f'{full}_Request', cls.Request),
                      self._part(f'{full}_Response', cls.Response))
         self._srvs[full] = srv
@@ -140,15 +175,53 @@ class RosDefinitions(Definitions):
             return super().action(name)
         except UnknownType:
             full = normalize(name, 'action')
-        cls = self.action_class(full)
+        try:
+            cls = self.action_class(full)
+        except UnknownType:
+            return self._from_text(full, 'action')
         action = ActionDef(full, self._part(f'{full}_Goal', cls.Goal),
                            self._part(f'{full}_Result', cls.Result),
                            self._part(f'{full}_Feedback', cls.Feedback))
         self._actions[full] = action
         return action
 
+    def text(self, full: str, kind: str) -> str | None:
+        """The text of an interface from the text directories, or None."""
+        pkg, _, name = full.split('/')
+        for root in self.text_dirs:
+            path = Path(root, pkg, kind, f'{name}.{kind}')
+            if path.is_file():
+                return path.read_text()
+        return None
+
+    def _from_text(self, full: str, kind: str):
+        """A service or action the install lacks, from its text (rosgate's, or the operator's
+        --interfaces directory); the messages it uses resolve as usual (installed, or the graph).
+        Calling it needs its package built (``build.Builder``)."""
+        text = self.text(full, kind)
+        if text is None:
+            raise UnknownType(
+                f'unknown {kind} type {full!r}: it is not installed here, no {kind} text of it is in '
+                f'{", ".join(map(str, self.text_dirs))}, and the ROS graph cannot describe '
+                f'{"services" if kind == "srv" else "actions"}: install its package, or name a '
+                f'directory holding <pkg>/{kind}/<Name>.{kind} with --interfaces')
+        whole = getattr(Definitions(), f'add_{kind}')(full, text)
+        for part in (whole.request, whole.response) if kind == 'srv' else (whole.goal, whole.result, whole.feedback):
+            for f in part.fields:
+                if not f.primitive:
+                    self.msg(f.type)
+        (self._srvs if kind == 'srv' else self._actions)[full] = whole
+        self.unbuilt.add(full)
+        return whole
+
+    def forget_classes(self, pkg: str) -> None:
+        """A package was built and loaded: its types take the generated classes from now on."""
+        for full in [f for f in self._classes if f.startswith(pkg + '/')]:
+            del self._classes[full]
+        self.unbuilt = {f for f in self.unbuilt if not f.startswith(pkg + '/')}
+
     def interfaces(self) -> list[str]:
-        return installed_interfaces()
+        return sorted({*installed_interfaces(), *self.described})
 
     # classes
     def msg_class(self, full: str):
@@ -163,7 +236,13 @@ class RosDefinitions(Definitions):
     def _class(self, full: str, kind: str):
         cls = self._classes.get(full)
         if cls is None:
-            cls = self._classes[full] = import_type(full, kind)
+            try:
+                cls = import_type(full, kind)
+            except UnknownType:
+                if full not in self.described:
+                    raise
+                cls = self.graph.type_support(full)     # CDR only: see rawtype
+            self._classes[full] = cls
         return cls
 
     def _part(self, name: str, cls) -> MsgDef:
@@ -178,6 +257,14 @@ class RosDefinitions(Definitions):
         for f in msgdef.fields:
             if not f.primitive and f.type not in self._msgs:
                 self.msg(f.type)
+
+
+def _installed(full: str) -> bool:
+    try:
+        import_type(full, 'msg')
+    except UnknownType:
+        return False
+    return True
 
 
 def msgdef_of(name: str, cls) -> MsgDef:
@@ -239,12 +326,18 @@ class Converter:
         return out
 
     def cdr_reader(self, cls):
-        """CDR bytes -> the dict to_dict makes (raising rclpy_cdr.Slow where it cannot), or None."""
+        """CDR bytes -> the dict to_dict makes (raising rclpy_cdr.Slow where it cannot), or None.
+        For a type described by the graph (no class): the whole decoder."""
+        if is_raw(cls):
+            return self._defs.graph.reader(cls.raw_type.type)
         return rclpy_cdr.reader(self._plan, cls)
 
     def cdr_writer(self, cls):
         """A dict -> the CDR bytes rclpy would publish for from_dict(cls, dict) (raising
-        rclpy_cdr.Slow for a dict it leaves to from_dict), or None."""
+        rclpy_cdr.Slow for a dict it leaves to from_dict), or None. For a type described by the
+        graph (no class): the whole encoder (raising ConversionError for bad values)."""
+        if is_raw(cls):
+            return self._defs.graph.writer(cls.raw_type.type)
         return rclpy_cdr.writer(self._plan, cls)
 
     def from_dict(self, cls, data: dict):
