@@ -242,7 +242,8 @@ async def test_the_robot_hears_what_a_client_publishes(client, robot, caller):
     def endpoints():
         infos = (caller.node.get_publishers_info_by_topic('/robot/cmd_wheel')
                  + caller.node.get_subscriptions_info_by_topic('/robot/cmd_wheel'))
-        return infos if {i.node_name for i in infos} >= {'robot', 'rosgate'} else None
+        names = {i.node_name for i in infos}
+        return infos if 'robot' in names and any(n.startswith('rosgate') for n in names) else None
     infos = await until(endpoints, 10, 'both endpoints named in the graph')
     assert len({str(i.topic_type_hash) for i in infos}) == 1, 'the gateway\'s endpoint has another type hash'
 
