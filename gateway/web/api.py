@@ -40,10 +40,17 @@ def caller(handler: tornado.web.RequestHandler, gateway, *, change: bool = False
 
 
 def check_origin(handler: tornado.web.RequestHandler, policy) -> None:
-    """A request that changes something comes from an allowed browser origin, or from no browser."""
+    """A request that changes something comes from an allowed browser origin (the gateway's own:
+    same scheme, host and port), or from no browser. Whatever its body, empty ones included.
+    A browser that sends no Origin still says where the request came from in Sec-Fetch-Site."""
     origin = handler.request.headers.get('Origin')
-    if origin and not policy.origin_allowed(origin, handler.request):
-        raise tornado.web.HTTPError(403, f'requests from {origin} are not allowed (--allowed-origins)')
+    if origin is not None:
+        if not policy.origin_allowed(origin, handler.request):
+            raise tornado.web.HTTPError(403, f'requests from {origin[:100]} are not allowed (--allowed-origins)')
+        return
+    site = handler.request.headers.get('Sec-Fetch-Site', '').lower()
+    if site not in ('', 'same-origin', 'none'):
+        raise tornado.web.HTTPError(403, f'requests from another site ({site[:20]}) are not allowed')
 
 
 def body_json(handler: tornado.web.RequestHandler, limit: int) -> dict:

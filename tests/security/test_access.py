@@ -53,10 +53,15 @@ def http(gw, path: str, *, method: str = 'GET', headers: dict | None = None, dat
 # --- origins ---------------------------------------------------------------------------------
 
 def test_foreign_origin_refused_with_403(gateway):
-    with pytest.raises(InvalidStatus) as info:
-        Client(gateway.ws_url, origin='http://evil.example.com')
-    assert info.value.response.status_code == 403
-    for origin in (f'http://127.0.0.1:{gateway.port}', 'http://localhost:8000'):
+    """An origin is scheme, host and port: the gateway's own passes (localhost and its addresses
+    standing for each other on that port); another port or scheme of the same machine does not."""
+    port = gateway.port
+    for origin in ('http://evil.example.com', f'http://127.0.0.1:{port + 1}', 'http://localhost:8000',
+                   'http://127.0.0.1', 'null'):
+        with pytest.raises(InvalidStatus) as info:
+            Client(gateway.ws_url, origin=origin)
+        assert info.value.response.status_code == 403, origin
+    for origin in (f'http://127.0.0.1:{port}', f'http://localhost:{port}', f'http://[::1]:{port}'):
         with Client(gateway.ws_url, origin=origin) as ok:
             assert ok.call('/rosapi/get_time')['result'] is True
 
