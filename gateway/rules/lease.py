@@ -141,6 +141,25 @@ class Lease:
         raise ProtocolError(f'{name}: {who(holder)} is driving{where} (exclusive control); watch, wait for '
                             f'"release", or ask an admin to take over')
 
+    def refusal(self, name: str | None, topic: str, type: str | None) -> str | None:
+        """Why something new that the person ``name`` starts (a playback) could not command
+        ``topic`` now: someone drives its group (even that person from another connection), or an
+        admin stopped the group while that person was connected and they have not taken it since.
+        None: it could."""
+        if not self.is_command(topic, type):
+            return None
+        group = self.group(topic)
+        where = '' if group == ROOT else f' {group}'
+        holder = self.holders.get(group)
+        if holder is not None:
+            return f'{who(holder)} is driving{where} (exclusive control); wait for "release"'
+        benched = self.benched.get(group, {})
+        stopper = next((benched[s.id] for s in self.gateway.everyone()
+                        if s.id in benched and name is not None and s.attrs.get('name') == name), None)
+        if stopper is not None:
+            return f'{stopper} stopped{where}; send "take {group}" (the Take button) first'
+        return None
+
     def publish_hook(self, session, pub, msg):
         if pub.topic == CONTROL_TOPIC:
             self._command(session, str(msg.get('data', '')).split())

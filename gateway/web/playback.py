@@ -42,6 +42,10 @@ class Playback:
                 'duration': (r.end_time - r.start_time) / 1e9 if r.message_count else 0.0,
                 'topics': sorted(self.prefix + c.topic for c in r.connections)}
 
+    def targets(self) -> list[tuple[str, str]]:
+        """(topic, type) of each topic the playback publishes on."""
+        return [(self.prefix + c.topic, c.msgtype) for c in self.reader.connections]
+
     async def run(self) -> int:
         loop = asyncio.get_running_loop()
         gw = self.gateway

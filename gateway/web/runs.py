@@ -92,6 +92,7 @@ class Run:
         self.output_pub = self.state_pub = None
         self.memory_error = False
         self.role: str | None = None         # the starter's role, given to the run's connection
+        self.owner: str | None = None        # the starter's name (None: auth is off)
 
     def summary(self) -> dict:
         return {'id': self.id, 'name': self.name, 'ns': self.ns, 'state': self.state,
@@ -414,6 +415,7 @@ class RunListHandler(JsonHandler):
             raise tornado.web.HTTPError(400, f'"timeout" is a number of seconds, 0 < timeout <= {m.limits.max_timeout:g}')
         role = identity.role if identity is not None else None
         run = m.start(source, name, ns, float(timeout), role, _local_address(self))
+        run.owner = identity.name if identity is not None else None
         self.set_status(201)
         self.finish({'id': run.id, **run.summary()})
 
@@ -451,8 +453,11 @@ class RunHandler(JsonHandler):
         self.finish(self._run(run_id).detail())
 
     def delete(self, run_id: str) -> None:
-        caller(self, self.manager.gateway, change=True, roles=('operator', 'admin'))
+        identity = caller(self, self.manager.gateway, change=True, roles=('operator', 'admin'))
         run = self._run(run_id)
+        if identity is not None and identity.role != 'admin' and run.owner != identity.name:
+            raise tornado.web.HTTPError(403, f'run {run.id} was started by {run.owner or "someone else"}; '
+                                             f'{identity.name} may not stop it')
         self.manager.stop(run)
         self.set_status(202 if run.ended is None else 200)
         self.finish(run.summary())
