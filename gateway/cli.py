@@ -57,6 +57,12 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument('--websocket-ping-timeout', type=float, default=d.websocket_ping_timeout)
     g.add_argument('--send-buffer-limit', type=int, default=d.send_buffer_limit,
                    help='bytes queued per client before its topic messages are dropped [%(default)s]')
+    g.add_argument('--body-timeout', type=float, default=d.body_timeout, metavar='S',
+                   help='seconds a client has to send a request body; a slower one is cut off [%(default)s]')
+    g.add_argument('--idle-connection-timeout', type=float, default=d.idle_connection_timeout, metavar='S',
+                   help='seconds an HTTP connection may sit without sending a request\'s headers [%(default)s]')
+    g.add_argument('--auth-timeout', type=float, default=d.auth_timeout, metavar='S',
+                   help='with --auth, seconds a websocket has to authenticate before it is closed [%(default)s]')
     g.add_argument('--allowed-hosts', help='Host names the gateway answers to besides IP addresses, localhost and '
                                             'this machine\'s names (globs, e.g. "[\'robot.example.org\']"); '
                                             'others get 421 (DNS rebinding)')
@@ -139,7 +145,9 @@ async def serve(settings: Settings, backend, *, announce=print) -> None:
     if settings.certfile and settings.keyfile:
         ssl_ctx = ssl.create_default_context(ssl.Purpose.CLIENT_AUTH)
         ssl_ctx.load_cert_chain(settings.certfile, settings.keyfile)
-    server = tornado.httpserver.HTTPServer(app, ssl_options=ssl_ctx, max_buffer_size=settings.max_message_size * 4)
+    server = tornado.httpserver.HTTPServer(app, ssl_options=ssl_ctx, max_buffer_size=settings.max_message_size * 4,
+                                           body_timeout=settings.body_timeout,
+                                           idle_connection_timeout=settings.idle_connection_timeout)
     sockets = tornado.netutil.bind_sockets(settings.port, settings.address or None)
     server.add_sockets(sockets)
     port = sockets[0].getsockname()[1]
