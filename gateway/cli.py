@@ -20,6 +20,7 @@ from .backends.sim import SimBackend, robots
 from .bridge import rosapi
 from .bridge.gateway import Gateway
 from .settings import Settings, data_dir
+from .web import logs
 from .web.app import make_app
 from .web.pages import ide_problem
 
@@ -181,6 +182,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(ros_style(argv, parser))
     logging.basicConfig(level=args.log_level.upper(), format='%(asctime)s %(levelname)s %(name)s: %(message)s',
                         stream=sys.stderr)
+    logs.install()   # no tokens in the log, no line forged by a name with a newline
     logging.getLogger('tornado.access').setLevel(logging.WARNING)
     settings = settings_from(args)
     backend = make_backend(args, ros_args)
