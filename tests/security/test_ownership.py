@@ -75,6 +75,7 @@ def test_another_operators_recording_cannot_be_stopped_played_downloaded_or_dele
     status, body = api(school, 'DELETE', f"/api/recordings/{running['id']}", token=TOKENS['operator2'])
     assert status == 403 and 'alice' in body['error'], body
     assert listed(school, running['id'])['state'] == 'recording'
+    wait_for(lambda: listed(school, running['id'])['messages'] >= 50, 20)   # a second or so, to play slowly
     assert api(school, 'DELETE', f"/api/recordings/{running['id']}", token=TOKENS['operator'])[0] == 200
     rec_id = finished(school, running['id'])['id']
     assert listed(school, rec_id)['owner'] == 'alice'
