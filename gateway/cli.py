@@ -67,7 +67,9 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument('--allowed-hosts', help='Host names the gateway answers to besides IP addresses, localhost and '
                                             'this machine\'s names (globs, e.g. "[\'robot.example.org\']"); '
                                             'others get 421 (DNS rebinding)')
-    g.add_argument('--allowed-origins', help='browser origins allowed besides our own and localhost ("*" for any)')
+    g.add_argument('--allowed-origins', help='browser origins allowed besides the gateway\'s own (same scheme, host '
+                                              'and port; localhost for 127.0.0.1), globs, e.g. '
+                                              '"[\'http://localhost:5173\']" ("*" for any)')
     b = p.add_argument_group('backend')
     b.add_argument('--backend', choices=('auto', 'sim', 'rclpy'), default='auto',
                    help='auto: rclpy when it imports, else the embedded sim [%(default)s]')

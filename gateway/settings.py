@@ -62,7 +62,7 @@ class Settings:
     auth_timeout: float = 30.0                 # s a websocket has to authenticate under --auth
     default_queue_length: int = 100            # per-subscription queued messages when queue_length is 0
     allowed_hosts: str | None = None         # globs of Host names besides IPs, localhost and this machine's
-    allowed_origins: str | None = None       # globs of browser origins besides our own and localhost
+    allowed_origins: str | None = None       # globs of browser origins besides our own (scheme, host, port)
     topics_glob: str | None = None
     services_glob: str | None = None
     params_glob: str | None = None
