@@ -22,6 +22,7 @@ from .backends.sim import SimBackend, robots
 from .bridge import rosapi
 from .bridge.gateway import Gateway
 from .settings import Settings, data_dir
+from .web import logs
 from .web.app import make_app
 from .web.pages import ide_problem
 
@@ -59,10 +60,18 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument('--websocket-ping-timeout', type=float, default=d.websocket_ping_timeout)
     g.add_argument('--send-buffer-limit', type=int, default=d.send_buffer_limit,
                    help='bytes queued per client before its topic messages are dropped [%(default)s]')
+    g.add_argument('--body-timeout', type=float, default=d.body_timeout, metavar='S',
+                   help='seconds a client has to send a request body; a slower one is cut off [%(default)s]')
+    g.add_argument('--idle-connection-timeout', type=float, default=d.idle_connection_timeout, metavar='S',
+                   help='seconds an HTTP connection may sit without sending a request\'s headers [%(default)s]')
+    g.add_argument('--auth-timeout', type=float, default=d.auth_timeout, metavar='S',
+                   help='with --auth, seconds a websocket has to authenticate before it is closed [%(default)s]')
     g.add_argument('--allowed-hosts', help='Host names the gateway answers to besides IP addresses, localhost and '
                                             'this machine\'s names (globs, e.g. "[\'robot.example.org\']"); '
                                             'others get 421 (DNS rebinding)')
-    g.add_argument('--allowed-origins', help='browser origins allowed besides our own and localhost ("*" for any)')
+    g.add_argument('--allowed-origins', help='browser origins allowed besides the gateway\'s own (same scheme, host '
+                                              'and port; localhost for 127.0.0.1), globs, e.g. '
+                                              '"[\'http://localhost:5173\']" ("*" for any)')
     b = p.add_argument_group('backend')
     b.add_argument('--backend', choices=('auto', 'sim', 'rclpy'), default='auto',
                    help='auto: rclpy when it imports, else the embedded sim [%(default)s]')
@@ -173,7 +182,9 @@ async def serve(settings: Settings, backend, sockets: list[socket.socket], *, an
     if settings.certfile and settings.keyfile:
         ssl_ctx = ssl.create_default_context(ssl.Purpose.CLIENT_AUTH)
         ssl_ctx.load_cert_chain(settings.certfile, settings.keyfile)
-    server = tornado.httpserver.HTTPServer(app, ssl_options=ssl_ctx, max_buffer_size=settings.max_message_size * 4)
+    server = tornado.httpserver.HTTPServer(app, ssl_options=ssl_ctx, max_buffer_size=settings.max_message_size * 4,
+                                           body_timeout=settings.body_timeout,
+                                           idle_connection_timeout=settings.idle_connection_timeout)
     server.add_sockets(sockets)
     port = sockets[0].getsockname()[1]
     host = settings.address if settings.address not in ('', '0.0.0.0', '::') else 'localhost'
@@ -209,6 +220,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(ros_style(argv, parser))
     logging.basicConfig(level=args.log_level.upper(), format='%(asctime)s %(levelname)s %(name)s: %(message)s',
                         stream=sys.stderr)
+    logs.install()   # no tokens in the log, no line forged by a name with a newline
     logging.getLogger('tornado.access').setLevel(logging.WARNING)
     settings = settings_from(args)
     # bound before the backend starts: the default node name holds the port (also when it is 0)

@@ -57,9 +57,12 @@ class Settings:
     websocket_ping_interval: float = 0.0
     websocket_ping_timeout: float = 30.0
     send_buffer_limit: int = 16 * 2**20        # per-client queued bytes before topic messages drop
+    body_timeout: float = 30.0                 # s to send a request body before the connection closes
+    idle_connection_timeout: float = 60.0      # s an HTTP connection may wait for its next request's headers
+    auth_timeout: float = 30.0                 # s a websocket has to authenticate under --auth
     default_queue_length: int = 100            # per-subscription queued messages when queue_length is 0
     allowed_hosts: str | None = None         # globs of Host names besides IPs, localhost and this machine's
-    allowed_origins: str | None = None       # globs of browser origins besides our own and localhost
+    allowed_origins: str | None = None       # globs of browser origins besides our own (scheme, host, port)
     topics_glob: str | None = None
     services_glob: str | None = None
     params_glob: str | None = None

@@ -65,9 +65,11 @@ class Sender:
     """Someone the gateway publishes for who is not a websocket client: the gateway itself (its
     stops) or a person's playback. Shaped like a client session as far as the rules look."""
 
-    def __init__(self, name: str, role: str | None, remote: str = ''):
+    def __init__(self, name: str, role: str | None, remote: str = '', person: str | None = None):
         self.id = next(_sender_ids)
         self.attrs = {'name': name, 'role': role}
+        if person is not None:
+            self.attrs['person'] = person   # whose station it may drive (rules.stations)
         self.remote = remote
         self.closed = False
         self.notes: list[str] = []   # what the rules told this sender (a client gets them as status)
@@ -159,8 +161,8 @@ class Gateway:
 
     # --- senders that are not clients ---------------------------------------------------------
 
-    def open_sender(self, name: str, role: str | None, remote: str = '') -> Sender:
-        sender = Sender(name, role, remote)
+    def open_sender(self, name: str, role: str | None, remote: str = '', person: str | None = None) -> Sender:
+        sender = Sender(name, role, remote, person)
         self.senders[sender.id] = sender
         return sender
 

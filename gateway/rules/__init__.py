@@ -108,6 +108,10 @@ def install(gateway, reads=lambda name: False) -> None:
         def stop_group(group):
             for session in gateway.everyone():
                 safety.stop_session(session, in_group(group))
+            for hook in gateway.hooks:   # what else publishes into the group ends (playbacks)
+                stopped = getattr(hook, 'on_group_stopped', None)
+                if stopped:
+                    stopped(group, lease.group)
 
         lease = Lease(gateway, types=frozenset(types), globs=parse_globs(extra.get('control_glob')),
                       takeover_role='admin' if auth else None, stations=stations,

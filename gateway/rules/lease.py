@@ -137,6 +137,25 @@ class Lease:
         raise ProtocolError(f'{name}: {who(holder)} is driving{where} (exclusive control); watch, wait for '
                             f'"release", or ask an admin to take over')
 
+    def topic_refusal(self, key: str | None, topic: str, type: str | None) -> str | None:
+        """Why something new that person ``key`` starts (a playback) could not command ``topic``
+        now: a stop holds its group, someone drives it (even that person, from a page), or it is
+        another person's station. None: it could."""
+        if not self.is_command(topic, type):
+            return None
+        group = self.group(topic)
+        where = '' if group == ROOT else f' {group}'
+        stopper = self.halted.get(group)
+        if stopper is not None:
+            return f'{stopper} stopped{where}; send "take {group}" (the Take button) first'
+        holder = self.holders.get(group)
+        if holder is not None:
+            return f'{who(holder)} is driving{where} (exclusive control); wait for "release"'
+        owner = self.owners.owner(group)
+        if owner is not None and owner.person != key:
+            return f'{group} is {owner.name}\'s station; claim a free robot, or ask the teacher'
+        return None
+
     def publish_hook(self, session, pub, msg):
         if pub.topic == CONTROL_TOPIC:
             self._command(session, str(msg.get('data', '')).split())
@@ -150,7 +169,7 @@ class Lease:
     def may_take_over(self, role: str | None) -> bool:
         return self.takeover_role is None or role == self.takeover_role
 
-    def refusal(self, key: str, role: str | None, ns: str) -> str | None:
+    def run_refusal(self, key: str, role: str | None, ns: str) -> str | None:
         """Why a robot-side run of person ``key`` (starter's ``role``) could not drive namespace
         ``ns``, or None when it may (it then takes the lease, from its person's page quietly)."""
         group = self.group_of_namespace(ns)

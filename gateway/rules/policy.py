@@ -37,6 +37,7 @@ WRITING_ROSAPI = ('/rosapi/set_param', '/rosapi/delete_param')
 NOT_AUTHENTICATED = ('not authenticated: send {"op": "auth", "token": ...} first '
                      '(or connect with ?token=, an Authorization: Bearer header, or the /login cookie)')
 _NAME = re.compile(r'[^A-Za-z0-9 _.@-]')
+DEFAULT_PORTS = {'http': 80, 'https': 443, 'ws': 80, 'wss': 443}
 SMALL_BODY = 64 * 1024   # bodies up to this size are read without a token (the login form)
 
 
@@ -59,6 +60,20 @@ def token_from_request(request) -> str | None:
         return header[7:].strip()
     cookie = request.cookies.get(COOKIE)
     return cookie.value if cookie is not None else None
+
+
+def origin_parts(origin: str) -> tuple[str, str, int] | None:
+    """(scheme, host, port) of an origin like http://127.0.0.1:9090 (the port filled in from
+    the scheme); None for anything else (``null``, a path, a bad port)."""
+    try:
+        parts = urlsplit(origin.strip().lower())
+        port = parts.port
+    except ValueError:
+        return None
+    if parts.scheme not in DEFAULT_PORTS or not parts.hostname or parts.path not in ('', '/'):
+        return None
+    host = parts.hostname.rstrip('.')
+    return parts.scheme, host, port if port is not None else DEFAULT_PORTS[parts.scheme]
 
 
 class Policy:
@@ -124,12 +139,19 @@ class Policy:
         return None
 
     def origin_allowed(self, origin: str, request) -> bool:
-        """Browsers send Origin: the gateway's own origin and localhost pass, others only if listed."""
+        """Browsers send Origin: the gateway's own origin passes (the scheme it was reached by, the
+        host and port of its Host header; localhost, 127.0.0.1 and [::1] stand for each other on
+        that same port), others only if an --allowed-origins glob lists them. A page on another
+        port of the same machine is another origin (another program, perhaps anyone's)."""
         if self.allowed_origins is not None and any(fnmatchcase(origin, g) for g in self.allowed_origins):
             return True
-        host = urlsplit(origin).hostname or ''
-        own = (request.host or '').rsplit(':', 1)[0].strip('[]')
-        return host == own or host in LOCAL_HOSTS
+        theirs = origin_parts(origin)
+        if theirs is None:
+            return False
+        ours = origin_parts(f'{request.protocol}://{request.host or ""}')
+        if ours is None or theirs[0] != ours[0] or theirs[2] != ours[2]:
+            return False
+        return theirs[1] == ours[1] or (theirs[1] in LOCAL_HOSTS and ours[1] in LOCAL_HOSTS)
 
     def connect_attrs(self, request) -> dict:
         """Per-connection facts (role, identity) known at the websocket upgrade."""

@@ -40,10 +40,22 @@ def caller(handler: tornado.web.RequestHandler, gateway, *, change: bool = False
 
 
 def check_origin(handler: tornado.web.RequestHandler, policy) -> None:
-    """A request that changes something comes from an allowed browser origin, or from no browser."""
-    origin = handler.request.headers.get('Origin')
-    if origin and not policy.origin_allowed(origin, handler.request):
-        raise tornado.web.HTTPError(403, f'requests from {origin} are not allowed (--allowed-origins)')
+    """A request that changes something comes from the gateway's own pages, an allowed browser
+    origin, or no browser, whatever its body (empty ones included). As for the websocket
+    (tornado's check): a browser's Sec-Fetch-Site of same-origin is its own word that the page
+    shares the gateway's origin (which holds behind a TLS proxy too, where scheme and port differ
+    from what the gateway sees); otherwise Origin must pass ``origin_allowed`` (scheme, host and
+    port); a browser request that says it is from another site and sends no Origin is refused."""
+    headers = handler.request.headers
+    site = headers.get('Sec-Fetch-Site', '').lower()
+    if site in ('same-origin', 'none'):
+        return
+    origin = headers.get('Origin')
+    if origin is None and not site:
+        return   # no browser
+    if origin is None or not policy.origin_allowed(origin, handler.request):
+        where = origin[:100] if origin is not None else f'another site ({site[:20]})'
+        raise tornado.web.HTTPError(403, f'requests from {where} are not allowed (--allowed-origins)')
 
 
 def body_json(handler: tornado.web.RequestHandler, limit: int) -> dict:

@@ -8,7 +8,7 @@ import tornado.web
 
 from ..rules.policy import COOKIE
 from ..rules.tokens import AuthError
-from .api import JsonHandler, require
+from .api import JsonHandler, check_origin, require
 
 PAGE = """<!doctype html>
 <html lang="en"><head><meta charset="utf-8"><meta name="viewport" content="width=device-width">
@@ -47,6 +47,8 @@ class LoginHandler(tornado.web.RequestHandler):
         self._page()
 
     def post(self) -> None:
+        # a form on another site must not sign this browser in as someone else (login CSRF)
+        check_origin(self, self.policy)
         auth = self.policy.auth
         if auth is None:
             self.redirect(_safe_next(self.get_argument('next', '/')))
@@ -63,7 +65,11 @@ class LoginHandler(tornado.web.RequestHandler):
 
 
 class LogoutHandler(tornado.web.RequestHandler):
+    def initialize(self, policy) -> None:
+        self.policy = policy
+
     def get(self) -> None:
+        check_origin(self, self.policy)
         self.clear_cookie(COOKIE)
         self.redirect('/login', status=303)
 
@@ -87,5 +93,5 @@ class WhoAmIHandler(JsonHandler):
 
 def login_routes(policy, *, secure_cookie: bool) -> list:
     kw = {'policy': policy, 'secure_cookie': secure_cookie}
-    return [(r'/login/?', LoginHandler, kw), (r'/logout/?', LogoutHandler),
+    return [(r'/login/?', LoginHandler, kw), (r'/logout/?', LogoutHandler, {'policy': policy}),
             (r'/whoami', WhoAmIHandler, {'policy': policy})]

@@ -25,11 +25,12 @@ log = logging.getLogger('rosgate.recordings')
 
 
 class Playback:
-    def __init__(self, gateway, path: Path, rate: float, prefix: str, name: str, role: str | None):
+    def __init__(self, gateway, path: Path, rate: float, prefix: str, name: str, role: str | None,
+                 person: str | None = None):
         from rosbags.rosbag2 import Reader
 
         self.gateway, self.path, self.rate, self.prefix = gateway, path, rate, prefix
-        self.who = (name, role)
+        self.who = (name, role, person)   # person: rules.stations.person_of of who started it
         self.reader = Reader(path)
         self.reader.open()
         self.defs = _definitions(self.reader)
@@ -42,10 +43,15 @@ class Playback:
                 'duration': (r.end_time - r.start_time) / 1e9 if r.message_count else 0.0,
                 'topics': sorted(self.prefix + c.topic for c in r.connections)}
 
+    def targets(self) -> list[tuple[str, str]]:
+        """(topic, type) of each topic the playback publishes on."""
+        return [(self.prefix + c.topic, c.msgtype) for c in self.reader.connections]
+
     async def run(self) -> int:
         loop = asyncio.get_running_loop()
         gw = self.gateway
-        sender = gw.open_sender(*self.who, remote=f'playback of {self.path.name}')
+        name, role, person = self.who
+        sender = gw.open_sender(name, role, remote=f'playback of {self.path.name}', person=person)
         pubs = {}
         try:
             for conn in self.reader.connections:

@@ -13,6 +13,9 @@ under the library directory. An operator reads and writes only its own space, a 
 reads its own, an admin sees every space: the list holds every program with its ``owner``
 (null: the shared space at the top of the directory, where programs saved without auth live)
 and ``?owner=NAME`` on any request picks a space. Without auth every request is an admin's.
+
+Each space holds at most ``MAX_SPACE_BYTES`` (32 MiB: sixteen of the largest programs, hundreds
+of ordinary ones); a save past it is refused with 507 and stores nothing.
 """
 
 from __future__ import annotations
@@ -31,6 +34,7 @@ from .api import JsonHandler, body_json, check_origin, require
 from ..settings import data_dir
 
 MAX_PROGRAM_BYTES = 2 * 1024 * 1024
+MAX_SPACE_BYTES = 32 * 1024 * 1024
 _NAME = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9 _-]{0,63}")
 _OWNER = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9_.@-]{0,63}")
 USERS = "users"
@@ -138,6 +142,10 @@ class ProgramHandler(_Base):
         path = self._path(name)
         program = body_json(self, MAX_PROGRAM_BYTES)
         data = json.dumps(program, separators=(",", ":")).encode()
+        used = space_bytes(path.parent, besides=path)
+        if used + len(data) > MAX_SPACE_BYTES:
+            raise tornado.web.HTTPError(507, "this space holds %d bytes of programs; %d more would pass its "
+                                             "%d bytes: delete some first" % (used, len(data), MAX_SPACE_BYTES))
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".json")
         try:
@@ -161,6 +169,19 @@ class ProgramHandler(_Base):
         self.set_status(204)
         self.clear_header("Content-Type")
         self.finish()
+
+
+def space_bytes(folder: pathlib.Path, besides: pathlib.Path | None = None) -> int:
+    """Bytes of the files in a space (its programs and unfinished saves), but ``besides`` (the
+    program a save replaces)."""
+    if not folder.is_dir():
+        return 0
+    total = 0
+    with os.scandir(folder) as entries:
+        for entry in entries:
+            if entry.is_file(follow_symlinks=False) and entry.path != str(besides):
+                total += entry.stat(follow_symlinks=False).st_size
+    return total
 
 
 def _read_no_follow(path: pathlib.Path) -> bytes:

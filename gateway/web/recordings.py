@@ -8,6 +8,12 @@ GET    /api/recordings/ID.mcap      -> the MCAP file (once it is finished)
 POST   /api/recordings/ID/play      {"rate": 1.0, "prefix": "/replay"} -> 202; republishes with the original timing
 DELETE /api/recordings/ID/play      -> stops playing
 
+A recording holds only topics a client could subscribe to (the name globs), and a playback
+under a prefix publishes only where a client could (refused up front with 403, as is a playback
+into a station someone else drives, with 409). Recordings and playbacks belong to who started
+them (with --auth): others, admins excepted, may not stop, play, download or delete them (403).
+One person runs at most ``max_per_person`` recordings at once.
+
 Each recording is a rosbag2 directory (metadata.yaml and ID.mcap) written by rosbags' writer:
 CDR messages with their definitions, which ``ros2 bag``, Foxglove and the rosbags/mcap readers
 open. The recorder is one more subscriber of each topic's shared fan-out, asking for cbor-raw
@@ -32,7 +38,12 @@ from pathlib import Path
 import cbor2
 import tornado.web
 
+from protocol.errors import ProtocolError
+
+from ..bridge.gateway import Sender
+from ..rules.lease import who
 from ..rules.names import parse_globs
+from ..rules.stations import person_of
 from .api import JsonHandler, body_json, caller
 from .playback import Playback
 from ..settings import data_dir
@@ -42,11 +53,13 @@ _ID = re.compile(r'rec-\d{8}-\d{6}-[0-9a-f]{4}')
 _tap_ids = itertools.count(-1, -1)   # fan-out keys of recorders: negative, never a client's
 RECORD_OVERHEAD = 31                 # bytes of an MCAP message record besides the data
 POLL = 0.5                           # s between looks for new topics matching a recording's globs
+OWNER_FILE = 'owner'                 # beside the bag: the name of who started it (absent: nobody's)
 
 
 @dataclass(frozen=True)
 class RecordingLimits:
     max_concurrent: int = 4
+    max_per_person: int = 2           # so one person cannot hold every slot
     max_bytes: int = 256 * 2**20
     max_seconds: float = 3600.0
     default_seconds: float = 600.0
@@ -77,13 +90,17 @@ class _Tap:
 
 
 class Recording:
-    def __init__(self, manager: RecordingManager, id: str, globs: tuple[str, ...], max_seconds: float | None):
+    def __init__(self, manager: RecordingManager, id: str, globs: tuple[str, ...], max_seconds: float | None,
+                 owner: str | None = None):
         from rosbags.rosbag2 import StoragePlugin, Writer
 
         self.manager, self.id, self.globs, self.max_seconds = manager, id, globs, max_seconds
+        self.owner = owner
         self.path = manager.dir / id
         self.writer = Writer(self.path, version=9, storage_plugin=StoragePlugin.MCAP)
         self.writer.open()
+        if owner is not None:
+            (self.path / OWNER_FILE).write_text(owner)
         self.state, self.reason = 'recording', None
         self.started, self.ended = time.time(), None
         self.messages, self.bytes = 0, 0
@@ -100,7 +117,7 @@ class Recording:
         return {'id': self.id, 'state': self.state, 'reason': self.reason, 'topics': sorted(self.connections),
                 'requested': list(self.globs), 'started': self.started, 'ended': self.ended,
                 'messages': self.messages, 'bytes': self.bytes, 'max_seconds': self.max_seconds,
-                'file': f'{self.id}.mcap'}
+                'file': f'{self.id}.mcap', 'owner': self.owner}
 
     def wants(self, topic: str) -> bool:
         return any(fnmatchcase(topic, g) for g in self.globs)
@@ -156,14 +173,18 @@ class RecordingManager:
         self.gateway, self.dir, self.limits = gateway, Path(dir), limits
         self.recordings: dict[str, Recording] = {}
         self.plays: dict[str, asyncio.Task] = {}
+        self.playing: dict[str, Playback] = {}   # what each task of plays plays
 
     def active(self) -> list[Recording]:
         return [r for r in self.recordings.values() if r.state == 'recording']
 
-    def start(self, globs: tuple[str, ...], max_seconds: float | None) -> Recording:
+    def start(self, globs: tuple[str, ...], max_seconds: float | None, owner: str | None = None) -> Recording:
+        """owner: the name of who asks (None: auth is off, or the gateway's own --record)."""
         lim = self.limits
         if len(self.active()) >= lim.max_concurrent:
             raise tornado.web.HTTPError(409, f'{lim.max_concurrent} recordings are already running; stop one first')
+        if owner is not None and sum(r.owner == owner for r in self.active()) >= lim.max_per_person:
+            raise tornado.web.HTTPError(429, f'{owner} already runs {lim.max_per_person} recordings; stop one first')
         self.dir.mkdir(parents=True, exist_ok=True)
         free = shutil.disk_usage(self.dir).free
         if free < lim.max_bytes + lim.disk_reserve:
@@ -171,7 +192,7 @@ class RecordingManager:
                                              f'{(lim.max_bytes + lim.disk_reserve) // 2**20} MiB')
         rec_id = f"rec-{time.strftime('%Y%m%d-%H%M%S')}-{secrets.token_hex(2)}"
         try:
-            rec = Recording(self, rec_id, globs, max_seconds)
+            rec = Recording(self, rec_id, globs, max_seconds, owner)
         except Exception as e:   # rosbags' WriterError, OSError
             raise tornado.web.HTTPError(500, f'cannot create the recording in {self.dir}: {e}') from None
         self.recordings[rec_id] = rec
@@ -184,16 +205,19 @@ class RecordingManager:
         if max_seconds:
             rec.timer = loop.call_later(max_seconds, self.stop, rec, f'max_seconds of {max_seconds:g} s reached')
         rec.poller = asyncio.ensure_future(self._poll(rec))
-        log.info('recording %s started: %s', rec_id, ', '.join(globs))
+        log.info('recording %s started by %r: %r', rec_id, owner, globs)
         return rec
 
     def _match(self, rec: Recording) -> None:
+        """Take the topics the globs of the recording ask for and the gateway's name globs show
+        to a subscriber (a recording is a way to subscribe)."""
+        policy = self.gateway.policy
         for topic, type in self.gateway.backend.topics():
-            if topic not in rec.connections and rec.wants(topic):
+            if topic not in rec.connections and rec.wants(topic) and policy.allows(None, 'subscribe', topic):
                 try:
                     rec.add_topic(topic, type)
                 except Exception as e:   # an unknown type, a definition rosbags cannot parse, ...
-                    log.warning('recording %s: cannot record %s (%s): %s', rec.id, topic, type, e)
+                    log.warning('recording %s: cannot record %r (%s): %s', rec.id, topic, type, e)
                     rec.connections.setdefault(topic, None)
 
     async def _poll(self, rec: Recording) -> None:
@@ -227,8 +251,32 @@ class RecordingManager:
                 if path.name not in out and _ID.fullmatch(path.name) and mcap.is_file():
                     st = mcap.stat()
                     out[path.name] = {'id': path.name, 'state': 'done', 'bytes': st.st_size,
-                                      'ended': st.st_mtime, 'file': mcap.name}
+                                      'ended': st.st_mtime, 'file': mcap.name, 'owner': self.owner(path.name)}
+        for rec_id, summary in out.items():
+            summary['playing'] = self.is_playing(rec_id)
         return sorted(out.values(), key=lambda r: r['id'])
+
+    def owner(self, rec_id: str) -> str | None:
+        """Who started a recording (None: nobody signed in, or the gateway's --record)."""
+        rec = self.recordings.get(rec_id)
+        if rec is not None:
+            return rec.owner
+        try:
+            return (self.dir / rec_id / OWNER_FILE).read_text() or None
+        except (OSError, UnicodeDecodeError):
+            return None
+
+    def check_owner(self, rec_id: str, identity, verb: str) -> None:
+        """Only who started a recording (or an admin) may stop, play, download or delete it;
+        one that nobody signed in started is an admin's to change when auth is on."""
+        if identity is None or identity.role == 'admin' or not _ID.fullmatch(rec_id):
+            return   # a name that is no recording's gets its 404 from path()
+        if rec_id not in self.recordings and not (self.dir / rec_id).is_dir():
+            return
+        owner = self.owner(rec_id)
+        if owner != identity.name:
+            whose = f"{owner}'s" if owner else 'not yours'
+            raise tornado.web.HTTPError(403, f'recording {rec_id} is {whose}; {identity.name} may not {verb} it')
 
     def path(self, rec_id: str) -> Path:
         if not _ID.fullmatch(rec_id):
@@ -243,29 +291,67 @@ class RecordingManager:
 
     # --- playback -----------------------------------------------------------------------------
 
-    def play(self, rec_id: str, rate: float, prefix: str, identity=None) -> dict:
-
+    def play(self, rec_id: str, rate: float, prefix: str, identity=None, person: str | None = None) -> dict:
+        """Start playing (as ``identity``): refused up front (403) where the name globs would
+        refuse that person's publishing, and (409) into a robot someone else drives."""
         if rec_id in self.plays and not self.plays[rec_id].done():
             raise tornado.web.HTTPError(409, f'recording {rec_id} is already playing')
         path = self.path(rec_id)
+        name, role = (identity.name, identity.role) if identity is not None else ('playback', None)
         try:
-            name, role = (identity.name, identity.role) if identity is not None else ('playback', None)
-            playback = Playback(self.gateway, path, rate, prefix, name, role)
+            playback = Playback(self.gateway, path, rate, prefix, name, role, person)
         except Exception as e:   # a damaged file, a type rosbags cannot parse
             raise tornado.web.HTTPError(422, f'cannot play {rec_id}: {e}') from None
+        try:
+            self._may_play(playback, name, role, person)
+        except BaseException:
+            playback.reader.close()
+            raise
         task = self.plays[rec_id] = asyncio.ensure_future(playback.run())
+        self.playing[rec_id] = playback
         task.add_done_callback(lambda t: t.cancelled() or t.exception() is None or log.error(
             'playing %s failed: %s', rec_id, t.exception()))
         return playback.summary()
 
+    def _may_play(self, playback: Playback, name: str, role: str | None, person: str | None) -> None:
+        policy = self.gateway.policy
+        probe = Sender(name, role, person=person)   # not opened: only asked about
+        lease = getattr(policy, 'lease', None)
+        for topic, type in playback.targets():
+            try:
+                policy.check(probe, 'publish', topic, 'publish', None)
+            except ProtocolError as e:
+                raise tornado.web.HTTPError(403, f'cannot play into {topic}: {e.message}') from None
+            refusal = lease.topic_refusal(person, topic, type) if lease is not None else None
+            if refusal is not None:
+                raise tornado.web.HTTPError(409, f'cannot play into {topic}: {refusal}')
+
     def stop_playing(self, rec_id: str) -> bool:
         task = self.plays.pop(rec_id, None)
+        self.playing.pop(rec_id, None)
         if task is None or task.done():
             return False
         task.cancel()
         return True
 
+    def is_playing(self, rec_id: str) -> bool:
+        task = self.plays.get(rec_id)
+        return task is not None and not task.done()
+
+    def player(self, rec_id: str) -> str | None:
+        """The name of who started the playback of a recording going on now (None: none, or nobody's)."""
+        playback = self.playing.get(rec_id)
+        return playback.who[0] if playback is not None and self.is_playing(rec_id) else None
+
     # --- gateway hooks ------------------------------------------------------------------------
+
+    def on_group_stopped(self, group: str, group_of) -> None:
+        """An admin stopped a robot ("stop NS" on /rosgate/control): the playbacks into it end."""
+        for rec_id, playback in list(self.playing.items()):
+            if any(group_of(topic) == group for topic, _ in playback.targets()):
+                playback.refused = f'{group} was stopped'
+                if self.stop_playing(rec_id):
+                    log.info('playing %s ended: %s was stopped', rec_id, group)
 
     async def on_shutdown(self) -> None:
         for rec in self.active():
@@ -288,7 +374,7 @@ class RecordingListHandler(_Handler):
 
     def post(self) -> None:
         m = self.manager
-        caller(self, m.gateway, change=True, roles=('operator', 'admin'))
+        identity = caller(self, m.gateway, change=True, roles=('operator', 'admin'))
         body = body_json(self, 64 * 1024)
         topics = body.get('topics')
         if not isinstance(topics, list) or not topics or not all(isinstance(t, str) and t.startswith('/') for t in topics):
@@ -296,7 +382,7 @@ class RecordingListHandler(_Handler):
         seconds = body.get('max_seconds', m.limits.default_seconds)
         if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not 0 < seconds <= m.limits.max_seconds:
             raise tornado.web.HTTPError(400, f'"max_seconds" is a number, 0 < max_seconds <= {m.limits.max_seconds:g}')
-        rec = m.start(tuple(topics), float(seconds))
+        rec = m.start(tuple(topics), float(seconds), identity.name if identity is not None else None)
         self.set_status(201)
         self.finish(rec.summary())
 
@@ -306,14 +392,15 @@ class RecordingHandler(_Handler):
         caller(self, self.manager.gateway)
         rec = self.manager.recordings.get(rec_id)
         if rec is not None:
-            self.finish(rec.summary())
+            self.finish({**rec.summary(), 'playing': self.manager.is_playing(rec_id)})
             return
         self.manager.path(rec_id)
         self.finish(next(r for r in self.manager.listing() if r['id'] == rec_id))
 
     def delete(self, rec_id: str) -> None:
         m = self.manager
-        caller(self, m.gateway, change=True, roles=('operator', 'admin'))
+        identity = caller(self, m.gateway, change=True, roles=('operator', 'admin'))
+        m.check_owner(rec_id, identity, 'stop or delete')
         rec = m.recordings.get(rec_id)
         if rec is not None and rec.state == 'recording':
             m.stop(rec, 'stopped')
@@ -330,8 +417,9 @@ class RecordingHandler(_Handler):
 
 class RecordingFileHandler(_Handler):
     async def get(self, rec_id: str) -> None:
-        caller(self, self.manager.gateway)
+        identity = caller(self, self.manager.gateway)
         file = self.manager.path(rec_id) / f'{rec_id}.mcap'
+        self.manager.check_owner(rec_id, identity, 'download')
         self.set_header('Content-Type', 'application/octet-stream')
         self.set_header('Content-Disposition', f'attachment; filename="{rec_id}.mcap"')
         self.set_header('Content-Length', str(file.stat().st_size))
@@ -346,6 +434,7 @@ class PlayHandler(_Handler):
     def post(self, rec_id: str) -> None:
         m = self.manager
         identity = caller(self, m.gateway, change=True, roles=('operator', 'admin'))
+        m.check_owner(rec_id, identity, 'play')
         body = body_json(self, 4096) if self.request.body else {}
         rate = body.get('rate', 1.0)
         if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not 0.01 <= rate <= 100:
@@ -354,11 +443,15 @@ class PlayHandler(_Handler):
         if not isinstance(prefix, str) or (prefix and not re.fullmatch(r'(/[A-Za-z][A-Za-z0-9_]*)+', prefix)):
             raise tornado.web.HTTPError(400, '"prefix" is a namespace like /replay')
         self.set_status(202)
-        self.finish(m.play(rec_id, float(rate), prefix, identity))
+        self.finish(m.play(rec_id, float(rate), prefix, identity, person_of(identity, self.request.cookies)))
 
     def delete(self, rec_id: str) -> None:
-        caller(self, self.manager.gateway, change=True, roles=('operator', 'admin'))
-        self.finish({'stopped': self.manager.stop_playing(rec_id)})
+        m = self.manager
+        identity = caller(self, m.gateway, change=True, roles=('operator', 'admin'))
+        player = m.player(rec_id)
+        if identity is not None and identity.role != 'admin' and player is not None and player != identity.name:
+            raise tornado.web.HTTPError(403, f'{player} plays {rec_id}; {identity.name} may not stop it')
+        self.finish({'stopped': m.stop_playing(rec_id)})
 
 
 def recording_routes(gateway) -> list:

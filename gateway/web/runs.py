@@ -111,6 +111,7 @@ class Run:
         self.memory_error = False
         self.role: str | None = None         # the starter's role, given to the run's connection
         self.person: str | None = None       # who started it: the run drives for them (rules.stations)
+        self.owner: str | None = None        # the starter's name (None: auth is off)
         self.cgroup: RunCgroup | None = None
 
     def summary(self) -> dict:
@@ -276,7 +277,7 @@ class RunManager:
         page quietly, and gives it back when it ends): refuse at once a run that could not (another
         person's station or lease, or a stop that holds until Take)."""
         lease = getattr(self.gateway.policy, 'lease', None)
-        why = lease.refusal(person, role, ns) if lease is not None else None
+        why = lease.run_refusal(person, role, ns) if lease is not None else None
         if why is not None:
             raise tornado.web.HTTPError(409, why)
 
@@ -532,6 +533,7 @@ class RunListHandler(JsonHandler):
         role = identity.role if identity is not None else None
         run = m.start(source, name, ns, float(timeout), role, _local_address(self),
                       person_of(identity, self.request.cookies))
+        run.owner = identity.name if identity is not None else None
         self.set_status(201)
         self.finish({'id': run.id, **run.summary()})
 
@@ -569,8 +571,11 @@ class RunHandler(JsonHandler):
         self.finish(self._run(run_id).detail())
 
     def delete(self, run_id: str) -> None:
-        caller(self, self.manager.gateway, change=True, roles=('operator', 'admin'))
+        identity = caller(self, self.manager.gateway, change=True, roles=('operator', 'admin'))
         run = self._run(run_id)
+        if identity is not None and identity.role != 'admin' and run.owner != identity.name:
+            raise tornado.web.HTTPError(403, f'run {run.id} was started by {run.owner or "someone else"}; '
+                                             f'{identity.name} may not stop it')
         self.manager.stop(run)
         self.set_status(202 if run.ended is None else 200)
         self.finish(run.summary())

@@ -3,6 +3,7 @@ message handed to its client's session (``bridge.session``), which answers throu
 
 from __future__ import annotations
 
+import asyncio
 import struct
 
 import tornado.iostream
@@ -86,6 +87,7 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
         self.gateway = gateway
         self.session: ClientSession | None = None
         self.text_frame = False   # set by TextAsBytesProtocol while it delivers a text message
+        self.auth_deadline: asyncio.TimerHandle | None = None
 
     async def get(self, *args, **kwargs) -> None:
         if self.request.headers.get('Upgrade', '').lower() != 'websocket':
@@ -116,6 +118,19 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
             if on_connect:
                 on_connect(self.session, self.request)
         self.gateway.count_clients()
+        timeout = self.gateway.settings.auth_timeout
+        if getattr(self.gateway.policy, 'auth', None) is not None and 'role' not in self.session.attrs and timeout > 0:
+            self.auth_deadline = asyncio.get_running_loop().call_later(timeout, self._auth_deadline, timeout)
+
+    def _auth_deadline(self, timeout: float) -> None:
+        """Under --auth a connection that has not authenticated in time is closed (1008), after a
+        status saying why: an idle unauthenticated socket holds memory and a file for nothing."""
+        self.auth_deadline = None
+        session = self.session
+        if session is None or session.closed or session.closing or 'role' in session.attrs:
+            return
+        session.status('error', f'not authenticated within {timeout:g} s; closing the connection (1008)')
+        asyncio.ensure_future(session.hang_up(1008, 'not authenticated in time', FLUSH_BEFORE_CLOSE))
 
     def _plain_stream(self):
         """The connection's stream when frames may be written to it as the gateway builds them
@@ -163,6 +178,9 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
         await self.session.hang_up(1007, 'text frame is not valid UTF-8', FLUSH_BEFORE_CLOSE)
 
     def on_close(self) -> None:
+        if self.auth_deadline is not None:
+            self.auth_deadline.cancel()
+            self.auth_deadline = None
         if self.session is not None:
             self.session.close()
             self.gateway.count_clients()

@@ -18,6 +18,15 @@ async function api(path, options = {}) {
   return body;
 }
 
+// Who this page is signed in as ({auth, name, role}; null when the gateway does not say): with
+// --auth a recording is its starter's (and the admins') to stop, play and download.
+async function whoami() {
+  try {
+    const res = await fetch('whoami');
+    return res.ok ? await res.json() : null;
+  } catch { return null; }
+}
+
 const el = (tag, props = {}, ...children) => {
   const e = Object.assign(document.createElement(tag), props);
   e.append(...children);
@@ -28,6 +37,7 @@ export class Recorder {
   constructor(bar) {
     this.current = null;      // id of the recording this page shows in its button
     this.timer = null;
+    this.me = null;
     this.button = el('button', { id: 'rec', className: 'rec', title: 'record topics to a bag file (MCAP)', textContent: '● Rec' });
     this.listButton = el('button', { id: 'recordings', title: 'recordings on the gateway', textContent: 'Recordings' });
     bar.append(el('span', { className: 'group recorder' }, this.button, this.listButton));
@@ -73,6 +83,11 @@ export class Recorder {
     const fleet = document.querySelector('#claim')?.hidden === false;
     const station = !this.namespace() && fleet ? ' This page has no robot: choose one ("robot") or press "Claim a robot".' : '';
     return `No topic matches ${rec.requested.join(' ')}, so nothing is recorded.${station}`;
+  }
+
+  mine(rec) {
+    const me = this.me;
+    return !me?.auth || me.role === 'admin' || !rec.owner || rec.owner === me.name;
   }
 
   say(text, error = false) {
@@ -138,11 +153,12 @@ export class Recorder {
     let items;
     try { items = (await api('')).recordings; } catch (e) { this.list.textContent = `recordings unavailable: ${e.message}`; return; }
     this.list.replaceChildren(...items.slice().reverse().map((rec) => {
-      const li = el('li', { id: `rec-${rec.id}` }, `${rec.id} · ${formatBytes(rec.bytes)} `);
+      const li = el('li', { id: `rec-${rec.id}` }, `${rec.id} · ${formatBytes(rec.bytes)}${rec.owner ? ` · ${rec.owner}` : ''} `);
       if (rec.state === 'recording') {
         li.append(el('b', { textContent: 'recording…' }));
         return li;
       }
+      if (!this.mine(rec)) return li;
       li.append(el('a', { href: `api/recordings/${rec.id}.mcap`, download: `${rec.id}.mcap`, textContent: 'download' }), ' ');
       li.append(el('button', {
         textContent: 'play', title: 'publish it again on its topics, with the recorded timing',
@@ -160,8 +176,9 @@ export class Recorder {
 
   async attach() {
     try {
+      this.me = await whoami();
       // a page's own kind of recording (not the gateway's --record one, which has no max_seconds)
-      const running = (await api('')).recordings.filter((r) => r.state === 'recording' && r.max_seconds);
+      const running = (await api('')).recordings.filter((r) => r.state === 'recording' && r.max_seconds && this.mine(r));
       if (running.length) this.follow(running[running.length - 1]);
     } catch { /* no recordings API: the button still tries when pressed */ }
   }

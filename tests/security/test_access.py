@@ -53,12 +53,39 @@ def http(gw, path: str, *, method: str = 'GET', headers: dict | None = None, dat
 # --- origins ---------------------------------------------------------------------------------
 
 def test_foreign_origin_refused_with_403(gateway):
-    with pytest.raises(InvalidStatus) as info:
-        Client(gateway.ws_url, origin='http://evil.example.com')
-    assert info.value.response.status_code == 403
-    for origin in (f'http://127.0.0.1:{gateway.port}', 'http://localhost:8000'):
+    """An origin is scheme, host and port: the gateway's own passes (localhost and its addresses
+    standing for each other on that port); another port or scheme of the same machine does not."""
+    port = gateway.port
+    for origin in ('http://evil.example.com', f'http://127.0.0.1:{port + 1}', 'http://localhost:8000',
+                   'http://127.0.0.1', 'null'):
+        with pytest.raises(InvalidStatus) as info:
+            Client(gateway.ws_url, origin=origin)
+        assert info.value.response.status_code == 403, origin
+    for origin in (f'http://127.0.0.1:{port}', f'http://localhost:{port}', f'http://[::1]:{port}'):
         with Client(gateway.ws_url, origin=origin) as ok:
             assert ok.call('/rosapi/get_time')['result'] is True
+
+
+def test_state_changing_requests_check_where_they_come_from_whatever_the_body(gateway):
+    """The same rule for every route that changes something, login included, empty bodies too:
+    Origin another port of this host, or a browser's word that it is another site, is refused
+    before anything happens; the browser's own same-origin (as behind a TLS proxy, where the
+    Origin's scheme and port are not what the gateway sees) and clients without a browser pass."""
+    port = gateway.port
+    elsewhere = {'Origin': f'http://127.0.0.1:{port + 1}', 'Sec-Fetch-Site': 'same-site'}
+    no_origin = {'Sec-Fetch-Site': 'cross-site'}
+    proxied = {'Origin': 'https://robot.example.org', 'Sec-Fetch-Site': 'same-origin'}
+    json_body = {'Content-Type': 'application/json'}
+    for headers in (elsewhere, no_origin):
+        assert http(gateway, '/api/programs/kept2', method='PUT', data=b'{}', headers={**headers, **json_body})[0] == 403
+        assert http(gateway, '/api/recordings/rec-20260101-000000-abcd/play', method='POST', data=b'',
+                    headers=headers)[0] == 403   # refused before it is looked up
+        assert http(gateway, '/api/runs/r00000000', method='DELETE', headers=headers)[0] == 403
+        assert http(gateway, '/login', method='POST', data=b'token=x', headers=headers)[0] == 403
+    assert http(gateway, '/api/programs/kept2', method='PUT', data=b'{}', headers={**proxied, **json_body})[0] == 200
+    assert http(gateway, '/api/programs/kept2', method='DELETE')[0] == 204
+    assert http(gateway, '/api/recordings/rec-20260101-000000-abcd/play', method='POST', data=b'',
+                headers={'Origin': f'http://localhost:{port}'})[0] == 404
 
 
 # --- roles -------------------------------------------------------------------------------------

@@ -89,6 +89,9 @@ def publish(s: ClientSession, op: Publish) -> None:
     if pub is None:   # rosbridge auto-advertises when the type can be resolved
         type = _resolve_type(s, topic, op.type, op.OP, op.id)
         pub = _advertise(s, topic, type, qos_for(op.latch, op.queue_size, None), op.OP, op.id)
+    elif op.type and normalize(op.type, 'msg') != pub.type:   # never sent silently as another type
+        raise ProtocolError(f'{topic} is advertised by this client with type {pub.type}, not {op.type}',
+                            op=op.OP, id=op.id)
     s.gateway.publish(s, pub, from_json(s.backend.defs, pub.msgdef, op.msg))
 
 

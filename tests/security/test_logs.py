@@ -1,0 +1,62 @@
+"""What the gateway logs: no token value, whatever request carried it, and no line that a name a
+client chose (a run's name, a topic) could forge with a newline."""
+
+from __future__ import annotations
+
+import urllib.error
+import urllib.request
+from urllib.parse import quote
+
+from tests.conftest import wait_for
+from tests.gateway.test_runs import api
+from tests.security.client import Client, with_token
+from tests.security.conftest import TOKENS
+
+FORGED = '2030-01-01 00:00:00,000 INFO rosgate: FORGED'
+
+
+def get(gw, path: str) -> int:
+    try:
+        with urllib.request.urlopen(gw.http_url.rstrip('/') + path, timeout=10) as res:
+            return res.status
+    except urllib.error.HTTPError as e:
+        return e.code
+
+
+def test_no_token_value_in_the_log(launch, tokens_file, tmp_path):
+    gw = launch('--auth', tokens_file, '--auth-backoff', '0', '--allow-runs', '--runs-dir', str(tmp_path / 'runs'),
+                '--log-level', 'debug')
+    wrong = 'wrong-token-7f7f7f'
+    for token in (*TOKENS.values(), wrong):
+        assert get(gw, f'/api/runs/nope?token={token}') in (401, 404, 429)
+        assert get(gw, f'/api/programs/bad%20name%21?token={token}') in (400, 401, 429)
+        assert get(gw, f'/no/such/page?token={token}') == 404
+        assert get(gw, f'/api/recordings/rec-1/play?token={token}') == 405
+        with Client(gw.ws_url, token) as c:   # accepted or not, the upgrade's URL carries it
+            c.call('/rosapi/get_time')
+    # a run's own connection carries its key
+    status, body = api(gw, 'POST', '/api/runs', {'source': 'print("hi")'}, TOKENS['operator'])
+    assert status == 201, body
+    wait_for(lambda: api(gw, 'GET', f"/api/runs/{body['id']}", token=TOKENS['viewer'])[1]['state'] != 'running', 30)
+    wait_for(lambda: '/api/runs/nope?token=[redacted]' in gw.log_text(), 10)
+    log = gw.log_text()
+    for token in (*TOKENS.values(), wrong):
+        assert token not in log
+    assert 'run_key=' not in log.replace('run_key=[redacted]', '')
+
+
+def test_no_log_line_forged_by_a_name(launch, tokens_file, tmp_path):
+    gw = launch('--auth', tokens_file, '--allow-runs', '--runs-dir', str(tmp_path / 'runs'), '--record',
+                str(tmp_path / 'rec'), '--record-topics', '/none')
+    status, body = api(gw, 'POST', '/api/runs', {'source': 'print(1)', 'name': f'x\n{FORGED} run'},
+                       TOKENS['operator'])
+    assert status == 201, body
+    status, rec = api(gw, 'POST', '/api/recordings', {'topics': [f'/x\r\n{FORGED} topic']}, TOKENS['operator'])
+    assert status == 201, rec
+    api(gw, 'DELETE', f"/api/recordings/{rec['id']}", token=TOKENS['operator'])
+    with Client(with_token(gw.ws_url, TOKENS['operator']) + '&name=' + quote(f'a\n{FORGED}')) as c:
+        c.publish(f'/y\n{FORGED} published', {'data': 1}, 'std_msgs/msg/Int32')
+        c.sync()
+    wait_for(lambda: f'\\n{FORGED} run' in gw.log_text(), 30)          # the run ended, logged with its name
+    wait_for(lambda: f'\\r\\n{FORGED} topic' in gw.log_text(), 10)    # the recording, with its globs
+    assert not [line for line in gw.log_text().splitlines() if line.startswith(FORGED)]
