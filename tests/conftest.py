@@ -72,10 +72,11 @@ class Started:
 
 
 class GatewayProcess(Started):
-    """``python -m gateway --port 0`` of this checkout on 127.0.0.1, with a programs folder of its own."""
+    """``python -m gateway --port 0`` of this checkout on 127.0.0.1, with a programs folder of its own
+    inside a folder of its own (tests that look beside the library see only what the gateway did)."""
 
     def __init__(self, *args: str, env: dict | None = None):
-        self.programs_dir = tempfile.mkdtemp(prefix='rosgate-programs-')
+        self.programs_dir = os.path.join(tempfile.mkdtemp(prefix='rosgate-gateway-'), 'programs')
         super().__init__([sys.executable, '-m', 'gateway', '--port', '0', '--address', '127.0.0.1',
                           '--programs-dir', self.programs_dir, *args], env={**os.environ, **(env or {})})
 
