@@ -231,7 +231,7 @@ def test_the_trail_store_stays_bounded_after_100000_moves():
         snap = late_snapshot(graph)
         pens = pen_markers(snap)
         # the hub keeps what a viewer needs and no pen history of its own
-        assert not hub.pending and hub.live_pen < mk.PEN_MARKERS_BEFORE_REFRESH
+        assert not hub.pending and hub.live_pen < hub.refresh_after < 2 * mk.PEN_MARKERS_BEFORE_REFRESH
         assert len(hub.static) == 1 and len(hub.dynamic) == 1 and len(hub.layers) == 1
         assert len(turtle.pen_points) <= 2 * MARKER_EVERY and not turtle.pen_batch
         assert sim.path.size == (500, 500)
@@ -239,7 +239,7 @@ def test_the_trail_store_stays_bounded_after_100000_moves():
         assert sum(len(m['points']) for m in pens) <= 2 * mk.RASTER_RUN_BUDGET
         assert len(dumps(snap)) < 1_000_000
         # the live viewer: the raster's markers and at most one refresh period of batches
-        assert len(live.pen()) <= len(pens) + mk.PEN_MARKERS_BEFORE_REFRESH
+        assert len(live.pen()) <= len(pens) + 2 * mk.PEN_MARKERS_BEFORE_REFRESH
     assert live.largest < 1_100_000
     # the lesson went on: the turtle covered ground, and the snapshot is exactly its raster
     assert live.messages >= 5 * block // MARKER_EVERY
@@ -259,11 +259,12 @@ def test_a_live_viewer_gets_the_raster_in_place_of_its_batches():
     turtle = sim.turtles['turtle1']
     turtle.on_set_pen({'r': 10, 'g': 20, 'b': 30, 'width': 2, 'off': 0})
     drawn = []
-    while hub.live_pen < mk.PEN_MARKERS_BEFORE_REFRESH - 1:
+    assert mk.PEN_MARKERS_BEFORE_REFRESH <= hub.refresh_after < 2 * mk.PEN_MARKERS_BEFORE_REFRESH
+    while hub.live_pen < hub.refresh_after - 1:
         wander(sim, MARKER_EVERY, seed=len(drawn))
         drawn.append((turtle.x, turtle.y))
     batches = len(live.pen())
-    assert batches >= mk.PEN_MARKERS_BEFORE_REFRESH - 1
+    assert batches >= hub.refresh_after - 1
     while hub.live_pen:                              # the flush of the next batch sends the refresh
         wander(sim, MARKER_EVERY, seed=len(drawn))
     pens = live.pen()

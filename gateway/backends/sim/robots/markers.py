@@ -12,14 +12,16 @@ The pen trails of a snapshot come from the robots' rasters (``add_layer``; turtl
 500x500 pen image, as the real node keeps its trails): one LINE_LIST per colour whose
 segments are the painted runs of each pixel row (``raster_lines``). Its size is bounded by the
 raster, not by the length of the lesson, and the snapshot is built only when a viewer joins.
-Live viewers get each batch once; after ``PEN_MARKERS_BEFORE_REFRESH`` batches they get a
-DELETEALL of "pen" and the raster's markers in their place, so what they hold stays bounded
-too.
+Live viewers get each batch once; after 1 to 2 times ``PEN_MARKERS_BEFORE_REFRESH`` batches
+(drawn at random per hub, so that the stations of a fleet, started together, do not all build
+their rasters' markers at the same moment) they get a DELETEALL of "pen" and the raster's markers
+in their place, so what they hold stays bounded too.
 """
 
 from __future__ import annotations
 
 import itertools
+import random
 from collections.abc import Callable
 from typing import Any
 
@@ -32,7 +34,7 @@ Message = dict[str, Any]
 ARROW, CUBE, LINE_STRIP, LINE_LIST, POINTS = 0, 1, 4, 5, 8
 ADD, DELETE, DELETEALL = 0, 2, 3
 TYPE = 'visualization_msgs/msg/MarkerArray'
-PEN_MARKERS_BEFORE_REFRESH = 1200   # live pen batches (2 minutes of a turtle) before the raster replaces them
+PEN_MARKERS_BEFORE_REFRESH = 1200   # live pen batches (2 minutes of a turtle) before the raster may replace them
 LAYER_ID_BASE = 1_000_000_000       # ids of the markers of a raster layer (live batches count from 1)
 RASTER_RUN_BUDGET = 15_000          # runs in a raster's markers (~60 bytes of JSON each): coarser cells beyond
 RASTER_LINE_WIDTH = 1.25            # a raster row's line, in rows: neighbours overlap, so no seam shows
@@ -143,6 +145,7 @@ class MarkerHub:
         self.layers: list[Callable[[], list[Message]]] = []   # the pen rasters' markers, built on demand
         self.pending: list[Message] = []
         self.live_pen = 0                                   # pen batches sent since the last DELETEALL
+        self.refresh_after = self._refresh_after()          # ... before the rasters' markers replace them
         self._ids = itertools.count(1)
         self._robot_ids: dict[str, int] = {}
         self._robot_counter = itertools.count(1)
@@ -188,7 +191,12 @@ class MarkerHub:
     def _delete_pen(self) -> None:
         self.pending.append(marker('pen', 0, LINE_LIST, action=DELETEALL))
         self.live_pen = 0
+        self.refresh_after = self._refresh_after()
         self._ids = itertools.count(1)
+
+    @staticmethod
+    def _refresh_after() -> int:
+        return PEN_MARKERS_BEFORE_REFRESH + random.randrange(PEN_MARKERS_BEFORE_REFRESH)
 
     def layer_markers(self) -> list[Message]:
         return [m for layer in self.layers for m in layer()]
@@ -202,7 +210,7 @@ class MarkerHub:
         A subscriber gets a snapshot of the moment it subscribes, then every later increment,
         so it never misses a change (an increment may repeat what its snapshot had).
         """
-        if self.live_pen >= PEN_MARKERS_BEFORE_REFRESH:
+        if self.live_pen >= self.refresh_after:
             self._delete_pen()
             if has_subscribers(self.pub):   # the batches they hold give way to the rasters (and the
                 # rest comes again, for viewers whose DELETEALL clears every namespace)
