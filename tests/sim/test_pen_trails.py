@@ -110,19 +110,23 @@ def teleport(sim: Turtlesim, x: float, y: float, theta: float = 0.0, turtle: str
     steps(sim, MARKER_EVERY)
 
 
-def raster_of(pens: list[dict]) -> np.ndarray:
-    """The pixels a snapshot's one-pixel-high runs cover, as colour keys (-1: none), to set beside
-    the turtlesim's own raster."""
+def raster_of(pens: list[dict], cell: int = 1) -> np.ndarray:
+    """The pixels a snapshot's boxes cover, as colour keys (-1: none), to set beside the
+    turtlesim's own raster (boxes of ``cell`` pixels high)."""
     out = np.full((PIXELS, PIXELS), -1, dtype=np.int64)
+
+    def key(c: dict) -> int:
+        return (round(c['r'] * 255) << 16) | (round(c['g'] * 255) << 8) | round(c['b'] * 255)
+
     for m in pens:
-        assert m['scale']['x'] == pytest.approx(mk.RASTER_LINE_WIDTH / METER)
-        c = m['color']
-        key = (round(c['r'] * 255) << 16) | (round(c['g'] * 255) << 8) | round(c['b'] * 255)
-        pts = m['points']
-        for a, b in zip(pts[::2], pts[1::2]):
-            assert a['y'] == b['y']
-            row = round((SIZE - a['y']) * METER)
-            out[row, round(a['x'] * METER + 0.5):round(b['x'] * METER - 0.5) + 1] = key
+        assert m['type'] == mk.CUBE_LIST
+        assert m['scale']['y'] == pytest.approx((1 + mk.RASTER_OVERLAP) * cell / METER)
+        length = round(m['scale']['x'] * METER - mk.RASTER_OVERLAP * cell)   # pixels
+        colours = m['colors'] or [m['color']] * len(m['points'])
+        for p, c in zip(m['points'], colours, strict=True):
+            row = round((SIZE - p['y']) * METER - (cell - 1) / 2)
+            first = round(p['x'] * METER - (length - 1) / 2)
+            out[row:row + cell, first:first + length] = key(c)
     return out
 
 
@@ -164,13 +168,12 @@ def test_a_point_drawn_is_in_the_late_snapshot_in_the_pen_colour():
     teleport(sim, 2.0, 3.0)                       # a red line from the centre to (2, 3)
     snap = late_snapshot(graph)
     pens = pen_markers(snap)
-    assert pens and all(m['type'] == mk.LINE_LIST and m['header']['frame_id'] == 'world' for m in pens)
+    assert pens and all(m['type'] == mk.CUBE_LIST and m['header']['frame_id'] == 'world' for m in pens)
     assert colour_at(pens, 2.0, 3.0) == (255, 0, 0)
     assert colour_at(pens, (2.0 + SIZE / 2) / 2, (3.0 + SIZE / 2) / 2) == (255, 0, 0)   # half way
     assert colour_at(pens, 8.0, 8.0) is None
     assert {'bounds', 'pen', 'robots'} <= {m['ns'] for m in snap['markers']}
-    # rows one pixel high: the snapshot is the raster the colour sensor reads
-    assert [m['scale']['x'] for m in pens] == pytest.approx([mk.RASTER_LINE_WIDTH / METER] * len(pens))
+    # boxes one pixel high: the snapshot is the raster the colour sensor reads
     assert np.array_equal(raster_of(pens), raster_keys(sim))
     assert sim.color_at(2.0, 3.0) == (255, 0, 0)
 
@@ -235,8 +238,8 @@ def test_the_trail_store_stays_bounded_after_100000_moves():
         assert len(hub.static) == 1 and len(hub.dynamic) == 1 and len(hub.layers) == 1
         assert len(turtle.pen_points) <= 2 * MARKER_EVERY and not turtle.pen_batch
         assert sim.path.size == (500, 500)
-        # the late viewer's snapshot: at most the run budget's segments, under 1 MB of JSON
-        assert sum(len(m['points']) for m in pens) <= 2 * mk.RASTER_RUN_BUDGET
+        # the late viewer's snapshot: within the raster's budget, under 1 MB of JSON
+        assert len(dumps(pens)) <= mk.RASTER_BYTES
         assert len(dumps(snap)) < 1_000_000
         # the live viewer: the raster's markers and at most one refresh period of batches
         assert len(live.pen()) <= len(pens) + 2 * mk.PEN_MARKERS_BEFORE_REFRESH
@@ -246,8 +249,7 @@ def test_the_trail_store_stays_bounded_after_100000_moves():
     painted = (raster_keys(sim) >= 0).mean()
     assert painted > 0.2, painted
     pens = pen_markers(late_snapshot(graph))
-    assert [m['scale']['x'] for m in pens] == pytest.approx([mk.RASTER_LINE_WIDTH / METER] * len(pens))   # no coarser cells needed
-    assert np.array_equal(raster_of(pens), raster_keys(sim))
+    assert np.array_equal(raster_of(pens), raster_keys(sim))   # (in pixels: no coarser cells needed)
     # and the live viewer has drawn the last stretch too
     assert painted_at(live.pen(), turtle.x, turtle.y)
 
@@ -268,13 +270,13 @@ def test_a_live_viewer_gets_the_raster_in_place_of_its_batches():
     while hub.live_pen:                              # the flush of the next batch sends the refresh
         wander(sim, MARKER_EVERY, seed=len(drawn))
     pens = live.pen()
-    assert len(pens) == 1 and pens[0]['id'] == mk.LAYER_ID_BASE    # one colour drawn
+    assert pens and all(m['id'] >= mk.LAYER_ID_BASE for m in pens)
     assert np.array_equal(raster_of(pens), raster_keys(sim))
     for x, y in drawn[::50]:
         assert colour_at(pens, x, y) == (10, 20, 30)
     assert {m['ns'] for m in live.markers.values()} == {'bounds', 'robots', 'pen'}
     wander(sim, MARKER_EVERY, seed=1)
-    assert [m['id'] for m in live.pen()] in ([mk.LAYER_ID_BASE], [mk.LAYER_ID_BASE, 1])   # ids start over
+    assert [m['id'] for m in live.pen() if m['id'] < mk.LAYER_ID_BASE] in ([], [1])   # ids start over
 
 
 @in_loop
@@ -297,25 +299,38 @@ def test_a_framed_station_keeps_its_frame_in_the_snapshot():
     assert pens and {m['header']['frame_id'] for m in pens} == {'turtlesim'}
 
 
-def test_raster_lines_runs_and_budget():
-    a = np.zeros((4, 6, 4), dtype=np.uint8)
+def test_raster_boxes_runs_colours_and_budget():
+    a = np.zeros((4, 40, 4), dtype=np.uint8)
     a[1, 1:4] = (255, 0, 0, 255)                      # a red run of 3 in row 1
     a[1, 4] = (0, 0, 255, 255)                        # then a blue pixel
     a[3, 0] = (255, 0, 0, 255)                        # a red pixel in the bottom-left corner
-    ms = mk.raster_lines(a, pixel=0.5, x0=1.0, y_top=10.0, ns='pen', id_base=100)
-    by_colour = {(m['color']['r'], m['color']['b']): m for m in ms}
-    assert set(by_colour) == {(1.0, 0.0), (0.0, 1.0)}
-    red, blue = by_colour[(1.0, 0.0)], by_colour[(0.0, 1.0)]
-    assert [(p['x'], p['y']) for p in red['points']] == [(1.25, 9.5), (2.75, 9.5), (0.75, 8.5), (1.25, 8.5)]
-    assert [(p['x'], p['y']) for p in blue['points']] == [(2.75, 9.5), (3.25, 9.5)]
-    assert red['scale']['x'] == 0.5 * mk.RASTER_LINE_WIDTH and {m['id'] for m in ms} == {100, 101}
-    assert mk.raster_lines(np.zeros((5, 5, 4), dtype=np.uint8), pixel=1, x0=0, y_top=0, ns='pen', id_base=0) == []
-    # noise: every pixel its own run. The budget makes the cells coarser until it holds
+    a[2, 0:40] = (255, 0, 0, 255)                     # a red run of 40: boxes of 32 and 8
+    ms = mk.raster_boxes(a, pixel=0.5, x0=1.0, y_top=10.0, ns='pen', id_base=100)
+    boxes = {(m['color']['r'], m['color']['b'], round(m['scale']['x'] / 0.5 - mk.RASTER_OVERLAP)):
+             [(p['x'], p['y']) for p in m['points']] for m in ms}
+    assert boxes == {
+        (1.0, 0.0, 3): [(2.0, 9.5)],                  # pixels 1..3 of row 1: x from 1.25 to 2.75
+        (1.0, 0.0, 1): [(1.0, 8.5)],
+        (1.0, 0.0, 32): [(8.75, 9.0)],
+        (1.0, 0.0, 8): [(18.75, 9.0)],
+        (0.0, 1.0, 1): [(3.0, 9.5)],
+    }
+    assert {m['id'] for m in ms} == set(range(100, 105)) and all(m['colors'] == [] for m in ms)
+    assert all(m['scale']['y'] == 0.5 * (1 + mk.RASTER_OVERLAP) for m in ms)
+    assert mk.raster_boxes(np.zeros((5, 5, 4), dtype=np.uint8), pixel=1, x0=0, y_top=0, ns='pen', id_base=0) == []
+    # many colours: a marker per box size, a colour per box
+    rainbow = np.zeros((PIXELS, PIXELS, 4), dtype=np.uint8)
+    for i in range(100):
+        rainbow[3 * i, 10:30 + i] = (i, 255 - i, 7, 255)
+    ms = mk.raster_boxes(rainbow, pixel=1 / METER, x0=0, y_top=SIZE, ns='pen', id_base=0)
+    assert len(ms) <= mk.RASTER_LONGEST and all(len(m['colors']) == len(m['points']) for m in ms)
+    assert np.array_equal(raster_of(ms), np.where(rainbow[:, :, 3] > 0, (rainbow[:, :, 0].astype(np.int64) << 16)
+                                                  | (rainbow[:, :, 1].astype(np.int64) << 8) | 7, -1))
+    # noise: every pixel its own run and colour. The budget makes the cells coarser until it holds
     rng = np.random.default_rng(3)
-    noise = np.zeros((500, 500, 4), dtype=np.uint8)
-    noise[:, :, :3] = rng.integers(0, 4, (500, 500, 3)) * 60
+    noise = np.zeros((PIXELS, PIXELS, 4), dtype=np.uint8)
+    noise[:, :, :3] = rng.integers(0, 4, (PIXELS, PIXELS, 3)) * 60
     noise[:, :, 3] = 255
-    ms = mk.raster_lines(noise, pixel=1 / 45, x0=0, y_top=SIZE, ns='pen', id_base=0)
-    assert sum(len(m['points']) for m in ms) // 2 <= mk.RASTER_RUN_BUDGET
-    assert len({m['scale']['x'] for m in ms}) == 1 and ms[0]['scale']['x'] > mk.RASTER_LINE_WIDTH / 45
-    assert len(dumps({'markers': ms})) < 1_000_000
+    ms = mk.raster_boxes(noise, pixel=1 / METER, x0=0, y_top=SIZE, ns='pen', id_base=0)
+    assert len({m['scale']['y'] for m in ms}) == 1 and ms[0]['scale']['y'] > (1 + mk.RASTER_OVERLAP) / METER
+    assert len(dumps({'markers': ms})) < mk.RASTER_BYTES * 1.1

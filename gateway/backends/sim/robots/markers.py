@@ -2,20 +2,21 @@
 
 One ``MarkerHub`` per namespace collects what every robot of that namespace shows. Frame
 "world", metres. Namespaces (marker.ns): "bounds" (LINE_STRIP outline), "walls" (CUBEs),
-"pen" (LINE_LIST batches, fresh id each; DELETEALL before /clear and /reset), "robots" (one
-ARROW per robot, stable id, name in marker.text; DELETE when it goes), "scan" (POINTS).
+"pen" (LINE_LIST batches, fresh id each, and the raster's CUBE_LISTs; DELETEALL before /clear
+and /reset), "robots" (one ARROW per robot, stable id, name in marker.text; DELETE when it
+goes), "scan" (POINTS).
 
 Live subscribers receive increments (~10 Hz); the latched message is always a full snapshot,
 so a viewer that subscribes late still sees bounds, walls, all pen trails and the robots.
 
-The pen trails of a snapshot come from the robots' rasters (``add_layer``; turtlesim's
-500x500 pen image, as the real node keeps its trails): one LINE_LIST per colour whose
-segments are the painted runs of each pixel row (``raster_lines``). Its size is bounded by the
-raster, not by the length of the lesson, and the snapshot is built only when a viewer joins.
-Live viewers get each batch once; after 1 to 2 times ``PEN_MARKERS_BEFORE_REFRESH`` batches
-(drawn at random per hub, so that the stations of a fleet, started together, do not all build
-their rasters' markers at the same moment) they get a DELETEALL of "pen" and the raster's markers
-in their place, so what they hold stays bounded too.
+The pen trails of a snapshot come from the robots' rasters (``add_layer``; turtlesim's 500x500
+pen image, as the real node keeps its trails): CUBE_LISTs whose boxes, one pixel high, are the
+painted runs of each pixel row, a marker per colour and box length (``raster_boxes``). Its size
+is bounded by the raster, not by the length of the lesson, and it is built only when a viewer
+joins. Live viewers get each batch once; after 1 to 2 times ``PEN_MARKERS_BEFORE_REFRESH``
+batches (drawn at random per hub, so that the stations of a fleet, started together, do not all
+build their rasters' markers in the same moment) they get a DELETEALL of "pen" and the raster's
+markers in their place, so what they hold stays bounded too.
 """
 
 from __future__ import annotations
@@ -31,14 +32,16 @@ from ...base import QoS
 from .msgs import IDENTITY_Q, header, has_subscribers, set_latched, vector3, yaw_quaternion
 
 Message = dict[str, Any]
-ARROW, CUBE, LINE_STRIP, LINE_LIST, POINTS = 0, 1, 4, 5, 8
+ARROW, CUBE, LINE_STRIP, LINE_LIST, CUBE_LIST, POINTS = 0, 1, 4, 5, 6, 8
 ADD, DELETE, DELETEALL = 0, 2, 3
 TYPE = 'visualization_msgs/msg/MarkerArray'
 PEN_MARKERS_BEFORE_REFRESH = 1200   # live pen batches (2 minutes of a turtle) before the raster may replace them
 LAYER_ID_BASE = 1_000_000_000       # ids of the markers of a raster layer (live batches count from 1)
-RASTER_RUN_BUDGET = 15_000          # runs in a raster's markers (~60 bytes of JSON each): coarser cells beyond
-RASTER_LINE_WIDTH = 1.25            # a raster row's line, in rows: neighbours overlap, so no seam shows
-                                    # between them where a viewer antialiases (a browser's canvas)
+RASTER_BYTES = 800_000              # about the most JSON a raster's markers take: coarser cells beyond
+RASTER_LONGEST = 32                 # cells: longer runs are cut, so there are at most 32 box sizes
+RASTER_OVERLAP = 0.5                # cells added to a box's size: neighbours overlap, no seam between them
+RASTER_FEW_COLOURS = 16             # up to this many a marker per colour and size; beyond, a colour per box
+BOX_BYTES, COLOURED_BOX_BYTES, MARKER_BYTES = 31, 70, 600   # JSON, about, for RASTER_BYTES
 
 
 def color(r: float, g: float, b: float, a: float = 1.0) -> Message:
@@ -74,17 +77,21 @@ def outline(id: int, width: float, height: float, x0: float = 0.0, y0: float = 0
                   points=[point(x, y) for x, y in corners])
 
 
-def raster_lines(rgba, *, pixel: float, x0: float, y_top: float, ns: str, id_base: int,
-                 frame_id: str = 'world', budget: int = RASTER_RUN_BUDGET) -> list[Message]:
-    """The painted pixels of an RGBA raster as LINE_LIST markers, one per colour.
+def raster_boxes(rgba, *, pixel: float, x0: float, y_top: float, ns: str, id_base: int,
+                 frame_id: str = 'world', budget: int = RASTER_BYTES) -> list[Message]:
+    """The painted pixels of an RGBA raster as CUBE_LIST markers.
 
     ``rgba``: (rows, columns, 4) uint8, row 0 at the top; a pixel is painted when its alpha is
     not 0. Pixel (column c, row r) is the square of side ``pixel`` metres centred at
     (x0 + c * pixel, y_top - r * pixel). Each run of same-coloured painted pixels along a row is
-    one segment from its left edge to its right edge along the row's middle, its line a little
-    wider than the row is high (``RASTER_LINE_WIDTH``); coordinates to the millimetre. Should the runs number more than ``budget``, the raster is read in square
-    cells of 2, 3, ... pixels (a cell takes one of its painted colours) until they do not, so the
-    markers stay under about ``budget`` x 60 bytes of JSON whatever was drawn.
+    a box one pixel high (runs longer than ``RASTER_LONGEST`` are cut), given by its centre
+    alone, to the millimetre: a marker holds the boxes of one length, their size in its scale,
+    a little larger than their pixels (``RASTER_OVERLAP``) so that no seam shows between
+    neighbours where a viewer antialiases, as a browser's canvas does. With up to
+    ``RASTER_FEW_COLOURS`` colours a marker has one colour; with more, each box has its own (in
+    ``colors``). Should that come to more than about ``budget`` bytes of JSON, the raster is read
+    in square cells of 2, 3, ... pixels (a cell takes one of its painted colours) until it does
+    not, so the markers stay under the budget whatever was drawn.
     """
     a = np.asarray(rgba)
     rows, cols = a.shape[:2]
@@ -98,31 +105,47 @@ def raster_lines(rgba, *, pixel: float, x0: float, y_top: float, ns: str, id_bas
             padded = np.full((h * cell, w * cell), -1, dtype=np.int32)
             padded[:rows, :cols] = key
             grid = padded.reshape(h, cell, w, cell).max(axis=(1, 3))
-        row, first, last = _runs(grid)
-        if len(row) <= budget or grid.size <= budget:
+        row, start, length, colour = _boxes(grid)
+        few = len(np.unique(colour)) <= RASTER_FEW_COLOURS
+        group = colour.astype(np.int64) * (RASTER_LONGEST + 1) + length if few else length
+        cost = len(row) * (BOX_BYTES if few else COLOURED_BOX_BYTES) + len(np.unique(group)) * MARKER_BYTES
+        if cost <= budget or grid.size * COLOURED_BOX_BYTES <= budget:
             break
     if not len(row):
         return []
-    colour = grid[row, first]
-    order = np.argsort(colour, kind='stable')      # by colour, row-major within one
-    colour, row, first, last = colour[order], row[order], first[order], last[order]
-    xa = np.round(x0 + (first * cell - 0.5) * pixel, 3).tolist()
-    xb = np.round(x0 + (np.minimum(last * cell + cell, cols) - 0.5) * pixel, 3).tolist()
+    order = np.argsort(group, kind='stable')                                # row-major within a group
+    group, row, start, length, colour = group[order], row[order], start[order], length[order], colour[order]
+    xs = np.round(x0 + ((start + length / 2) * cell - 0.5) * pixel, 3).tolist()
     ys = np.round(y_top - (row * cell + (cell - 1) / 2) * pixel, 3).tolist()
-    bounds = (np.flatnonzero(np.diff(colour)) + 1).tolist()
+    bounds = (np.flatnonzero(np.diff(group)) + 1).tolist()
+    colours = colour.tolist()
+    shared: dict[int, Message] = {}    # one colour dict for all the boxes of a colour
+
+    def rgba_of(value: int, digits: int | None = None) -> Message:
+        r, g, b = ((value >> 16) / 255, ((value >> 8) & 255) / 255, (value & 255) / 255)
+        return color(*((r, g, b) if digits is None else (round(r, digits), round(g, digits), round(b, digits))))
+
     out = []
-    for n, (start, stop) in enumerate(zip([0, *bounds], [*bounds, len(colour)])):
-        pts = []
-        for i in range(start, stop):
-            y = ys[i]
-            pts.append({'x': xa[i], 'y': y, 'z': 0.0})
-            pts.append({'x': xb[i], 'y': y, 'z': 0.0})
-        value = int(colour[start])
-        out.append(marker(ns, id_base + n, LINE_LIST, scale=(RASTER_LINE_WIDTH * cell * pixel, 0, 0),
-                          frame_id=frame_id,
-                          rgba=color((value >> 16) / 255, ((value >> 8) & 255) / 255, (value & 255) / 255),
-                          points=pts))
+    for n, (begin, end) in enumerate(zip([0, *bounds], [*bounds, len(group)])):
+        size = int(length[begin])
+        m = marker(ns, id_base + n, CUBE_LIST, frame_id=frame_id,
+                   scale=((size + RASTER_OVERLAP) * cell * pixel, (1 + RASTER_OVERLAP) * cell * pixel, 0.001),
+                   rgba=rgba_of(colours[begin]) if few else color(1, 1, 1),
+                   points=[{'x': xs[i], 'y': ys[i], 'z': 0.0} for i in range(begin, end)])
+        if not few:   # three decimals tell the 256 levels of a channel apart
+            m['colors'] = [shared.get(c) or shared.setdefault(c, rgba_of(c, 3)) for c in colours[begin:end]]
+        out.append(m)
     return out
+
+
+def _boxes(grid: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The runs of equal values >= 0 along the rows of ``grid``, cut to ``RASTER_LONGEST``: the
+    row, first column, length and value of each, in row-major order."""
+    row, first, last = _runs(grid)
+    pieces = (last - first) // RASTER_LONGEST + 1
+    run = np.repeat(np.arange(len(row)), pieces)
+    start = first[run] + (np.arange(len(run)) - np.repeat(np.cumsum(pieces) - pieces, pieces)) * RASTER_LONGEST
+    return row[run], start, np.minimum(last[run] - start + 1, RASTER_LONGEST), grid[row[run], first[run]]
 
 
 def _runs(grid: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -163,7 +186,7 @@ class MarkerHub:
         self._robot_ids.pop(key, None)
 
     def add_layer(self, layer: Callable[[], list[Message]]) -> None:
-        """``layer()``: the pen markers of everything drawn so far (a raster's ``raster_lines``)."""
+        """``layer()``: the pen markers of everything drawn so far (a raster's ``raster_boxes``)."""
         self.layers.append(layer)
 
     def set_static(self, m: Message) -> None:

@@ -8,7 +8,7 @@ honoured only when true). A QTimer-like 16 ms tick integrates every turtle with 
 the real node does. The pen draws into a transparent 500x500 raster (45 px per metre) that the
 colour sensor reads (unpainted pixels read as white, as in the real node), and into pen markers
 for the world view: live viewers get the segments drawn (a batch per turtle ~10 times a second),
-a viewer joining late gets the raster (``markers.raster_lines``), so the trails of a lesson of any
+a viewer joining late gets the raster (``markers.raster_boxes``), so the trails of a lesson of any
 length take the raster's memory and no more.
 """
 
@@ -280,7 +280,7 @@ class Turtlesim:
 
     def pen_layer(self) -> list[dict]:
         """The trails drawn so far, for a viewer joining late: the raster's painted pixels."""
-        return mk.raster_lines(self.path, pixel=1 / METER, x0=0.0, y_top=SIZE, ns='pen',
+        return mk.raster_boxes(self.path, pixel=1 / METER, x0=0.0, y_top=SIZE, ns='pen',
                                id_base=mk.LAYER_ID_BASE)
 
     def draw_line(self, a: tuple[float, float], b: tuple[float, float], pen: tuple) -> None:
