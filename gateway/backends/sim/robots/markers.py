@@ -85,11 +85,11 @@ def raster_boxes(rgba, *, pixel: float, x0: float, y_top: float, ns: str, id_bas
     not 0. Pixel (column c, row r) is the square of side ``pixel`` metres centred at
     (x0 + c * pixel, y_top - r * pixel). Each run of same-coloured painted pixels along a row is
     a box one pixel high (runs longer than ``RASTER_LONGEST`` are cut), given by its centre
-    alone, to the millimetre: a marker holds the boxes of one length, their size in its scale,
-    a little larger than their pixels (``RASTER_OVERLAP``) so that no seam shows between
-    neighbours where a viewer antialiases, as a browser's canvas does. With up to
-    ``RASTER_FEW_COLOURS`` colours a marker has one colour; with more, each box has its own (in
-    ``colors``). Should that come to more than about ``budget`` bytes of JSON, the raster is read
+    alone, to the millimetre: a marker holds the boxes of one colour and one length, their size
+    in its scale, a little larger than their pixels (``RASTER_OVERLAP``) so that no seam shows
+    between neighbours where a viewer antialiases, as a browser's canvas does. Past
+    ``RASTER_FEW_COLOURS`` colours a marker holds the boxes of one length in every colour, each
+    box with its own (in ``colors``). Should that come to more than about ``budget`` bytes of JSON, the raster is read
     in square cells of 2, 3, ... pixels (a cell takes one of its painted colours) until it does
     not, so the markers stay under the budget whatever was drawn.
     """
@@ -119,12 +119,13 @@ def raster_boxes(rgba, *, pixel: float, x0: float, y_top: float, ns: str, id_bas
     ys = np.round(y_top - (row * cell + (cell - 1) / 2) * pixel, 3).tolist()
     bounds = (np.flatnonzero(np.diff(group)) + 1).tolist()
     colours = colour.tolist()
-    shared: dict[int, Message] = {}    # one colour dict for all the boxes of a colour
 
     def rgba_of(value: int, digits: int | None = None) -> Message:
-        r, g, b = ((value >> 16) / 255, ((value >> 8) & 255) / 255, (value & 255) / 255)
-        return color(*((r, g, b) if digits is None else (round(r, digits), round(g, digits), round(b, digits))))
+        rgb = [c / 255 for c in (value >> 16, (value >> 8) & 255, value & 255)]
+        return color(*(rgb if digits is None else [round(c, digits) for c in rgb]))
 
+    # many colours: one dict per colour shared by its boxes, three decimals (enough for 8 bits)
+    palette = {} if few else {c: rgba_of(c, 3) for c in set(colours)}
     out = []
     for n, (begin, end) in enumerate(zip([0, *bounds], [*bounds, len(group)])):
         size = int(length[begin])
@@ -132,8 +133,8 @@ def raster_boxes(rgba, *, pixel: float, x0: float, y_top: float, ns: str, id_bas
                    scale=((size + RASTER_OVERLAP) * cell * pixel, (1 + RASTER_OVERLAP) * cell * pixel, 0.001),
                    rgba=rgba_of(colours[begin]) if few else color(1, 1, 1),
                    points=[{'x': xs[i], 'y': ys[i], 'z': 0.0} for i in range(begin, end)])
-        if not few:   # three decimals tell the 256 levels of a channel apart
-            m['colors'] = [shared.get(c) or shared.setdefault(c, rgba_of(c, 3)) for c in colours[begin:end]]
+        if not few:
+            m['colors'] = [palette[c] for c in colours[begin:end]]
         out.append(m)
     return out
 
