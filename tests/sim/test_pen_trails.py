@@ -51,9 +51,6 @@ class Viewer:
     def pen(self) -> list[dict]:
         return [m for (ns, _), m in self.markers.items() if ns == 'pen']
 
-    def close(self) -> None:
-        self.sub.destroy()
-
 
 def in_loop(test):
     """Run a test body with a running event loop (the graph's nodes need one to exist)."""
