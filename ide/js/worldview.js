@@ -262,11 +262,20 @@ export class WorldView {
         ctx.stroke();
         break;
       }
-      case POINTS: case SPHERE_LIST: case CUBE_LIST: {
+      case POINTS: case SPHERE_LIST: {
         const r = Math.max((m.scale?.x || 0.05) / 2, 1.5 * px);
         pts.forEach((q, i) => {
           if (m.colors?.[i]) ctx.fillStyle = rgba(m.colors[i]);
           ctx.fillRect(q.x - r, q.y - r, 2 * r, 2 * r);
+        });
+        break;
+      }
+      case CUBE_LIST: {   // boxes of scale.x by scale.y (a pen raster's runs), at least a pixel
+        const rx = Math.max((m.scale?.x || 0.05) / 2, px / 2);
+        const ry = Math.max((m.scale?.y || m.scale?.x || 0.05) / 2, px / 2);
+        pts.forEach((q, i) => {
+          if (m.colors?.[i]) ctx.fillStyle = rgba(m.colors[i]);
+          ctx.fillRect(q.x - rx, q.y - ry, 2 * rx, 2 * ry);
         });
         break;
       }

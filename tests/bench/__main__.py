@@ -3,4 +3,7 @@ import sys
 from .runner import main
 
 if __name__ == "__main__":
+    if sys.argv[1:2] == ["lesson"]:   # the long-lesson run (tests/bench/lesson.py), not the scenarios
+        from .lesson import main as lesson
+        sys.exit(lesson(sys.argv[2:]))
     sys.exit(main())

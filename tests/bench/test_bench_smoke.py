@@ -192,3 +192,28 @@ def test_ratios_to_each_base_and_rclpy_goals():
     rows = {g["goal"]: g for g in goals_rclpy({"throughput": [entry]}, "rosgate")}
     assert rows[">= 0.8x the Rust server's msg/s at 64 B, W=32"]["met"] is True
     assert rows[">= 0.8x the Rust server's msg/s at 1024 B, W=32"]["met"] is None
+
+
+def test_lesson_run_yields_its_figures(tmp_path):
+    """`python -m tests.bench lesson` for a few seconds on two stations: every figure is there (the
+    bar is for the full run and is not judged here)."""
+    if not rosgate_available():
+        pytest.skip("no gateway")
+    out = tmp_path / "lesson.json"
+    proc = subprocess.run(
+        [sys.executable, "-m", "tests.bench", "lesson", "--stations", "2", "--minutes", "0.05",
+         "--warmup", "1", "--out", str(out)],
+        cwd=REPO, capture_output=True, text=True, timeout=120,
+    )
+    assert proc.returncode in (0, 1), proc.stderr[-3000:]
+    assert "the bar:" in proc.stdout
+    doc = json.loads(out.read_text())
+    assert doc["namespaces"] == ["/s01", "/s02"]
+    (minute,) = doc["minutes"]
+    assert minute["rss_mb"] > 0 and minute["cpu_pct"] > 0 and minute["pose_per_s"] > 0
+    assert minute["rosapi_calls"] > 0 and minute["rosapi_p95_ms"] > 0
+    late = doc["late_viewer"]
+    assert late["topic"] == "/s01/world/markers" and late["bytes"] > 0
+    assert {"bounds", "robots", "pen"} <= set(late["markers"])
+    assert len(doc["bar"]) == 5
+

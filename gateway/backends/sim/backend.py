@@ -87,7 +87,7 @@ class SimBackend:
     def latched_messages(self, topic: str) -> list[Message]:
         """What a new transient-local subscriber receives now (the topic's retained messages)."""
         t = self.graph._topics.get(topic)
-        return list(t.latched) if t else []
+        return t.retained() if t else []
 
     # --- services ----------------------------------------------------------------------------
     async def wait_for_service(self, service: str, timeout: float) -> list[str]:

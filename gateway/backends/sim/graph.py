@@ -46,6 +46,11 @@ class Topic:
     subscriptions: list[SimSubscription] = field(default_factory=list)
     latched: deque = field(default_factory=lambda: deque(maxlen=1))
 
+    def retained(self) -> list[Message]:
+        """What a late transient-local subscriber receives now, oldest first (a retained
+        callable is called for its message: a snapshot built only when someone joins)."""
+        return [m() if callable(m) else m for m in self.latched]
+
 
 class SimPublisher:
     def __init__(self, node: Node, topic: Topic, qos: QoS):
@@ -71,8 +76,10 @@ class SimPublisher:
         """How many subscriptions the topic has (costly messages can be skipped at 0)."""
         return len(self._topic.subscriptions)
 
-    def retain(self, msg: Message) -> None:
-        """Replace what late subscribers of a latched topic receive, without sending it now."""
+    def retain(self, msg: Message | Callable[[], Message]) -> None:
+        """Replace what late subscribers of a latched topic receive, without sending it now.
+
+        ``msg`` may be a callable returning the message, called each time a subscriber joins."""
         self._topic.latched.append(msg)
 
     def destroy(self) -> None:
@@ -213,7 +220,7 @@ class Node:
         if (qos is None or qos.transient_local) and t.latched:
             # not now: the caller does not hold the handle yet. A publish before then hands
             # these over first, so a retained message never follows a newer live one.
-            sub.backlog.extend(t.latched)
+            sub.backlog.extend(t.retained())
             self.graph.loop.call_soon(sub.catch_up)
         return sub
 

@@ -40,6 +40,9 @@ class FramedHub:
     def add_pen(self, m: dict) -> None:
         self.hub.add_pen(self._framed(m))
 
+    def add_layer(self, layer) -> None:
+        self.hub.add_layer(lambda: [self._framed(m) for m in layer()])
+
 
 class Station:
     """The robots of one namespace sharing one world view (``world/markers``)."""

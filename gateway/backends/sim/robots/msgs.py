@@ -45,8 +45,9 @@ def has_subscribers(pub) -> bool:
     return pub.subscription_count > 0
 
 
-def set_latched(pub, msg: Message) -> None:
-    """Replace what late subscribers of a transient-local publisher receive, without sending it now."""
+def set_latched(pub, msg) -> None:
+    """Replace what late subscribers of a transient-local publisher receive, without sending it now
+    (a message, or a callable that builds it when a subscriber joins)."""
     pub.retain(msg)
 
 

@@ -7,7 +7,9 @@ Node ``turtlesim`` (in the station's namespace). Services ``spawn``, ``kill``, `
 honoured only when true). A QTimer-like 16 ms tick integrates every turtle with dt = 0.016 s, as
 the real node does. The pen draws into a transparent 500x500 raster (45 px per metre) that the
 colour sensor reads (unpainted pixels read as white, as in the real node), and into pen markers
-for the world view.
+for the world view: live viewers get the segments drawn (a batch per turtle ~10 times a second),
+a viewer joining late gets the raster (``markers.raster_boxes``), so the trails of a lesson of any
+length take the raster's memory and no more.
 """
 
 from __future__ import annotations
@@ -57,7 +59,7 @@ class Turtle:
         self.goal = self.goal_start = None
         self.goal_delta = 0.0
         self.pen_points: list[tuple[float, float]] = []   # segment pairs not yet in a marker
-        self.pen_batch: list[dict] = []                   # markers of the current batch
+        self.pen_batch: list[dict] = []                   # markers not yet handed to the hub
         self.last_marker_pose = None
         self.last_warn = -math.inf
         node = sim.node
@@ -202,8 +204,8 @@ class Turtle:
         """Close the pen segments drawn since the last call into a marker (colour may change)."""
         if self.pen_points:
             r, g, b, width = self.pen
-            self.pen_batch.append(mk.marker(
-                'pen', self.sim.hub.next_pen_id(), mk.LINE_LIST, scale=(width / METER, 0, 0),
+            self.pen_batch.append(mk.marker(   # the hub numbers it
+                'pen', 0, mk.LINE_LIST, scale=(width / METER, 0, 0),
                 rgba=mk.color(r / 255, g / 255, b / 255), points=[mk.point(x, y) for x, y in self.pen_points]))
             self.pen_points = []
 
@@ -228,6 +230,7 @@ class Turtlesim:
         self.background = DEFAULT_BG
         self.path = Image.new('RGBA', (PIXELS, PIXELS), (255, 255, 255, 0))
         self.painter = ImageDraw.Draw(self.path)
+        self.hub.add_layer(self.pen_layer)
         for i, channel in enumerate('rgb'):
             self.node.declare_parameter(f'background_{channel}', DEFAULT_BG[i],
                                         on_set=lambda v, i=i: self.on_background(i, v))
@@ -275,6 +278,11 @@ class Turtlesim:
         return mk.marker('bounds', 0, mk.CUBE, pose=mk.pose(SIZE / 2, SIZE / 2, 0.0, z=-0.01),
                          scale=(SIZE, SIZE, 0.01), rgba=mk.color(r, g, b))
 
+    def pen_layer(self) -> list[dict]:
+        """The trails drawn so far, for a viewer joining late: the raster's painted pixels."""
+        return mk.raster_boxes(self.path, pixel=1 / METER, x0=0.0, y_top=SIZE, ns='pen',
+                               id_base=mk.LAYER_ID_BASE)
+
     def draw_line(self, a: tuple[float, float], b: tuple[float, float], pen: tuple) -> None:
         r, g, bl, width = pen
         ends = [(round(x * METER), round((SIZE - y) * METER)) for x, y in (a, b)]
@@ -318,8 +326,9 @@ class Turtlesim:
         for m in turtle.pen_batch:
             self.hub.add_pen(m)
         turtle.destroy()
-        rid = self.hub.robot_id(f'{self.node.name}/{name}')
-        self.hub.update(mk.marker('robots', rid, mk.ARROW, action=mk.DELETE))
+        key = f'{self.node.name}/{name}'
+        self.hub.update(mk.marker('robots', self.hub.robot_id(key), mk.ARROW, action=mk.DELETE))
+        self.hub.forget_robot(key)
 
     def on_spawn(self, req: dict) -> dict:
         name = self.spawn(req.get('name', ''), float(req.get('x', 0.0)), float(req.get('y', 0.0)),
