@@ -102,8 +102,9 @@ class Sandbox:
         ``program_fd`` there read-only as program.py. The environment is the caller's (give only
         what the run needs)."""
         size = lambda: ['--size', str(self.tmp_bytes)] if self.tmp_bytes else []   # noqa: E731
-        a = [self.bwrap, *self.options, *self.mounts, '--proc', '/proc', '--dev', '/dev',
-             '--perms', '1777', *size(), '--tmpfs', '/tmp', *size(), '--tmpfs', HOME]
+        # the private /tmp first: an interpreter (a checkout's venv) under /tmp is bound over it
+        a = [self.bwrap, *self.options, '--perms', '1777', *size(), '--tmpfs', '/tmp', *self.mounts,
+             '--proc', '/proc', '--dev', '/dev', *size(), '--tmpfs', HOME]
         if program_fd is not None:
             a += ['--ro-bind-data', str(program_fd), f'{HOME}/program.py']
         return [*a, '--chdir', HOME, '--', *command]

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from gateway.web.sandbox import Cgroups
+from gateway.web.sandbox import Cgroups, Sandbox
 from tests.conftest import wait_for
 from tests.gateway.test_runs import alive, api, ended, state_of
 from tests.security.conftest import ROSAUTH_SECRET, TOKENS, tokens_toml
@@ -276,3 +276,11 @@ def test_no_cgroups_where_the_controllers_cannot_be_delegated(tmp_path, monkeypa
     monkeypatch.setattr(Path, 'write_text', busy)
     cgroups, how = Cgroups.find(tmp_path, '0::/user.slice\n')
     assert cgroups is None and 'Delegate=yes' in how, how
+
+
+def test_an_interpreter_under_tmp_is_seen_over_the_private_tmp():
+    """A checkout (and its venv) under /tmp: the run's private /tmp is made first, and the
+    interpreter's folders are bound over it (the other way round the venv would be hidden)."""
+    box = Sandbox('bwrap', ('--ro-bind', '/tmp/ci/.venv', '/tmp/ci/.venv'), (), 0)
+    argv = box.argv(['python'])
+    assert argv.index('/tmp') < argv.index('/tmp/ci/.venv')
