@@ -27,6 +27,9 @@ from turtlesim.msg import Pose
 from turtlesim.srv import Spawn
 
 
+FEEDBACK = '/turtle1/rotate_absolute/_action/feedback'
+
+
 def say(*parts) -> None:
     print(*parts, flush=True)
 
@@ -97,6 +100,11 @@ class Robot(Node):
 
     def on_rotate(self, goal):
         theta = goal.request.theta
+        # the caller's feedback subscription may not be matched yet when its first goal arrives
+        # (DDS discovery): wait for it, as a caller that asked for feedback expects all of it
+        deadline = time.monotonic() + 10
+        while self.count_subscribers(FEEDBACK) == 0 and time.monotonic() < deadline:
+            time.sleep(0.01)
         for remaining in (theta * 2 / 3, theta / 3, 0.0):
             goal.publish_feedback(RotateAbsolute.Feedback(remaining=remaining))
             time.sleep(0.05)
