@@ -72,10 +72,9 @@ class Sender:
             self.attrs['person'] = person   # whose station it may drive (rules.stations)
         self.remote = remote
         self.closed = False
-        self.notes: list[str] = []   # what the rules told this sender (a client gets them as status)
 
     def status(self, level: str, msg: str, op: str | None = None, id: str | None = None) -> None:
-        self.notes.append(msg)
+        """What the rules tell a client as a status goes to the log."""
         log.info('%s: %s', self.attrs['name'], msg)
 
 

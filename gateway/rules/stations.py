@@ -115,24 +115,12 @@ class Stations:
             self._stations, self._stations_at = find_stations(self.gateway.backend, self.types), now
         return self._stations
 
-    def station_of(self, ns: str) -> str | None:
-        top = '/' + ns.strip('/').split('/')[0] if ns.strip('/') else ''
-        return top if top in self.stations() else None
-
     def owner(self, station: str) -> Owner | None:
         return self.owners.get(station)
-
-    def owner_name(self, station: str) -> str | None:
-        o = self.owners.get(station)
-        return o.name if o is not None else None
 
     def is_owner(self, session, station: str) -> bool:
         o = self.owners.get(station)
         return o is not None and o.person == person(session)
-
-    def mine_or_free(self, key: str, station: str) -> bool:
-        o = self.owners.get(station)
-        return o is None or o.person == key
 
     def in_use(self, station: str, key: str) -> bool:
         """Whether a client of another person publishes on one of the station's topics, or

@@ -41,7 +41,7 @@ class Playback:
         r = self.reader
         return {'id': self.path.name, 'rate': self.rate, 'prefix': self.prefix, 'messages': r.message_count,
                 'duration': (r.end_time - r.start_time) / 1e9 if r.message_count else 0.0,
-                'topics': sorted(self.prefix + c.topic for c in r.connections)}
+                'topics': sorted(topic for topic, _ in self.targets())}
 
     def targets(self) -> list[tuple[str, str]]:
         """(topic, type) of each topic the playback publishes on."""

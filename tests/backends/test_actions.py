@@ -42,7 +42,7 @@ async def test_unknown_action(world):
     started = time.monotonic()
     with pytest.raises(BackendError, match='/no_such_action'):
         await world.backend.send_goal('/no_such_action', world.fib_type, {'order': 1}, None)
-    assert SERVER_WAIT - 0.05 <= time.monotonic() - started < SERVER_WAIT + 1
+    assert SERVER_WAIT - 0.05 <= time.monotonic() - started < 4   # not the 5 s wait for a ready server: busy machines vary
 
 
 async def test_an_action_server_that_appears_while_the_goal_waits_takes_it(world, topic):

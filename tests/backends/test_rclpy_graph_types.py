@@ -163,11 +163,12 @@ async def client(gateway):
     c.close()
 
 
-async def seen(client: Client, topic: str, timeout: float = 20.0) -> None:
-    """Until the gateway's graph has the topic (discovery)."""
+async def seen(client: Client, name: str, kind: str = 'topics', timeout: float = 20.0) -> None:
+    """Until the gateway's graph has the name among its topics, services or action_servers
+    (discovery), asking rosapi again every 0.1 s."""
     deadline = time.monotonic() + timeout
-    while topic not in (await client.rosapi('topics'))['topics']:
-        assert time.monotonic() < deadline, f'{topic} never appeared'
+    while name not in (await client.rosapi(kind))[kind]:
+        assert time.monotonic() < deadline, f'{name} never appeared'
         await asyncio.sleep(0.1)
 
 
@@ -312,10 +313,7 @@ async def test_a_service_of_a_type_the_gateway_lacks_is_built_and_called(client)
 
 
 async def test_turtlesim_spawn_from_the_shipped_text(client):
-    deadline = time.monotonic() + 20
-    while '/spawn' not in (await client.rosapi('services'))['services']:
-        assert time.monotonic() < deadline, '/spawn never appeared'
-        await asyncio.sleep(0.1)
+    await seen(client, '/spawn', 'services')
     details = await client.rosapi('service_request_details', type='turtlesim/srv/Spawn')
     assert details['typedefs'][0]['fieldnames'] == ['x', 'y', 'theta', 'name']
     values = await built_call(client, '/spawn', 'turtlesim/srv/Spawn', {'x': 1.0, 'y': 2.0, 'theta': 0.0,
@@ -324,10 +322,7 @@ async def test_turtlesim_spawn_from_the_shipped_text(client):
 
 
 async def test_an_action_of_a_type_the_gateway_lacks_gives_feedback_and_result(client):
-    deadline = time.monotonic() + 20
-    while '/turtle1/rotate_absolute' not in (await client.rosapi('action_servers'))['action_servers']:
-        assert time.monotonic() < deadline, '/turtle1/rotate_absolute never appeared'
-        await asyncio.sleep(0.1)
+    await seen(client, '/turtle1/rotate_absolute', 'action_servers')
     started = time.monotonic()
     await client.send({'op': 'send_action_goal', 'id': 'rotate', 'action': '/turtle1/rotate_absolute',
                        'action_type': 'turtlesim/action/RotateAbsolute', 'args': {'theta': 1.5}, 'feedback': True})

@@ -77,7 +77,7 @@ async def test_unknown_service(world):
         await world.backend.call_service('/no_such_service', world.add_type, world.add_request(1, 1), 5.0)
     assert not isinstance(e.value, ServiceTimeout)
     assert '/no_such_service' in str(e.value)
-    assert SERVER_WAIT - 0.05 <= time.monotonic() - started < SERVER_WAIT + 1
+    assert SERVER_WAIT - 0.05 <= time.monotonic() - started < 4   # not the 5 s call timeout: busy machines vary
     assert await world.backend.wait_for_service('/no_such_service', 0.1) == []
 
 

@@ -226,4 +226,4 @@ def test_a_call_waits_for_a_service_that_appears_meanwhile(gateway, raw):
         raw.send({**call, 'type': 'std_srvs/srv/Trigger'} if typed else call)
         reply = raw.expect(lambda m: m.get('id') == f'never{typed}')
         assert reply['result'] is False and '/raw/never' in reply['values'], reply
-        assert 0.95 <= time.monotonic() - started < 2.5
+        assert 0.95 <= time.monotonic() - started < 4   # the 1 s wait for a server, not the 5 s call timeout

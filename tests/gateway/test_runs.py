@@ -322,14 +322,21 @@ def test_a_library_program_runs_by_name_from_the_callers_own_space(auth_gw):
     assert status == 403, body
 
 
+def alice_drives(gw):
+    """alice signed in and holding the driver lease: (her client, the /rosgate/driver messages,
+    the drivers seen so far)."""
+    alice = signed_in(gw, 'operator')
+    drivers = follow(alice, '/rosgate/driver')
+    roslibpy.Topic(alice, '/rosgate/control', 'std_msgs/msg/String').publish(roslibpy.Message({'data': 'take'}))
+    seen: list = []
+    wait_for(lambda: (lambda d: d and d[-1] and d[-1]['name'] == 'alice')(drivers_seen(drivers, seen)), 10)
+    return alice, drivers, seen
+
+
 def test_run_takes_the_lease_when_it_starts(auth_gw):
     gw = auth_gw
-    alice = signed_in(gw, 'operator')
+    alice, drivers, seen = alice_drives(gw)
     try:
-        drivers = follow(alice, '/rosgate/driver')
-        roslibpy.Topic(alice, '/rosgate/control', 'std_msgs/msg/String').publish(roslibpy.Message({'data': 'take'}))
-        seen: list = []
-        wait_for(lambda: any(d and d['name'] == 'alice' for d in drivers_seen(drivers, seen)), 10)
         quiet = program('rt.log("holding")\nrt.wait_for_message("/run_test/done", "std_msgs/msg/String")')
         status, body = api(gw, 'POST', '/api/runs', {'source': quiet}, token=TOKENS['operator2'])
         assert status == 409 and 'alice' in body['error'], body        # bob may not take it from alice
@@ -349,12 +356,8 @@ def test_run_takes_the_lease_when_it_starts(auth_gw):
 def test_her_own_run_takes_her_lease_and_gives_it_back(auth_gw):
     """Run on robot while she drives: no Release first; when the run ends she drives again."""
     gw = auth_gw
-    alice = signed_in(gw, 'operator')
+    alice, drivers, seen = alice_drives(gw)
     try:
-        drivers = follow(alice, '/rosgate/driver')
-        roslibpy.Topic(alice, '/rosgate/control', 'std_msgs/msg/String').publish(roslibpy.Message({'data': 'take'}))
-        seen: list = []
-        wait_for(lambda: (lambda d: d and d[-1] and d[-1]['name'] == 'alice')(drivers_seen(drivers, seen)), 10)
         quiet = program('rt.log("holding")\nrt.wait_for_message("/run_test/done2", "std_msgs/msg/String")')
         status, body = api(gw, 'POST', '/api/runs', {'source': quiet}, token=TOKENS['operator'])
         assert status == 201, body

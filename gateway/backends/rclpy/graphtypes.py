@@ -274,39 +274,29 @@ class GraphTypes:
 
     def reader(self, full: str):
         """CDR bytes -> message dict for a described type (the fast path, else rosbags)."""
-        read = self._readers.get(full)
-        if read is None:
-            msgdef = self.defs.msg(full)
-            fast = rclpy_cdr.reader(self._plan, msgdef)
-            cdr_defs = self._cdr()
-
-            def read(data: bytes) -> dict:
-                if fast is not None:
-                    try:
-                        return fast(data)
-                    except Exception:  # noqa: BLE001, S110 (rclpy_cdr.Slow or short data: rosbags decides)
-                        pass
-                return from_cdr(cdr_defs, full, data)
-            self._readers[full] = read
-        return read
+        return self._codec(self._readers, full, rclpy_cdr.reader, from_cdr, Exception)
 
     def writer(self, full: str):
         """Message dict -> CDR bytes for a described type; raises ConversionError for bad values."""
-        write = self._writers.get(full)
-        if write is None:
-            msgdef = self.defs.msg(full)
-            fast = rclpy_cdr.writer(self._plan, msgdef)
+        return self._codec(self._writers, full, rclpy_cdr.writer, to_cdr, rclpy_cdr.Slow)
+
+    def _codec(self, cache: dict, full: str, compile, general, slow):
+        """One conversion of a described type, made once: rclpy_cdr's compiled walk where it has
+        one, falling back to protocol.cdr (rosbags) for what it raises ``slow`` on."""
+        codec = cache.get(full)
+        if codec is None:
+            fast = compile(self._plan, self.defs.msg(full))
             cdr_defs = self._cdr()
 
-            def write(msg: dict) -> bytes:
+            def codec(value):
                 if fast is not None:
                     try:
-                        return fast(msg)
-                    except rclpy_cdr.Slow:
+                        return fast(value)
+                    except slow:  # noqa: BLE001 (rclpy_cdr.Slow, or short data: rosbags decides)
                         pass
-                return to_cdr(cdr_defs, full, msg)
-            self._writers[full] = write
-        return write
+                return general(cdr_defs, full, value)
+            cache[full] = codec
+        return codec
 
     def _plan(self, msgdef: MsgDef) -> tuple:
         """Fields of a definition as rclpy_cdr walks them: (name, Field, nested MsgDef or None)."""
