@@ -7,6 +7,7 @@ websocket clients; ROS callers are plain rclpy nodes of their own context (``Ros
 from __future__ import annotations
 
 import asyncio
+import itertools
 import json
 import socket
 
@@ -446,10 +447,15 @@ async def test_two_gateways_on_one_graph_are_two_nodes(gateway, start_gateway, c
     found = await until(seen, timeout=15, what='both gateways in the graph')
     assert [found.count(name) for name in names] == [1, 1]
     client = await Client.open(second)
-    try:
-        await client.send({'op': 'call_service', 'id': 'nodes', 'service': '/rosapi/nodes'})
-        reply = await client.expect(lambda m: m.get('id') == 'nodes')
-        assert set(names) <= set(reply['values']['nodes'])
+    try:   # the new gateway's own view of the graph fills as discovery goes on: ask until it has both
+        deadline = asyncio.get_running_loop().time() + 15
+        for n in itertools.count():
+            await client.send({'op': 'call_service', 'id': f'nodes{n}', 'service': '/rosapi/nodes'})
+            nodes = (await client.expect(lambda m: m.get('id') == f'nodes{n}'))['values']['nodes']
+            if set(names) <= set(nodes) or asyncio.get_running_loop().time() > deadline:
+                break
+            await asyncio.sleep(0.1)
+        assert set(names) <= set(nodes), nodes
     finally:
         client.close()
     second.stop()
