@@ -104,6 +104,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help='record from start-up into DIR (also where /api/recordings keeps its files, '
                         'unless --recordings-dir says otherwise)')
     r.add_argument('--record-topics', metavar='GLOBS', help='topics --record takes, e.g. "[\'/turtle1/*\']" [all]')
+    r.add_argument('--db', '--history-db', dest='db_url', metavar='URL',
+                   help='where bookings and history are kept: an SQLAlchemy URL, e.g. '
+                        'postgresql+psycopg://rosgate@dbhost/rosgate [sqlite:///$XDG_DATA_HOME/rosgate/rosgate.db]')
     b.add_argument('--log-level', default='info', choices=('debug', 'info', 'warning', 'error'))
     robots.add_arguments(p)
     rules.add_arguments(p)

@@ -81,4 +81,5 @@ class Settings:
     recordings_dir: Path | None = None         # where recordings go (None: --record's, else the XDG data dir)
     record: Path | None = None                 # record from start-up into this directory
     record_topics: str | None = None           # globs of the topics --record takes
+    db_url: str | None = None                  # the store (None: SQLite in the data directory)
     extra: dict = field(default_factory=dict)  # options of optional parts (robots, security)

@@ -76,9 +76,12 @@ class GatewayProcess(Started):
     inside a folder of its own (tests that look beside the library see only what the gateway did)."""
 
     def __init__(self, *args: str, env: dict | None = None):
-        self.programs_dir = os.path.join(tempfile.mkdtemp(prefix='rosgate-gateway-'), 'programs')
+        self.home = tempfile.mkdtemp(prefix='rosgate-gateway-')
+        self.programs_dir = os.path.join(self.home, 'programs')
+        self.data_home = os.path.join(self.home, 'data')   # its store, runs, recordings: its own
         super().__init__([sys.executable, '-m', 'gateway', '--port', '0', '--address', '127.0.0.1',
-                          '--programs-dir', self.programs_dir, *args], env={**os.environ, **(env or {})})
+                          '--programs-dir', self.programs_dir, *args],
+                         env={**os.environ, 'XDG_DATA_HOME': self.data_home, **(env or {})})
 
 
 @pytest.fixture(scope='session')

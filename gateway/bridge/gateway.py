@@ -23,6 +23,7 @@ from .fanout import TopicFanout
 from .outbox import corked
 from ..rules import GATEWAY_ROLE
 from ..rules.policy import Policy
+from ..store import Store
 
 if TYPE_CHECKING:
     from .session import ClientSession
@@ -95,8 +96,16 @@ class Gateway:
         self.own_services: dict[str, tuple[str, object]] = {}
         self.itself = Sender('the gateway', GATEWAY_ROLE)
         self._client_count = None
+        self._store: Store | None = None
         if hasattr(backend, 'batch_scope'):   # a backend delivering messages in batches
             backend.batch_scope = corked      # sends each client its share in one write
+
+    @property
+    def store(self) -> Store:
+        """The one database (bookings, history), opened on first use."""
+        if self._store is None:
+            self._store = Store(self.settings.db_url)
+        return self._store
 
     # --- topics ------------------------------------------------------------------------------
 
@@ -227,6 +236,8 @@ class Gateway:
         for fan in list(self.fanouts.values()):
             fan.destroy()
         self.fanouts.clear()
+        if self._store is not None:
+            self._store.close()   # after the hooks, which may have written their last batch
         for sender in list(self.senders.values()):
             self.close_sender(sender)
         for pub in list(self.publishers.values()):

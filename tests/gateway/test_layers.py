@@ -13,9 +13,10 @@ from pathlib import Path
 
 GATEWAY = Path(__file__).resolve().parents[2] / 'gateway'
 MAY_USE = {   # role -> the roles its modules may import
-    'web': {'web', 'bridge', 'rules', 'backends', 'settings'},
-    'bridge': {'bridge', 'rules', 'backends', 'settings'},
-    'rules': {'rules', 'backends', 'settings'},
+    'web': {'web', 'bridge', 'rules', 'store', 'backends', 'settings'},
+    'bridge': {'bridge', 'rules', 'store', 'backends', 'settings'},
+    'rules': {'rules', 'store', 'backends', 'settings'},
+    'store': {'store', 'settings'},
     'backends': {'backends'},
     'settings': {'settings'},
 }
@@ -118,7 +119,7 @@ def circles(graph) -> list[list[str]]:
 
 def test_the_roles_are_the_packages():
     entries = {p.name for p in GATEWAY.iterdir() if not p.name.startswith(('_', '.')) or p.name == '__init__.py'}
-    assert entries <= {'__init__.py', 'cli.py', 'settings.py', 'bridge', 'rules', 'web', 'backends'}, entries
+    assert entries <= {'__init__.py', 'cli.py', 'settings.py', 'bridge', 'rules', 'web', 'store', 'backends'}, entries
     for package in ('bridge', 'rules', 'web', 'backends', 'backends/sim', 'backends/rclpy'):
         assert ast.get_docstring(ast.parse((GATEWAY / package / '__init__.py').read_text())), package
 

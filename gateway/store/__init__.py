@@ -1,0 +1,99 @@
+"""What rosgate keeps across restarts, in one database: bookings, the robots' history, owners.
+
+SQLAlchemy Core serves both kinds of place a school keeps things: SQLite in the gateway's data
+directory by default (``$XDG_DATA_HOME/rosgate/rosgate.db``, WAL journal so that readers never
+wait for the writer), or any URL SQLAlchemy speaks (``--db postgresql+psycopg://user@host/rosgate``)
+for a fleet of gateways that keeps its history in one place.
+
+Features declare their tables on ``METADATA`` (the schema, not state) where they live, and reach
+the database only through ``Store.run(fn)``: ``fn(connection)`` runs inside a transaction on the
+store's one worker thread, so the event loop never waits on a disk or a network and writes never
+race each other. ``Store.run_now(fn)`` is the same on the calling thread, for start-up and tests.
+
+May import: ``settings`` only. Any role above the backends may use it.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import os
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+from typing import Callable, TypeVar
+
+import sqlalchemy as sa
+
+from ..settings import data_dir
+
+log = logging.getLogger('rosgate.store')
+METADATA = sa.MetaData()
+T = TypeVar('T')
+
+
+def default_url() -> str:
+    return f"sqlite:///{data_dir('rosgate.db')}"
+
+
+def _public(url: sa.engine.URL) -> str:
+    return url.render_as_string(hide_password=True)
+
+
+class Store:
+    """One database, opened once per gateway; tables are created when it opens."""
+
+    def __init__(self, url: str | None = None):
+        url = url or default_url()
+        parsed = sa.engine.make_url(url)
+        self.sqlite = parsed.get_backend_name() == 'sqlite'
+        if self.sqlite and parsed.database and parsed.database != ':memory:':
+            Path(parsed.database).parent.mkdir(parents=True, exist_ok=True)
+            self.path: Path | None = Path(parsed.database)
+        else:
+            self.path = None
+        self.url = _public(parsed)
+        self.engine = sa.create_engine(parsed, future=True, pool_pre_ping=not self.sqlite)
+        if self.sqlite:
+            sa.event.listen(self.engine, 'connect', _sqlite_pragmas)
+        self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix='rosgate-store')
+        METADATA.create_all(self.engine)
+        log.info('store: %s', self.url)
+
+    async def run(self, fn: Callable[[sa.Connection], T]) -> T:
+        """fn(connection) in a transaction on the store's thread; the loop goes on meanwhile."""
+        return await asyncio.get_running_loop().run_in_executor(self._worker, self.run_now, fn)
+
+    def submit(self, fn: Callable[[sa.Connection], object]) -> None:
+        """fn(connection) on the store's thread, not awaited (batched writes); failures are logged."""
+        def guarded():
+            try:
+                self.run_now(fn)
+            except Exception:
+                log.exception('store write failed')
+        self._worker.submit(guarded)
+
+    def run_now(self, fn: Callable[[sa.Connection], T]) -> T:
+        with self.engine.begin() as conn:
+            return fn(conn)
+
+    def size(self) -> int:
+        """Bytes the database takes on disk (SQLite: the file and its WAL)."""
+        if self.path is not None:
+            return sum(os.path.getsize(p) for p in (self.path, Path(f'{self.path}-wal'))
+                       if os.path.exists(p))
+        if self.engine.dialect.name == 'postgresql':
+            return int(self.run_now(lambda c: c.execute(sa.text('SELECT pg_database_size(current_database())'))
+                                    .scalar()))
+        return 0
+
+    def close(self) -> None:
+        self._worker.shutdown(wait=True)
+        self.engine.dispose()
+
+
+def _sqlite_pragmas(dbapi_conn, _record) -> None:
+    cur = dbapi_conn.cursor()
+    cur.execute('PRAGMA journal_mode=WAL')
+    cur.execute('PRAGMA synchronous=NORMAL')   # durable at each checkpoint; a crash loses at most the last writes
+    cur.execute('PRAGMA busy_timeout=5000')
+    cur.close()
