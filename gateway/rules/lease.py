@@ -126,11 +126,14 @@ class Lease:
                                 'drive it again')
         if holder is None:
             owner = self.owners.owner(group)
-            if owner is None or owner.person == person(session):
+            barred = self.owners.walk_in_refusal(group, person(session)) if owner is None else None
+            if barred is None and (owner is None or owner.person == person(session)):
                 self._grant(group, session)
                 return
             if not moving:
                 return
+            if barred is not None:
+                raise ProtocolError(f'{name}: {barred}')
             raise ProtocolError(f'{name}: {group} is {owner.name}\'s station (exclusive control); claim a free '
                                 'robot, or ask the teacher')
         where = '' if group == ROOT else f' {group}'
@@ -154,7 +157,7 @@ class Lease:
         owner = self.owners.owner(group)
         if owner is not None and owner.person != key:
             return f'{group} is {owner.name}\'s station; claim a free robot, or ask the teacher'
-        return None
+        return self.owners.walk_in_refusal(group, key) if owner is None and key is not None else None
 
     def publish_hook(self, session, pub, msg):
         if pub.topic == CONTROL_TOPIC:
@@ -181,6 +184,9 @@ class Lease:
         owner = self.owners.owner(group)
         if owner is not None and owner.person != key and not self.may_take_over(role):
             return f'{group} is {owner.name}\'s station; claim a free robot, or ask the teacher'
+        barred = self.owners.walk_in_refusal(group, key) if owner is None and not admin else None
+        if barred is not None:
+            return barred
         holder = self.holders.get(group)
         if holder is not None and person(holder) != key and not self.may_take_over(role):
             return (f'{who(holder)} holds the driver lease{where} (exclusive control); a run needs it: wait for '
@@ -206,6 +212,11 @@ class Lease:
         holder = self.holders.get(group)
         owner = self.owners.owner(group)
         mine = owner is None or owner.person == person(session)
+        barred = self.owners.walk_in_refusal(group, person(session)) if owner is None else None
+        if barred is not None and verb.startswith('take') and not self._may_override(session):
+            if verb == 'take-if-free':
+                return
+            raise ProtocolError(barred)
         if verb == 'take-if-free':   # a page on its own station: never a stopped one, never another's
             if holder is None and mine and group not in self.halted:
                 self._grant(group, session)
@@ -256,6 +267,19 @@ class Lease:
         else:
             raise ProtocolError(f'{who(holder)} is driving{"" if group == ROOT else " " + group}; '
                                 'only an admin can take over')
+
+    def hand_over(self, group: str, key: str | None, why: str) -> None:
+        """A booked slot begins (key: its booker) or ends (None): the lease is freed unless a
+        client of the booker holds it, a stop of the teacher's no longer holds, and whoever held
+        it stops moving and is told why."""
+        self.halted.pop(group, None)
+        holder = self.holders.get(group)
+        if holder is not None and (key is None or person(holder) != key):
+            self._grant(group, None)
+            if not holder.closed:
+                holder.status('warning', f'{why}: the driver lease for {group} is no longer yours; your '
+                                         'commands were stopped')
+        self._announce()
 
     def _grant(self, group: str, session, *, by=None, why: str = 'took over') -> None:
         """Give the group's lease to session (None: free it); the previous holder stops moving."""

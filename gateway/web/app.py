@@ -2,7 +2,7 @@
 
 ``/`` upgrades to the rosbridge websocket (``socket``) and, as a plain GET, serves the IDE;
 ``/teleop`` and ``/class`` are the other pages; ``/health``; the JSON API apps (``/api/programs``,
-``/api/runs``, ``/api/recordings``) and the login pages; the IDE's static files last.
+``/api/runs``, ``/api/recordings``, ``/api/bookings``) and the login pages; the IDE's static files last.
 """
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ import orjson
 import tornado.web
 
 from ..bridge.gateway import Gateway
+from .bookings import booking_routes
 from .classview import ClassHandler
 from .login import login_routes
 from .pages import Application, PublicFileHandler, write_page
@@ -68,7 +69,7 @@ def make_app(gateway: Gateway) -> tornado.web.Application:
     routes += login_routes(policy, secure_cookie=bool(settings.certfile and settings.keyfile))
     if settings.programs_dir is not None:
         routes += program_routes(settings.programs_dir, policy)
-    routes += run_routes(gateway) + recording_routes(gateway)
+    routes += run_routes(gateway) + recording_routes(gateway) + booking_routes(gateway)
     routes.append((r'/(.*)', PublicFileHandler, {'path': str(settings.ide_dir), 'default_filename': 'index.html'}))
     return Application(
         gateway, routes,
