@@ -120,13 +120,14 @@ export function bindNamespace({ call, onChange, onError = () => {}, $ = (s) => d
     claim,
     get fleet() { return fleet; },
     get mine() { return mine; },
-    // The gateway hands out stations: show Claim, and ask for this person's station once.
+    // The gateway hands out stations: show Claim, and ask for this person's station once
+    // (returns that claim, for a page that waits for its answer).
     claimable: (yes) => {
       const first = !known;
       known = true;
       fleet = yes;
       $('#claim').hidden = !yes;
-      if (yes && first) claim(asked);
+      return yes && first ? claim(asked) : Promise.resolve();
     },
     // A new connection: follow the gateway's announcement of who owns which station.
     attach: (next) => {
