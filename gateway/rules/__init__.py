@@ -18,6 +18,7 @@ from .bookings import BookingLimits, Slots, Timetable
 from .lease import Lease
 from .names import parse_globs
 from .policy import GATEWAY_ROLE, Limits, SecurePolicy  # noqa: F401 (GATEWAY_ROLE: for the bridge)
+from .queue import Queue
 from .safety import DEFAULT_TYPES, Clamp, Safety, VelocityLimits
 from .stations import CLAIM_GRACE, CLAIM_IDLE, Stations
 from .tokens import Authenticator, Brake, TokenStore
@@ -122,9 +123,10 @@ def install(gateway, reads=lambda name: False) -> None:
             slot=float(extra.get('slot_minutes', d.slot / 60)) * 60, per_day=extra.get('booking_per_day', d.per_day),
             per_week=extra.get('booking_per_week', d.per_week),
             ahead=float(extra.get('booking_ahead', d.ahead / 86400)) * 86400))
+    queue = Queue(timetable, grace=extra.get('claim_grace', CLAIM_GRACE)) if timetable is not None else None
     stations = Stations(gateway, types=frozenset(types), idle=extra.get('claim_idle', CLAIM_IDLE),
                         grace=extra.get('claim_grace', CLAIM_GRACE), admin_role='admin' if auth else None,
-                        timetable=timetable)
+                        timetable=timetable, queue=queue)
     lease = None
 
     def group_of(topic):
@@ -162,6 +164,6 @@ def install(gateway, reads=lambda name: False) -> None:
     gateway.hooks.append(safety)
     if timetable is not None:
         gateway.hooks.append(Slots(gateway, timetable, stations=stations, lease=lease, stop_group=stop_group,
-                                   reset=extra.get('station_reset')))
+                                   reset=extra.get('station_reset'), queue=queue))
     log.info('security: auth %s, exclusive control %s, stop on disconnect %s, cmd timeout %s s',
              'on' if auth else 'off', 'on' if lease else 'off', safety.stop_on_disconnect, safety.cmd_timeout)

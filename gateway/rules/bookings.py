@@ -212,8 +212,10 @@ class Slots:
     """The timer that starts and ends slots (see the module docstring)."""
 
     def __init__(self, gateway, timetable: Timetable, *, stations, lease, stop_group: Callable[[str], None],
-                 reset: str | None = None):
+                 reset: str | None = None, queue=None):
+        """queue: the walk-ins' line (rules.queue), for the API."""
         self.gateway, self.timetable, self.stations, self.lease = gateway, timetable, stations, lease
+        self.queue = queue
         self.stop_group, self.reset = stop_group, reset
         self.active: dict[str, Booking] = {}          # station -> the booking whose slot is on
         self.resets: set[asyncio.Task] = set()

@@ -28,7 +28,8 @@ the next booking begins. Who owns what is announced, latched, on /rosgate/statio
 {"stations": [...], "owners": {ns: {"name", "since", "until"}}, "released": {ns: {"by", "at"}},
 "booked": {ns: {"name", "start", "end"}}, "next": {ns: {"name", "start", "end"}}} ("released": the
 last time someone other than its owner gave a station back; "until": a booked slot's end;
-"booked"/"next": the slot on now and the next one, with --booking).
+"booked"/"next": the slot on now and the next one, and "queue": the names of walk-ins waiting,
+in order, with --booking; rules.queue seats them at stations as they free).
 """
 
 from __future__ import annotations
@@ -103,11 +104,12 @@ class Owner:
 
 class Stations:
     def __init__(self, gateway, *, types: frozenset[str], idle: float = CLAIM_IDLE,
-                 grace: float = CLAIM_GRACE, admin_role: str | None = None, timetable=None):
+                 grace: float = CLAIM_GRACE, admin_role: str | None = None, timetable=None, queue=None):
         """admin_role: who may release others' stations (None: anyone, as without --auth);
-        timetable: the bookings (rules.bookings.Timetable) with --booking."""
+        timetable: the bookings (rules.bookings.Timetable) and queue: the walk-ins' line
+        (rules.queue.Queue), with --booking."""
         self.gateway, self.types, self.idle, self.grace, self.admin_role = gateway, types, idle, grace, admin_role
-        self.timetable = timetable
+        self.timetable, self.queue = timetable, queue
         self.owners: dict[str, Owner] = {}
         self.released: dict[str, dict] = {}
         self._stations: tuple[str, ...] = ()
@@ -143,6 +145,17 @@ class Stations:
                 ids |= pub.clients
         return any(person(s) != key for i in ids if (s := gw.sessions.get(i)) is not None)
 
+    def free_for(self, key: str) -> str | None:
+        """The lowest station person ``key`` may walk into now: nobody owns it, has it booked, or
+        drives it (but them), and no slot of theirs just ended there."""
+        lease = getattr(self.gateway.policy, 'lease', None)
+        for ns in self.stations():
+            held = lease.holders.get(ns) if lease is not None else None
+            if (ns not in self.owners and not self.in_use(ns, key) and (held is None or person(held) == key)
+                    and self.booked(ns) is None and self.walk_in_refusal(ns, key) is None):
+                return ns
+        return None
+
     def walk_in_refusal(self, station: str, key: str) -> str | None:
         """Why person ``key`` may not take station nobody owns now (a slot of theirs just ended
         there, rules.bookings); None: they may."""
@@ -161,14 +174,19 @@ class Stations:
         if station is None:
             if mine is not None:
                 return self._own(session, mine)
-            lease = getattr(self.gateway.policy, 'lease', None)
-            for ns in self.stations():
-                held = lease.holders.get(ns) if lease is not None else None
-                if (ns not in self.owners and not self.in_use(ns, key) and (held is None or person(held) == key)
-                        and self.booked(ns) is None and self.walk_in_refusal(ns, key) is None):
-                    return self._own(session, ns)
+            first = self.queue.first_in_line() if self.queue is not None else None
+            if first is not None and first != key:
+                n = len(self.queue.line)
+                return {'success': False, 'message': f'{n} {"person is" if n == 1 else "people are"} waiting for a '
+                                                     'station; join the queue (Booking, then Queue)'}
+            ns = self.free_for(key)
+            if ns is not None:
+                if self.queue is not None:
+                    self.queue.leave(key)
+                return self._own(session, ns)
             n = len(self.stations())
-            return {'success': False, 'message': f'all {n} stations are taken; ask the teacher to release one'}
+            also = '; or join the queue (Booking, then Queue)' if self.queue is not None else ''
+            return {'success': False, 'message': f'all {n} stations are taken; ask the teacher to release one{also}'}
         o = self.owners.get(station)
         if o is not None and o.person != key:
             held = f' until {_clock(o.until)} (booked)' if o.until is not None else ''
@@ -275,6 +293,8 @@ class Stations:
             now = self.timetable.now()
             info['booked'] = {ns: slot(b) for ns in self.stations() if (b := self.timetable.current(ns, now))}
             info['next'] = {ns: slot(b) for ns in self.stations() if (b := self.timetable.next(ns, now))}
+        if self.queue is not None:
+            info['queue'] = [w.name for w in self.queue.line]
         text = json.dumps(info)
         if text != self._announced:
             self._announced = text
@@ -292,6 +312,12 @@ class Stations:
             elif now - o.seen > (self.idle if lasting(o.person) else self.grace):
                 del self.owners[ns]
         self._stations_at = -float('inf')
+        if self.queue is not None:
+            for key, name, ns in self.queue.serve(self, present):
+                self.owners[ns] = Owner(key, name, round(time.time(), 3), now)
+                self.released.pop(ns, None)
+                for s in self._clients_of(key):
+                    s.status('info', f'{ns} is yours now (your turn in the queue): press "Claim a robot"')
         self._serve()
         self._announce()
         try:

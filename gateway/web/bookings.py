@@ -8,6 +8,9 @@ POST   /api/bookings      {"station", "start", "end"} (epoch s) -> 201 the booki
 GET    /api/bookings[?station=&from=&to=]  -> {"bookings": [...], "now", "slot", "stations", "me",
                           "limits"}: each booking {"id", "station", "name", "start", "end", "mine"}
 DELETE /api/bookings/ID   -> 200 (its booker or an admin; 403 others); a slot on now ends at once
+GET    /api/queue         -> {"place", "queued", "wait" (s, estimated; null: unknown), "seated", "station",
+                          "line"}: the walk-ins' line when every station is taken (rules.queue)
+POST   /api/queue         -> 201 join it (409 with a station already); DELETE /api/queue: leave it
 GET    /api/bookings.ics  -> the caller's bookings as an iCalendar feed (an admin's: everyone's);
                           a calendar app subscribes with ?token= in the address
 
@@ -153,7 +156,43 @@ class CalendarHandler(_Handler):
         self.finish(cal.to_ical())
 
 
+class QueueHandler(_Handler):
+    """/api/queue: the walk-ins' line (rules.queue) when every station is taken."""
+
+    def answer(self, key: str | None) -> None:
+        slots = self.slots
+        body = slots.queue.status(key, slots.stations) if key is not None else {
+            'place': None, 'queued': len(slots.queue.line), 'seated': None, 'wait': None,
+            'line': [w.name for w in slots.queue.line]}
+        mine = next((ns for ns in slots.stations.stations()
+                     if (o := slots.stations.owner(ns)) is not None and o.person == key), None)
+        self.finish({**body, 'station': mine})
+
+    def get(self) -> None:
+        _, key = self.who()
+        self.answer(key)
+
+    def post(self) -> None:
+        identity, key = self.who(change=True, roles=('operator', 'admin'))
+        if key is None:
+            raise tornado.web.HTTPError(403, 'the queue needs a person: sign in, or join from the gateway\'s pages')
+        stations = self.slots.stations
+        mine = next((ns for ns in stations.stations() if (o := stations.owner(ns)) is not None and o.person == key), None)
+        if mine is not None:
+            raise tornado.web.HTTPError(409, f'{mine} is your station already; no need to queue')
+        name = identity.name if identity is not None else f'guest {key.split()[-1][:6]}'
+        self.slots.queue.join(key, name)
+        self.set_status(201)
+        self.answer(key)
+
+    def delete(self) -> None:
+        _, key = self.who(change=True)
+        if key is None or not self.slots.queue.leave(key):
+            raise tornado.web.HTTPError(404, 'you are not in the queue')
+        self.answer(key)
+
+
 def booking_routes(gateway) -> list:
     kw = {'gateway': gateway}
     return [(r'/api/bookings\.ics', CalendarHandler, kw), (r'/api/bookings/?', BookingListHandler, kw),
-            (r'/api/bookings/([^/]+)', BookingHandler, kw)]
+            (r'/api/bookings/([^/]+)', BookingHandler, kw), (r'/api/queue/?', QueueHandler, kw)]

@@ -262,3 +262,36 @@ def test_an_observer_of_every_station_leaves_every_station_claimable(launch):
         finally:
             for p in people:
                 p.close()
+
+
+def test_walk_ins_hold_until_the_next_booking_and_queue_when_all_are_taken(lab):
+    """Bob walks into /s02 (the page can say until when: the next booking); with both stations
+    taken the teacher queues, is told the estimated wait and is seated at /s01 when alice's slot
+    there ends; at the start of alice's booking of /s02 bob's walk-in ends."""
+    with watching(lab, 'admin') as teacher, Client(lab.ws_url, TOKENS['operator2']) as bob, \
+            Client(lab.ws_url, TOKENS['admin']) as teacher_page:
+        roslibpy.Service(teacher, '/fleet/release_all', 'std_srvs/srv/Empty').call(roslibpy.ServiceRequest({}), timeout=10)
+        t0 = time.time()
+        _, first = book(lab, 'operator', '/s01', t0 + 2, t0 + 8)
+        _, later = book(lab, 'operator', '/s02', t0 + 10, t0 + 14)
+        wait_for(lambda: stations_info(teacher)['owners'].get('/s01', {}).get('name') == 'alice', 10, 0.1)
+        assert bob.call('/fleet/claim')['values'] == {'success': True, 'message': '/s02'}
+        info = stations_info(teacher)
+        assert info['next']['/s02']['start'] == later['start']      # bob's walk-in holds until then
+        assert 'until' in bob.call('/s01/fleet/claim')['values']['message']   # alice's, booked: until when
+        assert api(lab, 'POST', '/api/queue', token=TOKENS['viewer'])[0] == 403
+        assert api(lab, 'POST', '/api/queue', token=TOKENS['operator2'])[0] == 409     # bob has /s02
+        status, queued = api(lab, 'POST', '/api/queue', token=TOKENS['admin'])
+        assert status == 201 and queued['place'] == 1 and queued['line'] == ['teacher'], queued
+        assert 0 < queued['wait'] <= first['end'] - time.time() + 1                        # alice's slot end
+        wait_for(lambda: stations_info(teacher)['queue'] == ['teacher'], 10, 0.1)
+        # alice's slot ends: the teacher is seated there from the queue
+        seated = wait_for(lambda: (lambda q: q if q['seated'] else None)(
+            api(lab, 'GET', '/api/queue', token=TOKENS['admin'])[1]), 15, 0.1)
+        assert seated['seated'] == '/s01' and seated['station'] == '/s01' and seated['place'] is None
+        assert teacher_page.call('/fleet/claim')['values'] == {'success': True, 'message': '/s01'}
+        # alice's booking of /s02 begins: bob's walk-in is over
+        wait_for(lambda: stations_info(teacher)['owners'].get('/s02', {}).get('name') == 'alice', 15, 0.1)
+        refusal = drive(bob, '/s02')
+        assert refusal is not None and 'alice' in refusal['msg'], refusal
+        roslibpy.Service(teacher, '/fleet/release_all', 'std_srvs/srv/Empty').call(roslibpy.ServiceRequest({}), timeout=10)
