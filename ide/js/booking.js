@@ -5,7 +5,10 @@
 // (/api/bookings); the gateway's clock decides, so the time left is counted from the "now" of
 // its answers, whatever this machine's clock says. The IDE and teleop pages show the station of
 // their #ns field ("free until" when the next slot is someone else's); /class (no #ns) shows
-// every station. A gateway without --booking answers 404: the button then stays hidden.
+// every station. When every station is taken, "Queue for a free robot" puts this person in the
+// walk-ins' line (/api/queue): the dialog shows the place and the estimated wait, and once the
+// gateway seats them the page presses its own "Claim a robot". A gateway without --booking
+// answers 404: the button then stays hidden.
 
 const REFRESH = 10000;          // ms between looks at the timetable
 const WARN = [300, 60];         // s left at which the page warns
@@ -29,6 +32,13 @@ async function api(path = '', options = {}) {
   return body;
 }
 
+async function queueApi(method) {
+  const res = await fetch('/api/queue', { method, credentials: 'same-origin' });
+  const body = await res.json().catch(() => null);
+  if (!res.ok) throw new Error(body?.error || `HTTP ${res.status}`);
+  return body;
+}
+
 export const clock = (s) => new Date(s * 1000).toLocaleTimeString([], { hour: '2-digit', minute: '2-digit', second: '2-digit', hourCycle: 'h23' });
 const day = (s) => new Date(s * 1000).toLocaleDateString([], { weekday: 'short', day: 'numeric', month: 'short' });
 export const left = (s) => (s >= 3600 ? `${Math.floor(s / 3600)} h ${Math.floor((s % 3600) / 60)} min`
@@ -43,6 +53,8 @@ export class Booking {
     this.data = null;             // the last GET /api/bookings
     this.offset = 0;              // gateway clock - this clock, in s
     this.warned = new Set();
+    this.queue = null;            // the last GET /api/queue
+    this.inLine = false;          // this page put its person in the walk-ins' line
     this.button = el('button', { id: 'booking', hidden: true, title: 'booked slots on the robots', textContent: 'Booking' });
     this.warning = el('span', { id: 'booking-warning', className: 'booking-warning', hidden: true, role: 'alert' });
     bar.append(el('span', { className: 'group booking' }, this.button, this.warning));
@@ -53,13 +65,15 @@ export class Booking {
     this.status = el('p', { id: 'booking-status' });
     this.table = el('div', { id: 'booking-table' });
     const book = el('button', { id: 'booking-book', textContent: 'Book', onclick: () => this.book() });
+    this.queueButton = el('button', { id: 'booking-queue', textContent: 'Queue for a free robot', onclick: () => this.toggleQueue() });
+    this.queueText = el('span', { id: 'booking-queue-text' });
     const close = el('button', { textContent: 'Close', onclick: () => this.dialog.close() });
     this.zone = el('small', { textContent: `Times in ${Intl.DateTimeFormat().resolvedOptions().timeZone}` });
     this.dialog = el('dialog', { id: 'dlg-booking' },
       el('h3', { textContent: 'Robot timetable' }), this.status, this.zone, this.table,
       el('p', { className: 'booking-form' }, el('label', {}, 'Station ', this.station), ' ',
         el('label', {}, 'from ', this.start), ' ', el('label', {}, 'minutes ', this.minutes), ' ', book),
-      this.message, el('p', {}, close));
+      this.message, el('p', { className: 'booking-queue' }, this.queueButton, ' ', this.queueText), el('p', {}, close));
     document.body.append(this.dialog);
     this.button.onclick = () => { this.dialog.showModal(); this.refresh(); };
     this.station.onchange = () => this.render();
@@ -82,11 +96,41 @@ export class Booking {
       this.data = data;
       this.button.hidden = false;
       this.render();
+      await this.pollQueue();
     } catch (e) {
       if (e.status === 404) { this.button.hidden = true; return false; }
       this.say(`cannot read the timetable: ${e.message}`, true);
     }
     return true;
+  }
+
+  // The walk-ins' line: join or leave it; seated at a free station, the page claims it.
+  async toggleQueue() {
+    try {
+      const joining = !this.inLine;
+      const q = await queueApi(joining ? 'POST' : 'DELETE');
+      this.inLine = joining;
+      this.showQueue(q);
+    } catch (e) { this.say(`queue: ${e.message}`, true); }
+  }
+
+  async pollQueue() {
+    try { this.showQueue(await queueApi('GET')); } catch { /* the next refresh tries again */ }
+  }
+
+  showQueue(q) {
+    this.queue = q;
+    if (q.place) this.inLine = true;
+    this.queueButton.textContent = this.inLine && !q.seated ? 'Leave the queue' : 'Queue for a free robot';
+    this.queueButton.hidden = Boolean(q.station) && !q.place;
+    const wait = q.wait === null || q.wait === undefined ? 'unknown' : left(q.wait);
+    this.queueText.textContent = q.place ? `You are number ${q.place} of ${q.queued} in line; estimated wait ${wait}.`
+      : q.seated ? `Your turn: ${q.seated} is yours.` : q.queued ? `${q.queued} waiting.` : '';
+    if (q.seated && this.inLine && !q.place) {     // seated from the line: this page takes its robot
+      this.inLine = false;
+      this.say(`Your turn in the queue: ${q.seated} is yours.`);
+      document.querySelector('#claim')?.click();
+    }
   }
 
   say(text, error = false) {
@@ -182,6 +226,7 @@ export class Booking {
   async attach() {
     if (!(await this.refresh()) || this.button.hidden) return;
     setInterval(() => this.refresh(), REFRESH);
+    setInterval(() => { if (this.inLine) this.pollQueue(); }, 2000);   // in line: look more often
     setInterval(() => this.tick(), 1000);
   }
 }

@@ -6,6 +6,7 @@ with no free station saying so (the "Claiming a robot…" notice no longer overw
 from __future__ import annotations
 
 import datetime
+import re
 import time
 import zoneinfo
 
@@ -147,6 +148,19 @@ def test_teleop_with_no_free_station_says_no_robot_for_you(chromium, lab):
             page.wait_for_function("(window.teleop?.blocked || '').startsWith('No robot for you')")
             assert page.inner_text("#notice").startswith("No robot for you: all 2 stations are taken")
             assert "Claiming" not in page.inner_text("#notice")
+            # she queues from the booking panel, and is seated when the teacher frees /s02
+            page.wait_for_function("window.rosgateBooking && !document.querySelector('#booking').hidden")
+            page.click("#booking")
+            page.click("#booking-queue")
+            page.wait_for_function("document.querySelector('#booking-queue-text').textContent.startsWith('You are number 1 of 1')")
+            assert "estimated wait unknown" in page.inner_text("#booking-queue-text")   # walk-ins have no known end
+            page.screenshot(path=str(ARTIFACTS / "booking-queue.png"))
+            released = roslibpy.Service(held[0], "/s02/fleet/release", "std_srvs/srv/Trigger").call(
+                roslibpy.ServiceRequest({}), timeout=10)
+            assert released["success"], released
+            page.wait_for_url(re.compile(r"ns=/s02"))
+            page.wait_for_load_state()
+            page.wait_for_function("window.teleop?.robotNs?.mine === '/s02'")
         finally:
             ctx.close()
     finally:
