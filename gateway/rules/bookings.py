@@ -38,6 +38,7 @@ from ..store import METADATA
 log = logging.getLogger('rosgate.bookings')
 MAX_SLEEP = 5.0            # s the timer sleeps at most (catches a clock that jumped)
 LATE = 0.002               # s past a boundary that still counts as "at" it
+SLACK = 0.5               # s a slot may run over --slot-minutes (clients' rounding)
 RESET_TIMEOUT = 5.0        # s the --station-reset service may take
 RESET_TYPES = ('std_srvs/srv/Empty', 'std_srvs/srv/Trigger')
 
@@ -65,8 +66,8 @@ class BookingError(Exception):
 @dataclass(frozen=True)
 class BookingLimits:
     slot: float = 3600.0       # s, the longest slot (--slot-minutes)
-    per_day: int = 6           # slots one person may book per calendar day (0: no limit)
-    per_week: int = 20         # per ISO week (0: no limit)
+    per_day: int = 8           # slots one person may book per calendar day (0: no limit)
+    per_week: int = 30         # per ISO week (0: no limit)
     ahead: float = 14 * 86400.0   # s ahead a slot may begin
 
 
@@ -150,7 +151,7 @@ class Timetable:
             raise BookingError(400, f'"end" ({end:g}) must come after "start" ({start:g})')
         if end <= now:
             raise BookingError(400, f'that slot ended at {clock(end)}; book one that ends in the future')
-        if end - start > lim.slot + 1e-6:
+        if end - start > lim.slot + SLACK:
             raise BookingError(400, f'a slot lasts at most {lim.slot / 60:g} minutes (--slot-minutes), not '
                                     f'{(end - start) / 60:g}')
         for b in self.bookings:
@@ -257,9 +258,11 @@ class Slots:
         self.timetable.ended.pop(station, None)
         log.info('slot of %s on %s begins (booking %s, until %s)', booking.name, station, booking.id,
                  clock(booking.end))
-        self.stations.seat(station, booking.person, booking.name, booking.end)
+        given_back = self.stations.seat(station, booking.person, booking.name, booking.end)
         if self.lease is not None:
             self.lease.hand_over(station, booking.person, f'{booking.name}\'s booked slot began')
+            for ns in given_back:   # one station at a time: the walk-in she had is over
+                self.lease.hand_over(ns, None, f'{booking.name}\'s booked slot on {station} began')
 
     def _end(self, station: str, booking: Booking, now: float) -> None:
         """The slot is over: the same stop as the teacher's, the booker's runs end, the reset."""

@@ -210,12 +210,12 @@ class Stations:
         self._announce()
         return {'success': True, 'message': station}
 
-    def seat(self, station: str, key: str, name: str, until: float) -> None:
+    def seat(self, station: str, key: str, name: str, until: float) -> list[str]:
         """A booked slot begins: the station is ``key``'s till ``until`` (a walk-in's claim ends,
-        and the booker's claim of another station is given back)."""
-        for ns, o in list(self.owners.items()):
-            if o.person == key and ns != station:
-                del self.owners[ns]
+        and the booker's claim of another station is given back: those are returned)."""
+        given_back = [ns for ns, o in self.owners.items() if o.person == key and ns != station]
+        for ns in given_back:
+            del self.owners[ns]
         o = self.owners.get(station)
         if o is not None and o.person != key:
             for s in self._clients_of(o.person):
@@ -225,6 +225,7 @@ class Stations:
         for s in self._clients_of(key):
             s.status('info', f'your booked slot on {station} began; it ends at {_clock(until)}')
         self._announce()
+        return given_back
 
     def unseat(self, station: str, key: str, why: str) -> None:
         """A booked slot ended: the station is no longer its booker's."""

@@ -42,7 +42,7 @@ def open_page(ctx, gw, path: str):
     errors = []
     page.on("pageerror", lambda e: errors.append(str(e)))
     page.goto(gw.http_url + path)
-    if "ns=" in path:   # the page has its station (a claim that changes it reloads the page)
+    if path.startswith("teleop") and "ns=" in path:   # the page has its station (a claim that changes it reloads the page)
         page.wait_for_function("window.teleop?.robotNs?.mine === new URLSearchParams(location.search).get('ns')")
     page.wait_for_function("window.rosgateBooking && !document.querySelector('#booking').hidden")
     return page, errors
@@ -166,3 +166,18 @@ def test_teleop_with_no_free_station_says_no_robot_for_you(chromium, lab):
     finally:
         for ros in held:
             ros.close()
+
+
+def test_the_ide_shows_the_time_left_too(chromium, lab):
+    now = time.time()
+    slot = book(lab, "cy", "/s02", now, now + 100)
+    ctx = signed_in(chromium, lab, "cy")
+    try:
+        page, errors = open_page(ctx, lab, "?ns=/s02")
+        page.wait_for_function("document.querySelector('#booking').textContent.startsWith('Slot /s02 · 1:')")
+        assert page.get_attribute("#booking-warning", "data-at") == "300"
+        page.screenshot(path=str(ARTIFACTS / "booking-ide.png"))
+        assert not errors, errors
+    finally:
+        ctx.close()
+        api(lab, "DELETE", f"/api/bookings/{slot['id']}", token=TOKENS["cy"])
