@@ -157,9 +157,15 @@ class Stations:
         return None
 
     def walk_in_refusal(self, station: str, key: str) -> str | None:
-        """Why person ``key`` may not take station nobody owns now (a slot of theirs just ended
-        there, rules.bookings); None: they may."""
-        return self.timetable.walk_in_refusal(station, key) if self.timetable is not None else None
+        """Why person ``key`` may not take a station nobody owns now (a slot of theirs just ended
+        there, rules.bookings, or someone else's slot is on though nobody holds the seat: the
+        teacher released it); None: they may."""
+        if self.timetable is None:
+            return None
+        slot = self.timetable.current(station)
+        if slot is not None and slot.person != key:
+            return f'{station} is booked by {slot.name} until {_clock(slot.end)}; claim a free one, or book a slot'
+        return self.timetable.walk_in_refusal(station, key)
 
     def booked(self, station: str):
         """The booking whose slot is on now at the station (None: none, or no --booking)."""
@@ -203,7 +209,9 @@ class Stations:
         o = self.owners.get(station)
         name = session.attrs.get('name') or f'client {session.id}'
         if o is None:
-            self.owners[station] = Owner(person(session), name, round(time.time(), 3), time.monotonic())
+            slot = self.booked(station)
+            until = slot.end if slot is not None and slot.person == person(session) else None
+            self.owners[station] = Owner(person(session), name, round(time.time(), 3), time.monotonic(), until)
             self.released.pop(station, None)
         else:
             o.name, o.seen = name, time.monotonic()

@@ -5,8 +5,10 @@ POST   /api/bookings      {"station", "start", "end"} (epoch s) -> 201 the booki
                           (too long, ended, end before start), 403 a viewer, 404 no such station,
                           409 it overlaps a booking of the station (or one of yours elsewhere),
                           429 past a quota (per day, per week, how far ahead; admins have none)
-GET    /api/bookings[?station=&from=&to=]  -> {"bookings": [...], "now", "slot", "stations", "me",
-                          "limits"}: each booking {"id", "station", "name", "start", "end", "mine"}
+GET    /api/bookings[?station=&from=&to=]  -> {"enabled": true, "bookings": [...], "now", "slot",
+                          "stations", "me", "role", "limits"}: each booking {"id", "station", "name",
+                          "start", "end", "mine"}; without --booking {"enabled": false} (every other
+                          route answers 404 then)
 DELETE /api/bookings/ID   -> 200 (its booker or an admin; 403 others); a slot on now ends at once
 GET    /api/queue         -> {"place", "queued", "wait" (s, estimated; null: unknown), "seated", "station",
                           "line"}: the walk-ins' line when every station is taken (rules.queue)
@@ -45,7 +47,7 @@ class _Handler(JsonHandler):
         self.slots = _slots(gateway)
 
     def prepare(self) -> None:
-        if self.slots is None:
+        if self.slots is None and not (self.request.method == 'GET' and isinstance(self, BookingListHandler)):
             raise tornado.web.HTTPError(404, 'bookings are off on this gateway (start it with --booking)')
 
     def who(self, change: bool = False, roles=None):
@@ -74,12 +76,15 @@ def _view(booking, key: str | None) -> dict:
 
 class BookingListHandler(_Handler):
     def get(self) -> None:
+        if self.slots is None:   # the pages ask on every gateway: an answer, not an error in their console
+            self.finish({'enabled': False, 'bookings': []})
+            return
         identity, key = self.who()
         timetable = self.slots.timetable
         station = self.get_query_argument('station', None) or None
         found = timetable.query(station, self.arg_time('from'), self.arg_time('to'))
         lim = timetable.limits
-        self.finish({'bookings': [_view(b, key) for b in found], 'now': timetable.now(),
+        self.finish({'enabled': True, 'bookings': [_view(b, key) for b in found], 'now': timetable.now(),
                      'slot': lim.slot, 'stations': list(self.slots.stations.stations()),
                      'me': identity.name if identity is not None else key,
                      'role': identity.role if identity is not None else None,

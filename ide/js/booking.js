@@ -8,7 +8,7 @@
 // every station. When every station is taken, "Queue for a free robot" puts this person in the
 // walk-ins' line (/api/queue): the dialog shows the place and the estimated wait, and once the
 // gateway seats them the page presses its own "Claim a robot". A gateway without --booking
-// answers 404: the button then stays hidden.
+// answers {"enabled": false}: the button then stays hidden.
 
 const REFRESH = 10000;          // ms between looks at the timetable
 const WARN = [300, 60];         // s left at which the page warns
@@ -92,6 +92,7 @@ export class Booking {
   async refresh() {
     try {
       const data = await api('?from=' + (Date.now() / 1000 + this.offset - 3600));
+      if (!data.enabled) { this.button.hidden = true; return false; }
       this.offset = data.now - Date.now() / 1000;
       this.data = data;
       this.button.hidden = false;
@@ -183,7 +184,8 @@ export class Booking {
     const slot = this.current();
     const ns = this.namespace();
     if (!slot) {
-      this.button.textContent = 'Booking';
+      const free = ns ? this.free(ns) : 'free';   // a walk-in's station: until when it is theirs
+      this.button.textContent = free === 'free' ? 'Booking' : `Booking · ${ns} ${free}`;
       this.button.classList.remove('on');
       this.warning.hidden = true;
       this.status.textContent = ns ? `${ns}: ${this.free(ns)}` : '';

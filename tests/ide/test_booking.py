@@ -101,6 +101,7 @@ def test_a_slot_booked_from_the_form_shows_in_the_browsers_time_zone(chromium, l
         assert start.strftime("%H:%M:%S") in shown and "bo" in shown        # Tokyo's clock, not the machine's
         assert ZONE in page.inner_text("#dlg-booking")
         assert "/s02: free until" in shown
+        assert f"/s02 free until {start.strftime('%H:%M:%S')}" in page.inner_text("#booking")   # the walk-in's until
         page.screenshot(path=str(ARTIFACTS / "booking-dialog.png"))
         # an overlapping slot is refused with the gateway's reason
         page.fill("#booking-start", (start + datetime.timedelta(minutes=1)).strftime("%Y-%m-%dT%H:%M:%S"))

@@ -295,3 +295,23 @@ def test_walk_ins_hold_until_the_next_booking_and_queue_when_all_are_taken(lab):
         refusal = drive(bob, '/s02')
         assert refusal is not None and 'alice' in refusal['msg'], refusal
         roslibpy.Service(teacher, '/fleet/release_all', 'std_srvs/srv/Empty').call(roslibpy.ServiceRequest({}), timeout=10)
+
+
+def test_a_booked_station_the_teacher_released_is_still_nobody_elses(lab):
+    with watching(lab, 'admin') as teacher, Client(lab.ws_url, TOKENS['operator']) as alice, \
+            Client(lab.ws_url, TOKENS['operator2']) as bob:
+        t0 = time.time()
+        status, hers = book(lab, 'operator', '/s01', t0 + 1, t0 + 15)
+        assert status == 201, hers
+        wait_for(lambda: stations_info(teacher)['owners'].get('/s01', {}).get('name') == 'alice', 10, 0.1)
+        released = roslibpy.Service(teacher, '/s01/fleet/release', 'std_srvs/srv/Trigger').call(
+            roslibpy.ServiceRequest({}), timeout=10)
+        assert released['success'], released
+        answer = bob.call('/s01/fleet/claim')['values']
+        assert answer['success'] is False and 'booked by alice' in answer['message'], answer
+        refusal = drive(bob, '/s01')
+        assert refusal is not None and 'booked by alice' in refusal['msg'], refusal
+        assert alice.call('/s01/fleet/claim')['values'] == {'success': True, 'message': '/s01'}
+        assert stations_info(teacher)['owners']['/s01']['until'] == hers['end']
+        assert api(lab, 'DELETE', f'/api/bookings/{hers["id"]}', token=TOKENS['operator'])[0] == 200
+        wait_for(lambda: '/s01' not in stations_info(teacher)['owners'], 10, 0.1)
