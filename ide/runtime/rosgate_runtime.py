@@ -112,12 +112,13 @@ def yaw(q):
 
 
 def angle_diff(a, b):
-    d = a - b
-    while d > math.pi:
-        d -= 2 * math.pi
-    while d <= -math.pi:
-        d += 2 * math.pi
-    return d
+    """Smallest a - b, wrapped into (-pi, pi] in closed form (a loop of 2*pi steps never ends for
+    1e20); nan when either angle is not finite (an infinite angle has no direction), as in the IDE."""
+    d = float(a) - float(b)
+    if not math.isfinite(d):
+        return math.nan
+    d = math.remainder(d, 2 * math.pi)
+    return math.pi if d <= -math.pi else d
 
 
 def range_at(scan, degrees=0, window=20):
