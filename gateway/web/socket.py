@@ -119,7 +119,7 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
                 on_connect(self.session, self.request)
         self.gateway.count_clients()
         timeout = self.gateway.settings.auth_timeout
-        if getattr(self.gateway.policy, 'auth', None) is not None and 'role' not in self.session.attrs and timeout > 0:
+        if not self.gateway.policy.signed_in(self.session) and timeout > 0:
             self.auth_deadline = asyncio.get_running_loop().call_later(timeout, self._auth_deadline, timeout)
 
     def _auth_deadline(self, timeout: float) -> None:
