@@ -213,10 +213,13 @@ class Cgroups:
     v1 memory, pids and cpu hierarchies when they are writable. None of that is required: without
     it a run has its rlimits only."""
     parents: tuple[tuple[str, Path], ...]     # (controller, directory); v2: one ('v2', directory)
+    v2_controllers: tuple[str, ...] = ('memory', 'pids', 'cpu')   # v2: those enabled for the runs
 
     @classmethod
-    def find(cls, fs: Path = CGROUP_FS, own: str | None = None) -> tuple[Cgroups | None, str]:
-        """The cgroups the runs can have here and a sentence saying so (or why not)."""
+    def find(cls, fs: Path = CGROUP_FS, own: str | None = None, want=('memory', 'pids', 'cpu'),
+             need=('memory', 'pids')) -> tuple[Cgroups | None, str]:
+        """The cgroups the runs can have here and a sentence saying so (or why not). ``want``:
+        the controllers asked for, ``need``: those without which runs get no cgroup at all."""
         try:
             own = own if own is not None else Path('/proc/self/cgroup').read_text()
         except OSError as e:
@@ -226,20 +229,15 @@ class Cgroups:
             path = next((p for h, c, p in lines if h == '0'), None)
             if path is None:
                 return None, 'no cgroup v2 entry in /proc/self/cgroup'
-            parent = fs / path.lstrip('/')
-            missing = _delegate(parent, ('memory', 'pids', 'cpu'))
-            if {'memory', 'pids'} & set(missing):
-                return None, (f'cgroup v2: {" and ".join(missing)} not delegated to {parent} (start the gateway '
-                              'in a cgroup of its own with Delegate=yes)')
-            return _writable([('v2', parent)])
+            return _v2(fs / path.lstrip('/'), want, need)
         parents = []
-        for controller in ('memory', 'pids', 'cpu'):
+        for controller in want:
             path = next((p for h, c, p in lines if controller in c.split(',')), None)
             if path is not None and (fs / controller).is_dir():
                 parents.append((controller, fs / controller / path.lstrip('/')))
-            elif controller != 'cpu':
+            elif controller in need:
                 return None, f'cgroup v1 without a {controller} hierarchy'
-        return _writable(parents)
+        return _writable(parents, need)
 
     def make(self, run_id: str, memory: int, processes: int, cpus: float) -> RunCgroup | None:
         """A cgroup per run with its limits, or None (logged) when the kernel refuses one."""
@@ -262,6 +260,11 @@ class Cgroups:
         return RunCgroup(tuple(made))
 
 
+    @property
+    def controllers(self) -> tuple[str, ...]:
+        """The controllers each run's cgroup has: memory, pids, cpu, or fewer."""
+        return self.v2_controllers if self.parents[0][0] == 'v2' else tuple(c for c, _ in self.parents)
+
     def sweep(self) -> None:
         """Remove the empty run cgroups of gateways that are gone (killed before they could)."""
         for _, parent in self.parents:
@@ -272,6 +275,24 @@ class Cgroups:
                         d.rmdir()
                     except OSError:
                         pass
+
+
+def limits_in_force(cgroups: Cgroups | None, how: str, *, memory_mb: int, processes: int, cpus: float,
+                    cpu_seconds: int, open_files: int) -> str:
+    """The start-up sentence saying exactly which limit holds each run, and by what: a cgroup
+    (v1 or v2) or only the rlimits the launcher sets (which always apply as well)."""
+    on = cgroups.controllers if cgroups is not None else ()
+    kind = ('cgroup v2' if cgroups.parents[0][0] == 'v2' else 'cgroup v1') if cgroups is not None else ''
+    parts = [
+        f'memory {memory_mb} MiB by {kind} memory' if 'memory' in on
+        else f'memory: only the {memory_mb} MiB address-space rlimit (RLIMIT_AS)',
+        f'processes {processes} by {kind} pids' if 'pids' in on
+        else f'processes: only RLIMIT_NPROC {processes}',
+        f'CPU {cpus:g} core(s) by {kind} cpu quota' if 'cpu' in on
+        else 'CPU: no share limit, only RLIMIT_CPU',
+        f'CPU time {cpu_seconds} s by RLIMIT_CPU, open files {open_files} by RLIMIT_NOFILE',
+    ]
+    return f'run limits: {"; ".join(parts)} ({how if cgroups is not None else f"no run cgroups: {how}"})'
 
 
 def _limits(controller: str, memory: int, processes: int, cpus: float) -> list[tuple[str, str, bool]]:
@@ -286,6 +307,65 @@ def _limits(controller: str, memory: int, processes: int, cpus: float) -> list[t
         'v2': [('memory.max', str(memory), True), ('memory.swap.max', '0', False), ('pids.max', str(processes), True),
                ('cpu.max', f'{quota} 100000', False)],
     }[controller]
+
+
+LEAF = 'rosgate-gateway'   # the leaf cgroup v2 the gateway moves itself into (see _v2)
+
+
+def _v2(parent: Path, want, need) -> tuple[Cgroups | None, str]:
+    """Run cgroups under the gateway's own cgroup v2. The kernel enables a controller for a
+    cgroup's children only while that cgroup holds no process (the "no internal processes" rule:
+    writing +memory to cgroup.subtree_control answers EBUSY), and the gateway's own cgroup holds
+    the gateway. So, as systemd documents for a delegated cgroup (Delegate=yes), the gateway
+    first moves itself into a leaf of its own, ``rosgate-gateway``, then enables the controllers;
+    the runs' cgroups are that leaf's siblings. Where the cgroup holds other processes too (a
+    login shell's scope), or the controllers were never delegated to it, the sentence says so."""
+    available = _read_words(parent / 'cgroup.controllers')
+    lacking = [c for c in want if c not in available]
+    if [c for c in lacking if c in need]:
+        return None, (f'cgroup v2: {" and ".join(lacking)} not delegated to {parent} (start the gateway in a cgroup '
+                      'of its own with Delegate=yes, e.g. a systemd service, or systemd-run --scope -p Delegate=yes)')
+    moved = ''
+    missing = _delegate(parent, [c for c in want if c in available])
+    if missing and _busy(parent):
+        moved = _into_leaf(parent)
+        missing = _delegate(parent, missing) if moved.startswith('moved') else missing
+    if [c for c in missing if c in need]:
+        why = moved or f'{parent}/cgroup.subtree_control refused them'
+        return None, f'cgroup v2: {" and ".join(missing)} not enabled for the runs in {parent} ({why})'
+    found, how = _writable([('v2', parent)], need)
+    if found is None:
+        return None, how
+    on = tuple(c for c in want if c not in missing and c not in lacking)
+    return Cgroups(found.parents, on), (f'cgroup v2 limits ({", ".join(on)}) in {parent}'
+                                        + (f'; the gateway {moved}' if moved else ''))
+
+
+def _read_words(path: Path) -> list[str]:
+    try:
+        return path.read_text().split()
+    except OSError:
+        return []
+
+
+def _busy(parent: Path) -> bool:
+    """Whether the cgroup holds processes (then the kernel refuses to enable controllers)."""
+    return bool(_read_words(parent / 'cgroup.procs'))
+
+
+def _into_leaf(parent: Path) -> str:
+    """Move this process into parent/rosgate-gateway, so that parent holds no process of ours; a
+    sentence saying what was done or why not."""
+    others = [p for p in _read_words(parent / 'cgroup.procs') if p != str(os.getpid())]
+    if others:
+        return f'{parent} holds {len(others)} other process(es), so its controllers cannot be enabled'
+    leaf = parent / LEAF
+    try:
+        leaf.mkdir(exist_ok=True)
+        (leaf / 'cgroup.procs').write_text(str(os.getpid()))
+    except OSError as e:
+        return f'could not move itself into {leaf} ({e.strerror})'
+    return f'moved itself into {leaf} first'
 
 
 def _delegate(parent: Path, controllers) -> list[str]:
@@ -304,7 +384,7 @@ def _delegate(parent: Path, controllers) -> list[str]:
     return [c for c in controllers if c not in on]
 
 
-def _writable(parents: list[tuple[str, Path]]) -> tuple[Cgroups | None, str]:
+def _writable(parents: list[tuple[str, Path]], need=('memory', 'pids')) -> tuple[Cgroups | None, str]:
     """Those parents in which the gateway can make a cgroup (cpu is optional), with a sentence."""
     probe = f'rosgate-probe-{os.getpid()}'
     usable = []
@@ -314,11 +394,13 @@ def _writable(parents: list[tuple[str, Path]]) -> tuple[Cgroups | None, str]:
             (parent / probe).rmdir()
             usable.append((controller, parent))
         except OSError as e:
-            if controller != 'cpu':
+            if controller in need or controller == 'v2':
                 return None, f'cannot make cgroups in {parent} ({e.strerror})'
-    kinds = 'memory, pids, cpu' if usable[0][0] == 'v2' else ', '.join(c for c, _ in usable)
+    if not usable:
+        return None, 'no cgroup hierarchy to make run cgroups in'
+    kinds = ', '.join(c for c, _ in usable)
     where = ', '.join(str(p) for _, p in usable)
-    return Cgroups(tuple(usable)), f'cgroup {"v2" if usable[0][0] == "v2" else "v1"} limits ({kinds}) in {where}'
+    return Cgroups(tuple(usable)), f'cgroup v1 limits ({kinds}) in {where}'
 
 
 @dataclass(frozen=True)

@@ -18,7 +18,7 @@ from tests.conftest import ROOT, GatewayProcess
 from tests.gateway.test_runs import RUNTIME
 
 HANG = 60   # s; a failure here is an answer within seconds, the old code's silence a hang
-RUNTIME_TESTED = next(line.split('"')[1] for line in RUNTIME.splitlines() if line.startswith('ROSLIBPY_TESTED'))
+RUNTIME_TESTED = next((line.split('"')[1] for line in RUNTIME.splitlines() if line.startswith('ROSLIBPY_TESTED')), None)
 
 
 def pinned() -> dict[str, Requirement]:
