@@ -229,7 +229,11 @@ class Cgroups:
             path = next((p for h, c, p in lines if h == '0'), None)
             if path is None:
                 return None, 'no cgroup v2 entry in /proc/self/cgroup'
-            return _v2(fs / path.lstrip('/'), want, need)
+            found, how = _v2(fs / path.lstrip('/'), want, need)
+            if found is not None or want != ('memory', 'pids', 'cpu'):
+                return found, how
+            scopes, why = Scopes.find()
+            return (scopes, f'{how}; instead {why}') if scopes is not None else (None, f'{how}; {why}')
         parents = []
         for controller in want:
             path = next((p for h, c, p in lines if controller in c.split(',')), None)
@@ -261,6 +265,10 @@ class Cgroups:
 
 
     @property
+    def kind(self) -> str:
+        return 'cgroup v2' if self.parents[0][0] == 'v2' else 'cgroup v1'
+
+    @property
     def controllers(self) -> tuple[str, ...]:
         """The controllers each run's cgroup has: memory, pids, cpu, or fewer."""
         return self.v2_controllers if self.parents[0][0] == 'v2' else tuple(c for c, _ in self.parents)
@@ -277,12 +285,12 @@ class Cgroups:
                         pass
 
 
-def limits_in_force(cgroups: Cgroups | None, how: str, *, memory_mb: int, processes: int, cpus: float,
+def limits_in_force(cgroups: Cgroups | Scopes | None, how: str, *, memory_mb: int, processes: int, cpus: float,
                     cpu_seconds: int, open_files: int) -> str:
     """The start-up sentence saying exactly which limit holds each run, and by what: a cgroup
     (v1 or v2) or only the rlimits the launcher sets (which always apply as well)."""
     on = cgroups.controllers if cgroups is not None else ()
-    kind = ('cgroup v2' if cgroups.parents[0][0] == 'v2' else 'cgroup v1') if cgroups is not None else ''
+    kind = cgroups.kind if cgroups is not None else ''
     parts = [
         f'memory {memory_mb} MiB by {kind} memory' if 'memory' in on
         else f'memory: only the {memory_mb} MiB address-space rlimit (RLIMIT_AS)',
@@ -401,6 +409,75 @@ def _writable(parents: list[tuple[str, Path]], need=('memory', 'pids')) -> tuple
     kinds = ', '.join(c for c, _ in usable)
     where = ', '.join(str(p) for _, p in usable)
     return Cgroups(tuple(usable)), f'cgroup v1 limits ({kinds}) in {where}'
+
+
+SYSTEMD = Path('/run/systemd/system')   # present when systemd is the init (what sd_booted checks)
+SCOPE_CHECK = ('d=/sys/fs/cgroup$(sed -n "s/^0:://p" /proc/self/cgroup); '
+               'for f in memory.max pids.max cpu.max; do echo "$f $(cat "$d/$f" 2>/dev/null)"; done')
+
+
+@dataclass(frozen=True)
+class Scopes:
+    """Run limits by systemd where the gateway's own cgroup v2 cannot have run cgroups (a login
+    shell's scope holds the shell too): each run starts in a transient scope unit made by
+    ``systemd-run --scope -p MemoryMax= -p TasksMax= -p CPUQuota=``, systemd's documented way to
+    give a command resource limits (systemd owns the cgroup tree and enables the controllers on
+    the way down). As root the system manager makes them, else the user's (``--user``)."""
+    command: tuple[str, ...]                  # systemd-run [--user]
+    controllers: tuple[str, ...]              # those the start-up probe saw in force
+    kind = 'systemd scope'
+
+    @classmethod
+    def find(cls, systemd: Path = SYSTEMD) -> tuple[Scopes | None, str]:
+        """Scopes where systemd runs and a probe scope shows its limits in its own cgroup files."""
+        if not systemd.is_dir():
+            return None, f'systemd is not running here ({systemd} is missing)'
+        exe = shutil.which('systemd-run')
+        if exe is None:
+            return None, 'systemd-run is not installed'
+        command = (exe,) if os.geteuid() == 0 else (exe, '--user')
+        probe = [*command, *_scope_options('rosgate-probe', 64 * 2**20, 16, 1.0), '/bin/sh', '-c', SCOPE_CHECK]
+        try:
+            done = subprocess.run(probe, capture_output=True, text=True, timeout=30, stdin=subprocess.DEVNULL)
+        except (OSError, subprocess.SubprocessError) as e:
+            return None, f'systemd-run does not run: {e}'
+        if done.returncode != 0:
+            return None, f'systemd-run --scope refused: {done.stderr.strip()[-300:]}'
+        seen = dict(line.split(' ', 1) for line in done.stdout.splitlines() if ' ' in line)
+        expected = {'memory': ('memory.max', str(64 * 2**20)), 'pids': ('pids.max', '16'),
+                    'cpu': ('cpu.max', '100000 100000')}
+        on = tuple(c for c, (f, v) in expected.items() if seen.get(f, '').strip() == v)
+        if 'memory' not in on or 'pids' not in on:
+            return None, f'systemd-run scopes here do not get memory and pids limits (saw {seen})'
+        return cls(command, on), f'a systemd scope per run ({" ".join(command)} --scope), checked at start'
+
+    def make(self, run_id: str, memory: int, processes: int, cpus: float) -> RunScope:
+        return RunScope((*self.command, *_scope_options(f'rosgate-{os.getpid()}-{run_id}', memory, processes, cpus)))
+
+    def sweep(self) -> None:
+        """Nothing to sweep: systemd removes a scope once its processes are gone (--collect)."""
+
+
+def _scope_options(unit: str, memory: int, processes: int, cpus: float) -> list[str]:
+    return ['--scope', '--quiet', '--collect', f'--unit={unit}', '-p', f'MemoryMax={memory}', '-p', 'MemorySwapMax=0',
+            '-p', f'TasksMax={processes}', '-p', f'CPUQuota={max(1, round(cpus * 100))}%', '--']
+
+
+@dataclass(frozen=True)
+class RunScope:
+    """A run's systemd scope: systemd-run execs the run's command in it (same pid), and removes
+    it when the run ends."""
+    prefix: tuple[str, ...]
+    dirs: tuple[Path, ...] = ()
+
+    def join(self, argv: list[str]) -> list[str]:
+        return [*self.prefix, *argv]
+
+    def oom_killed(self) -> bool:
+        return False   # systemd stops and collects the scope: a kill reads as SIGKILL, perhaps memory
+
+    def remove(self) -> bool:
+        return True
 
 
 @dataclass(frozen=True)

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from gateway.web.sandbox import LEAF, Cgroups
+from gateway.web.sandbox import LEAF, Cgroups, Scopes
 from tests.conftest import ROOT, wait_for
 from tests.gateway.test_runs import RUNTIME, api, state_of
 
@@ -163,3 +163,25 @@ def test_a_cgroup_shared_with_other_processes_is_reported_not_taken(service):
     assert not found['found'], found
     assert 'holds 1 other process(es)' in found['how'] and 'hugetlb' in found['how'], found['how']
     assert not (d / LEAF).exists()
+
+
+# --- systemd scopes -----------------------------------------------------------------------------
+
+def test_systemd_scopes_only_where_systemd_runs_and_shows_the_limits():
+    """On the machine itself: systemd is not the init here, and the sentence says so; where it
+    is, a probe scope must show memory and pids limits in its own cgroup files."""
+    scopes, how = Scopes.find()
+    if not Path('/run/systemd/system').is_dir():
+        assert scopes is None and how == 'systemd is not running here (/run/systemd/system is missing)'
+    else:
+        assert (scopes is not None and {'memory', 'pids'} <= set(scopes.controllers)) or 'systemd-run' in how, how
+
+
+def test_a_run_scope_command_file_logic():
+    """Pure logic: the command a run starts with under systemd (systemd-run execs it in the scope)."""
+    scope = Scopes(('/usr/bin/systemd-run',), ('memory', 'pids', 'cpu')).make('r0123abcd', 2**30, 512, 0.5)
+    argv = scope.join(['bwrap', '--', 'python'])
+    assert argv[:5] == ['/usr/bin/systemd-run', '--scope', '--quiet', '--collect', f'--unit=rosgate-{os.getpid()}-r0123abcd']
+    props = [argv[i + 1] for i, a in enumerate(argv) if a == '-p']
+    assert props == [f'MemoryMax={2**30}', 'MemorySwapMax=0', 'TasksMax=512', 'CPUQuota=50%']
+    assert argv[argv.index('--'):] == ['--', 'bwrap', '--', 'python']
