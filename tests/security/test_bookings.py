@@ -294,6 +294,7 @@ def test_walk_ins_hold_until_the_next_booking_and_queue_when_all_are_taken(lab):
         wait_for(lambda: stations_info(teacher)['owners'].get('/s02', {}).get('name') == 'alice', 15, 0.1)
         refusal = drive(bob, '/s02')
         assert refusal is not None and 'alice' in refusal['msg'], refusal
+        assert api(lab, 'DELETE', f'/api/bookings/{later["id"]}', token=TOKENS['operator'])[0] == 200
         roslibpy.Service(teacher, '/fleet/release_all', 'std_srvs/srv/Empty').call(roslibpy.ServiceRequest({}), timeout=10)
 
 
