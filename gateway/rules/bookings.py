@@ -82,7 +82,8 @@ class Booking:
     created: float = field(default_factory=time.time)
 
     def json(self) -> dict:
-        return {'id': self.id, 'station': self.station, 'name': self.name, 'start': self.start, 'end': self.end}
+        return {'id': self.id, 'station': self.station, 'name': self.name, 'owner': self.name, 'start': self.start,
+                'end': self.end}
 
     def on(self, at: float) -> bool:
         return self.start <= at < self.end

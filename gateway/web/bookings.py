@@ -6,9 +6,9 @@ POST   /api/bookings      {"station", "start", "end"} (epoch s) -> 201 the booki
                           409 it overlaps a booking of the station (or one of yours elsewhere),
                           429 past a quota (per day, per week, how far ahead; admins have none)
 GET    /api/bookings[?station=&from=&to=]  -> {"enabled": true, "bookings": [...], "now", "slot",
-                          "stations", "me", "role", "limits"}: each booking {"id", "station", "name",
-                          "start", "end", "mine"}; without --booking {"enabled": false} (every other
-                          route answers 404 then)
+                          "stations", "me", "role", "limits"}: each booking {"id", "station", "name"
+                          (its booker's; "owner" too, as runs and recordings say), "start", "end",
+                          "mine"}; without --booking {"enabled": false} (other routes answer 404)
 DELETE /api/bookings/ID   -> 200 (its booker or an admin; 403 others); a slot on now ends at once
 GET    /api/queue         -> {"place", "queued", "wait" (s, estimated; null: unknown), "seated", "station",
                           "line"}: the walk-ins' line when every station is taken (rules.queue)
