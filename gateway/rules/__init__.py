@@ -163,6 +163,9 @@ def install(gateway, reads=lambda name: False) -> None:
     gateway.rules.append(safety.publish_hook)
     gateway.hooks.append(safety)
     if timetable is not None:
+        if lease is None:
+            log.warning('--booking without --exclusive-control: slots seat their bookers and end on time, but '
+                        'nothing keeps others\' commands off a booked robot')
         gateway.hooks.append(Slots(gateway, timetable, stations=stations, lease=lease, stop_group=stop_group,
                                    reset=extra.get('station_reset'), queue=queue))
     log.info('security: auth %s, exclusive control %s, stop on disconnect %s, cmd timeout %s s',
