@@ -186,10 +186,11 @@ def test_the_slot_is_the_bookers_and_the_gateway_ends_it(lab):
         for _ in range(3):
             refusal = drive(bob, '/s01')
             assert refusal is not None and 'alice' in refusal['msg'], refusal
-        assert '/s01' in bob.call('/s01/fleet/claim')['values']['message']
-        assert bob.call('/s01/fleet/claim')['values']['success'] is False
-        settled = poses.last()
-        assert at_start(settled) and settled['linear_velocity'] == 0
+        refused_at = time.time()
+        answer = bob.call('/s01/fleet/claim')['values']
+        assert answer['success'] is False and "alice's station until" in answer['message'], answer
+        wait_for(lambda: len([1 for at, _ in poses.pump() if at > refused_at]) >= 10, 10)
+        assert all(at_start(p) and p['linear_velocity'] == 0 for at, p in poses.pump() if at > refused_at)
 
         # alice drives without Take, and starts a run that drives until it is ended
         assert drive(alice, '/s01') is None
