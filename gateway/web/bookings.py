@@ -1,7 +1,8 @@
 """The bookings API (``--booking``): slots per station, booked ahead (rules.bookings keeps them
 and ends each slot on time).
 
-POST   /api/bookings      {"station", "start", "end"} (epoch s) -> 201 the booking; 400 a bad slot
+POST   /api/bookings      {"station", "start", "end"} (epoch s; an admin may add "for": a person's
+                          name, with --auth, to book for them) -> 201 the booking; 400 a bad slot
                           (too long, ended, end before start), 403 a viewer, 404 no such station,
                           409 it overlaps a booking of the station (or one of yours elsewhere),
                           429 past a quota (per day, per week, how far ahead; admins have none)
@@ -103,8 +104,16 @@ class BookingListHandler(_Handler):
         start, end = self.number('start', body.get('start')), self.number('end', body.get('end'))
         admin = identity is not None and identity.role == 'admin'
         name = identity.name if identity is not None else f'guest {key.split()[-1][:6]}'
+        booker = key
+        behalf = body.get('for')
+        if behalf is not None:   # the teacher books a slot for a student (by the name of her token)
+            if not admin:
+                raise tornado.web.HTTPError(403, '"for" (booking for someone else) is for admins')
+            if not isinstance(behalf, str) or not 0 < len(behalf) <= 64:
+                raise tornado.web.HTTPError(400, '"for" is the name of a signed-in person')
+            booker, name = f'user {behalf}', behalf
         try:
-            booking = await self.slots.timetable.add(station, key, name, start, end, exempt=admin)
+            booking = await self.slots.timetable.add(station, booker, name, start, end, exempt=admin)
         except BookingError as e:
             raise tornado.web.HTTPError(e.status, e.message) from None
         self.set_status(201)

@@ -1,7 +1,8 @@
 // Booked slots (--booking) on the IDE, the teleop page and the teacher's /class: a "Booking"
 // button in the page's #bar that shows the time left in this person's slot (warning at 5 minutes
 // and at 1), and a dialog with the timetable in the browser's time zone, a form to book a slot
-// and a Cancel button on one's own bookings (an admin's on every booking). HTTP only
+// and a Cancel button on one's own bookings (an admin's on every booking; an admin also books
+// "for" a student by her name). HTTP only
 // (/api/bookings); the gateway's clock decides, so the time left is counted from the "now" of
 // its answers, whatever this machine's clock says. The IDE and teleop pages show the station of
 // their #ns field ("free until" when the next slot is someone else's); /class (no #ns) shows
@@ -61,6 +62,8 @@ export class Booking {
     this.station = el('select', { id: 'booking-station' });
     this.start = el('input', { id: 'booking-start', type: 'datetime-local', step: 1 });
     this.minutes = el('input', { id: 'booking-minutes', type: 'number', min: 0.05, step: 'any', size: 5 });
+    this.behalf = el('input', { id: 'booking-for', size: 10, placeholder: 'me' });   // an admin books for a student
+    this.behalfLabel = el('label', { hidden: true }, 'for ', this.behalf);
     this.message = el('p', { id: 'booking-msg', className: 'booking-msg' });
     this.status = el('p', { id: 'booking-status' });
     this.table = el('div', { id: 'booking-table' });
@@ -72,7 +75,7 @@ export class Booking {
     this.dialog = el('dialog', { id: 'dlg-booking' },
       el('h3', { textContent: 'Robot timetable' }), this.status, this.zone, this.table,
       el('p', { className: 'booking-form' }, el('label', {}, 'Station ', this.station), ' ',
-        el('label', {}, 'from ', this.start), ' ', el('label', {}, 'minutes ', this.minutes), ' ', book),
+        el('label', {}, 'from ', this.start), ' ', el('label', {}, 'minutes ', this.minutes), ' ', this.behalfLabel, ' ', book),
       this.message, el('p', { className: 'booking-queue' }, this.queueButton, ' ', this.queueText), el('p', {}, close));
     document.body.append(this.dialog);
     this.button.onclick = () => { this.dialog.showModal(); this.refresh(); };
@@ -157,6 +160,7 @@ export class Booking {
     const now = this.now();
     const shown = ns ? [ns] : d.stations;
     const admin = d.role === 'admin' || d.role === null;
+    this.behalfLabel.hidden = d.role !== 'admin';
     this.table.replaceChildren(...shown.map((station) => {
       const rows = d.bookings.filter((b) => b.station === station && b.end > now - 60);
       const items = rows.map((b) => el('li', { className: `${b.mine ? 'mine' : ''}${b.start <= now && now < b.end ? ' on' : ''}`, dataset: { id: b.id } },
@@ -211,8 +215,10 @@ export class Booking {
     const start = new Date(this.start.value).getTime() / 1000;
     if (!Number.isFinite(start) || !(minutes > 0)) { this.say('give a start time and a number of minutes', true); return; }
     try {
-      const b = await api('', { method: 'POST', body: JSON.stringify({ station: this.station.value, start, end: start + minutes * 60 }) });
-      this.say(`Booked ${b.station} from ${clock(b.start)} to ${clock(b.end)}.`);
+      const slot = { station: this.station.value, start, end: start + minutes * 60 };
+      if (this.behalf.value.trim() && this.data?.role === 'admin') slot.for = this.behalf.value.trim();
+      const b = await api('', { method: 'POST', body: JSON.stringify(slot) });
+      this.say(`Booked ${b.station} from ${clock(b.start)} to ${clock(b.end)}${b.mine ? '' : ` for ${b.name}`}.`);
     } catch (e) { this.say(`cannot book: ${e.message}`, true); }
     await this.refresh();
   }

@@ -127,6 +127,17 @@ def test_the_teacher_sees_and_edits_every_stations_timetable(chromium, lab):
         row.locator("button.booking-cancel").click()
         page.wait_for_function("document.querySelector('#booking-msg').textContent.startsWith('Cancelled')")
         assert api(lab, "GET", f"/api/bookings/{theirs['id']}", token=TOKENS["teacher"])[0] == 404
+        # and books a slot for a student, who finds it among hers
+        start = datetime.datetime.fromtimestamp(t + 600).replace(microsecond=0)
+        page.select_option("#booking-station", "/s02")
+        page.fill("#booking-start", start.strftime("%Y-%m-%dT%H:%M:%S"))
+        page.fill("#booking-minutes", "2")
+        page.fill("#booking-for", "cy")
+        page.click("#booking-book")
+        page.wait_for_function("document.querySelector('#booking-msg').textContent.endsWith('for cy.')")
+        hers = [b for b in api(lab, "GET", "/api/bookings?station=/s02", token=TOKENS["cy"])[1]["bookings"] if b["mine"]]
+        assert [(b["start"], b["name"]) for b in hers] == [(start.timestamp(), "cy")]
+        api(lab, "DELETE", f"/api/bookings/{hers[0]['id']}", token=TOKENS["cy"])
         assert not errors, errors
     finally:
         ctx.close()

@@ -104,6 +104,13 @@ def test_a_booking_is_answered_201_an_overlap_409_a_viewer_403(lab):
     assert book(lab, 'viewer', '/s01', t, t + 5)[0] == 403
     assert book(lab, 'operator2', '/s02', t + 10, t + 15)[0] == 201   # touching, not overlapping
     assert book(lab, 'operator', '/s01', t + 2, t + 8)[0] == 409       # alice: one station at a time
+    # the teacher books for a student; a student may not book for another
+    for_bob = {'station': '/s01', 'start': t + 30, 'end': t + 40, 'for': 'bob'}
+    assert api(lab, 'POST', '/api/bookings', for_bob, token=TOKENS['operator'])[0] == 403
+    status, made = api(lab, 'POST', '/api/bookings', for_bob, token=TOKENS['admin'])
+    assert status == 201 and made['name'] == 'bob' and made['mine'] is False, made
+    assert api(lab, 'GET', f'/api/bookings/{made["id"]}', token=TOKENS['operator2'])[1]['mine'] is True
+    assert api(lab, 'DELETE', f'/api/bookings/{made["id"]}', token=TOKENS['operator2'])[0] == 200
     # bad slots say why
     status, body = book(lab, 'operator2', '/s01', t + 100, t + 120)
     assert status == 400 and '0.25 minutes' in body['error']
