@@ -15,7 +15,7 @@ import argparse
 import logging
 
 from .lease import Lease
-from .names import parse_globs
+from .names import parse_globs, parse_networks
 from .policy import GATEWAY_ROLE, Limits, SecurePolicy  # noqa: F401 (GATEWAY_ROLE: for the bridge)
 from .safety import DEFAULT_TYPES, Clamp, Safety, VelocityLimits
 from .lti import LtiConfig
@@ -58,7 +58,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument('--lti', metavar='TOOL.json', type=_loaded(LtiConfig.load),
                    help='launch from an LMS (LTI 1.3): platforms and deployments in PyLTI1p3\'s tool '
                         'configuration JSON; see /lti/config')
-    g.add_argument('--trusted-proxies', metavar='ADDRS',
+    g.add_argument('--trusted-proxies', metavar='ADDRS', type=_loaded(lambda v: parse_networks(v) and v),
                    help='addresses or networks of TLS reverse proxies whose X-Forwarded-Proto/Host/For are '
                         'believed, e.g. "127.0.0.1,10.0.0.0/8" (others\' are ignored)')
     g.add_argument('--max-subscriptions', type=_positive(int), default=d.max_subscriptions,

@@ -17,7 +17,7 @@ from protocol import ops
 from protocol.errors import ProtocolError
 
 from .stations import person_of
-from .names import ACTION_KINDS, LOCAL_HOSTS, host_name, is_ip, own_names, parse_globs, refuse, target
+from .names import ACTION_KINDS, LOCAL_HOSTS, host_name, is_ip, own_names, parse_globs, parse_networks, refuse, target
 from .sessions import SESSION_COOKIE, Sessions
 from .tokens import AuthError, Authenticator, Identity
 
@@ -88,6 +88,7 @@ class Policy:
         self.reads = reads     # the gateway's own read-only services (rosapi)
         self.allowed_origins = parse_globs(settings.allowed_origins)
         self.allowed_hosts = parse_globs(settings.allowed_hosts)
+        self.trusted_proxies = parse_networks(settings.extra.get('trusted_proxies'))
         self.own_names = own_names()
         self.globs = {
             kind: parse_globs(getattr(settings, f'{kind}_glob'))
