@@ -132,6 +132,13 @@ def test_custom_page_and_station_are_honoured(lab, browser):
                    '/teleop?ns=/s03')
     assert where.path == '/teleop'
     assert teleop_ready(page, '/s03') == '/s03'
+    # the IDE with an example program (as the deep linking picker stores it)
+    ide = browser()
+    launch(ide, platform.add('student-dee', [LEARNER], target='/', custom={'program': 'example:spiral'}),
+           '/?program=example:spiral')
+    ide.wait_for_function("document.body?.dataset.ready === 'true'", timeout=20000)
+    assert ide.evaluate('rosgateIde.programName') == 'spiral with the pen'
+    ide.wait_for_function("document.body?.dataset.connection === 'connected'", timeout=10000)
 
 
 def test_two_learners_get_two_stations_and_a_relaunch_the_same(lab, browser):
