@@ -61,7 +61,8 @@ class Platform:
         asyncio.set_event_loop(self.loop)
         app = tornado.web.Application([
             (r'/jwks', Jwks, {'p': self}), (r'/start', Start, {'p': self}), (r'/auth', Auth, {'p': self}),
-            (r'/dl-return', DlReturn, {'p': self}), (r'/post', Repost, {'p': self})])
+            (r'/dl-return', DlReturn, {'p': self}), (r'/post', Repost, {'p': self}),
+            (r'/course', Course, {'p': self})])
         server = app.listen(0, '127.0.0.1')
         self.port = next(iter(server._sockets.values())).getsockname()[1]
         ready.set()
@@ -162,6 +163,15 @@ class Repost(_H):
     def get(self) -> None:
         sent = self.p.posted[int(self.get_argument('i'))]
         self.finish(form_page(f'{self.p.tool}/lti/launch', {'id_token': sent['id_token'], 'state': sent['state']}))
+
+
+class Course(_H):
+    """GET /course?launch=ID: a course page with the activity in an iframe, as an LMS shows it."""
+
+    def get(self) -> None:
+        self.finish('<!doctype html><title>course</title><h1>Robotics 101</h1>'
+                    f'<iframe id="tool" width="1000" height="700" src="/start?launch={self.get_argument("launch")}">'
+                    '</iframe>')
 
 
 class DlReturn(_H):

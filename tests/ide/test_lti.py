@@ -227,3 +227,71 @@ def test_config_page_and_jwks(lab, browser):
         assert words in text, words
     keys = page.evaluate("fetch('/lti/jwks').then(r => r.json())")['keys']
     assert keys and all(k['kty'] == 'RSA' and k['alg'] == 'RS256' and 'd' not in k for k in keys)
+
+
+@pytest.mark.parametrize('phaseout', [False, True])
+def test_a_launch_inside_the_course_page_iframe(lab, chromium, phaseout):
+    """In the LMS's iframe the state and session cookies are partitioned (CHIPS); with Chromium's
+    third-party cookie phase-out on (unpartitioned cookies blocked in frames), the launch still
+    signs the frame in and its page connects."""
+    gw, platform = lab
+    from .conftest import CHROMIUM, CHROMIUM_ARGS
+    browser = chromium.browser_type.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS + [
+        '--test-third-party-cookie-phaseout']) if phaseout else chromium
+    ctx = browser.new_context(viewport={'width': 1180, 'height': 900})
+    try:
+        page = ctx.new_page()
+        with Client(gw.ws_url, ADMIN_TOKEN) as teacher:
+            assert teacher.call('/fleet/release_all', {})['result'] is True
+        url = platform.add('student-jo', [LEARNER], target='/teleop').replace('/start?', '/course?')
+        page.goto(url)
+        try:
+            # (page.title() lets Playwright take in the frames' navigations while this waits)
+            wait_for(lambda: page.title() and any(f.url.startswith(f'{platform.tool}/teleop') for f in page.frames),
+                     timeout=30)
+        except AssertionError:
+            raise AssertionError([(f.url, f.content()[:600]) for f in page.frames]) from None
+        frame = next(f for f in page.frames if f.url.startswith(f'{platform.tool}/teleop'))
+        teleop_ready(frame)          # (its station claimed, the page reloads once: wait for that)
+
+        def me():
+            try:
+                return whoami(frame)
+            except Exception:    # the reload of the station's page
+                return None
+        assert wait_for(me, timeout=20)['body']['name'] == 'student-jo'
+        session = [c for c in ctx.cookies() if c['name'] == 'rosgate_session']
+        assert session and all(c['sameSite'] == 'None' and c['secure'] for c in session), session
+    finally:
+        ctx.close()
+        if phaseout:
+            browser.close()
+
+
+def test_a_frame_that_keeps_no_cookies_continues_in_a_new_window(lab, browser):
+    """As Safari in an LMS's iframe: the launch's session cookie is dropped (the route below takes
+    it out of the answer); the page offers "Continue in a new window", which signs that window in
+    once (the link's ticket is single-use)."""
+    gw, platform = lab
+    page = browser()
+
+    def drop_session_cookie(route):
+        response = route.fetch()
+        headers = {k: v for k, v in response.headers.items() if k.lower() != 'set-cookie'}
+        route.fulfill(response=response, headers=headers)
+
+    page.route('**/lti/launch', drop_session_cookie)
+    page.goto(platform.add('student-kim', [LEARNER], target='/teleop').replace('/start?', '/course?'))
+    wait_for(lambda: page.title() and any(f.url.endswith('/lti/launch') for f in page.frames), timeout=30)
+    frame = next(f for f in page.frames if f.url.endswith('/lti/launch'))
+    frame.wait_for_selector('#newwin', state='visible', timeout=20000)
+    with page.context.expect_page() as opened:
+        frame.click('#newwin')
+    window = opened.value
+    window.wait_for_url('**/teleop**', timeout=20000)
+    teleop_ready(window)
+    assert whoami(window)['body']['name'] == 'student-kim'
+    ticket_url = frame.get_attribute('#newwin', 'href')
+    again = browser()
+    again.goto(f'{platform.tool}{ticket_url}')
+    assert 'used or more than' in again.inner_text('#reason')
