@@ -1,7 +1,8 @@
 """The rules: who may do what, and keeping robots safe.
 
-Name globs and the Host/Origin checks (``names``), roles, tokens, caps and op rate (``policy``,
-``tokens``: one policy), robot stations and the person who owns each (``stations``), the driver
+Name globs, the Host/Origin checks and a trusted proxy's forwarded headers (``names``), roles,
+tokens, caps and op rate (``policy``, ``tokens``: one policy), sign-in sessions kept in the store
+(``sessions``), who an LMS launch says someone is and whether to believe it (``lti``), robot stations and the person who owns each (``stations``), the driver
 lease per station (``lease``), velocity clamps and stops (``safety``). ``add_arguments(parser)`` adds their flags; ``install(gateway, reads)`` puts the
 policy in front of every op and the lease and safety at the publish door (``Gateway.publish``).
 

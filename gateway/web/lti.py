@@ -42,7 +42,8 @@ log = logging.getLogger('rosgate.lti')
 PENDING_TTL = 600.0      # s between the login initiation and the launch
 RESUME_TTL = 120.0       # s a "continue in a new window" ticket stays good
 MAX_PENDING = 10000      # logins in flight kept at most (the oldest are forgotten)
-JWKS_REFRESH = 5.0       # s at least between two fetches of one platform's JWKS
+JWKS_REFRESH = 60.0      # s before a key id missing from a platform's JWKS makes it fetched again
+JWKS_FETCHES = 10        # fetches of one platform's JWKS a minute at most
 STATE_COOKIE = 'rosgate_lti_'
 PAGES = {'ide': '/', '/': '/', 'teleop': '/teleop', '/teleop': '/teleop', 'class': '/class', '/class': '/class'}
 MESSAGE_TTL = 600.0
@@ -67,12 +68,15 @@ class Expiring:
 
 
 class KeySets:
-    """The platforms' public keys by JWKS URL: fetched once, again when a launch names an unknown key id
-    (a platform rotating its keys), never more often than every ``JWKS_REFRESH`` s."""
+    """The platforms' public keys by JWKS URL: fetched once, and again when a launch names a key id
+    not in them (a platform rotating its keys). A key id still missing after its fetch is not asked
+    for again for ``JWKS_REFRESH`` s, and all the fetches of one URL together stay under
+    ``JWKS_FETCHES`` a minute: launches with made-up key ids cannot make the gateway a flood."""
 
     def __init__(self):
         self.sets: dict[str, jwt.PyJWKSet] = {}
-        self.fetched: dict[str, float] = {}
+        self.missed: dict[tuple[str, str | None], float] = {}
+        self.fetches: dict[str, list[float]] = {}
 
     async def key(self, reg: lti.Registration, kid: str | None):
         if reg.key_set is not None and not reg.key_set_url:
@@ -80,8 +84,12 @@ class KeySets:
         url = reg.key_set_url
         keys = self.sets.get(url)
         found = self._find(keys, kid) if keys is not None else None
-        if found is None and time.monotonic() - self.fetched.get(url, -1e9) > JWKS_REFRESH:
-            self.fetched[url] = time.monotonic()
+        now = time.monotonic()
+        recent = [t for t in self.fetches.get(url, []) if now - t < 60]
+        self.fetches[url] = recent
+        if (found is None and now - self.missed.get((url, kid), -1e9) > JWKS_REFRESH
+                and len(recent) < JWKS_FETCHES):
+            recent.append(now)
             try:
                 response = await tornado.httpclient.AsyncHTTPClient().fetch(url, request_timeout=10)
                 keys = self.sets[url] = jwt.PyJWKSet.from_dict(json.loads(response.body))
@@ -89,6 +97,10 @@ class KeySets:
                 log.warning('lti: cannot fetch the keys of %s from %s: %s', reg.issuer, url, e)
                 raise LaunchError(f'cannot fetch the platform\'s keys from {url}: {e}') from None
             found = self._find(keys, kid)
+            if found is None:
+                if len(self.missed) > MAX_PENDING:
+                    self.missed.clear()
+                self.missed[(url, kid)] = now
         if found is None:
             raise LaunchError(f'the id_token is signed with a key ({str(kid)[:60]}) the platform does not publish '
                               f'at {url}')

@@ -72,6 +72,11 @@ class Platform:
         self.loop.call_soon_threadsafe(self.loop.stop)
         self.thread.join(5)
 
+    def rotate(self) -> None:
+        """A new signing key under a new kid, published at once (the old one is gone)."""
+        self.key = rsa.generate_private_key(public_exponent=65537, key_size=2048)
+        self.kid = f'platform-key-{next(self.ids)}'
+
     def tool_config(self, private_key_file: str) -> dict:
         """This platform's registration in PyLTI1p3's tool configuration format (with a second,
         unrelated platform beside it, as a school's file would have)."""

@@ -67,7 +67,10 @@ def whoami(page) -> dict:
 
 def launch(page, url: str, landing: str):
     page.goto(url)
-    page.wait_for_url(f'**{landing}', timeout=20000)
+    try:
+        page.wait_for_url(f'**{landing}', timeout=20000)
+    except Exception:
+        raise AssertionError(f'no {landing}: at {page.url}: {page.inner_text("body")[:300]}') from None
     return urlsplit(page.url)
 
 
@@ -188,6 +191,18 @@ def test_forged_launches_are_refused_and_nobody_is_signed_in(lab, browser):
     assert 'already used' in reason or 'state' in reason, reason
     reason = refused(browser(), platform.add('student-gus', [LEARNER], target='/teleop', forge=f'replay:{index}'))
     assert 'nonce' in reason, reason
+
+
+def test_a_platform_rotating_its_key_is_followed(lab, browser):
+    """The tool keeps the platform's JWKS; a launch signed with a key id it has not seen makes it
+    fetch the JWKS again (and then the launch passes)."""
+    gw, platform = lab
+    first = browser()
+    launch(first, platform.add('student-lu', [LEARNER], target='/'), '/')     # the JWKS is cached
+    platform.rotate()
+    again = browser()
+    launch(again, platform.add('student-lu', [LEARNER], target='/'), '/')
+    assert whoami(again)['body']['role'] == 'operator'
 
 
 def test_deep_linking_round_trip(lab, browser):

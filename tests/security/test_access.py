@@ -67,6 +67,20 @@ def test_foreign_origin_refused_with_403(gateway):
             assert ok.call('/rosapi/get_time')['result'] is True
 
 
+def test_websocket_takes_the_browsers_same_origin_as_http_does(gateway):
+    """Behind a TLS proxy the page is https://lab:8443 while the gateway sees http on its own port:
+    a browser's Sec-Fetch-Site: same-origin passes the websocket's check as it passes the HTTP
+    routes'; the same Origin from another site (or the browser saying so) is refused."""
+    origin = f'https://localhost:{gateway.port + 1}'
+    with Client(gateway.ws_url, origin=origin, additional_headers={'Sec-Fetch-Site': 'same-origin'}) as ok:
+        assert ok.call('/rosapi/get_time')['result'] is True
+    for site in ('same-site', 'cross-site', None):
+        headers = {'Sec-Fetch-Site': site} if site else {}
+        with pytest.raises(InvalidStatus) as info:
+            Client(gateway.ws_url, origin=origin, additional_headers=headers)
+        assert info.value.response.status_code == 403, site
+
+
 def test_state_changing_requests_check_where_they_come_from_whatever_the_body(gateway):
     """The same rule for every route that changes something, login included, empty bodies too:
     Origin another port of this host, or a browser's word that it is another site, is refused
