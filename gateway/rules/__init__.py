@@ -6,8 +6,8 @@ tokens, caps and op rate (``policy``, ``tokens``: one policy), sign-in sessions 
 lease per station (``lease``), velocity clamps and stops (``safety``). ``add_arguments(parser)`` adds their flags; ``install(gateway, reads)`` puts the
 policy in front of every op and the lease and safety at the publish door (``Gateway.publish``).
 
-May import: ``protocol`` and ``backends`` (for QoS and types), never ``bridge`` or ``web``: the
-gateway is handed in.
+May import: ``protocol`` and ``backends`` (for QoS and types), ``store`` (sessions) and ``settings``,
+never ``bridge`` or ``web``: the gateway is handed in.
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ initiation, answers the authorization request with an auto-posted, RS256-signed 
 takes deep linking responses back (checked against the tool's published JWKS by the test).
 A launch is a dict (``Platform.add``): who (sub, name, roles), target_link_uri, custom, message
 type, and ``forge``: what to get wrong on purpose (``key``: signed with a key the platform does
-not publish under that kid; ``aud``; ``expired``; ``deployment``; ``state``: another state than
+not publish under that kid; ``aud``; ``expired``; ``deployment``; ``type``: a message type the tool does not take; ``version``; ``state``: another state than
 the tool gave; ``replay:N``: the N-th id_token posted before, with the state of this new
 login). Every id_token it posted is kept (``posted``) so a test can post one again.
 """
@@ -106,7 +106,8 @@ class Platform:
             'sub': launch['sub'], 'name': launch['name'], 'nonce': nonce,
             'iat': now - 7200 if launch['forge'] == 'expired' else now,
             'exp': now - 3600 if launch['forge'] == 'expired' else now + 300,
-            CLAIM + 'message_type': launch['kind'], CLAIM + 'version': '1.3.0',
+            CLAIM + 'message_type': 'LtiSubmissionReviewRequest' if launch['forge'] == 'type' else launch['kind'],
+            CLAIM + 'version': '1.1' if launch['forge'] == 'version' else '1.3.0',
             CLAIM + 'deployment_id': 'dep-unknown' if launch['forge'] == 'deployment' else self.deployment,
             CLAIM + 'target_link_uri': launch['target'], CLAIM + 'roles': launch['roles'],
             CLAIM + 'context': {'id': 'course-1', 'title': 'Robotics 101'},

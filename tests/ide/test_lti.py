@@ -166,6 +166,8 @@ def test_forged_launches_are_refused_and_nobody_is_signed_in(lab, browser):
         'aud': 'another tool',
         'expired': 'expired',
         'deployment': 'deployment',
+        'type': 'message type',
+        'version': 'version',
         'state': 'state',
     }
     for forge, words in cases.items():
