@@ -35,7 +35,7 @@ import tornado.web
 from ..rules import lti
 from ..rules.lti import LaunchError
 from .api import check_origin
-from .cookies import clear_cookie, is_https, set_cookie
+from .cookies import clear_cookie, set_cookie
 from .login import begin_session
 
 log = logging.getLogger('rosgate.lti')
@@ -46,7 +46,6 @@ JWKS_REFRESH = 60.0      # s before a key id missing from a platform's JWKS make
 JWKS_FETCHES = 10        # fetches of one platform's JWKS a minute at most
 STATE_COOKIE = 'rosgate_lti_'
 PAGES = {'ide': '/', '/': '/', 'teleop': '/teleop', '/teleop': '/teleop', 'class': '/class', '/class': '/class'}
-MESSAGE_TTL = 600.0
 
 
 class Expiring:

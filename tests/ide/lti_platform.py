@@ -19,7 +19,6 @@ import json
 import threading
 import time
 import uuid
-from urllib.parse import urlencode
 
 import jwt
 import tornado.web
