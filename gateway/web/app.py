@@ -14,6 +14,8 @@ import tornado.web
 
 from ..bridge.gateway import Gateway
 from .classview import ClassHandler
+from .history import start_history
+from .history_api import history_routes
 from .login import login_routes
 from .pages import Application, PublicFileHandler, write_page
 from .programs import program_routes
@@ -69,6 +71,8 @@ def make_app(gateway: Gateway) -> tornado.web.Application:
     if settings.programs_dir is not None:
         routes += program_routes(settings.programs_dir, policy)
     routes += run_routes(gateway) + recording_routes(gateway)
+    history = start_history(gateway)
+    routes += history_routes(history)
     routes.append((r'/(.*)', PublicFileHandler, {'path': str(settings.ide_dir), 'default_filename': 'index.html'}))
     return Application(
         gateway, routes,
