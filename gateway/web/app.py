@@ -16,6 +16,7 @@ from ..bridge.gateway import Gateway
 from .classview import ClassHandler
 from .history import start_history
 from .history_api import history_routes
+from .opcua import start_twin
 from .login import login_routes
 from .pages import Application, PublicFileHandler, write_page
 from .programs import program_routes
@@ -73,6 +74,7 @@ def make_app(gateway: Gateway) -> tornado.web.Application:
     routes += run_routes(gateway) + recording_routes(gateway)
     history = start_history(gateway)
     routes += history_routes(history)
+    start_twin(gateway, history, settings.opcua)
     routes.append((r'/(.*)', PublicFileHandler, {'path': str(settings.ide_dir), 'default_filename': 'index.html'}))
     return Application(
         gateway, routes,
