@@ -8,6 +8,7 @@ import { field, zeroVelocity, withNamespace } from '../runtime/util.js';
 import { DriverLease, bindDriverBadge, DRIVER_TOPIC } from './driver.js';
 import { bindNamespace, CLAIM_SERVICE } from './robotns.js';
 import { gauge, History, SAMPLE_EVERY } from './dashboard.js';
+import { bindSpan } from './history.js';
 
 const $ = (s) => document.querySelector(s);
 const params = new URLSearchParams(location.search);
@@ -322,6 +323,10 @@ function setupDashboard() {
   addSeries({ id: 'right', label: 'right motor', unit: '°C', topic: ns('/motor/right/temperature'), path: 'temperature', type: 'sensor_msgs/msg/Temperature' });
   addSeries({ id: 'speed', label: 'speed', unit: 'm/s', topic: ns('/odom'), path: 'twist.twist.linear.x', type: 'nav_msgs/msg/Odometry' });
   addSeries({ id: 'battery', label: 'battery', unit: '%' });
+  const loadSpan = bindSpan($('#plot-span'), dash.history, () => [
+    ...dash.history.series.filter((s) => s.topic && s.path).map((s) => ({ id: s.id, topic: s.topic, field: s.path })),
+    { id: 'battery', topic: $('#battery-topic').value, field: 'percentage', scale: 100 }]);
+  loadSpan();
   setInterval(() => dash.history.sample(), SAMPLE_EVERY);
   setInterval(() => dash.history.save(), 5000);
   addEventListener('pagehide', () => dash.history.save());
