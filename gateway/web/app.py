@@ -1,8 +1,9 @@
 """The tornado application: every route in one place.
 
 ``/`` upgrades to the rosbridge websocket (``socket``) and, as a plain GET, serves the IDE;
-``/teleop`` and ``/class`` are the other pages; ``/health``; the JSON API apps (``/api/programs``,
-``/api/runs``, ``/api/recordings``) and the login pages; the IDE's static files last.
+``/teleop``, ``/twin`` (the robot in 3D) and ``/class`` are the other pages; ``/health``; the JSON
+API apps (``/api/programs``, ``/api/runs``, ``/api/recordings``, ``/api/history``) and the login pages; the OPC UA
+server beside them (``--opcua``); the IDE's static files last.
 """
 
 from __future__ import annotations
@@ -41,7 +42,7 @@ class HealthHandler(tornado.web.RequestHandler):
 
 
 class TeleopHandler(tornado.web.RequestHandler):
-    """GET /teleop: the teleop page (its relative asset paths resolve from the root)."""
+    """GET /teleop, /twin: a page whose relative asset paths resolve from the root."""
 
     def initialize(self, page) -> None:
         self.page = page
@@ -65,6 +66,8 @@ def make_app(gateway: Gateway) -> tornado.web.Application:
         (r'/health', HealthHandler, {'gateway': gateway}),
         (r'/teleop/', tornado.web.RedirectHandler, {'url': '/teleop'}),
         (r'/teleop', TeleopHandler, {'page': settings.ide_dir / 'teleop.html'}),
+        (r'/twin/', tornado.web.RedirectHandler, {'url': '/twin'}),
+        (r'/twin', TeleopHandler, {'page': settings.ide_dir / 'twin.html'}),
         (r'/class/?', ClassHandler, {'gateway': gateway, 'page': settings.ide_dir / 'class.html'}),
         (r'/examples/(.*)', IdeFileHandler, {'path': str(settings.examples_dir)}),
     ]
