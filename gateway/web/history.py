@@ -48,7 +48,10 @@ POINTS = sa.Table(   # full rate; t in ms since the epoch (integers divide alike
     sa.Column('series', sa.Integer, nullable=False),
     sa.Column('t', sa.BigInteger, nullable=False),
     sa.Column('v', sa.Float, nullable=False),
-    sa.Index('history_points_series_t', 'series', 't'))
+    # one series' span is one range of the key, its rows side by side on disk (SQLite: no rowid,
+    # the table is the key's b-tree): a day of one field read 3x faster than through an index
+    sa.PrimaryKeyConstraint('series', 't', name='history_points_pk'),
+    sqlite_with_rowid=False)
 MINUTES = sa.Table(  # t: the minute's start, ms
     'history_minutes', METADATA,
     sa.Column('series', sa.Integer, nullable=False),
