@@ -9,6 +9,7 @@ import { DriverLease, bindDriverBadge, DRIVER_TOPIC } from './driver.js';
 import { bindNamespace, CLAIM_SERVICE } from './robotns.js';
 import { gauge, History, SAMPLE_EVERY } from './dashboard.js';
 import { bindSpan } from './history.js';
+import { HomeEstimate } from './gohome.js';
 
 const $ = (s) => document.querySelector(s);
 const params = new URLSearchParams(location.search);
@@ -28,6 +29,8 @@ const state = {
 window.teleop = state;
 window.teleopGauge = gauge;   // for tests of the warning colours
 const lease = new DriverLease();
+const home = new HomeEstimate(document.querySelector('#home'));   // enough charge to drive back?
+state.home = home;
 state.lease = lease;
 
 // ---- connection -----------------------------------------------------------
@@ -267,10 +270,12 @@ function resubscribe() {
   subscribe($('#battery-topic').value, 'sensor_msgs/msg/BatteryState', showBattery, { throttle_rate: 500, queue_length: 1 });
   subscribe($('#camera-topic').value, 'sensor_msgs/msg/CompressedImage', showImage, { throttle_rate: 200, queue_length: 1 });
   for (const s of dash.history.series) if (s.topic) subscribePlot(s);
+  subscribe(withNamespace(state.robotNs.get(), '/odom'), 'nav_msgs/msg/Odometry', (m) => home.odom(m), { throttle_rate: 200, queue_length: 1 });
 }
 
 function showBattery(msg) {
   state.battery = msg;
+  home.battery(msg);
   const pct = Number.isFinite(msg.percentage) ? msg.percentage * 100 : null;
   dash.gauges.battery.set(pct ?? NaN);
   dash.series.battery.last = pct;
