@@ -50,6 +50,25 @@ def raw_points(conn: sa.Connection, sid: int, lo: int, hi: int) -> tuple[list, l
     return list(ts), list(vs)
 
 
+RAW_JSON = {   # the arrays written by the database itself, in C: a day of one field in a third of the time
+    'sqlite': 'SELECT json_group_array(t / 1000.0), json_group_array(v) FROM (SELECT t, v FROM history_points '
+              'WHERE series = :s AND t >= :lo AND t <= :hi ORDER BY t)',
+    'postgresql': "SELECT COALESCE(json_agg(t / 1000.0 ORDER BY t), '[]')::text, "
+                  "COALESCE(json_agg(v ORDER BY t), '[]')::text FROM history_points "
+                  'WHERE series = :s AND t >= :lo AND t <= :hi',
+}
+
+
+def raw_json(conn: sa.Connection, sid: int, lo: int, hi: int) -> tuple[str, str] | None:
+    """The full-rate points of a span as two JSON arrays (t in s, v), or None for a database
+    without JSON aggregates."""
+    sql = RAW_JSON.get(conn.dialect.name)
+    if sql is None:
+        return None
+    t, v = conn.execute(sa.text(sql), {'s': sid, 'lo': lo, 'hi': hi}).one()
+    return t, v
+
+
 def _portable(conn: sa.Connection, sid: int, lo: int, hi: int) -> tuple[list, list]:
     p = POINTS.c
     rows = conn.execute(sa.select(p.t, p.v).where(p.series == sid, p.t >= lo, p.t <= hi).order_by(p.t)).all()
@@ -57,13 +76,17 @@ def _portable(conn: sa.Connection, sid: int, lo: int, hi: int) -> tuple[list, li
 MAX_BUCKETS = 200_000
 
 
-def query(conn: sa.Connection, sid: int, lo: int, hi: int, step: int | None) -> dict:
-    """Points of one series between lo and hi (ms, inclusive); step in ms, or None for as kept."""
+def query(conn: sa.Connection, sid: int, lo: int, hi: int, step: int | None, as_json: bool = False) -> dict:
+    """Points of one series between lo and hi (ms, inclusive); step in ms, or None for as kept.
+    as_json: the arrays may come as orjson Fragments (JSON the database wrote) instead of lists."""
     p, m = POINTS.c, MINUTES.c
     if step is None:
         mins = conn.execute(sa.select(m.t, m.vmean, m.vmin, m.vmax)
                             .where(m.series == sid, m.t >= lo - MINUTE // 2, m.t <= hi - MINUTE // 2)
                             .order_by(m.t)).all()
+        fast = raw_json(conn, sid, lo, hi) if as_json and not mins else None
+        if fast is not None:
+            return {'t': orjson.Fragment(fast[0]), 'v': orjson.Fragment(fast[1])}
         ts, vs = raw_points(conn, sid, lo, hi)
         out = {'t': [(r[0] + MINUTE // 2) / 1000 for r in mins] + ts, 'v': [r[1] for r in mins] + vs}
         if mins:
@@ -159,7 +182,7 @@ class HistoryHandler(_Handler):
 
         def read(conn):
             sid = h.series_id(conn, topic, field, create=False)
-            return {'t': [], 'v': []} if sid is None else query(conn, sid, lo, hi, step_ms)
+            return {'t': [], 'v': []} if sid is None else query(conn, sid, lo, hi, step_ms, as_json=fmt == 'json')
 
         data = await h.store.run(read)
         if fmt == 'csv':

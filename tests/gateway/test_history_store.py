@@ -13,6 +13,7 @@ import subprocess
 import tempfile
 import time
 
+import orjson
 import pytest
 import sqlalchemy as sa
 
@@ -108,6 +109,16 @@ def test_old_points_become_minutes_and_reads_span_both(store):
 
     empty = store.run_now(lambda c: query(c, sid, 1000, 2000, None))
     assert empty == {'t': [], 'v': []}
+    # the JSON the database writes for the full-rate span equals the lists
+    recent = points[-HOUR][0]
+    as_lists = store.run_now(lambda c: query(c, sid, recent, hi, None))
+    as_json = store.run_now(lambda c: query(c, sid, recent, hi, None, as_json=True))
+    assert isinstance(as_json['t'], orjson.Fragment) and 'min' not in as_json
+    decoded = orjson.loads(orjson.dumps(as_json))
+    assert decoded['v'] == as_lists['v'] and len(decoded['t']) == HOUR
+    assert decoded['t'] == pytest.approx(as_lists['t'], abs=1e-6)
+    none = orjson.loads(orjson.dumps(store.run_now(lambda c: query(c, sid, 1000, 2000, None, as_json=True))))
+    assert none == {'t': [], 'v': []}
     assert store.run_now(listing) == {'/r/battery_state': ['percentage']}
 
 
