@@ -355,6 +355,7 @@ function setupRobot() {
   });
   const ns = (name) => withNamespace(state.robotNs.get(), name);
   for (const el of ['#topic', '#battery-topic', '#camera-topic']) $(el).value = ns($(el).value);
+  if (state.robotNs.get()) $('#twin-link').search = `?ns=${encodeURIComponent(state.robotNs.get())}`;
   bindDriverBadge(lease);
   state.robotNs.follow(lease);
   lease.addEventListener('refused', (e) => showNotice(`Your commands are refused: ${e.detail}`));

@@ -76,3 +76,23 @@ def test_twin_draws_the_rover_and_it_turns_on_the_canvas(chromium, rover):
         assert not errors, errors
     finally:
         ctx.close()
+
+
+def test_twin_of_a_fleet_station_and_the_teleop_link(chromium, start_gateway):
+    gw = start_gateway("--fleet", "2", "--robot", "rover")
+    ctx = chromium.new_context(viewport=PHONE)
+    page = ctx.new_page()
+    errors = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    try:
+        page.goto(gw.http_url + "teleop?ns=/s02")
+        page.wait_for_function("document.body?.dataset.ready === 'true'", timeout=WAIT)
+        assert page.get_attribute("#twin-link", "href").endswith("twin?ns=%2Fs02")
+        page.click("#twin-link")
+        page.wait_for_function("window.twin && twin.state.model === 'rover' && twin.state.pose !== null", timeout=WAIT)
+        page.wait_for_function("twin.state.markers >= 4 && twin.state.scanPoints > 100", timeout=WAIT)
+        assert page.input_value("#ns") == "/s02"
+        assert len(page.evaluate(PIXELS)["mask"]) > 200
+        assert not errors, errors
+    finally:
+        ctx.close()
