@@ -139,7 +139,7 @@ def read_load(folder: str) -> dict:
     sid = store.run_now(lambda c: h.series_id(c, '/s05/battery_state', 'percentage', create=False))
     lo, hi = int(start * 1000), int(end * 1000)
     points = len(store.run_now(lambda c: query(c, sid, lo, hi, None))['t'])
-    inproc = timed(lambda: orjson.dumps(store.run_now(lambda c: query(c, sid, lo, hi, None))))
+    inproc = timed(lambda: orjson.dumps(store.run_now(lambda c: query(c, sid, lo, hi, None, as_json=True))))
     size = store.size()
     store.close()
     os.environ['XDG_DATA_HOME'] = home
