@@ -130,6 +130,9 @@ class _Tap:
 
 
 class History:
+    """The topics kept (their taps), the points waiting for the next batch, the latest value of
+    each field (for the OPC UA face, ``listeners``), and the store work: batches, roll-ups, cap."""
+
     def __init__(self, gateway, globs: tuple[str, ...] | None, *, max_bytes: int, full_seconds: float):
         self.gateway, self.globs = gateway, globs
         self.max_bytes, self.full_seconds = max_bytes, full_seconds
@@ -161,11 +164,14 @@ class History:
                 continue
             if not policy.allows(None, 'subscribe', topic):
                 continue
+            fan = None
             try:
                 fan = self.gateway.fanout(topic, type)
                 tap = _Tap(self, topic, type)
                 fan.add(tap, None, (THROTTLE_MS, 1, 'none', None))
             except Exception as e:   # an unknown type, a topic of two types, ...
+                if fan is not None and not fan.subscribers:
+                    self.gateway.drop_fanout(fan)   # made here for nothing: no backend subscription left behind
                 self.refused.add(topic)
                 log.warning('history cannot keep %s (%s): %s', topic, type, e)
                 continue
