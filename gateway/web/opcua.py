@@ -14,8 +14,11 @@ source timestamp. No variable is writable, whoever asks.
 
 Security: with ``--auth`` a client signs in with a user name and its token as the password
 (``UserName`` identity); the token must be that user's, and each role that may subscribe may read
-(every role). Anonymous sessions are refused then. The channel is OPC UA's ``None`` security policy:
-run it on a trusted network or a VPN, as the token crosses it as given.
+(every role). Anonymous sessions are refused then. The token never crosses the network as given: the server has a
+self-signed certificate of its own (made once in the data directory, ``opcua/``) and clients
+encrypt the token with it on the plain (``None``) channel, or use the signed and encrypted
+``Basic256Sha256`` channel. Without ``--auth`` the channel is ``None`` only: everything it serves
+is readable by anyone who reaches the port.
 
 The server is asyncua's, on a thread of its own (``Twin``).
 """
@@ -24,14 +27,18 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import os
+import socket
 import threading
 from datetime import datetime, timezone
 
 from ..rules.policy import PERMISSIONS
 from ..rules.tokens import AuthError
+from ..settings import data_dir
 
 log = logging.getLogger('rosgate.opcua')
 NAMESPACE = 'urn:rosgate:twin'
+APP_URI = 'urn:rosgate:server'
 PUSH_EVERY = 0.25       # s between batches of value writes
 POSE = {'pose.pose.position.x': 'x', 'pose.pose.position.y': 'y', 'yaw': 'yaw'}
 ROOT_FOLDER = 'robot'
@@ -96,7 +103,13 @@ class Twin:
         await server.init()
         server.set_endpoint(f'opc.tcp://{self.host}:{self.port}/rosgate/')
         server.set_server_name('rosgate twin')
-        server.set_security_policy([ua.SecurityPolicyType.NoSecurity])
+        await server.set_application_uri(APP_URI)
+        if self.auth is not None:   # the tokens go encrypted with the server's key, even on a plain channel
+            await self._certificate(server)
+            server.set_security_policy([ua.SecurityPolicyType.NoSecurity,
+                                        ua.SecurityPolicyType.Basic256Sha256_SignAndEncrypt])
+        else:
+            server.set_security_policy([ua.SecurityPolicyType.NoSecurity])
         server.set_identity_tokens([ua.UserNameIdentityToken] if self.auth is not None else [ua.AnonymousIdentityToken])
         self.ns = await server.register_namespace(NAMESPACE)
         self.nodes[()] = await server.nodes.objects.add_folder(self.ns, 'Robots')
@@ -119,6 +132,21 @@ class Twin:
                         log.exception('OPC UA: cannot show %s %s', topic, field)
         finally:
             await server.stop()
+
+    async def _certificate(self, server) -> None:
+        """The server's own self-signed certificate and key, made once in the data directory."""
+        from asyncua.crypto.cert_gen import setup_self_signed_certificate
+        from cryptography.x509.oid import ExtendedKeyUsageOID
+
+        folder = data_dir('opcua')
+        folder.mkdir(parents=True, exist_ok=True)
+        key, cert = folder / 'key.pem', folder / 'cert.der'
+        host = socket.gethostname()
+        await setup_self_signed_certificate(key, cert, APP_URI, host, [ExtendedKeyUsageOID.SERVER_AUTH],
+                                            {'commonName': f'rosgate twin on {host}'})
+        os.chmod(key, 0o600)
+        await server.load_certificate(str(cert))
+        await server.load_private_key(str(key))
 
     async def _write(self, topic: str, field: str, t: float, v: float) -> None:
         robot, parts = split(topic, self.stations)

@@ -108,6 +108,16 @@ def test_with_auth_a_user_name_and_its_token_sign_in(start_gateway, tmp_path):
         with pytest.raises(Exception) as refused:
             asyncio.run(value_of(url, 's01', 'battery_state', 'percentage', user=user, password=password))
         assert 'Bad' in type(refused.value).__name__ or 'Bad' in str(refused.value), refused.value
+    # the token is never sent as given: the plain channel's user name policy encrypts it
+    async def policies():
+        c = Client(url, timeout=10)
+        return await c.connect_and_get_server_endpoints()
+    endpoints = asyncio.run(policies())
+    plain = [e for e in endpoints if e.SecurityMode == ua.MessageSecurityMode.None_]
+    assert plain and all(p.SecurityPolicyUri.endswith('#Basic256Sha256')
+                         for e in plain for p in e.UserIdentityTokens if p.TokenType == ua.UserTokenType.UserName)
+    assert {p.TokenType for e in endpoints for p in e.UserIdentityTokens} == {ua.UserTokenType.UserName}
+    assert any(e.SecurityMode == ua.MessageSecurityMode.SignAndEncrypt for e in endpoints)
     assert gw.alive
 
 
