@@ -110,7 +110,7 @@ def build_parser() -> argparse.ArgumentParser:
     h = p.add_argument_group('history and the twin')
     h.add_argument('--history', metavar='GLOBS',
                    help='topics whose numeric fields the gateway keeps, e.g. "[\'/s*/battery_state\', \'/turtle1/pose\']"; '
-                        '"none" keeps nothing [every topic of type BatteryState, Temperature or Odometry]')
+                        '"none" keeps nothing [every topic of type BatteryState, Temperature, Odometry or turtlesim Pose]')
     h.add_argument('--history-max-mb', type=float, default=d.history_max_mb, metavar='MB',
                    help='past this size in the store, the oldest history goes [%(default)s]')
     h.add_argument('--history-full-hours', type=float, default=d.history_full_hours, metavar='H',

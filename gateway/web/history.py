@@ -14,7 +14,7 @@ Points wait in a list on the event loop and go to the store's thread as one batc
 ``FLUSH`` seconds (one transaction, one fsync at most), so the loop never waits on the disk.
 
 Which topics: ``--history GLOBS`` (topic names), or by default every topic of a type the
-dashboards show (``DEFAULT_TYPES``: battery, temperatures, odometry); ``--history none`` keeps
+dashboards and the world view show (``DEFAULT_TYPES``: battery, temperatures, odometry, a turtle's pose); ``--history none`` keeps
 nothing. Only topics the name globs let a client subscribe to are kept. The reading side
 (``/api/history``) is in ``history_api``.
 """
@@ -68,6 +68,7 @@ KNOWN_FIELDS = {
     'sensor_msgs/msg/Temperature': ('temperature',),
     'nav_msgs/msg/Odometry': ('twist.twist.linear.x', 'twist.twist.angular.z',
                               'pose.pose.position.x', 'pose.pose.position.y', 'yaw'),
+    'turtlesim/msg/Pose': ('x', 'y', 'theta', 'linear_velocity', 'angular_velocity'),
 }
 DEFAULT_TYPES = tuple(KNOWN_FIELDS)
 MAX_FIELDS = 16             # of a type not in KNOWN_FIELDS

@@ -7,7 +7,7 @@ under ``Objects/Robots`` (namespace ``urn:rosgate:twin``):
 - a folder per robot namespace (``s01``, ``s02``, ...; ``robot`` for topics outside any station),
 - inside, a folder per topic (``battery_state``, ``motor/left/temperature`` as nested folders) and
   a read-only Double variable per kept field (``percentage``, ``temperature``, ...),
-- ``pose``: ``x``, ``y``, ``yaw`` from the namespace's odometry,
+- ``pose``: ``x``, ``y``, ``yaw`` from the namespace's odometry (or its turtle's pose),
 
 each updated as the history takes a point (about once a second), with the point's time as its
 source timestamp. No variable is writable, whoever asks.
@@ -40,7 +40,10 @@ log = logging.getLogger('rosgate.opcua')
 NAMESPACE = 'urn:rosgate:twin'
 APP_URI = 'urn:rosgate:server'
 PUSH_EVERY = 0.25       # s between batches of value writes
-POSE = {'pose.pose.position.x': 'x', 'pose.pose.position.y': 'y', 'yaw': 'yaw'}
+POSE = {   # the topic's last name -> its fields that make the robot's pose
+    'odom': {'pose.pose.position.x': 'x', 'pose.pose.position.y': 'y', 'yaw': 'yaw'},
+    'pose': {'x': 'x', 'y': 'y', 'theta': 'yaw'},   # a turtle's
+}
 ROOT_FOLDER = 'robot'
 
 
@@ -151,8 +154,9 @@ class Twin:
     async def _write(self, topic: str, field: str, t: float, v: float) -> None:
         robot, parts = split(topic, self.stations)
         await self._set((robot, *parts), field, t, v)
-        if field in POSE and parts[-1] == 'odom':
-            await self._set((robot, 'pose'), POSE[field], t, v)
+        pose = POSE.get(parts[-1], {})
+        if field in pose:
+            await self._set((robot, 'pose'), pose[field], t, v)
 
     async def _set(self, folder_path: tuple, name: str, t: float, v: float) -> None:
         ua = self.ua

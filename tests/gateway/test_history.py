@@ -151,3 +151,26 @@ def test_reading_history_obeys_the_subscribe_rules(start_gateway, tmp_path):
     assert status == 403 and 'not allowed for subscribe' in body['error']
     status, listing = api(gw, 'GET', '/api/history', token=viewer)
     assert {s['topic'] for s in listing['series']} == {BATTERY, '/s01/odom'}
+
+
+def test_a_turtle_fleet_keeps_each_turtles_pose(start_gateway):
+    gw = start_gateway('--fleet', '2')
+    seen: list[float] = []
+    with connect(gw) as ros:
+        pose = roslibpy.Topic(ros, '/s01/turtle1/pose', 'turtlesim/msg/Pose')
+        pose.subscribe(lambda m: seen.append(m['x']))
+        cmd = roslibpy.Topic(ros, '/s01/turtle1/cmd_vel', 'geometry_msgs/msg/Twist')
+        cmd.advertise()
+        t0 = time.time()
+        while time.time() - t0 < 6:
+            cmd.publish(roslibpy.Message({'linear': {'x': 1.0, 'y': 0, 'z': 0}, 'angular': {'x': 0, 'y': 0, 'z': 0.3}}))
+            time.sleep(0.1)
+        t1 = time.time()
+        body = wait_for(lambda: (lambda b: b if len(b.get('t', [])) >= 4 else None)(
+            history(gw, '/s01/turtle1/pose', 'x', **{'from': t0, 'to': t1})[1]), 15, 0.2)
+        pose.unsubscribe()
+    assert body['v'][-1] > body['v'][0]                 # it drove on
+    for v in body['v']:
+        assert min(abs(v - s) for s in seen) < 1e-6
+    fields = {s['topic']: s['fields'] for s in api(gw, 'GET', '/api/history')[1]['series']}
+    assert fields['/s02/turtle1/pose'] == ['x', 'y', 'theta', 'linear_velocity', 'angular_velocity']
