@@ -99,13 +99,13 @@ async def _every(seconds: float, job) -> None:
         job()
 
 
-def fill_day(data_home: str) -> tuple[float, float]:
-    """A day of 1 Hz points for 10 series in the store a gateway with this XDG_DATA_HOME opens."""
+def fill_day(data_home: str, series: int = 10) -> tuple[float, float]:
+    """A day of 1 Hz points for some series in the store a gateway with this XDG_DATA_HOME opens."""
     store = Store(f"sqlite:///{data_home}/rosgate/rosgate.db")
     history = History(_Gateway(store), None, max_bytes=2**31, full_seconds=2 * DAY)
     end = time.time()
     start = end - DAY
-    for s in range(10):
+    for s in range(series):
         rows = [(f'/s{s + 1:02d}/battery_state', 'percentage', int((start + k) * 1000), 1 - k / DAY) for k in range(DAY)]
         for i in range(0, DAY, 20_000):
             store.run_now(lambda c, part=rows[i:i + 20_000]: history._write(c, part))
@@ -130,13 +130,13 @@ def cpu_s(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
 
 
-def read_load(folder: str) -> dict:
+def read_load(folder: str, series: int = 10) -> dict:
     home = os.path.join(folder, 'data')
-    start, end = fill_day(home)
+    start, end = fill_day(home, series)
     busy0, wall0 = machine_busy_s(), time.monotonic()
     store = Store(f"sqlite:///{home}/rosgate/rosgate.db")
     h = History(_Gateway(store), None, max_bytes=2**31, full_seconds=2 * DAY)
-    sid = store.run_now(lambda c: h.series_id(c, '/s05/battery_state', 'percentage', create=False))
+    sid = store.run_now(lambda c: h.series_id(c, '/s01/battery_state', 'percentage', create=False))
     lo, hi = int(start * 1000), int(end * 1000)
     points = len(store.run_now(lambda c: query(c, sid, lo, hi, None))['t'])
     inproc = timed(lambda: orjson.dumps(store.run_now(lambda c: query(c, sid, lo, hi, None, as_json=True))))
@@ -147,7 +147,7 @@ def read_load(folder: str) -> dict:
                         '--programs-dir', os.path.join(folder, 'programs')])
     http_url = gw.url.replace('ws://', 'http://').rstrip('/') + '/'
     try:
-        base = f"{http_url}api/history?topic=/s05/battery_state&field=percentage&from={start}&to={end}"
+        base = f"{http_url}api/history?topic=/s01/battery_state&field=percentage&from={start}&to={end}"
 
         def get(url):
             with urllib.request.urlopen(url, timeout=30) as res:
@@ -164,19 +164,20 @@ def read_load(folder: str) -> dict:
     finally:
         gw.stop()
     load = round(100 * (machine_busy_s() - busy0) / (time.monotonic() - wall0), 1)
-    return {'rows_in_store': 10 * DAY, 'db_bytes': size, 'machine_cpu_pct': load, 'points': points, 'http_points': http_points,
+    return {'rows_in_store': series * DAY, 'db_bytes': size, 'machine_cpu_pct': load, 'points': points, 'http_points': http_points,
             'inprocess': inproc, 'http_raw': raw, 'http_step60': stepped}
 
 
 def main(argv: list[str]) -> int:
     p = argparse.ArgumentParser(prog='python -m tests.bench history')
     p.add_argument('--seconds', type=float, default=60.0, help='of writing [%(default)s]')
+    p.add_argument('--series', type=int, default=10, help='series of a day each in the store read [%(default)s]')
     p.add_argument('--out', help='write the figures as JSON here')
     args = p.parse_args(argv)
     folder = tempfile.mkdtemp(prefix='rosgate-bench-history-')
     try:
         write = asyncio.run(write_load(args.seconds, folder))
-        read = read_load(folder)
+        read = read_load(folder, args.series)
     finally:
         shutil.rmtree(folder, ignore_errors=True)
     ok_write = write['cpu_pct_of_core'] < BAR_WRITE_PCT
