@@ -33,7 +33,8 @@ def lab(start_gateway, tmp_path_factory):
 
 def signed_in(chromium, gw, who: str, **kw):
     ctx = chromium.new_context(viewport={"width": 1280, "height": 820}, **kw)
-    ctx.add_cookies([{"name": "rosgate_token", "value": TOKENS[who], "url": gw.http_url}])
+    r = ctx.request.post(gw.http_url + "login", form={"token": TOKENS[who], "next": "/whoami"})
+    assert r.ok, r.status
     return ctx
 
 
