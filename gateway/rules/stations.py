@@ -199,8 +199,8 @@ class Stations:
                 s.status('warning', f'{by} released {station}: it is not your robot any more; press '
                                     '"Claim a robot" for one')
         del self.owners[station]
+        self._announce()                     # first: her pages learn it is not hers before it is free
         self._free_lease(session, station)
-        self._announce()
         return {'success': True, 'message': station}
 
     def release_all(self, session) -> dict:
