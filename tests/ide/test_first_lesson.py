@@ -165,6 +165,15 @@ def test_one_persons_pages_drive_her_station_alternately(lesson, teacher, tablet
         teleop.keyboard.up("ArrowUp")
         teleop.wait_for_function("teleop.timer === null")
     assert notice(teleop) == "", notice(teleop)
+    # on the phone the badge says her other page drives and leaves Take in sight
+    ide.run()
+    ide.wait_idle(timeout=20)
+    teleop.wait_for_function("teleop.lease.state === 'yours'")
+    take = teleop.evaluate("(() => { const r = document.querySelector('#take').getBoundingClientRect();"
+                           " return {r: r.right, w: r.width, h: r.height}; })()")
+    assert teleop.is_visible("#take") and take["w"] > 30 and take["r"] <= PHONE["width"], take
+    assert teleop.evaluate("document.documentElement.scrollWidth") <= PHONE["width"]
+    teleop.screenshot(path=str(ARTIFACTS / "teleop-phone-another-page.png"))
     assert ide.js("rosgateIde.runner.errors.size") == 0
     text = ide.console_text()
     assert "is driving" not in text and "refused" not in text and "pick a free robot" not in text, text
@@ -221,9 +230,9 @@ def test_stop_all_leaves_a_free_station_ready(lesson, teacher, tablets):  # noqa
         halted = dict(teacher.drivers[-1]["halted"])
     assert list(halted) == ["/s01"], halted
     # a student arriving after Stop all gets a free station and drives it, no Take needed
-    pose = teacher.watch("/s02/turtle1/pose", POSE)
     cy = open_ide(tablets(gw, "cy", PHONE), gw)
-    on_station(cy, "/s02")
+    on_station(cy, "/s02")             # (watched before her claim, /s02 would count as in use)
+    pose = teacher.watch("/s02/turtle1/pose", POSE)
     wait_for(lambda: pose, what="a pose of /s02")
     t0 = time.monotonic()
     cy.js("(p) => rosgateIde.loadProgram(p)", move(1))
@@ -291,10 +300,16 @@ def test_a_turtlesim_teleop_page_shows_the_world_and_no_empty_camera(lesson, tea
             # the world and the whole joystick in view; the driving badge leaves Take visible
             joy = teleop.evaluate("document.querySelector('#joystick').getBoundingClientRect().bottom")
             assert box["top"] >= 0 and joy <= PHONE["height"], (box, joy)
+            stop = teacher.roslibpy.Topic(teacher.ros, "/rosgate/control", "std_msgs/msg/String")
+            stop.publish(teacher.roslibpy.Message({"data": "stop /s01"}))   # Take shows
+            teleop.wait_for_function("!document.querySelector('#take').hidden")
             take = teleop.evaluate("(() => { const r = document.querySelector('#take').getBoundingClientRect();"
                                    " return {l: r.left, r: r.right, w: r.width, h: r.height}; })()")
             assert teleop.is_visible("#take") and take["w"] > 30 and take["r"] <= PHONE["width"], take
             assert teleop.evaluate("document.documentElement.scrollWidth") <= PHONE["width"]
+            teleop.screenshot(path=str(ARTIFACTS / "teleop-turtlesim-phone-stopped.png"))
+            teleop.click("#take")
+            teleop.wait_for_function("teleop.lease.state === 'you'")
         teleop.screenshot(path=str(ARTIFACTS / f"teleop-turtlesim-{'phone' if viewport is PHONE else 'tablet'}.png"))
         assert not teleop.errors, teleop.errors
         ctx.close()
