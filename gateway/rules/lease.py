@@ -9,7 +9,13 @@ Command names are topics of the velocity types plus anything matching ``--contro
 - else the gateway-wide group ``/``.
 
 The first client to command in a group takes its lease, if the group is a station nobody owns or
-one its person owns (``stations``); others are refused with a status error and can watch.
+one its person owns (``stations``); others are refused with a status error that names what resolves
+it (Take, "Claim a robot", the teacher) and can watch. The lease is the person's, not the tab's:
+while one client of a person holds it, another of hers (her teleop page after her IDE, her phone,
+her run) takes it by commanding, quietly (measured in the first lesson: refusing her own other tab
+sent a student to a red banner that named neither Take nor her tab). A station the teacher released
+from a person (``Stations.is_barred``) is not hers to take, by a command or by Take, until she
+claims again: her pages left open on it had taken it back within a second.
 Publish std_msgs/String on /rosgate/control: "take [NS]" takes a free lease (an admin, or anyone
 when --auth is off, takes it over from its holder, whose motion is stopped; another client of the
 same person, such as her robot-side run, takes it quietly and, being a run, gives it back when it
@@ -258,14 +264,15 @@ class Lease:
                                     'only an admin can release it')
             return
         # take
+        if barred and not self._may_override(session):
+            raise ProtocolError(self._released(group))
         stopper = self.halted.get(group)
         if stopper is not None and not mine and not (self.takeover_role and self._may_override(session)):
             raise ProtocolError(f'{stopper} stopped {group}; only its owner ({owner.name}) can take it again, '
-                                'or an admin release it')
-        if barred and not self._may_override(session):
-            raise ProtocolError(self._released(group))
+                                'or an admin release it: press "Claim a robot" for your own')
         if not mine and not self._may_override(session):
-            raise ProtocolError(f'{group} is {owner.name}\'s station; only they or an admin can take it')
+            raise ProtocolError(f'{group} is {owner.name}\'s station; only they or an admin can take it: press '
+                                '"Claim a robot" for your own')
         if holder is session:
             self.halted.pop(group, None)
             self._announce()
@@ -282,7 +289,7 @@ class Lease:
             self._grant(group, session, by=session)
         else:
             raise ProtocolError(f'{who(holder)} is driving{"" if group == ROOT else " " + group}; '
-                                'only an admin can take over')
+                                f'only an admin can take over: {self._way_out(session, group)}')
 
     def free(self, group: str, by) -> None:
         """A station given back (the teacher's Release, or its owner's): no holder and no stop."""

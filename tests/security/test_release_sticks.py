@@ -39,6 +39,12 @@ def test_the_teachers_release_holds_until_she_claims_again(launch, tokens_file):
         refusal = ide.refusal({'op': 'publish', 'topic': '/rosgate/control', 'type': 'std_msgs/msg/String',
                                'msg': {'data': 'take /s01'}})
         assert refusal and 'Claim a robot' in refusal['msg'], refusal
+        # a stop of the released station on top: still her Claim that resolves it (no internal error)
+        teacher.publish('/rosgate/control', {'data': 'stop /s01'}, 'std_msgs/msg/String')
+        refusal = ide.refusal({'op': 'publish', 'topic': '/rosgate/control', 'type': 'std_msgs/msg/String',
+                               'msg': {'data': 'take /s01'}})
+        assert refusal and 'released /s01' in refusal['msg'], refusal
+        assert teacher.call('/s01/fleet/release')['values']['success'] is False   # not claimed; the stop ends
         teacher.call('/rosapi/get_time')
         assert latest(teacher, DRIVER, lambda d: True)['drivers']['/s01'] is None
         # another student may have it at once
