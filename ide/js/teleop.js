@@ -379,6 +379,10 @@ function setupRobot() {
 function banner() {
   const why = state.robotNs.banner();
   if (why) { if (state.timer || active()) stopAll(); showNotice(why); }
+  if (state.robotNs.lost && state.advertised && state.ros?.isConnected) {   // not hers: leave it to the next student
+    state.ros.callOnConnection({ op: 'unadvertise', topic: state.advertised.split(' ')[0], id: `advertise:${state.advertised.split(' ')[0]}:teleop` });
+    state.advertised = '';
+  }
   return why;
 }
 

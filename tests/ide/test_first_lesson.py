@@ -211,6 +211,9 @@ def test_the_ide_follows_its_console_and_shows_the_stopped_banner(lesson, teache
         assert "stopped" in seen["text"].lower() or "Stopped by the teacher" in seen["text"], seen
         ide.page.evaluate("document.querySelector('#console').scrollIntoView()")
         ide.screenshot(f"lesson-console-stopped-{who}")
+        take = ide.js("(() => { const r = document.querySelector('#take').getBoundingClientRect();"
+                      " return {r: r.right, w: r.width}; })()")
+        assert ide.page.is_visible("#take") and take["w"] > 30 and take["r"] <= viewport["width"], take
         # Take: the banner goes, the robot is hers again
         ide.page.click("#take")
         ide.page.wait_for_function("document.querySelector('#notice').hidden")
