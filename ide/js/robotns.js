@@ -7,7 +7,9 @@
 // is free the page says so and drives nothing. Without stations the namespace comes from ?ns= or
 // what this browser remembered. Under the driver lease (--exclusive-control) the page takes its
 // own station's lease when it is free, never after the teacher's Stop (only Take resumes), and
-// says who holds a station that is not its own.
+// says who holds a station that is not its own. After the teacher's Release the page drives
+// nothing and says so (its banner) until this person claims a station again: her other pages
+// left open had taken the released station back on their next command.
 import { normNamespace } from '../runtime/util.js';
 
 export const CLAIM_SERVICE = '/fleet/claim';
