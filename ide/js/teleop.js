@@ -1,7 +1,9 @@
 // The teleop page: joystick, keys and buttons publish a velocity at a fixed rate while
-// held and zero on release, within the robot's own limits (its node parameters); gauges,
-// camera and history plots show what the robot reports. On a fleet the page drives only a
-// station of its own (claimed, or picked and free).
+// held and zero on release, within the robot's own limits (its node parameters); a world view,
+// gauges, camera and history plots show what the robot reports (the world, camera and gauges
+// only where their topics exist: a turtlesim lesson on a phone had a black camera and empty
+// gauges, and no turtle). On a fleet the page drives only a station of its own (claimed, or
+// picked and free), and nothing after the teacher's Release until a new claim.
 import { Ros } from 'roslib';
 import nipplejs from 'nipplejs';
 import { field, zeroVelocity, withNamespace } from '../runtime/util.js';
