@@ -108,14 +108,15 @@ async function onConnected() {
 function showWhatTheRobotHas(topics, ns) {
   const has = (t) => topics.includes(t);
   const world = withNamespace(ns, '/world/markers');
+  const camera = has($('#camera-topic').value.trim());
   $('#world-card').hidden = !has(world);
-  document.body.toggleAttribute('data-world', has(world));
+  document.body.toggleAttribute('data-world', has(world) && !camera);   // the world in the camera's place
   if (has(world)) {
     if (!state.world) state.world = new WorldView($('#world'), world);
     state.world.setTopic(world);
     state.world.attach(state.ros);
   }
-  $('#camera-card').hidden = !has($('#camera-topic').value.trim());
+  $('#camera-card').hidden = !camera;
   const gauges = { '#g-battery': $('#battery-topic').value.trim(), '#g-left': withNamespace(ns, '/motor/left/temperature'),
     '#g-right': withNamespace(ns, '/motor/right/temperature') };
   for (const [el, topic] of Object.entries(gauges)) $(el).hidden = !has(topic);
