@@ -215,6 +215,7 @@ async function start() {
     consoleView.warn(`Stopped by the teacher: ${ide.ns || 'this robot'} stays still until you press Take.`);
   });
   ide.report = reportProgram(ide, { workspace, runner, consoleEl: $('#console-lines') });
+  $('#take').addEventListener('click', () => ide.report.clear());   // her Take: the tile's error is behind her
   document.body.dataset.run = 'idle';
   // a program drives only this person's robot, and not while the teacher's stop holds: said here
   // once per press, not as an error of the program's blocks
