@@ -77,7 +77,8 @@ def moving_since(box: list, t0: float) -> list:
 
 
 def notice(page) -> str:
-    return page.evaluate("(() => { const n = document.querySelector('#notice'); return n.hidden ? '' : n.textContent; })()")
+    return page.evaluate("(() => { const n = document.querySelector('#notice');"
+                         " return n.hidden ? '' : n.textContent; })()")
 
 
 def try_to_drive_for(teleop, ide, seconds: float):
@@ -303,7 +304,8 @@ def test_a_turtlesim_teleop_page_shows_the_world_and_no_empty_camera(lesson, tea
         ctx = tablets(gw, "ada", viewport)
         teleop = open_teleop(ctx, gw)
         teleop_on(teleop, "/s01")
-        teleop.wait_for_function("teleop.world && (teleop.world.summary().robots || 0) >= 1", timeout=15000)
+        teleop.wait_for_function("teleop.world && (teleop.world.summary().robots || 0) >= 1", timeout=30000)
+        teleop.wait_for_function("document.querySelector('#notice').hidden")      # nothing holds it
         assert teleop.is_visible("#world") and not teleop.is_visible("#camera-card")
         assert not teleop.is_visible("#battery-card")
         assert teleop.evaluate("teleop.world.topic") == "/s01/world/markers"
@@ -334,5 +336,5 @@ def test_a_turtlesim_teleop_page_shows_the_world_and_no_empty_camera(lesson, tea
     page.wait_for_function("!document.querySelector('#camera-card').hidden "
                            "&& !document.querySelector('#battery-card').hidden",
                            timeout=15000)
-    page.wait_for_function("teleop.frames > 0", timeout=15000)
+    page.wait_for_function("teleop.frames > 0", timeout=30000)
     assert page.is_visible("#world")
