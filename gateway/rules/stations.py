@@ -243,6 +243,7 @@ class Stations:
                 s.status('warning', f'{station} is booked by {name} from now: it is no longer your station')
         self.owners[station] = Owner(key, name, round(time.time(), 3), time.monotonic(), until)
         self.released.pop(station, None)
+        self.barred.pop(station, None)   # her booked slot: a Release of a walk-in before it is behind
         for s in self._clients_of(key):
             s.status('info', f'your booked slot on {station} began; it ends at {_clock(until)}')
         self._announce()
