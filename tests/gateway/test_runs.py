@@ -295,7 +295,7 @@ def test_viewer_refused_operator_runs_with_its_role(auth_gw):
         status, body = api(gw, 'POST', '/api/runs', {'source': source}, token=TOKENS['operator'])
         assert status == 201, body
         run_id = body['id']
-        final = ended(gw, run_id, token=TOKENS['viewer'])
+        final = ended(gw, run_id, token=TOKENS['operator'])
         assert final['state'] == 'finished', final
         assert 'x=' in final['output']   # its connection has the operator's role: it may subscribe
         seen: list = []
