@@ -313,12 +313,10 @@ def _mounts(private, shown: list[Path], sources: dict) -> list[str]:
             a += ['--ro-bind', str(path), str(path)]
     for name in ETC:
         a += ['--ro-bind-try', f'/etc/{name}', f'/etc/{name}']
+    prefix = Path(sys.prefix)          # a venv reached through a link (a checkout's .venv) is seen there
+    seen_at = {Path(os.path.realpath(prefix)): prefix} if prefix.is_absolute() else {}
     for path in shown:
-        a += ['--ro-bind', str(sources.get(path, path)), str(path)]
-    prefix = Path(sys.prefix)          # a venv reached through a link (a checkout's .venv): also there
-    if prefix.is_absolute() and Path(os.path.realpath(prefix)) != prefix and Path(os.path.realpath(prefix)) in shown:
-        real = Path(os.path.realpath(prefix))
-        a += ['--ro-bind', str(sources.get(real, real)), str(prefix)]
+        a += ['--ro-bind', str(sources.get(path, path)), str(seen_at.get(path, path))]
     for path in sorted({Path(os.path.realpath(p)) for p in private if p}):
         if _within(path, shown) and path.exists():       # e.g. a data folder inside the venv
             a += ['--tmpfs', str(path)] if path.is_dir() else ['--ro-bind', '/dev/null', str(path)]

@@ -266,12 +266,15 @@ def test_a_run_drives_through_the_gateway_and_is_no_root_outside(robot_gw, robot
     status, body = state(robot_gw, '/api/runs', 'operator', 'POST', {'source': DRIVES, 'name': 'drives'})
     assert status == 201, body
     run_id = body['id']
-    wait_for(lambda: 'driving' in state(robot_gw, f'/api/runs/{run_id}', 'operator')[1]['output'], 60)
-    procs = {p: uids(p) for p in descendants(robot_gw.pid)}
-    print(procs)
-    assert len(procs) >= 3, procs                   # bwrap, its init, the program (and the relay)
-    assert all(u and 0 not in u for u in procs.values()), procs
-    final = ended(robot_gw, run_id, 'operator')
+    try:
+        wait_for(lambda: 'driving' in state(robot_gw, f'/api/runs/{run_id}', 'operator')[1]['output'], 60)
+        procs = {p: uids(p) for p in descendants(robot_gw.pid)}
+        print(procs)
+        assert len(procs) >= 3, procs                   # bwrap, its init, the program (and the relay)
+        assert all(u and 0 not in u for u in procs.values()), procs
+        final = ended(robot_gw, run_id, 'operator')
+    finally:      # a failure above leaves no run holding the root namespace for the next test
+        state(robot_gw, f'/api/runs/{run_id}', 'admin', 'DELETE')
     assert final['state'] == 'finished' and 'drove' in final['output'], final
     wait_for(lambda: len(robot.heard) > before, 10)
     assert 0.5 in robot.heard[before:]
