@@ -49,6 +49,7 @@ import tornado.httpserver
 import tornado.netutil
 import tornado.web
 
+from protocol import ops
 from protocol.errors import ProtocolError
 
 from ..rules.stations import person_of
@@ -71,6 +72,7 @@ DRAIN_PERIOD = 0.1             # s between the reads that drop output past the c
 DRAIN_READS = 4                # of PIPE_SIZE each: output past the cap flows at up to 40 MiB/s
 PIPE_SIZE = 2**20
 CGROUP_GONE = 5.0              # s to wait for a run's cgroup to empty before leaving it behind
+RUN_TOPIC = re.compile(r'/rosgate/runs/(r[0-9a-f]{8})/(?:output|state)')
 NAMESPACE = re.compile(r'(/[A-Za-z_][A-Za-z0-9_]{0,63}){0,8}')   # ROS names, ASCII, a few levels
 
 # Runs between fork and exec of the program: limits first, then the program replaces it.
@@ -488,6 +490,19 @@ class RunManager:
             except ProtocolError as e:
                 self._line(run, f'[driver lease: {e.message}]\n', ours=True)
 
+    def subscribe_guard(self, session, op) -> None:
+        """A run's output and state topics are its starter's and the admins', as GET is."""
+        found = RUN_TOPIC.fullmatch(op.topic) if isinstance(op, ops.Subscribe) else None
+        run = self.runs.get(found.group(1)) if found else None
+        if run is None or getattr(self.gateway.policy, 'auth', None) is None:
+            return
+        attrs = session.attrs
+        if attrs.get('role') == 'admin' or attrs.get('run') == run.id or (
+                run.owner is not None and attrs.get('name') == run.owner):
+            return
+        raise ProtocolError(f'{op.topic}: run {run.id} was started by {run.owner or "someone else"}; its output '
+                            'and state are for them and admins', op=op.OP, id=op.id)
+
     def publish_hook(self, session, pub, msg):
         """A run being stopped may still send commands before its SIGINT lands: those that would
         move the robot again are dropped."""
@@ -667,6 +682,7 @@ def run_routes(gateway, socket_app=None) -> list:
         manager.serve(socket_app, sock, home)
     gateway.hooks.append(manager)
     gateway.rules.insert(0, manager.publish_hook)
+    gateway.guards.append(manager.subscribe_guard)
     kw = {'manager': manager}
     return [(r'/api/runs/?', RunListHandler, kw), (r'/api/runs/(r[0-9a-f]{8})/?', RunHandler, kw),
             (r'/api/runs/([^/]+)', RunHandler, kw)]

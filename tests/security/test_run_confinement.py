@@ -17,6 +17,7 @@ from gateway.web import sandbox
 from gateway.web.sandbox import Sandbox, SandboxUnavailable, reachable, unreadable
 from tests.conftest import wait_for
 from tests.gateway.test_runs import api, ended, program, state_of
+from tests.security.client import Client
 from tests.security.conftest import TOKENS, tokens_toml
 
 
@@ -48,6 +49,20 @@ def test_a_runs_state_and_output_are_its_starters_and_the_admins(class_gw):
         assert run_id in [r['id'] for r in api(class_gw, 'GET', '/api/runs', token=TOKENS[who])[1]['runs']]
     status, body = api(class_gw, 'DELETE', f'/api/runs/{run_id}', token=TOKENS['operator2'])
     assert status == 403, body
+
+
+def test_a_runs_output_topic_is_its_starters_and_the_admins(class_gw):
+    run_id = started(class_gw, 'print("alice\'s output")', '/s05')
+    ended(class_gw, run_id, token=TOKENS['operator'])
+    topic = f'/rosgate/runs/{run_id}/output'
+    for who in ('operator2', 'viewer'):
+        with Client(class_gw.ws_url, TOKENS[who]) as bob:
+            refused = bob.refusal({'op': 'subscribe', 'topic': topic, 'type': 'std_msgs/msg/String', 'id': 'peek'})
+            assert refused is not None and 'alice' in refused['msg'] and 'peek' in str(refused), (who, refused)
+    for who in ('operator', 'admin'):
+        with Client(class_gw.ws_url, TOKENS[who]) as ok:
+            assert ok.refusal({'op': 'subscribe', 'topic': f'/rosgate/runs/{run_id}/state',
+                               'type': 'std_msgs/msg/String', 'id': 'mine'}) is None, who
 
 
 def uids(pid: int) -> list[int]:
