@@ -52,7 +52,7 @@ def test_a_runs_state_and_output_are_its_starters_and_the_admins(class_gw):
 
 
 def test_a_runs_output_topic_is_its_starters_and_the_admins(class_gw):
-    run_id = started(class_gw, 'print("alice\'s output")', '/s05')
+    run_id = started(class_gw, 'print("alice\'s output")', '/s01')
     ended(class_gw, run_id, token=TOKENS['operator'])
     topic = f'/rosgate/runs/{run_id}/output'
     for who in ('operator2', 'viewer'):
