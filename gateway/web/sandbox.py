@@ -16,8 +16,8 @@ on, and as root. A run then sees:
   whole tree.
 - a network of its own (``--unshare-net``: a loopback and nothing else; no DDS, no multicast, no port
   of this machine). Its one way out is the gateway's websocket: the gateway also listens on a unix
-  socket, bound into the box at /run/rosgate.sock, and a relay (Debian's ``socat``, started by the
-  run's launcher before the program) serves it on the box's 127.0.0.1 at the gateway's own port
+  socket, bound into the box at /run/rosgate.sock, and a relay (a process the run's launcher forks
+  before the program; see runs.py) serves it on the box's 127.0.0.1 at the gateway's own port
   number, so ``ROSBRIDGE_URL``, roslibpy and the generated Python work unchanged.
 - uid 1000 inside, with no capabilities and no further user namespaces (``--disable-userns``), and
   never uid 0 outside: a gateway running as root starts bwrap as an unprivileged user (the system
@@ -59,7 +59,6 @@ HOME = '/home/run'              # the run's working directory and $HOME, where i
 UID = 1000                      # its user and group inside
 RUN_USER = 'rosgate-run'        # who runs are outside when the gateway is root (else nobody)
 SOCKET = '/run/rosgate.sock'    # the gateway's websocket inside the box (a unix socket)
-RELAY = 'socat'                 # the Debian package (and program) that serves it on the box's loopback
 STAGE = 'while [ "$1" != -- ]; do mount --bind "$1" "$2" || exit 125; shift 2; done; shift; exec "$@"'
 ETC = ('ld.so.cache', 'ld.so.conf', 'ld.so.conf.d', 'localtime', 'hosts', 'host.conf', 'nsswitch.conf',
        'gai.conf', 'ssl/certs', 'ssl/openssl.cnf', 'ca-certificates')   # not ssl/private
@@ -128,12 +127,6 @@ class Sandbox:
         if not found:
             raise SandboxUnavailable(f'--allow-runs runs programs in a bubblewrap sandbox and bwrap is not installed '
                                      f'here: install the Debian package {PACKAGE} (apt-get install {PACKAGE})')
-        relay = shutil.which(RELAY, path='/usr/bin:/usr/local/bin:/bin')
-        relay = relay and os.path.realpath(relay)
-        if socket is not None and (relay is None or not relay.startswith('/usr/')):
-            raise SandboxUnavailable(f'--allow-runs relays the gateway\'s websocket into each run\'s own network with '
-                                     f'socat, which is not installed here: install the Debian package {RELAY} '
-                                     f'(apt-get install {RELAY})')
         try:
             help_text = subprocess.run([found, '--help'], capture_output=True, text=True, timeout=10).stdout
         except (OSError, subprocess.SubprocessError) as e:
