@@ -32,7 +32,9 @@ on, and as root. A run then sees:
 Measured on a 2-core VM (``python -m tests.bench.run_start``, medians of 15 runs, interleaved with
 the same on the code before the sandbox): the box and its cgroup add 15 to 25 ms to a start, from
 POST to the program's first statement 43 -> 58 ms, to a program that imports roslibpy, connects
-and logs 260 -> 285 ms.
+and logs 260 -> 285 ms. Its own network, the relay and the unprivileged uid outside (as root)
+add about 8 ms more to the first (89 -> 97 ms) and 50 ms to the second (704 -> 756 ms), medians
+of 21 taken in turn with the code before on a machine at load 10 (``--compare``).
 
 bwrap's init reports a program killed by signal N as exit code 128 + N, as a shell does; see
 ``exit_code``.
