@@ -522,7 +522,7 @@ class RunManager:
             return
         attrs = session.attrs
         if attrs.get('role') == 'admin' or attrs.get('run') == run.id or (
-                run.owner is not None and attrs.get('name') == run.owner):
+                run.owner is not None and attrs.get('person') == run.person):
             return
         raise ProtocolError(f'{op.topic}: run {run.id} was started by {run.owner or "someone else"}; its output '
                             'and state are for them and admins', op=op.OP, id=op.id)
@@ -582,7 +582,7 @@ def _local_address(handler) -> tuple[str, int, bool]:
 
 def may_see(identity, run: Run) -> bool:
     """A run's state and output are its starter's and the admins' (everyone's with auth off)."""
-    return identity is None or identity.role == 'admin' or run.owner == identity.name
+    return identity is None or identity.role == 'admin' or run.owner == identity.owner
 
 
 class RunListHandler(JsonHandler):
