@@ -60,7 +60,7 @@ $(ROSVENV)/.installed: pyproject.toml Makefile
 	touch $@
 
 # As root a network namespace alone (unshare -n): a user namespace that maps uid 0 alone (unshare -rn
-# run by root) has no unprivileged uid to give the robot-side runs, and --allow-runs refuses it.
+# run by root) has no unprivileged uid to give the robot-side runs, which would be root outside.
 NETNS := $(if $(filter 0,$(shell id -u)),unshare -n,unshare -rn)
 
 test-rclpy: $(ROSVENV)/.installed

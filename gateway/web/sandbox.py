@@ -25,9 +25,10 @@ on, and as root. A run then sees:
   bwrap's user namespace maps the run to that uid. That user must be able to read the interpreter
   (the venv and the Python it was made from): an interpreter it cannot reach (a pyenv Python under
   /root, mode 700) is first bound, by root in a mount namespace of the start's own, to a folder it
-  can reach; an interpreter it cannot read refuses ``--allow-runs``. A gateway that is uid 0 of a
-  user namespace mapping uid 0 alone to the machine's root (``unshare -rn`` run by root) has no
-  other uid to give, and refuses ``--allow-runs`` too.
+  can reach; an interpreter it cannot read refuses ``--allow-runs``. The one exception: a gateway
+  that is uid 0 of a user namespace mapping uid 0 alone to the machine's root (``unshare -rn`` run
+  by root) has no other uid to give; its runs are that root (the box still holds them: read-only
+  files, no capabilities, no network), and its start-up log says so in a warning.
 
 Measured on a 2-core VM (``python -m tests.bench.run_start``, medians of 15 runs, interleaved with
 the same on the code before the sandbox): the box and its cgroup add 15 to 25 ms to a start, from
@@ -42,6 +43,7 @@ bwrap's init reports a program killed by signal N as exit code 128 + N, as a she
 
 from __future__ import annotations
 
+import functools
 import logging
 import os
 import pwd
@@ -221,11 +223,12 @@ class Sandbox:
                 'Ubuntu 24.04 and later kernel.apparmor_restrict_unprivileged_userns=0)')
 
 
+@functools.cache         # a fact of this process (and its warning said once)
 def run_user() -> tuple[int, int, str] | None:
     """(uid, gid, name) that runs have outside when the gateway is root: RUN_USER where it exists,
-    else nobody; None when the gateway is not root (bwrap maps the run to the gateway's own uid).
-    Raises SandboxUnavailable where that uid does not exist in the gateway's user namespace and
-    uid 0 there is the machine's root."""
+    else nobody; None when the gateway is not root (bwrap maps the run to the gateway's own uid),
+    or when it is uid 0 of a user namespace where no other uid exists (``unshare -r``): there a
+    warning says that runs are root outside when that uid 0 is the machine's root."""
     if os.geteuid() != 0:
         return None
     for name in (RUN_USER, 'nobody'):
@@ -235,13 +238,15 @@ def run_user() -> tuple[int, int, str] | None:
             continue
         if entry.pw_uid != 0 and _mapped(entry.pw_uid):
             return entry.pw_uid, entry.pw_gid, name
-    if _outer_uid(0) not in (0, None):
-        return None        # root of a user namespace that is an ordinary user outside (unshare -r)
-    raise SandboxUnavailable(
-        'runs never run as root outside their box, and this gateway is uid 0 of a user namespace with no '
-        f'other uid ({RUN_USER} or nobody) mapped in it: start it as root outside a user namespace (a network '
-        'namespace of its own is fine: unshare -n), as an ordinary user, or in a user namespace that maps '
-        'more uids')
+    if _outer_uid(0) == 0:
+        log.warning(ROOT_ALONE)
+    return None
+
+
+ROOT_ALONE = ('runs are uid 0 outside their box: this gateway is uid 0 of a user namespace that maps uid 0 alone '
+              f'(to the machine\'s root), with no other uid ({RUN_USER} or nobody) to give them. Start it as root '
+              'outside a user namespace (a network namespace of its own is fine: unshare -n), as an ordinary '
+              'user, or in a user namespace that maps more uids')
 
 
 def _uid_map() -> list[tuple[int, int, int]]:
