@@ -275,6 +275,7 @@ def test_a_run_drives_through_the_gateway_and_is_no_root_outside(robot_gw, robot
         final = ended(robot_gw, run_id, 'operator')
     finally:      # a failure above leaves no run holding the root namespace for the next test
         state(robot_gw, f'/api/runs/{run_id}', 'admin', 'DELETE')
+        ended(robot_gw, run_id, 'admin')
     assert final['state'] == 'finished' and 'drove' in final['output'], final
     wait_for(lambda: len(robot.heard) > before, 10)
     assert 0.5 in robot.heard[before:]
