@@ -187,6 +187,17 @@ def make_backend(args: argparse.Namespace, ros_args: list[str], node_name: str):
                       fibonacci_interval=args.fibonacci_interval, robots=robots.specs_from_args(args))
 
 
+def pages_box(base: str) -> str:
+    """The pages' addresses framed, after the start-up line: with --fleet 30 the line came after
+    some 60 lines of log and a teacher did not find it. The line above stays one line for scripts."""
+    rows = [('IDE (students)', base), ('teleop (driving)', f'{base}teleop'), ('class (teacher)', f'{base}class')]
+    lines = ['rosgate is ready. Open in a browser:', *(f'  {name:<17} {url}' for name, url in rows)]
+    if '//localhost:' in base:
+        lines.append('  (other machines: this machine\'s address in place of localhost)')
+    rule = '=' * max(len(line) for line in lines)
+    return '\n'.join(['', rule, *lines, rule, ''])
+
+
 async def serve(settings: Settings, backend, sockets: list[socket.socket], *, announce=print) -> None:
     """Run the gateway on sockets already bound (``tornado.netutil.bind_sockets``)."""
     await backend.start()
@@ -213,6 +224,8 @@ async def serve(settings: Settings, backend, sockets: list[socket.socket], *, an
            else f'IDE unavailable ({problem})')
     announce(f'rosgate: {ide} websocket {ws}://{host}:{port}{path} backend {backend.name} '
              f'node {backend.node_name}')
+    if problem is None:
+        announce(pages_box(base))
 
     stop = asyncio.Event()
     loop = asyncio.get_running_loop()
