@@ -59,8 +59,12 @@ $(ROSVENV)/.installed: pyproject.toml Makefile
 	$(ROSVENV)/bin/pip install -q -e '.[ros,ros-build]' $(ROS_TEST_PKGS)
 	touch $@
 
+# As root a network namespace alone (unshare -n): a user namespace that maps uid 0 alone (unshare -rn
+# run by root) has no unprivileged uid to give the robot-side runs, which would be root outside.
+NETNS := $(if $(filter 0,$(shell id -u)),unshare -n,unshare -rn)
+
 test-rclpy: $(ROSVENV)/.installed
-	unshare -rn sh -c 'ip link set lo up && $(ROSVENV)/bin/python -m pytest -q tests/backends tests/install/test_ros_extra.py'
+	$(NETNS) sh -c 'ip link set lo up && $(ROSVENV)/bin/python -m pytest -q tests/backends tests/install/test_ros_extra.py'
 
 bench: install-test $(if $(findstring rclpy,$(ARGS)),$(ROSVENV)/.installed-bench)
 	$(PY) -m tests.bench $(ARGS)

@@ -90,6 +90,7 @@ class Gateway:
         self.service_owners: dict[str, ClientSession] = {}
         self.hooks: list = []          # objects with an optional on_close(session)
         self.rules: list = []          # (sender, SharedPublisher, msg) -> msg, or None to drop; may raise
+        self.guards: list = []         # (session, op) -> None, or raise ProtocolError to refuse the op
         self.senders: dict[int, Sender] = {}   # open senders that are not clients (playbacks)
         # the gateway's own services besides rosapi (the stations' claims): name -> (type, answer),
         # answer(session, request) -> response values, knowing who calls

@@ -91,6 +91,8 @@ class ClientSession:
             try:
                 if self.gateway.policy.admit(self, item) is False:
                     continue
+                for guard in self.gateway.guards:   # e.g. a run's output for its starter alone
+                    guard(self, item)
                 handler(self, item)
             except Exception as e:  # the one catch site: every failure becomes a status
                 self.report(item.OP, item.id, e)

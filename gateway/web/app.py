@@ -64,7 +64,11 @@ class IdeFileHandler(tornado.web.StaticFileHandler):
 def make_app(gateway: Gateway) -> tornado.web.Application:
     settings, policy = gateway.settings, gateway.policy
     ws_path = settings.url_path.rstrip('/') or '/'
-    routes: list = [(ws_path if ws_path == '/' else ws_path + '/?', RosbridgeHandler, {'gateway': gateway})]
+    websocket = (ws_path if ws_path == '/' else ws_path + '/?', RosbridgeHandler, {'gateway': gateway})
+    options = {'websocket_max_message_size': settings.max_message_size * HARD_LIMIT_FACTOR,
+               'websocket_ping_interval': settings.websocket_ping_interval or None,
+               'websocket_ping_timeout': settings.websocket_ping_timeout}
+    routes: list = [websocket]
     routes += [
         (r'/health', HealthHandler, {'gateway': gateway}),
         (r'/teleop/', tornado.web.RedirectHandler, {'url': '/teleop'}),
@@ -79,15 +83,12 @@ def make_app(gateway: Gateway) -> tornado.web.Application:
         routes += lti_routes(settings.extra['lti'], policy, settings.examples_dir)
     if settings.programs_dir is not None:
         routes += program_routes(settings.programs_dir, policy)
-    routes += run_routes(gateway) + recording_routes(gateway) + booking_routes(gateway)
+    # runs reach the websocket alone, on a unix socket bound into their box (runs.py)
+    routes += run_routes(gateway, Application(gateway, [websocket], **options)) + recording_routes(gateway)
+    routes += booking_routes(gateway)
     history = start_history(gateway)
     routes += history_routes(history)
     start_twin(gateway, history, settings.opcua)
     routes.append((r'/(.*)', PublicFileHandler, {'path': str(settings.ide_dir), 'default_filename': 'index.html'}))
     return Application(
-        gateway, routes,
-        websocket_max_message_size=settings.max_message_size * HARD_LIMIT_FACTOR,
-        websocket_ping_interval=settings.websocket_ping_interval or None,
-        websocket_ping_timeout=settings.websocket_ping_timeout,
-        compress_response=True,
-    )
+        gateway, routes, compress_response=True, **options)

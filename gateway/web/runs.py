@@ -39,13 +39,17 @@ import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 
+import tornado.httpserver
+import tornado.netutil
 import tornado.web
 
+from protocol import ops
 from protocol.errors import ProtocolError
 
 from ..rules.stations import person_of
@@ -54,7 +58,8 @@ from .programs import space_owner, stored_program
 from ..settings import data_dir
 from ..backends.base import QoS
 from ..rules.safety import Safety, moving_command
-from .sandbox import HOME, Cgroups, RunCgroup, Sandbox, SandboxUnavailable, exit_code, kill_box, limits_in_force
+from .sandbox import (HOME, SOCKET, Cgroups, RunCgroup, Sandbox, SandboxUnavailable, exit_code, kill_box,
+                      limits_in_force, run_user)
 
 log = logging.getLogger('rosgate.runs')
 STRING = 'std_msgs/msg/String'
@@ -67,18 +72,64 @@ DRAIN_PERIOD = 0.1             # s between the reads that drop output past the c
 DRAIN_READS = 4                # of PIPE_SIZE each: output past the cap flows at up to 40 MiB/s
 PIPE_SIZE = 2**20
 CGROUP_GONE = 5.0              # s to wait for a run's cgroup to empty before leaving it behind
+RUN_TOPIC = re.compile(r'/rosgate/runs/(r[0-9a-f]{8})/(?:output|state)')
 NAMESPACE = re.compile(r'(/[A-Za-z_][A-Za-z0-9_]{0,63}){0,8}')   # ROS names, ASCII, a few levels
 
 # Runs between fork and exec of the program: limits first, then the program replaces it.
 # (A preexec_fn would do the same in the gateway's forked child, which is unsafe with the
 # threads of the rclpy backend.)
+# Before that it starts the relay that serves the gateway's unix socket on the box's loopback: it
+# listens first (a program connecting at once finds it there), then a process of its own (a session
+# of its own, so the SIGINT of a stop reaches the program and not the relay, whose connection the
+# program may still need to stop the robot) accepts and copies each connection both ways, while
+# the program starts (socat, started by the launcher, had to be waited for until it listened).
 LAUNCHER = '''import os, resource, sys
 cpu, mem, files, procs = (int(v) for v in sys.argv[1].split(","))
+port = int(sys.argv[2])
+if port:
+    import socket
+    server = socket.socket()
+    server.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    server.bind(("127.0.0.1", port))
+    server.listen(64)
+    if os.fork() == 0:
+        os.setsid()
+        if os.fork() == 0:
+            import threading
+            def pump(a, b):
+                try:
+                    while True:
+                        data = a.recv(65536)
+                        if not data:
+                            break
+                        b.sendall(data)
+                    b.shutdown(socket.SHUT_WR)
+                except OSError:
+                    for end in (a, b):
+                        try:
+                            end.shutdown(socket.SHUT_RDWR)
+                        except OSError:
+                            pass
+            def relay(client):
+                with client, socket.socket(socket.AF_UNIX) as gateway:
+                    try:
+                        gateway.connect(sys.argv[3])
+                    except OSError:
+                        return
+                    back = threading.Thread(target=pump, args=(gateway, client), daemon=True)
+                    back.start()
+                    pump(client, gateway)
+                    back.join()
+            while True:
+                threading.Thread(target=relay, args=(server.accept()[0],), daemon=True).start()
+        os._exit(0)
+    os.wait()
+    server.close()
 if cpu: resource.setrlimit(resource.RLIMIT_CPU, (cpu, cpu + 5))
 if mem: resource.setrlimit(resource.RLIMIT_AS, (mem, mem))
 if files: resource.setrlimit(resource.RLIMIT_NOFILE, (files, files))
 if procs: resource.setrlimit(resource.RLIMIT_NPROC, (procs, procs))
-os.execv(sys.executable, [sys.executable, "-u", *sys.argv[2:]])
+os.execv(sys.executable, [sys.executable, "-u", *sys.argv[4:]])
 '''
 
 
@@ -212,6 +263,17 @@ class RunManager:
         self.box, self.cgroups = box, cgroups
         self.max_runs, self.max_per_person = max_runs, max_per_person
         self.runs: dict[str, Run] = {}
+        self.server: tornado.httpserver.HTTPServer | None = None
+        self.home: Path | None = None       # the box's files of the gateway's: the unix socket (sandbox.py)
+
+    def serve(self, app, sock, home: Path) -> None:
+        """Serve ``app`` (the rosbridge websocket alone) on the unix socket in ``home`` that the
+        boxes bind in: the runs' one way to the gateway."""
+        self.home = home
+        settings = self.gateway.settings
+        self.server = tornado.httpserver.HTTPServer(app, max_buffer_size=settings.max_message_size * 4,
+                                                    idle_connection_timeout=settings.idle_connection_timeout)
+        self.server.add_socket(sock)
 
     # --- starting -----------------------------------------------------------------------------
 
@@ -290,14 +352,17 @@ class RunManager:
 
     async def _supervise(self, run: Run, port: tuple[str, int, bool]) -> None:
         host, number, tls = port
-        host = f'[{host}]' if ':' in host else host
         path = self.gateway.settings.url_path
         path = path if path.startswith('/') else '/' + path
+        relayed = self.box is not None and self.box.socket is not None
+        if relayed:     # the relay in the box, at the gateway's port number: ws://localhost:9090 works too
+            host, tls = '127.0.0.1', False
+        host = f'[{host}]' if ':' in host else host
         # the key goes in the environment, not argv: other users of the machine can read argv
         url = f"{'wss' if tls else 'ws'}://{host}:{number}{path}?run_key={run.key}&name=run-{run.id}"
         lim = self.limits
         limits = f'{lim.cpu_seconds},{lim.memory_mb * 2**20},{lim.open_files},{lim.processes}'
-        command = [sys.executable, '-I', '-c', LAUNCHER, limits, 'program.py']
+        command = [sys.executable, '-I', '-c', LAUNCHER, limits, str(number if relayed else 0), SOCKET, 'program.py']
         if run.ns:
             command += ['--ns', run.ns]
         if self.cgroups is not None:
@@ -449,6 +514,19 @@ class RunManager:
             except ProtocolError as e:
                 self._line(run, f'[driver lease: {e.message}]\n', ours=True)
 
+    def subscribe_guard(self, session, op) -> None:
+        """A run's output and state topics are its starter's and the admins', as GET is."""
+        found = RUN_TOPIC.fullmatch(op.topic) if isinstance(op, ops.Subscribe) else None
+        run = self.runs.get(found.group(1)) if found else None
+        if run is None or getattr(self.gateway.policy, 'auth', None) is None:
+            return
+        attrs = session.attrs
+        if attrs.get('role') == 'admin' or attrs.get('run') == run.id or (
+                run.owner is not None and attrs.get('person') == run.person):
+            return
+        raise ProtocolError(f'{op.topic}: run {run.id} was started by {run.owner or "someone else"}; its output '
+                            'and state are for them and admins', op=op.OP, id=op.id)
+
     def publish_hook(self, session, pub, msg):
         """A run being stopped may still send commands before its SIGINT lands: those that would
         move the robot again are dropped."""
@@ -486,6 +564,11 @@ class RunManager:
                 await asyncio.wait_for(asyncio.shield(run.done), KILL_AFTER + 1)
             except asyncio.TimeoutError:
                 self._signal(run, signal.SIGKILL)
+        if self.server is not None:
+            self.server.stop()
+            await self.server.close_all_connections()
+        if self.home is not None:
+            shutil.rmtree(self.home, ignore_errors=True)
         left = [r.cgroup for r in self.runs.values() if r.cgroup is not None]
         deadline = time.monotonic() + 1.0
         while left and time.monotonic() < deadline:     # each goes once the kernel has emptied it
@@ -505,13 +588,18 @@ def _local_address(handler) -> tuple[str, int, bool]:
     return host, port, handler.request.protocol == 'https'
 
 
+def may_see(identity, run: Run) -> bool:
+    """A run's state and output are its starter's and the admins' (everyone's with auth off)."""
+    return identity is None or identity.role == 'admin' or run.owner == identity.owner
+
+
 class RunListHandler(JsonHandler):
     def initialize(self, manager: RunManager) -> None:
         self.manager = manager
 
     def get(self) -> None:
-        caller(self, self.manager.gateway)
-        runs = [r.summary() for r in self.manager.runs.values()]
+        identity = caller(self, self.manager.gateway)
+        runs = [r.summary() for r in self.manager.runs.values() if may_see(identity, r)]
         self.finish({'allowed': self.manager.allowed, 'runs': runs})
 
     def post(self) -> None:
@@ -575,8 +663,12 @@ class RunHandler(JsonHandler):
         return run
 
     def get(self, run_id: str) -> None:
-        caller(self, self.manager.gateway)
-        self.finish(self._run(run_id).detail())
+        identity = caller(self, self.manager.gateway)
+        run = self._run(run_id)
+        if not may_see(identity, run):
+            raise tornado.web.HTTPError(403, f'run {run.id} was started by {run.owner or "someone else"}; its state '
+                                             f'and output are for them and admins, not {identity.name}')
+        self.finish(run.detail())
 
     def delete(self, run_id: str) -> None:
         identity = caller(self, self.manager.gateway, change=True, roles=('operator', 'admin'))
@@ -589,18 +681,28 @@ class RunHandler(JsonHandler):
         self.finish(run.summary())
 
 
-def run_routes(gateway) -> list:
-    """The /api/runs routes; their manager joins the gateway's hooks. With --allow-runs and no
-    working bwrap the gateway does not start (SystemExit naming what to install)."""
+def run_routes(gateway, socket_app=None) -> list:
+    """The /api/runs routes; their manager joins the gateway's hooks and serves ``socket_app`` (the
+    websocket alone) to the runs on a unix socket. With --allow-runs and no working bwrap the
+    gateway does not start (SystemExit naming what to install)."""
     settings = gateway.settings
     runs_dir = Path(settings.runs_dir or default_runs_dir())
-    box = cgroups = None
+    box = cgroups = home = None
     if settings.allow_runs:
         private = [settings.programs_dir, runs_dir, settings.record, data_dir(''), settings.certfile,
                    settings.keyfile, Path.home(), *(a for a in sys.argv[1:] if a.startswith('/'))]
+        sweep_homes()
+        home = Path(tempfile.mkdtemp(prefix=f'{HOME_PREFIX}{os.getpid()}-'))
         try:
-            box = Sandbox.create(private)
+            user = run_user()
+            sock = tornado.netutil.bind_unix_socket(str(home / 'gateway.sock'), mode=0o600 if user is None else 0o660)
+            if user is not None:     # the runs' user reaches the socket through its group (else it is ours)
+                os.chown(home, 0, user[1])
+                os.chown(home / 'gateway.sock', 0, user[1])
+                home.chmod(0o750)
+            box = Sandbox.create(private, home=home, socket=str(home / 'gateway.sock'))
         except SandboxUnavailable as e:
+            shutil.rmtree(home, ignore_errors=True)
             raise SystemExit(f'rosgate: {e}') from None
         cgroups, how = Cgroups.find()
         if cgroups is not None:
@@ -611,8 +713,11 @@ def run_routes(gateway) -> list:
             cpu_seconds=lim.cpu_seconds, open_files=lim.open_files))
     manager = RunManager(gateway, allowed=settings.allow_runs, runs_dir=runs_dir, box=box, cgroups=cgroups,
                          max_runs=settings.max_runs, max_per_person=settings.max_runs_per_person)
+    if box is not None and socket_app is not None:
+        manager.serve(socket_app, sock, home)
     gateway.hooks.append(manager)
     gateway.rules.insert(0, manager.publish_hook)
+    gateway.guards.append(manager.subscribe_guard)
     kw = {'manager': manager}
     return [(r'/api/runs/?', RunListHandler, kw), (r'/api/runs/(r[0-9a-f]{8})/?', RunHandler, kw),
             (r'/api/runs/([^/]+)', RunHandler, kw)]
@@ -620,3 +725,14 @@ def run_routes(gateway) -> list:
 
 def default_runs_dir() -> Path:
     return data_dir('runs')
+
+
+HOME_PREFIX = 'rosgate-box-'
+
+
+def sweep_homes() -> None:
+    """Remove the socket folders of gateways that are gone (killed before they could)."""
+    for d in Path(tempfile.gettempdir()).glob(f'{HOME_PREFIX}*-*'):
+        pid = d.name[len(HOME_PREFIX):].split('-')[0]
+        if pid.isdigit() and not Path(f'/proc/{pid}').exists():
+            shutil.rmtree(d, ignore_errors=True)

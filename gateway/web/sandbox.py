@@ -14,13 +14,28 @@ on, and as root. A run then sees:
   kills every process of the namespace, however it forked or setsid'd away: the program ending,
   SIGKILL to the init (stop, timeout) and the gateway dying (``--die-with-parent``) all end the
   whole tree.
-- the machine's network (the run connects back to the gateway over loopback), as uid 1000 with no
-  capabilities and no further user namespaces (``--disable-userns``).
+- a network of its own (``--unshare-net``: a loopback and nothing else; no DDS, no multicast, no port
+  of this machine). Its one way out is the gateway's websocket: the gateway also listens on a unix
+  socket, bound into the box at /run/rosgate.sock, and a relay (a process the run's launcher forks
+  before the program; see runs.py) serves it on the box's 127.0.0.1 at the gateway's own port
+  number, so ``ROSBRIDGE_URL``, roslibpy and the generated Python work unchanged.
+- uid 1000 inside, with no capabilities and no further user namespaces (``--disable-userns``), and
+  never uid 0 outside: a gateway running as root starts bwrap as an unprivileged user (the system
+  user ``rosgate-run`` where the guide's step made it, else ``nobody``) through ``setpriv``, so
+  bwrap's user namespace maps the run to that uid. That user must be able to read the interpreter
+  (the venv and the Python it was made from): an interpreter it cannot reach (a pyenv Python under
+  /root, mode 700) is first bound, by root in a mount namespace of the start's own, to a folder it
+  can reach; an interpreter it cannot read refuses ``--allow-runs``. The one exception: a gateway
+  that is uid 0 of a user namespace mapping uid 0 alone to the machine's root (``unshare -rn`` run
+  by root) has no other uid to give; its runs are that root (the box still holds them: read-only
+  files, no capabilities, no network), and its start-up log says so in a warning.
 
 Measured on a 2-core VM (``python -m tests.bench.run_start``, medians of 15 runs, interleaved with
 the same on the code before the sandbox): the box and its cgroup add 15 to 25 ms to a start, from
 POST to the program's first statement 43 -> 58 ms, to a program that imports roslibpy, connects
-and logs 260 -> 285 ms.
+and logs 260 -> 285 ms. Its own network, the relay and the unprivileged uid outside (as root)
+add about 8 ms more to the first (89 -> 97 ms) and 50 ms to the second (704 -> 756 ms), medians
+of 21 taken in turn with the code before on a machine at load 10 (``--compare``).
 
 bwrap's init reports a program killed by signal N as exit code 128 + N, as a shell does; see
 ``exit_code``.
@@ -28,9 +43,12 @@ bwrap's init reports a program killed by signal N as exit code 128 + N, as a she
 
 from __future__ import annotations
 
+import functools
 import logging
 import os
+import pwd
 import shutil
+import stat
 import signal
 import site
 import subprocess
@@ -43,6 +61,9 @@ log = logging.getLogger('rosgate.sandbox')
 PACKAGE = 'bubblewrap'          # the Debian/Ubuntu package that has bwrap
 HOME = '/home/run'              # the run's working directory and $HOME, where its program is
 UID = 1000                      # its user and group inside
+RUN_USER = 'rosgate-run'        # who runs are outside when the gateway is root (else nobody)
+SOCKET = '/run/rosgate.sock'    # the gateway's websocket inside the box (a unix socket)
+STAGE = 'while [ "$1" != -- ]; do mount --bind "$1" "$2" || exit 125; shift 2; done; shift; exec "$@"'
 ETC = ('ld.so.cache', 'ld.so.conf', 'ld.so.conf.d', 'localtime', 'hosts', 'host.conf', 'nsswitch.conf',
        'gai.conf', 'ssl/certs', 'ssl/openssl.cnf', 'ca-certificates')   # not ssl/private
 ROOT_LINKS = ('bin', 'sbin', 'lib', 'lib32', 'lib64', 'libx32')
@@ -69,16 +90,43 @@ def interpreter_paths() -> list[Path]:
 
 
 @dataclass(frozen=True)
+class Outside:
+    """Who a run is outside the box: bwrap is started as ``uid``/``gid`` through setpriv (None: as
+    the gateway itself, which is not root), after ``stage`` (pairs of paths) is bound by root in a
+    mount namespace of the start's own."""
+    uid: int | None = None
+    gid: int | None = None
+    name: str = ''
+    stage: tuple[str, ...] = ()
+
+    def prefix(self) -> list[str]:
+        """What goes before bwrap on its command line."""
+        if self.uid is None:
+            return []
+        drop = ['setpriv', f'--reuid={self.uid}', f'--regid={self.gid}', '--clear-groups', '--inh-caps=-all',
+                '--no-new-privs', '--']
+        if not self.stage:
+            return drop
+        return ['unshare', '--mount', '--propagation', 'private', '--', '/bin/sh', '-c', STAGE, 'rosgate-stage',
+                *self.stage, '--', *drop]
+
+
+@dataclass(frozen=True)
 class Sandbox:
     bwrap: str
     mounts: tuple[str, ...]          # bwrap arguments that build the file system view
     options: tuple[str, ...]         # namespace arguments this bwrap understands
     tmp_bytes: int
+    outside: Outside = Outside()
+    socket: str | None = None        # the gateway's unix socket, bound into the box at SOCKET
 
     @classmethod
-    def create(cls, private=(), tmp_bytes: int = 64 * 2**20, bwrap: str | None = None) -> Sandbox:
+    def create(cls, private=(), tmp_bytes: int = 64 * 2**20, bwrap: str | None = None, home: Path | None = None,
+               socket: str | None = None) -> Sandbox:
         """The sandbox for this interpreter; ``private``: paths to keep out of the view (masked
-        where they fall inside it). Raises SandboxUnavailable, saying what to install or change."""
+        where they fall inside it); ``home``: a folder of the gateway's own for the box's files
+        (the unix socket, the mount points of a staged interpreter); ``socket``: the gateway's unix
+        socket there. Raises SandboxUnavailable, saying what to install or change."""
         found = bwrap or shutil.which('bwrap')
         if not found:
             raise SandboxUnavailable(f'--allow-runs runs programs in a bubblewrap sandbox and bwrap is not installed '
@@ -88,12 +136,35 @@ class Sandbox:
         except (OSError, subprocess.SubprocessError) as e:
             raise SandboxUnavailable(f'{found} does not run: {e}') from None
         options = ['--unshare-user', '--uid', str(UID), '--gid', str(UID), '--unshare-pid', '--unshare-ipc',
-                   '--unshare-uts', '--hostname', 'run', '--unshare-cgroup-try', '--die-with-parent',
+                   '--unshare-net', '--unshare-uts', '--hostname', 'run', '--unshare-cgroup-try', '--die-with-parent',
                    '--new-session', '--cap-drop', 'ALL']
         if '--disable-userns' in help_text:          # bwrap >= 0.8
             options.append('--disable-userns')
         sized = '--size' in help_text                 # bwrap >= 0.5
-        box = cls(found, tuple(_mounts(private)), tuple(options), tmp_bytes if sized else 0)
+        user = run_user()
+        shown = interpreter_paths()
+        stage: list[str] = []
+        sources = {}
+        if user is not None:
+            for i, path in enumerate(shown):
+                why = unreadable(path, *user[:2])
+                if why is not None:
+                    raise SandboxUnavailable(
+                        f'runs run as {user[2]} (uid {user[0]}) outside their box and {why}: the interpreter and '
+                        f'its venv must be readable by others (chmod -R o+rX {path}), or start the gateway from '
+                        'a venv that is')
+                if not reachable(path, *user[:2]):
+                    if home is None:
+                        raise SandboxUnavailable(f'{user[2]} cannot reach {path}')
+                    point = home / 'view' / str(i)
+                    point.mkdir(parents=True, exist_ok=True)
+                    stage += [str(path), str(point)]
+                    sources[path] = point
+        if user is not None and home is not None and not reachable(home, *user[:2]):
+            raise SandboxUnavailable(f'{user[2]} cannot reach {home} (where the gateway keeps the runs\' socket)')
+        outside = Outside(*user, tuple(stage)) if user is not None else Outside()
+        box = cls(found, tuple(_mounts(private, shown, sources)), tuple(options), tmp_bytes if sized else 0, outside,
+                  socket)
         box.probe()
         return box
 
@@ -105,9 +176,11 @@ class Sandbox:
         # the private /tmp first: an interpreter (a checkout's venv) under /tmp is bound over it
         a = [self.bwrap, *self.options, '--perms', '1777', *size(), '--tmpfs', '/tmp', *self.mounts,
              '--proc', '/proc', '--dev', '/dev', *size(), '--tmpfs', HOME]
+        if self.socket is not None:
+            a += ['--ro-bind', self.socket, SOCKET]
         if program_fd is not None:
             a += ['--ro-bind-data', str(program_fd), f'{HOME}/program.py']
-        return [*a, '--chdir', HOME, '--', *command]
+        return [*self.outside.prefix(), *a, '--chdir', HOME, '--', *command]
 
     @contextmanager
     def launch(self, command: list[str], program: Path):
@@ -118,14 +191,15 @@ class Sandbox:
         program_fd = os.open(program, os.O_RDONLY | os.O_CLOEXEC)
         read, write = os.pipe()
         try:
-            options = self.argv([], program_fd)[1:-1]      # the command stays on the command line
+            prefix = self.outside.prefix()
+            options = self.argv([], program_fd)[len(prefix) + 1:-1]      # the command stays on the command line
             args = b''.join(a.encode() + b'\0' for a in options)
             if len(args) > 60000:     # a pipe holds 64 KiB: written at once, it never blocks
                 raise ValueError(f'{len(args)} bytes of bwrap arguments')
             os.write(write, args)
             os.close(write)
             write = None
-            yield [self.bwrap, '--args', str(read), '--', *command], (read, program_fd)
+            yield [*prefix, self.bwrap, '--args', str(read), '--', *command], (read, program_fd)
         finally:
             for fd in (read, write, program_fd):
                 if fd is not None:
@@ -133,7 +207,8 @@ class Sandbox:
 
     def probe(self) -> None:
         """Start the interpreter in the box once: bwrap installed but unable to make namespaces
-        (user namespaces off) shows here, at start-up, not at the first run."""
+        (user namespaces off), or an interpreter the run's user cannot read, shows here, at
+        start-up, not at the first run."""
         try:
             done = subprocess.run(self.argv([sys.executable, '-I', '-c', 'pass']), capture_output=True, text=True,
                                   timeout=30, env={'PATH': os.defpath}, stdin=subprocess.DEVNULL)
@@ -141,14 +216,94 @@ class Sandbox:
             raise SandboxUnavailable(f'bwrap does not run: {e}') from None
         if done.returncode != 0:
             why = (done.stderr or done.stdout).strip()[-500:]
+            who = f' as {self.outside.name} (uid {self.outside.uid})' if self.outside.uid is not None else ''
             raise SandboxUnavailable(
-                f'bwrap cannot build the sandbox for runs here ({why or f"exit code {done.returncode}"}); '
+                f'bwrap cannot build the sandbox for runs here{who} ({why or f"exit code {done.returncode}"}); '
                 'unprivileged user namespaces may be off (sysctl kernel.unprivileged_userns_clone=1, or on '
                 'Ubuntu 24.04 and later kernel.apparmor_restrict_unprivileged_userns=0)')
 
 
-def _mounts(private) -> list[str]:
-    """The read-only view: /usr, the root links into it, some of /etc, the interpreter."""
+@functools.cache         # a fact of this process (and its warning said once)
+def run_user() -> tuple[int, int, str] | None:
+    """(uid, gid, name) that runs have outside when the gateway is root: RUN_USER where it exists,
+    else nobody; None when the gateway is not root (bwrap maps the run to the gateway's own uid),
+    or when it is uid 0 of a user namespace where no other uid exists (``unshare -r``): there a
+    warning says that runs are root outside when that uid 0 is the machine's root."""
+    if os.geteuid() != 0:
+        return None
+    for name in (RUN_USER, 'nobody'):
+        try:
+            entry = pwd.getpwnam(name)
+        except KeyError:
+            continue
+        if entry.pw_uid != 0 and _mapped(entry.pw_uid):
+            return entry.pw_uid, entry.pw_gid, name
+    if _outer_uid(0) == 0:
+        log.warning(ROOT_ALONE)
+    return None
+
+
+ROOT_ALONE = ('runs are uid 0 outside their box: this gateway is uid 0 of a user namespace that maps uid 0 alone '
+              f'(to the machine\'s root), with no other uid ({RUN_USER} or nobody) to give them. Start it as root '
+              'outside a user namespace (a network namespace of its own is fine: unshare -n), as an ordinary '
+              'user, or in a user namespace that maps more uids')
+
+
+def _uid_map() -> list[tuple[int, int, int]]:
+    try:
+        lines = Path('/proc/self/uid_map').read_text().splitlines()
+    except OSError:
+        return [(0, 0, 2**32 - 1)]
+    return [tuple(int(v) for v in line.split()) for line in lines if len(line.split()) == 3]
+
+
+def _mapped(uid: int) -> bool:
+    return _outer_uid(uid) is not None
+
+
+def _outer_uid(uid: int) -> int | None:
+    """``uid`` of our user namespace as its parent namespace sees it (None: not mapped)."""
+    for inside, outside, count in _uid_map():
+        if inside <= uid < inside + count:
+            return outside + uid - inside
+    return None
+
+
+def _allowed(st: os.stat_result, uid: int, gid: int, bits: int) -> bool:
+    """Whether uid (with gid and no other group) has the rwx ``bits`` (as for others: 0o5) on it."""
+    if st.st_uid == uid:
+        return st.st_mode & (bits << 6) == bits << 6
+    if st.st_gid == gid:
+        return st.st_mode & (bits << 3) == bits << 3
+    return st.st_mode & bits == bits
+
+
+def reachable(path: Path, uid: int, gid: int) -> bool:
+    """Whether uid can walk to ``path`` (search permission on every folder above it)."""
+    for parent in reversed(Path(path).parents):
+        try:
+            if not _allowed(os.stat(parent), uid, gid, 0o1):
+                return False
+        except OSError:
+            return False
+    return True
+
+
+def unreadable(path: Path, uid: int, gid: int) -> str | None:
+    """Why uid cannot read the folder ``path`` and the Python in it (None: it can)."""
+    for p in (path, path / 'bin', path / 'lib'):
+        try:
+            st = os.stat(p)
+        except OSError:
+            continue
+        if not _allowed(st, uid, gid, 0o5):
+            return f'{p} is mode {stat.filemode(st.st_mode)} owned by uid {st.st_uid}'
+    return None
+
+
+def _mounts(private, shown: list[Path], sources: dict) -> list[str]:
+    """The read-only view: /usr, the root links into it, some of /etc, the interpreter (each
+    folder from where it is staged, if it is)."""
     a = ['--ro-bind', '/usr', '/usr']
     for name in ROOT_LINKS:
         path = Path('/', name)
@@ -158,9 +313,10 @@ def _mounts(private) -> list[str]:
             a += ['--ro-bind', str(path), str(path)]
     for name in ETC:
         a += ['--ro-bind-try', f'/etc/{name}', f'/etc/{name}']
-    shown = interpreter_paths()
+    prefix = Path(sys.prefix)          # a venv reached through a link (a checkout's .venv) is seen there
+    seen_at = {Path(os.path.realpath(prefix)): prefix} if prefix.is_absolute() else {}
     for path in shown:
-        a += ['--ro-bind', str(path), str(path)]
+        a += ['--ro-bind', str(sources.get(path, path)), str(seen_at.get(path, path))]
     for path in sorted({Path(os.path.realpath(p)) for p in private if p}):
         if _within(path, shown) and path.exists():       # e.g. a data folder inside the venv
             a += ['--tmpfs', str(path)] if path.is_dir() else ['--ro-bind', '/dev/null', str(path)]

@@ -1,6 +1,10 @@
 """What starting a robot-side run costs: from POST /api/runs to its first output.
 
-    python -m tests.bench.run_start [--repeat 5]
+    python -m tests.bench.run_start [--repeat 5] [--compare DIR]
+
+``--compare DIR`` starts a second gateway from another checkout (DIR, e.g. one made with
+``git worktree add DIR <commit>``) with the same interpreter, and takes its runs in turn with this
+checkout's, one each, so both see the same load of a busy machine.
 
 Two programs, each run ``--repeat`` times on a fresh ``--allow-runs`` gateway, one run at a time:
 ``print``, whose first statement prints the time (POST to the interpreter running the program),
@@ -13,13 +17,15 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import statistics
+import sys
 import tempfile
 import time
 import urllib.request
 from pathlib import Path
 
-from tests.conftest import GatewayProcess
+from tests.conftest import GatewayProcess, Started
 
 ROOT = Path(__file__).resolve().parents[2]
 PRINT = 'import time\nprint("up %.6f" % time.time(), flush=True)\n'
@@ -59,18 +65,34 @@ def once(gw, source: str) -> tuple[float, float | None]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--repeat', type=int, default=5)
+    parser.add_argument('--compare', type=Path, help='a checkout whose gateway runs in turn with this one\'s')
     args = parser.parse_args()
-    gw = GatewayProcess('--robot', 'turtlesim', '--allow-runs', '--runs-dir', tempfile.mkdtemp(prefix='rosgate-runs-'))
+    flags = ['--robot', 'turtlesim', '--allow-runs']
+    gateways = {'this': GatewayProcess(*flags, '--runs-dir', tempfile.mkdtemp(prefix='rosgate-runs-'))}
     try:
-        once(gw, PRINT)   # warm the page cache
+        if args.compare is not None:
+            gateways['compare'] = Started(
+                [sys.executable, '-m', 'gateway', '--port', '0', '--address', '127.0.0.1', *flags, '--runs-dir',
+                 tempfile.mkdtemp(prefix='rosgate-runs-')], cwd=args.compare.resolve(),
+                env={**os.environ, 'XDG_DATA_HOME': tempfile.mkdtemp(prefix='rosgate-data-')})
+        for gw in gateways.values():
+            once(gw, PRINT)   # warm the page cache
         for name, source in (('print', PRINT), ('runtime', RUNTIME)):
-            seen, own = zip(*(once(gw, source) for _ in range(args.repeat)))
-            ms = lambda xs: ' '.join(f'{1000 * x:.0f}' for x in xs)   # noqa: E731
-            print(f'{name:8} POST -> first line in GET: median {1000 * statistics.median(seen):.0f} ms ({ms(seen)})')
-            if own[0] is not None:
-                print(f'{name:8} POST -> program running:   median {1000 * statistics.median(own):.0f} ms ({ms(own)})')
+            times = {which: [] for which in gateways}
+            for _ in range(args.repeat):
+                for which, gw in gateways.items():
+                    times[which].append(once(gw, source))
+            for which, got in times.items():
+                seen, own = zip(*got)
+                ms = lambda xs: ' '.join(f'{1000 * x:.0f}' for x in xs)   # noqa: E731
+                label = f'{name:8} {which:8}' if len(gateways) > 1 else f'{name:8}'
+                print(f'{label} POST -> first line in GET: median {1000 * statistics.median(seen):.0f} ms ({ms(seen)})')
+                if own[0] is not None:
+                    print(f'{label} POST -> program running:   median {1000 * statistics.median(own):.0f} ms '
+                          f'({ms(own)})')
     finally:
-        gw.stop()
+        for gw in gateways.values():
+            gw.stop()
 
 
 if __name__ == '__main__':

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -159,7 +160,9 @@ def test_a_run_sees_nothing_of_the_gateway(class_gw):
     for part in ('--exclusive-control', '--auth', '--fleet', str(class_gw.tokens_path.parent)):
         assert part not in tried, part          # nothing of the gateway's command line
     assert 'tokens TOKENS_FILE -> FileNotFoundError' in tried and 'ls RUNS -> FileNotFoundError' in tried
-    assert 'pids [1, 2]' in output                                # bwrap's init and the program
+    pids = json.loads(output.split('pids ', 1)[1].split('\n', 1)[0])
+    assert pids[:2] == [1, 2] and len(pids) == 3, pids     # bwrap's init, the program and its relay
+    assert f'cmdline /proc/{pids[2]}/cmdline {sys.executable} -I -c import os, resource, sys' in output
     assert f'gateway cmdline /proc/{class_gw.pid}/cmdline -> FileNotFoundError' in output
 
 

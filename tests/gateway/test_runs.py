@@ -295,7 +295,7 @@ def test_viewer_refused_operator_runs_with_its_role(auth_gw):
         status, body = api(gw, 'POST', '/api/runs', {'source': source}, token=TOKENS['operator'])
         assert status == 201, body
         run_id = body['id']
-        final = ended(gw, run_id, token=TOKENS['viewer'])
+        final = ended(gw, run_id, token=TOKENS['operator'])
         assert final['state'] == 'finished', final
         assert 'x=' in final['output']   # its connection has the operator's role: it may subscribe
         seen: list = []
@@ -313,7 +313,7 @@ def test_a_library_program_runs_by_name_from_the_callers_own_space(auth_gw):
     assert status == 200, body   # with --auth it lands in the operator's own space, as the IDE's save does
     status, body = api(gw, 'POST', '/api/runs', {'program': 'mine'}, token=TOKENS['operator'])
     assert status == 201, body
-    final = ended(gw, body['id'], token=TOKENS['viewer'])
+    final = ended(gw, body['id'], token=TOKENS['admin'])
     assert final['state'] == 'finished' and 'from my space' in final['output'], final
     # another operator's library has no such program, and may not reach into the first one's
     assert api(gw, 'POST', '/api/runs', {'program': 'mine'}, token=TOKENS['operator2'])[0] == 404
@@ -344,10 +344,10 @@ def test_run_takes_the_lease_when_it_starts(auth_gw):
         assert status == 201, body                                     # the teacher's run takes over
         run_id = body['id']
         wait_for(lambda: (lambda d: d[-1] and d[-1]['name'] == f'run {run_id}')(drivers_seen(drivers, seen)), 30)
-        assert state_of(gw, run_id, TOKENS['viewer'])['state'] == 'running'   # it has not commanded anything
+        assert state_of(gw, run_id, TOKENS['admin'])['state'] == 'running'   # it has not commanded anything
         wait_for_subscriber(alice, '/run_test/done')
         roslibpy.Topic(alice, '/run_test/done', 'std_msgs/msg/String').publish(roslibpy.Message({'data': 'done'}))
-        assert ended(gw, run_id, token=TOKENS['viewer'])['state'] == 'finished'
+        assert ended(gw, run_id, token=TOKENS['admin'])['state'] == 'finished'
         wait_for(lambda: drivers_seen(drivers, seen)[-1] is None, 10)   # and it gave the lease back
     finally:
         alice.close()
@@ -365,7 +365,7 @@ def test_her_own_run_takes_her_lease_and_gives_it_back(auth_gw):
         wait_for(lambda: (lambda d: d[-1] and d[-1]['name'] == f'run {run_id}')(drivers_seen(drivers, seen)), 30)
         wait_for_subscriber(alice, '/run_test/done2')
         roslibpy.Topic(alice, '/run_test/done2', 'std_msgs/msg/String').publish(roslibpy.Message({'data': 'done'}))
-        final = ended(gw, run_id, token=TOKENS['viewer'])
+        final = ended(gw, run_id, token=TOKENS['admin'])
         assert final['state'] == 'finished' and 'driver lease' not in final['output'], final
         wait_for(lambda: (lambda d: d and d[-1] and d[-1]['name'] == 'alice')(drivers_seen(drivers, seen)), 10)
     finally:

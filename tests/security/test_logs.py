@@ -37,7 +37,7 @@ def test_no_token_value_in_the_log(launch, tokens_file, tmp_path):
     # a run's own connection carries its key
     status, body = api(gw, 'POST', '/api/runs', {'source': 'print("hi")'}, TOKENS['operator'])
     assert status == 201, body
-    wait_for(lambda: api(gw, 'GET', f"/api/runs/{body['id']}", token=TOKENS['viewer'])[1]['state'] != 'running', 30)
+    wait_for(lambda: api(gw, 'GET', f"/api/runs/{body['id']}", token=TOKENS['admin'])[1]['state'] != 'running', 30)
     wait_for(lambda: '/api/runs/nope?[query]' in gw.log_text(), 10)
     log = gw.log_text()
     for token in (*TOKENS.values(), wrong):

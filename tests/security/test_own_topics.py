@@ -22,10 +22,10 @@ def test_a_client_cannot_speak_for_the_gateway(launch, tokens_file, tmp_path):
                        TOKENS['operator'])
     assert status == 201, body
     run = body['id']
-    wait_for(lambda: api(gw, 'GET', f'/api/runs/{run}', token=TOKENS['viewer'])[1]['state'] == 'running', 30)
+    wait_for(lambda: api(gw, 'GET', f'/api/runs/{run}', token=TOKENS['admin'])[1]['state'] == 'running', 30)
     own = ['/rosgate/driver', f'/rosgate/runs/{run}/output', f'/rosgate/runs/{run}/state']
     try:
-        with Client(gw.ws_url, TOKENS['viewer']) as viewer, Client(gw.ws_url, TOKENS['operator']) as alice, \
+        with Client(gw.ws_url, TOKENS['admin']) as viewer, Client(gw.ws_url, TOKENS['operator']) as alice, \
                 Client(gw.ws_url, TOKENS['admin']) as teacher:
             for topic in own:
                 viewer.subscribe(topic, STRING)

@@ -61,13 +61,13 @@ def test_another_operators_run_cannot_be_stopped(school):
                        TOKENS['operator'])
     assert status == 201, body
     run_id = body['id']
-    wait_for(lambda: api(school, 'GET', f'/api/runs/{run_id}', token=TOKENS['viewer'])[1]['state'] == 'running', 30)
+    wait_for(lambda: api(school, 'GET', f'/api/runs/{run_id}', token=TOKENS['admin'])[1]['state'] == 'running', 30)
     status, body = api(school, 'DELETE', f'/api/runs/{run_id}', token=TOKENS['operator2'])
     assert status == 403 and 'alice' in body['error'], body
-    assert api(school, 'GET', f'/api/runs/{run_id}', token=TOKENS['viewer'])[1]['state'] == 'running'
+    assert api(school, 'GET', f'/api/runs/{run_id}', token=TOKENS['admin'])[1]['state'] == 'running'
     status, body = api(school, 'DELETE', f'/api/runs/{run_id}', token=TOKENS['operator'])
     assert status in (200, 202), body
-    wait_for(lambda: api(school, 'GET', f'/api/runs/{run_id}', token=TOKENS['viewer'])[1]['state'] == 'stopped', 30)
+    wait_for(lambda: api(school, 'GET', f'/api/runs/{run_id}', token=TOKENS['admin'])[1]['state'] == 'stopped', 30)
 
 
 def test_another_operators_recording_cannot_be_stopped_played_downloaded_or_deleted(school):
