@@ -449,7 +449,7 @@ class RunManager:
             except ProtocolError as e:
                 self._line(run, f'[driver lease: {e.message}]\n', ours=True)
 
-    def publish_hook(self, session, pub, msg):
+    def publish_hook(self, session, pub, msg, issued=None):
         """A run being stopped may still send commands before its SIGINT lands: those that would
         move the robot again are dropped."""
         run_id = session.attrs.get('run')
