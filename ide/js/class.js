@@ -2,12 +2,12 @@
 // is and who drives it, whether its program runs, the last error — with Stop, Release and the
 // student's program (read-only). Owners come from the gateway's /rosgate/stations. Stations are the gateway's (the driver lease's list, else the fleet's, else the
 // namespaces of the graph), so a real multi-robot graph shows the same way as the sim's fleet.
-import { Ros } from 'roslib';
 import { WorldView } from './worldview.js';
 import { DriverLease, DRIVER_TOPIC } from './driver.js';
 import { isVelocityType, zeroVelocity, withNamespace } from '../runtime/util.js';
 import { showProgram } from './classprogram.js';
 import { STATIONS_TOPIC } from './robotns.js';
+import { Link } from './link.js';
 
 const $ = (s) => document.querySelector(s);
 const REFRESH = 10000;   // ms between looks at the graph for new stations
@@ -21,19 +21,21 @@ function notice(text) { $('#notice').textContent = text; $('#notice').hidden = !
 function connect() {
   const params = new URLSearchParams(location.search);
   const url = params.get('url') || `${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/?name=teacher`;
-  const ros = new Ros({});
-  view.ros = ros;
+  const link = new Link(url);
+  view.link = link;
   setStatus('connecting', 'connecting…');
-  ros.on('connection', () => {
+  link.addEventListener('open', (e) => {
+    const ros = e.detail;
+    view.ros = ros;
     setStatus('connected', 'connected');
     view.lease.attach(ros);
     watchOwners(ros);
     for (const t of view.tiles.values()) t.attach(ros);
     refresh();
   });
-  ros.on('close', () => { if (view.ros === ros) { setStatus('closed', 'disconnected'); setTimeout(connect, 2000); } });
-  ros.on('error', () => setStatus('error', 'cannot connect'));
-  ros.connect(url).catch(() => setStatus('error', 'bad URL'));
+  link.addEventListener('lost', () => { view.ros = null; setStatus('lost', 'connection lost'); });
+  setInterval(() => { $('#link').textContent = link.describe(); }, 500);
+  link.start();
 }
 
 // Who owns each station (a person: the signed-in name, or a browser), as the gateway announces it.
