@@ -11,6 +11,9 @@ import { Link } from './link.js';
 
 const $ = (s) => document.querySelector(s);
 const REFRESH = 10000;   // ms between looks at the graph for new stations
+// A tile's world at 2 Hz: the gateway merges the markers of each half second (newest of each wins,
+// no change lost), so ten tiles fit a home line (docs/teacher.md)
+const TILE_STREAM = { throttle_rate: 500, queue_length: 4 };
 const view = { ros: null, lease: new DriverLease(), tiles: new Map(), topics: [], types: [], services: [], owners: {}, seq: 0 };
 window.classView = view;
 
@@ -20,7 +23,8 @@ function notice(text) { $('#notice').textContent = text; $('#notice').hidden = !
 
 function connect() {
   const params = new URLSearchParams(location.search);
-  const url = params.get('url') || `${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/?name=teacher`;
+  // deflate: the tiles' marker JSON shrinks about tenfold over a home line (gateway/web/socket.py)
+  const url = params.get('url') || `${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/?name=teacher&compression=deflate`;
   const link = new Link(url);
   view.link = link;
   setStatus('connecting', 'connecting…');
@@ -100,7 +104,7 @@ class Tile {
     this.el = $('#tile').content.firstElementChild.cloneNode(true);
     this.el.dataset.ns = ns;
     this.el.querySelector('.ns').textContent = ns;
-    this.world = new WorldView(this.el.querySelector('.world'), withNamespace(ns, '/world/markers'));
+    this.world = new WorldView(this.el.querySelector('.world'), withNamespace(ns, '/world/markers'), { stream: TILE_STREAM });
     this.report = null;
     this.el.querySelector('.stop').onclick = () => stop(ns);
     this.el.querySelector('.release').onclick = () => release(ns);

@@ -257,3 +257,74 @@ def test_teleop_page_sees_the_outage_and_heals_on_its_station(linked_browser):
     assert healed <= 2.0
     assert moved(end, at_return) < 0.005
     assert not errors
+
+
+def drive_circles(link, gw, topics: list[str], stop: threading.Event) -> threading.Thread:
+    """Students driving every turtle in circles at 10 Hz, from beside the gateway (their links are
+    not the teacher's)."""
+    with link.inside('server'):
+        raw = Raw(gw.ws_url)
+    for t in topics:
+        raw.send({'op': 'advertise', 'topic': t, 'type': TWIST})
+
+    def run():
+        while not stop.is_set():
+            for i, t in enumerate(topics):
+                raw.send({'op': 'publish', 'topic': t, 'msg': {'linear': {'x': 1.0}, 'angular': {'z': 0.8 + 0.05 * i}}})
+            time.sleep(0.1)
+        raw.ws.close()
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    return thread
+
+
+TILE_AGES = """() => {
+  const now = Date.now();
+  return [...classView.tiles.values()].map((t) => {
+    const robots = [...t.world.markers.values()].filter((m) => m.ns === 'robots');
+    if (!robots.length) return null;
+    const s = Math.max(...robots.map((m) => m.header.stamp.sec * 1000 + m.header.stamp.nanosec / 1e6));
+    return (now - s) / 1000;
+  });
+}"""
+
+
+def test_class_view_of_ten_stations_fits_a_1_mbit_line(tmp_path):
+    """/class for 10 driven stations over 1 Mbit/s (64 KiB buffer) + 150 ms: every tile drawn within
+    20 s of opening the page, and what the tiles show at most 2 s old (p95)."""
+    from playwright.sync_api import sync_playwright
+    stations = 10
+    with netlink.NetLink(delay=DELAY, rate=125_000, buffer=64 * 1024) as link:
+        gw = link.start_gateway('--robot', 'turtlesim', '--fleet', str(stations))
+        stop = threading.Event()
+        driving = drive_circles(link, gw, [f'/s{i:02d}/turtle1/cmd_vel' for i in range(1, stations + 1)], stop)
+        try:
+            time.sleep(2.0)   # the lesson is under way when the teacher opens the page
+            with sync_playwright() as p:
+                browser = p.chromium.launch(executable_path=str(link.chromium_wrapper(CHROMIUM, tmp_path)),
+                                            args=CHROMIUM_ARGS)
+                try:
+                    page = browser.new_page(viewport={'width': 1400, 'height': 900})
+                    opened = time.monotonic()
+                    page.goto(gw.http_url + 'class', timeout=60000)
+                    page.wait_for_function(f"(document.body.dataset.tiles === '{stations}') && "
+                                           "[...classView.tiles.values()].every((t) => "
+                                           "[...t.world.markers.values()].some((m) => m.ns === 'robots'))",
+                                           timeout=60000, polling=100)
+                    ready = time.monotonic() - opened
+                    ages = []
+                    sampled = time.monotonic()
+                    while time.monotonic() - sampled < 20:
+                        ages += [a for a in page.evaluate(TILE_AGES) if a is not None]
+                        time.sleep(0.25)
+                finally:
+                    browser.close()
+        finally:
+            stop.set()
+            driving.join(2)
+    ages.sort()
+    p50, p95 = ages[len(ages) // 2], ages[int(len(ages) * 0.95)]
+    print(f'\n/class, {stations} stations at 1 Mbit/s + 150 ms: ready in {ready:.1f} s; tile age '
+          f'p50 {p50:.2f} s, p95 {p95:.2f} s, max {ages[-1]:.2f} s ({len(ages)} samples)')
+    assert ready <= 20
+    assert p95 <= 2.0
