@@ -347,7 +347,6 @@ class Ticker:
     timers alone cost a task wake-up and a timer handle 1,875 times a second; here they cost one
     callback per period, and what the tick publishes for one client leaves in one socket write
     (the gateway's ``corked``). A timer added later runs once at once and joins the ticker's phase.
-    A loop far behind skips the periods it missed rather than running them back to back.
     """
 
     def __init__(self, graph: Graph, period: float):
@@ -379,11 +378,8 @@ class Ticker:
         with self.graph.batch_scope():
             for timer in list(self.timers):
                 timer.run()
-        loop = asyncio.get_running_loop()
-        self.next_at += self.period
-        if self.next_at < loop.time() - self.period:
-            self.next_at = loop.time()
-        self.handle = loop.call_at(self.next_at, self._fire)
+        self.next_at += self.period   # a loop behind catches up, as a timer of its own would
+        self.handle = asyncio.get_running_loop().call_at(self.next_at, self._fire)
 
 
 class Graph:
