@@ -8,18 +8,18 @@
 // gateway stops the robot by itself when commands stop coming (its cmd timeout). A server that
 // does not know `ping` answers it with an error status: the page then relies on the socket alone.
 //
-// Made again: attempts follow a backoff with jitter (so thirty pages do not knock at once after
-// a gateway restart), capped at RETRY.cap so that an attempt starts within about a second of the
-// link's return; an attempt that hangs (its SYN lost in the outage, retried by the kernel only
-// seconds later) is left behind at ATTEMPT_TIMEOUT while newer attempts go on, and the first
-// that opens wins. The page's station is the person's (robotns.js), so it is kept.
+// Made again: one attempt at a time. One refused or closed (a gateway restarting) is followed by
+// the next after a backoff with jitter (so thirty pages do not knock at once), capped at
+// RETRY.cap; one that goes unanswered (its SYN lost in an outage, retried by the kernel only
+// seconds later) is dropped after attemptTimeout() and a fresh one sent at once, so the link's
+// return is met within about 1.5 s. The page's station is the person's (robotns.js), so it is kept.
 import { Ros } from 'roslib';
 
 export const PING_EVERY = 250;          // ms between pings
 export const SILENCE = 800;             // ms without a frame from the gateway: the link is lost
 const LOOK_EVERY = 100;                 // ms between looks at the silence
 export const RETRY = { first: 150, factor: 2, cap: 800, jitter: 0.3 };   // ms; each delay ±30 %
-export const ATTEMPT_TIMEOUT = 2500;    // ms an attempt may take to open before it is abandoned
+export const ATTEMPT_TIMEOUT = 2500;    // ms an attempt may go unanswered while the round trip is unknown
 const PING_ID = 'link.ping';
 
 // The delay before attempt n (0, 1, ...): first·factor^n, at most cap, spread by ±jitter.
@@ -78,28 +78,48 @@ export class Link extends EventTarget {
     this.dispatchEvent(new CustomEvent('state', { detail: state }));
   }
 
+  // One attempt at a time (browsers open one websocket to a host at a time anyway, RFC 6455 4.1).
   _attempt() {
     clearTimeout(this.retry);
     if (this.state === 'idle') this._set('connecting');
     const ros = new Ros({});
     this.pending.add(ros);
-    const timeout = setTimeout(() => this._abandon(ros), ATTEMPT_TIMEOUT);
+    const failed = () => {   // refused or closed before it opened: the server is there, or soon
+      if (!this.pending.delete(ros)) return;
+      clearTimeout(timeout);
+      this._later(backoff(this.tries++));
+    };
+    const timeout = setTimeout(() => {   // no answer: the network is dark; try afresh at once
+      this._abandon(ros);
+      this._later(0);
+    }, this.attemptTimeout());
     ros.on('connection', () => {
       clearTimeout(timeout);
       if (!this.pending.delete(ros) || this.ros) { ros.close(); return; }
-      for (const other of this.pending) this._abandon(other);
       this._open(ros);
     });
     ros.on('close', () => {
-      clearTimeout(timeout);
-      this.pending.delete(ros);
       if (ros === this.ros) this._lose('closed');
+      else failed();
     });
     ros.on('error', () => {});   // a close follows
     ros.connect(this.url())
       .then(() => ros.transport?.on('message', (m) => this._heard(ros, m)))
-      .catch(() => this._abandon(ros));
-    this.retry = setTimeout(() => { if (!this.ros) this._attempt(); }, backoff(this.tries++));
+      .catch(failed);
+  }
+
+  // How long an attempt may go unanswered. The kernel sends a connection's SYN again after 1 s,
+  // then after 3 s more: an attempt whose SYNs fell into an outage is dropped soon after the
+  // first retry and a fresh one sent, so the link's return is met within about 1.5 s. A slow link
+  // (its round trip known from the pongs) gets the time its handshake needs.
+  attemptTimeout() {
+    if (this.rtt === null) return ATTEMPT_TIMEOUT;
+    return Math.min(4000, Math.max(1200, 2 * this.rtt + 600));
+  }
+
+  _later(ms) {
+    clearTimeout(this.retry);
+    this.retry = setTimeout(() => { if (!this.ros && !this.pending.size) this._attempt(); }, ms);
   }
 
   _abandon(ros) {
