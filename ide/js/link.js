@@ -164,7 +164,9 @@ export class Link extends EventTarget {
       this.pongs += 1;
       if (typeof m.t === 'number') this.rtt = now - m.t;
     } else if (m?.op === 'status' && m.id === PING_ID) {
-      this.pings = false;   // not rosgate: no pings, no silence detection
+      // not rosgate ("Unknown operation"): no pings, no silence detection; another refusal
+      // (not signed in yet) leaves them on
+      if (/unknown op/i.test(m.msg ?? '')) this.pings = false;
     } else {
       this.dataAt = now;
     }
