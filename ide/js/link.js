@@ -151,8 +151,10 @@ export class Link extends EventTarget {
   _tick() {
     if (!this.ros) return;
     const now = performance.now();
-    // silence counts only where pings are answered: elsewhere a quiet link may be well
-    if (this.pongs && now - this.heardAt > SILENCE) { this._lose('silent'); return; }
+    // silence counts only where pings are answered (elsewhere a quiet link may be well), and not
+    // in a hidden tab, whose timers the browser slows to one a second or less
+    const hidden = typeof document !== 'undefined' && document.hidden;
+    if (this.pongs && !hidden && now - this.heardAt > SILENCE) { this._lose('silent'); return; }
     if (now - this.pinged >= PING_EVERY - LOOK_EVERY / 2) { this.pinged = now; this._ping(); }
   }
 
