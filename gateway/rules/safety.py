@@ -12,8 +12,9 @@ A command is fresh or it is dropped. A client that stamps its commands (``"t"`` 
 ``rules.freshness``) has each moving command dropped when it waited longer than ``cmd_max_age``
 beyond the fastest trip seen on its link, when it was made while its link was stalled (a client
 that pings), or when it was made before the last stop of its stream (a dead-man stop, the lease's
-release or the teacher's Stop): after a stop, motion resumes only with a command made after it. A zero command always passes. Commands that carry no stamp (plain
-rosbridge clients) pass as they always did, unless ``require_stamp`` refuses their moving ones.
+release or the teacher's Stop): after a stop, motion resumes only with a command made after it.
+A zero command always passes. Commands that carry no stamp (plain rosbridge clients) pass as they
+always did, unless ``require_stamp`` refuses their moving ones.
 """
 
 from __future__ import annotations
@@ -175,6 +176,8 @@ class Safety:
         if now - told >= STALE_TELL:
             session.attrs['stale_told'] = now
             session.status('warning', f'a command on {pub.topic} was dropped: {why}', 'publish')
+            log.info('client %d: a command on %s dropped: %s (%d stale commands dropped in all)',
+                     session.id, pub.topic, why, self.stale)
         return False
 
     def _track(self, session, pub, msg, moving: bool, issued: float | None = None) -> None:

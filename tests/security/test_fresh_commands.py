@@ -27,10 +27,19 @@ def strict(launch):
     return launch('--cmd-timeout', '0.3', '--require-cmd-stamp')
 
 
-def ping(client: Client) -> dict:
-    id = client.next_id('ping')
-    client.send({'op': 'ping', 'id': id, 't': ms()})
-    return client.expect(lambda m: m.get('op') == 'pong' and m.get('id') == id)
+def ping(client: Client) -> None:
+    """A stamped ping (the client's clock, as the pages send it), then a call as a barrier: every
+    op sent before has been handled."""
+    client.send({'op': 'ping', 'id': client.next_id('ping'), 't': ms()})
+    client.call('/rosapi/get_time')
+
+
+def test_ping_is_answered_with_its_id_and_stamp(quick):
+    with Client(quick.ws_url) as c:
+        c.send({'op': 'ping', 'id': 'p1', 't': 12.5})
+        assert c.expect(lambda m: m.get('id') == 'p1') == {'op': 'pong', 'id': 'p1', 't': 12.5}
+        c.send({'op': 'ping'})
+        assert c.expect(lambda m: m.get('op') == 'pong') == {'op': 'pong'}
 
 
 def command(topic: str, x: float, t: float | None) -> dict:
@@ -140,3 +149,28 @@ def test_client_clock_follows_the_fastest_trip_and_slow_drift():
     assert 150.3 - issued == pytest.approx(0.0, abs=1e-6)
     issued = clock.sample(1300.0 + 100_000 * (1 - 0.0005) + 1000.0, 153.3)
     assert 153.3 - issued == pytest.approx(2.0 - DRIFT * 3.0, abs=1e-6)
+
+
+def test_commands_made_before_the_teachers_stop_never_move_after_take(launch):
+    """--exclusive-control: the teacher's Stop holds until Take; stamped commands made before the
+    Stop and delivered after the Take (a stalled link's backlog) are dropped, later ones drive."""
+    gw = launch('--robot', 'turtlesim', '--fleet', '1', '--exclusive-control', '--cmd-timeout', '0')
+    topic = '/s01/turtle1/cmd_vel'
+    with Client(gw.ws_url) as watcher, Client(gw.ws_url) as alice, Client(gw.ws_url) as teacher:
+        watcher.subscribe(topic, TWIST)
+        alice.send({'op': 'advertise', 'topic': topic, 'type': TWIST})
+        ping(alice)
+        alice.send(command(topic, 0.5, ms()))
+        watcher.expect(lambda m: m.get('topic') == topic and not is_zero_twist(m['msg']))
+        held = [command(topic, 0.5, ms()) for _ in range(3)]   # made now, delivered later
+        teacher.publish('/rosgate/control', {'data': 'stop /s01'})
+        watcher.expect(lambda m: m.get('topic') == topic and is_zero_twist(m['msg']))
+        watcher.seen = []
+        alice.publish('/rosgate/control', {'data': 'take /s01'})
+        ping(alice)
+        alice.send_together(*held)
+        ping(alice)
+        assert [m for m in received(watcher, topic) if not is_zero_twist(m)] == []
+        alice.send(command(topic, 0.3, ms()))
+        ping(alice)
+        assert [m['linear']['x'] for m in received(watcher, topic)] == [0.3]
