@@ -56,8 +56,11 @@ def build_parser() -> argparse.ArgumentParser:
         g.add_argument(f'--{kind}-glob', help=f"allowed {kind.replace('-', ' ')} names, e.g. \"['/turtle1/*']\"")
     g.add_argument('--default-call-service-timeout', type=float, default=d.default_call_service_timeout,
                    help='[%(default)s] s')
-    g.add_argument('--websocket-ping-interval', type=float, default=d.websocket_ping_interval)
-    g.add_argument('--websocket-ping-timeout', type=float, default=d.websocket_ping_timeout)
+    g.add_argument('--websocket-ping-interval', type=float, default=d.websocket_ping_interval, metavar='S',
+                   help='ping every websocket this often, so a proxy does not cut a quiet one (nginx: 60 s); '
+                        '0 for never [%(default)s]')
+    g.add_argument('--websocket-ping-timeout', type=float, default=d.websocket_ping_timeout, metavar='S',
+                   help='close a websocket that has not answered a ping this long [%(default)s]')
     g.add_argument('--send-buffer-limit', type=int, default=d.send_buffer_limit,
                    help='bytes queued per client before its topic messages are dropped [%(default)s]')
     g.add_argument('--body-timeout', type=float, default=d.body_timeout, metavar='S',

@@ -2,7 +2,7 @@
 
 ``/`` upgrades to the rosbridge websocket (``socket``) and, as a plain GET, serves the IDE;
 ``/teleop`` and ``/class`` are the other pages; ``/health``; the JSON API apps (``/api/programs``,
-``/api/runs``, ``/api/recordings``) and the login pages; the IDE's static files last.
+``/api/runs``, ``/api/recordings``), the login pages and LTI's (``/lti/...``, with ``--lti``); the IDE's static files last.
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ import tornado.web
 from ..bridge.gateway import Gateway
 from .classview import ClassHandler
 from .login import login_routes
+from .lti import lti_routes
 from .pages import Application, PublicFileHandler, write_page
 from .programs import program_routes
 from .recordings import recording_routes
@@ -65,7 +66,9 @@ def make_app(gateway: Gateway) -> tornado.web.Application:
         (r'/class/?', ClassHandler, {'gateway': gateway, 'page': settings.ide_dir / 'class.html'}),
         (r'/examples/(.*)', IdeFileHandler, {'path': str(settings.examples_dir)}),
     ]
-    routes += login_routes(policy, secure_cookie=bool(settings.certfile and settings.keyfile))
+    routes += login_routes(policy)
+    if settings.extra.get('lti') is not None:
+        routes += lti_routes(settings.extra['lti'], policy, settings.examples_dir)
     if settings.programs_dir is not None:
         routes += program_routes(settings.programs_dir, policy)
     routes += run_routes(gateway) + recording_routes(gateway)

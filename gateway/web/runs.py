@@ -54,7 +54,7 @@ from .programs import space_owner, stored_program
 from ..settings import data_dir
 from ..backends.base import QoS
 from ..rules.safety import Safety, moving_command
-from .sandbox import HOME, Cgroups, RunCgroup, Sandbox, SandboxUnavailable, exit_code, kill_box
+from .sandbox import HOME, Cgroups, RunCgroup, Sandbox, SandboxUnavailable, exit_code, kill_box, limits_in_force
 
 log = logging.getLogger('rosgate.runs')
 STRING = 'std_msgs/msg/String'
@@ -533,7 +533,7 @@ class RunListHandler(JsonHandler):
         role = identity.role if identity is not None else None
         run = m.start(source, name, ns, float(timeout), role, _local_address(self),
                       person_of(identity, self.request.cookies))
-        run.owner = identity.name if identity is not None else None
+        run.owner = identity.owner if identity is not None else None
         self.set_status(201)
         self.finish({'id': run.id, **run.summary()})
 
@@ -573,7 +573,7 @@ class RunHandler(JsonHandler):
     def delete(self, run_id: str) -> None:
         identity = caller(self, self.manager.gateway, change=True, roles=('operator', 'admin'))
         run = self._run(run_id)
-        if identity is not None and identity.role != 'admin' and run.owner != identity.name:
+        if identity is not None and identity.role != 'admin' and run.owner != identity.owner:
             raise tornado.web.HTTPError(403, f'run {run.id} was started by {run.owner or "someone else"}; '
                                              f'{identity.name} may not stop it')
         self.manager.stop(run)
@@ -597,7 +597,10 @@ def run_routes(gateway) -> list:
         cgroups, how = Cgroups.find()
         if cgroups is not None:
             cgroups.sweep()
-        log.info('runs: in a bwrap sandbox; %s', how if cgroups is not None else f'rlimits only ({how})')
+        lim = RunLimits()
+        log.info('runs: in a bwrap sandbox; %s', limits_in_force(
+            cgroups, how, memory_mb=lim.memory_mb, processes=lim.processes, cpus=lim.cpus,
+            cpu_seconds=lim.cpu_seconds, open_files=lim.open_files))
     manager = RunManager(gateway, allowed=settings.allow_runs, runs_dir=runs_dir, box=box, cgroups=cgroups,
                          max_runs=settings.max_runs, max_per_person=settings.max_runs_per_person)
     gateway.hooks.append(manager)
