@@ -251,3 +251,19 @@ def test_a_world_that_does_not_exist_is_refused():
                           cwd=ROOT, capture_output=True, text=True, timeout=30)
     assert done.returncode != 0 and done.stdout == ''
     assert "no world 'no_such_world'" in done.stderr and 'arena, maze' in done.stderr
+
+
+def test_camera_of_a_still_robot_is_encoded_once():
+    """The same pose gives the same bytes without rendering again; another pose renders anew."""
+    import math
+
+    from gateway.backends.sim.robots.camera import Camera
+    from gateway.backends.sim.robots.world import World
+    cam = Camera(World.load('arena'))
+    renders = []
+    original = cam.render
+    cam.render = lambda *a: renders.append(a) or original(*a)
+    first = cam.jpeg(1.0, 1.0, 0.5)
+    assert cam.jpeg(1.0, 1.0, 0.5) is first and len(renders) == 1
+    turned = cam.jpeg(1.0, 1.0, 0.5 + math.pi / 2)
+    assert turned != first and len(renders) == 2
