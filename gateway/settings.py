@@ -82,4 +82,8 @@ class Settings:
     record: Path | None = None                 # record from start-up into this directory
     record_topics: str | None = None           # globs of the topics --record takes
     db_url: str | None = None                  # the store (None: SQLite in the data directory)
+    history: str | None = None                 # globs of the topics kept (None: battery, temperature, odometry; 'none': off)
+    history_max_mb: float = 1024.0             # the history's cap in the store
+    history_full_hours: float = 24.0           # full rate (1 Hz) this long, per-minute rows before
+    opcua: int | None = None                   # OPC UA server on this port (0: any free one)
     extra: dict = field(default_factory=dict)  # options of optional parts (robots, security)

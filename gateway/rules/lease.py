@@ -9,7 +9,13 @@ Command names are topics of the velocity types plus anything matching ``--contro
 - else the gateway-wide group ``/``.
 
 The first client to command in a group takes its lease, if the group is a station nobody owns or
-one its person owns (``stations``); others are refused with a status error and can watch.
+one its person owns (``stations``); others are refused with a status error that names what resolves
+it (Take, "Claim a robot", the teacher) and can watch. The lease is the person's, not the tab's:
+while one client of a person holds it, another of hers (her teleop page after her IDE, her phone,
+her run) takes it by commanding, quietly (measured in the first lesson: refusing her own other tab
+sent a student to a red banner that named neither Take nor her tab). A station the teacher released
+from a person (``Stations.is_barred``) is not hers to take, by a command or by Take, until she
+claims again: her pages left open on it had taken it back within a second.
 Publish std_msgs/String on /rosgate/control: "take [NS]" takes a free lease (an admin, or anyone
 when --auth is off, takes it over from its holder, whose motion is stopped; another client of the
 same person, such as her robot-side run, takes it quietly and, being a run, gives it back when it
@@ -124,18 +130,38 @@ class Lease:
                 return
             raise ProtocolError(f'{name}: {stopper} stopped {group}; send "take {group}" (the Take button) to '
                                 'drive it again')
+        key = person(session)
+        if holder is not None and person(holder) == key:
+            if moving:      # another page or run of the same person: her robot, without a word
+                self._grant(group, session, quiet=True)
+            return
         if holder is None:
             owner = self.owners.owner(group)
-            if owner is None or owner.person == person(session):
+            barred = owner is None and self.owners.is_barred(group, key)
+            if (owner is None and not barred) or (owner is not None and owner.person == key):
                 self._grant(group, session)
                 return
             if not moving:
                 return
-            raise ProtocolError(f'{name}: {group} is {owner.name}\'s station (exclusive control); claim a free '
-                                'robot, or ask the teacher')
+            if barred:
+                raise ProtocolError(f'{name}: {self._released(group)}')
+            raise ProtocolError(f'{name}: {group} is {owner.name}\'s station; press "Claim a robot" for your '
+                                'own, or ask the teacher')
         where = '' if group == ROOT else f' {group}'
-        raise ProtocolError(f'{name}: {who(holder)} is driving{where} (exclusive control); watch, wait for '
-                            f'"release", or ask an admin to take over')
+        raise ProtocolError(f'{name}: {who(holder)} is driving{where} (exclusive control); '
+                            f'{self._way_out(session, group)}')
+
+    def _way_out(self, session, group: str) -> str:
+        """What resolves a refusal because someone else holds group's lease, for this client."""
+        if self._may_override(session):
+            return 'press Take to take over'
+        if group in self.stations():
+            return 'press "Claim a robot" for a robot of your own, or ask the teacher'
+        return 'wait for them to release it, or ask the teacher'
+
+    def _released(self, group: str) -> str:
+        by = self.owners.released.get(group, {}).get('by', 'the teacher')
+        return f'{by} released {group}: it is not your robot any more; press "Claim a robot" for one'
 
     def topic_refusal(self, key: str | None, topic: str, type: str | None) -> str | None:
         """Why something new that person ``key`` starts (a playback) could not command ``topic``
@@ -152,6 +178,8 @@ class Lease:
         if holder is not None:
             return f'{who(holder)} is driving{where} (exclusive control); wait for "release"'
         owner = self.owners.owner(group)
+        if owner is None and self.owners.is_barred(group, key):
+            return self._released(group)
         if owner is not None and owner.person != key:
             return f'{group} is {owner.name}\'s station; claim a free robot, or ask the teacher'
         return None
@@ -179,6 +207,8 @@ class Lease:
         if stopper is not None and not admin:
             return f'{stopper} stopped {group}; press Take (send "take {group}") to drive it again, then run'
         owner = self.owners.owner(group)
+        if owner is None and self.owners.is_barred(group, key) and not admin:
+            return self._released(group)
         if owner is not None and owner.person != key and not self.may_take_over(role):
             return f'{group} is {owner.name}\'s station; claim a free robot, or ask the teacher'
         holder = self.holders.get(group)
@@ -205,7 +235,8 @@ class Lease:
         group = self.group_of_namespace(words[1]) if len(words) == 2 else ROOT
         holder = self.holders.get(group)
         owner = self.owners.owner(group)
-        mine = owner is None or owner.person == person(session)
+        barred = owner is None and self.owners.is_barred(group, person(session))
+        mine = (owner is None and not barred) or (owner is not None and owner.person == person(session))
         if verb == 'take-if-free':   # a page on its own station: never a stopped one, never another's
             if holder is None and mine and group not in self.halted:
                 self._grant(group, session)
@@ -233,12 +264,15 @@ class Lease:
                                     'only an admin can release it')
             return
         # take
+        if barred and not self._may_override(session):
+            raise ProtocolError(self._released(group))
         stopper = self.halted.get(group)
         if stopper is not None and not mine and not (self.takeover_role and self._may_override(session)):
             raise ProtocolError(f'{stopper} stopped {group}; only its owner ({owner.name}) can take it again, '
-                                'or an admin release it')
+                                'or an admin release it: press "Claim a robot" for your own')
         if not mine and not self._may_override(session):
-            raise ProtocolError(f'{group} is {owner.name}\'s station; only they or an admin can take it')
+            raise ProtocolError(f'{group} is {owner.name}\'s station; only they or an admin can take it: press '
+                                '"Claim a robot" for your own')
         if holder is session:
             self.halted.pop(group, None)
             self._announce()
@@ -255,10 +289,19 @@ class Lease:
             self._grant(group, session, by=session)
         else:
             raise ProtocolError(f'{who(holder)} is driving{"" if group == ROOT else " " + group}; '
-                                'only an admin can take over')
+                                f'only an admin can take over: {self._way_out(session, group)}')
 
-    def _grant(self, group: str, session, *, by=None, why: str = 'took over') -> None:
-        """Give the group's lease to session (None: free it); the previous holder stops moving."""
+    def free(self, group: str, by) -> None:
+        """A station given back (the teacher's Release, or its owner's): no holder and no stop."""
+        self.halted.pop(group, None)
+        holder = self.holders.get(group)
+        if holder is not None:
+            self._grant(group, None, by=None if holder is by else by, why='released')
+        self._announce()
+
+    def _grant(self, group: str, session, *, by=None, why: str = 'took over', quiet: bool = False) -> None:
+        """Give the group's lease to session (None: free it); the previous holder stops moving.
+        quiet: between two clients of one person, who are told nothing (they share her robot)."""
         previous = self.holders.get(group)
         self.lent.pop(group, None)
         if session is None:
@@ -272,7 +315,8 @@ class Lease:
             if by is not None and by is not previous:
                 previous.status('warning', f'{who(by)} {why} the driver lease{where}; your commands were stopped')
         if session is not None:
-            session.status('info', f'you hold the driver lease as client {session.id}{where}')
+            session.status('info', f'you hold the driver lease as client {session.id}{where}'
+                                   + (' (from another page of yours)' if quiet else ''))
         self._announce()
 
     def on_close(self, session) -> None:

@@ -13,9 +13,14 @@ While there are stations the gateway answers (std_srvs, knowing who calls):
   ``success`` false with the reason when none is free (a page then drives nothing);
 - ``/sNN/fleet/claim`` (Trigger): that station, if nobody else owns it (one station per person:
   your previous one is given back);
-- ``/sNN/fleet/release`` (Trigger): give it back (its owner, or an admin: the teacher's Release;
-  the owner's clients are told);
+- ``/sNN/fleet/release`` (Trigger): give it back (its owner, or an admin: the teacher's Release,
+  which also frees its driver lease and its stop in the same step; the owner's clients are told);
 - ``/fleet/release_all`` (Empty): every station free (an admin, with ``--auth``).
+
+The teacher's Release sticks as her Stop does: the person it was taken from is *barred* from that
+station (no command, no lease, no take of hers moves it) until she claims a station again. Without
+the bar a page of hers still open on it (a teleop page whose joystick was held) took the free
+station back on its next command, and the release was undone within a second.
 
 A claim holds for the lesson, through reloads, closed tabs and sleeping tablets, until its owner
 or the teacher releases it or none of the owner's clients has been connected for ``--claim-idle``
@@ -99,6 +104,7 @@ class Stations:
         self.gateway, self.types, self.idle, self.grace, self.admin_role = gateway, types, idle, grace, admin_role
         self.owners: dict[str, Owner] = {}
         self.released: dict[str, dict] = {}
+        self.barred: dict[str, str] = {}      # station -> the person the teacher released it from
         self._stations: tuple[str, ...] = ()
         self._stations_at = -float('inf')
         self._served: set[str] = set()
@@ -121,6 +127,10 @@ class Stations:
     def is_owner(self, session, station: str) -> bool:
         o = self.owners.get(station)
         return o is not None and o.person == person(session)
+
+    def is_barred(self, station: str, key: str) -> bool:
+        """Whether person ``key`` lost ``station`` to the teacher's Release and has not claimed since."""
+        return self.barred.get(station) == key
 
     def in_use(self, station: str, key: str) -> bool:
         """Whether a client of another person publishes on one of the station's topics, or
@@ -163,8 +173,11 @@ class Stations:
         o = self.owners.get(station)
         name = session.attrs.get('name') or f'client {session.id}'
         if o is None:
-            self.owners[station] = Owner(person(session), name, round(time.time(), 3), time.monotonic())
+            key = person(session)
+            self.owners[station] = Owner(key, name, round(time.time(), 3), time.monotonic())
             self.released.pop(station, None)
+            for ns in [ns for ns, p in self.barred.items() if p == key or ns == station]:
+                del self.barred[ns]     # she claimed again: the teacher's Release is behind her
         else:
             o.name, o.seen = name, time.monotonic()
         self._announce()
@@ -173,24 +186,39 @@ class Stations:
     def release(self, session, station: str) -> dict:
         o = self.owners.get(station)
         if o is None:
+            if self._may_release(session):
+                self._free_lease(session, station)
             return {'success': False, 'message': f'{station} was not claimed'}
         if o.person != person(session):
             if not self._may_release(session):
                 raise ProtocolError(f'{station} is {o.name}\'s station; only they or an admin can release it')
             by = session.attrs.get('name') or f'client {session.id}'
             self.released[station] = {'by': by, 'at': round(time.time(), 3)}
+            self.barred[station] = o.person
             for s in self._clients_of(o.person):
-                s.status('warning', f'{by} released {station}: it is no longer your station')
+                s.status('warning', f'{by} released {station}: it is not your robot any more; press '
+                                    '"Claim a robot" for one')
         del self.owners[station]
-        self._announce()
+        self._announce()                     # first: her pages learn it is not hers before it is free
+        self._free_lease(session, station)
         return {'success': True, 'message': station}
 
     def release_all(self, session) -> dict:
         if not self._may_release(session):
             raise ProtocolError('only an admin can release every station')
-        for station in list(self.owners):
-            self.release(session, station)
+        for station in self.stations():
+            if station in self.owners:
+                self.release(session, station)
+            else:
+                self._free_lease(session, station)
         return {}
+
+    def _free_lease(self, session, station: str) -> None:
+        """The station's driver lease and stop go with its claim, in the same step: a page of the
+        old owner must not find it held by nobody and owned by nobody in between."""
+        lease = getattr(self.gateway.policy, 'lease', None)
+        if lease is not None:
+            lease.free(station, session)
 
     def _may_release(self, session) -> bool:
         return self.admin_role is None or session.attrs.get('role') == self.admin_role

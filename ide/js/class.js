@@ -127,10 +127,12 @@ class Tile {
   }
 
   show() {
-    const r = this.report;
     const d = view.lease.holderOf(this.ns);
     const owner = view.owners[this.ns]?.name;
     const halted = view.lease.info?.halted?.[this.ns];
+    // the present only: a free station shows no program (the last class's is gone), and a report
+    // is shown only when it is the owner's (not what another student's page left on this station)
+    const r = (owner || d) && (!owner || !this.report?.user || this.report.user === owner) ? this.report : null;
     let text;
     if (d && (!owner || d.owner)) text = `${d.run && owner ? `${owner}'s run` : d.name} drives`;
     else if (d) text = `${owner}'s station · ${d.name} drives`;
@@ -167,9 +169,18 @@ function stop(ns) {
   });
 }
 
+// Release: on a fleet the gateway frees the claim, the lease and a stop in one step, and the
+// student's pages keep off it until she claims again; elsewhere the lease alone is freed.
 function release(ns) {
-  if (view.lease.available) view.lease.command(`release ${ns}`);
-  if (view.services.includes(`${ns}/fleet/release`)) call(`${ns}/fleet/release`).catch(() => {});
+  if (view.services.includes(`${ns}/fleet/release`)) call(`${ns}/fleet/release`).catch((e) => notice(`Release ${ns}: ${e.message}`));
+  else if (view.lease.available) view.lease.command(`release ${ns}`);
+}
+
+// A station in use: someone's, driven, or running a program. Stop all leaves the others ready
+// (a stop would hold until Take, and the next student to claim one would find it stopped).
+function inUse(tile) {
+  const ns = tile.ns;
+  return Boolean(view.owners[ns] || view.lease.holderOf(ns) || ['running', 'paused'].includes(tile.report?.state));
 }
 
 function setup() {
@@ -178,10 +189,11 @@ function setup() {
     const listed = view.lease.info?.stations ?? [];
     if (listed.some((ns) => !view.tiles.has(ns))) show(listed);
   });
-  $('#stop-all').onclick = () => { for (const ns of view.tiles.keys()) stop(ns); };
+  $('#stop-all').onclick = () => { for (const t of view.tiles.values()) if (inUse(t)) stop(t.ns); };
   $('#release-all').onclick = () => {
-    for (const ns of view.tiles.keys()) if (view.lease.available) view.lease.command(`release ${ns}`);
-    if (view.services.includes('/fleet/release_all')) call('/fleet/release_all').catch(() => {});
+    if (!confirm('Release every station? Each student loses her robot until she claims one again.')) return;
+    if (view.services.includes('/fleet/release_all')) call('/fleet/release_all').catch((e) => notice(`Release all: ${e.message}`));
+    else if (view.lease.available) for (const ns of view.tiles.keys()) view.lease.command(`release ${ns}`);
   };
   setInterval(() => { if (view.ros?.isConnected) refresh(); }, REFRESH);
 }

@@ -18,13 +18,25 @@ export class Console {
       div.append(' ', a);
       div.dataset.block = blockId;
     }
+    const box = this.scroller();
+    const following = !box || box.scrollHeight - box.scrollTop - box.clientHeight < 24;
     this.el.append(div);
     while (this.el.childElementCount > this.max) this.el.firstElementChild.remove();
-    this.el.scrollTop = this.el.scrollHeight;
+    if (box && following) box.scrollTop = box.scrollHeight;   // the newest line in sight, unless the reader scrolled up
+  }
+
+  // The element that scrolls (the lines' box, #console): setting the lines' own scrollTop did nothing.
+  scroller() {
+    for (let el = this.el; el; el = el.parentElement) {
+      if (/auto|scroll/.test(getComputedStyle(el).overflowY)) return el;
+    }
+    return null;
   }
 
   log(text, level) { this._line(text, level === 'error' ? 'error' : 'log'); }
   info(text) { this._line(text, 'info'); }
+  // A note the student must read that is no error of her program (the teacher's stop, no robot).
+  warn(text) { this._line(text, 'warn'); }
   error(text, blockId) { this._line(text, 'error', blockId); }
   clear() { this.el.replaceChildren(); }
 

@@ -11,7 +11,7 @@ export const DRIVER_TOPIC = '/rosgate/driver';
 const CONTROL_TOPIC = '/rosgate/control';
 const STRING = 'std_msgs/msg/String';
 const HOLDER = /you hold the driver lease as client (\d+)/;
-const REFUSED = /^publish(?: \(id [^)]*\))?: [^:\s]+: (.* (?:is driving|stopped) .*)$/s;
+const REFUSED = /^publish(?: \(id [^)]*\))?: [^:\s]+: (.* (?:is driving|stopped|released|station)\b.*)$/s;
 
 // The lease group of a robot namespace, given the gateway's announcement.
 export function groupOf(ns, info) {

@@ -131,7 +131,8 @@ async function start() {
   pyGen.scope = scope;
   const robotNs = bindNamespace({
     call: (service, args) => graph.call(service, args),
-    onError: (text) => consoleView.error(text),
+    onError: (text) => consoleView.warn(text),
+    onState: () => banner(),
     onChange: (ns) => {
       ide.ns = ns;
       world.setTopic(withNamespace(ns, '/world/markers'));
@@ -147,6 +148,13 @@ async function start() {
   ide.lease = lease;
   bindDriverBadge(lease);
   robotNs.follow(lease);
+  // the banner under the bar: what holds this robot (released, stopped, no robot), as on teleop
+  const banner = () => {
+    const why = robotNs.banner();
+    $('#notice').textContent = why;
+    $('#notice').hidden = !why;
+  };
+  lease.addEventListener('change', banner);
   lease.addEventListener('refused', () => {
     $('#driver').classList.add('refused');
     setTimeout(() => $('#driver').classList.remove('refused'), 3000);
@@ -199,13 +207,14 @@ async function start() {
   runner.addEventListener('state', (e) => { document.body.dataset.run = e.detail; });
   lease.addEventListener('stop', () => {
     runner.stop();
-    consoleView.error(`Stopped by the teacher: ${ide.ns || 'this robot'} stays still until you press Take.`);
+    consoleView.warn(`Stopped by the teacher: ${ide.ns || 'this robot'} stays still until you press Take.`);
   });
   ide.report = reportProgram(ide, { workspace, runner, consoleEl: $('#console-lines') });
+  $('#take').addEventListener('click', () => ide.report.clear());   // her Take: the tile's error is behind her
   document.body.dataset.run = 'idle';
   // a program drives only this person's robot, and not while the teacher's stop holds: said here
   // once per press, not as an error of the program's blocks
-  const mayDrive = () => { const why = robotNs.whyNot(); if (why) consoleView.error(why); return !why; };
+  const mayDrive = () => { const why = robotNs.whyNot(); if (why) consoleView.warn(why); return !why; };
   $('#run').onclick = () => mayDrive() && (runner.state === 'paused' ? runner.resume() : runner.run());
   $('#pause').onclick = () => runner.pause();
   $('#step').onclick = () => mayDrive() && runner.step();
@@ -249,6 +258,7 @@ async function start() {
     ide.robot = p.robot || 'any';
     $('#name').value = ide.programName;
     runner.clearErrors();
+    ide.report?.clear();
     updateCode();
     storage.autosave(program());
   };

@@ -2,6 +2,9 @@
 // std_msgs/String on NS/rosgate/program carrying JSON {user, name, state, error, program, at}
 // (state: idle | running | paused; error: the last error line; program: the workspace, so the
 // teacher can open it read-only). Sent on every run state change and, debounced, on edits.
+// The error is the present one: cleared by a run, a Take (the page drives again), a new program
+// and a change of station (an error about /s01 is never reported on /s02); the teacher's stop and
+// the page's own notes (console warnings) are not errors.
 import { withNamespace } from '../runtime/util.js';
 
 const TYPE = 'std_msgs/msg/String';
@@ -23,7 +26,13 @@ export function reportProgram(ide, { workspace, runner, consoleEl }) {
     if (!r?.isConnected) return;
     const t = withNamespace(ide.ns, '/rosgate/program');
     if (r !== ros || t !== topic) {
-      if (ros?.isConnected && topic) ros.callOnConnection({ op: 'unadvertise', topic, id: `advertise:${topic}:report` });
+      if (t !== topic) lastError = '';
+      if (ros?.isConnected && topic) {
+        if (t !== topic) {   // the station left behind keeps no program of this page's
+          ros.callOnConnection({ op: 'publish', topic, msg: { data: JSON.stringify({ user, name: '', state: 'none', error: '', program: null, at: Date.now() / 1000 }) } });
+        }
+        ros.callOnConnection({ op: 'unadvertise', topic, id: `advertise:${topic}:report` });
+      }
       ros = r;
       topic = t;
       r.callOnConnection({ op: 'advertise', topic, type: TYPE, latch: true, id: `advertise:${topic}:report` });
@@ -40,6 +49,12 @@ export function reportProgram(ide, { workspace, runner, consoleEl }) {
     send();
   });
   workspace.addChangeListener((e) => { if (!e.isUiEvent) soon(); });
+  let driving = false;      // the page (or another of this person's) drives: a Take clears the error
+  ide.lease?.addEventListener('change', () => {
+    const now = ['you', 'yours'].includes(ide.lease.state);
+    if (now && !driving && lastError) { lastError = ''; send(); }
+    driving = now;
+  });
   new MutationObserver((records) => {
     for (const rec of records) {
       for (const node of rec.addedNodes) {
@@ -53,5 +68,7 @@ export function reportProgram(ide, { workspace, runner, consoleEl }) {
   setInterval(() => {       // a new connection or robot: report at once
     if (ide.ros?.isConnected && (ide.ros !== ros || withNamespace(ide.ns, '/rosgate/program') !== topic)) send();
   }, 1000);
-  return { send };
+  // A new program: what went wrong with the last one is behind.
+  const clear = () => { lastError = ''; send(); };
+  return { send, clear };
 }

@@ -7,7 +7,9 @@
 // is free the page says so and drives nothing. Without stations the namespace comes from ?ns= or
 // what this browser remembered. Under the driver lease (--exclusive-control) the page takes its
 // own station's lease when it is free, never after the teacher's Stop (only Take resumes), and
-// says who holds a station that is not its own.
+// says who holds a station that is not its own. After the teacher's Release the page drives
+// nothing and says so (its banner) until this person claims a station again: her other pages
+// left open had taken the released station back on their next command.
 import { normNamespace } from '../runtime/util.js';
 
 export const CLAIM_SERVICE = '/fleet/claim';
@@ -16,6 +18,7 @@ const KEY = 'rosgate.ns';
 const BROWSER_KEY = 'rosgate.browser';
 const BROWSER_COOKIE = 'rosgate_browser';
 const BROWSER_ID = /^[A-Za-z0-9_-]{8,64}$/;
+export const STOPPED = 'Stopped by the teacher: this robot stays still until you press Take.';
 
 export function loadNamespace(search = location.search) {
   const fromUrl = new URLSearchParams(search).get('ns');
@@ -57,7 +60,7 @@ export function urlWithNamespace(ns, href = location.href) {
  * onError(text) tells the person (console or notice).
  * Returns {get(), set(ns), claim(), claimable(bool), attach(ros), follow(lease), whyNot(), mine, fleet}.
  */
-export function bindNamespace({ call, onChange, onError = () => {}, $ = (s) => document.querySelector(s) }) {
+export function bindNamespace({ call, onChange, onError = () => {}, onState = () => {}, $ = (s) => document.querySelector(s) }) {
   browserId();
   const asked = normNamespace(new URLSearchParams(location.search).get('ns'));   // a station asked for
   let ns = loadNamespace();
@@ -65,6 +68,7 @@ export function bindNamespace({ call, onChange, onError = () => {}, $ = (s) => d
   let known = false;          // ... and this page knows whether it does
   let mine = '';              // the station the gateway says is this person's
   let none = '';              // why this person has no station ('' : not known to be so)
+  let released = '';          // the teacher released this person's station: what the page says until a claim
   let lease = null;
   let ros = null;
   const followers = [];
@@ -89,8 +93,10 @@ export function bindNamespace({ call, onChange, onError = () => {}, $ = (s) => d
     if (r.success) {
       mine = normNamespace(r.message);
       none = '';
+      released = '';
       set(mine);
       for (const f of followers) f(ns);
+      onState();
       return;
     }
     if (target) {             // another person's: this page may watch it, not drive it
@@ -102,17 +108,21 @@ export function bindNamespace({ call, onChange, onError = () => {}, $ = (s) => d
     none = r.message || 'no robot is free';
     set('');
     onError(`No robot for you: ${none}. This page drives nothing until you have one ("Claim a robot").`);
+    onState();
   };
   input.addEventListener('change', () => (fleet ? claim(normNamespace(input.value)) : set(input.value)));
   $('#claim').onclick = () => claim();
   // what the gateway says about stations: a station of this person released by the teacher
+  // (it holds like the teacher's Stop: no page of hers drives it until she claims a robot again)
   const onStations = (info) => {
     if (!mine || info.owners?.[mine]) return;
     const by = info.released?.[mine]?.by;
-    onError(`${by ? `${by} released ${mine}` : `${mine} is no longer kept for you`}: it is not your robot any more. `
-      + 'Press "Claim a robot" for one.');
+    released = `${by ? `${by} released ${mine}` : `${mine} is no longer kept for you`}: it is not your robot any more. `
+      + 'Press "Claim a robot" for one.';
+    onError(released);
     mine = '';
     for (const f of followers) f(ns);
+    onState();
   };
   const self = {
     get: () => ns,
@@ -120,6 +130,8 @@ export function bindNamespace({ call, onChange, onError = () => {}, $ = (s) => d
     claim,
     get fleet() { return fleet; },
     get mine() { return mine; },
+    // Why this page drives nothing at all until a claim ('' : it may): released, or no robot.
+    get lost() { return fleet && !mine ? (released || (none ? `No robot for you: ${none}.` : '')) : ''; },
     // The gateway hands out stations: show Claim, and ask for this person's station once.
     claimable: (yes) => {
       const first = !known;
@@ -137,8 +149,12 @@ export function bindNamespace({ call, onChange, onError = () => {}, $ = (s) => d
       });
       ros.callOnConnection({ op: 'subscribe', id: `subscribe:${STATIONS_TOPIC}:ns`, topic: STATIONS_TOPIC, type: 'std_msgs/msg/String' });
     },
+    // What the page's banner says while it holds (the IDE and the teleop page say the same):
+    // released, no robot, or the teacher's stop until Take ('' : nothing holds this robot).
+    banner: () => self.lost || (lease?.halted && lease.state !== 'you' ? STOPPED : ''),
     // Why this page may not drive now ('' : it may): no robot of its own, another's, stopped.
     whyNot: () => {
+      if (fleet && released && !mine) return released;
       if (fleet && !ns) return none ? `No robot for you: ${none}.` : 'No robot yet: press "Claim a robot".';
       if (lease?.halted && lease.state !== 'you') {
         return `The teacher stopped ${ns || 'this robot'}: press Take to drive it again.`;

@@ -33,7 +33,7 @@ export class Runner extends EventTarget {
     this.errors.clear();
   }
 
-  async run({ paused = false } = {}) {
+  async run({ paused = false, step = false } = {}) {
     if (this.rt) this.stop();
     const ros = this.getRos();
     if (!ros?.isConnected) {
@@ -55,12 +55,14 @@ export class Runner extends EventTarget {
       log: (text, level) => this.console.log(text, level),
       highlight: (id) => { if (this.rt === rt) this.workspace.highlightBlock(id); },
       error: (e, id) => this._error(rt, e, id),
-      held: (id) => { if (this.rt === rt) { this.heldAt = id; this.dispatchEvent(new CustomEvent('held', { detail: id })); } },
+      held: (id) => this._held(rt, id),
     }, { namespace: this.getNamespace() });
     this.rt = rt;
     if (paused) rt.pause();
-    this._setState(paused ? 'paused' : 'running');
-    this.console.info(paused ? `▷ run ${run}, step by step: Step runs the highlighted block, ▶ Run goes on`
+    this.pendingStep = step;                 // the first Step runs the first block too
+    if (step) rt.stepOnce();
+    this._setState(paused || step ? 'paused' : 'running');
+    this.console.info(paused || step ? `▷ run ${run}, step by step: Step runs the highlighted block, ▶ Run goes on`
       : `▶ run ${run}`);
     const loose = this.loose().length;
     if (loose) this.console.info(`${loose} loose block${loose > 1 ? 's' : ''} skipped (grey: not plugged into anything)`);
@@ -87,6 +89,25 @@ export class Runner extends EventTarget {
     }
   }
 
+  // The program holds before a block. While stepping it does not hold at a block that only holds
+  // others (a loop, an if): a press of Step moves a block that does something, the first press too.
+  _held(rt, id) {
+    if (this.rt !== rt) return;
+    const block = this.workspace.getBlockById(id);
+    if (rt.stepping && block?.inputList.some((i) => i.connection?.type === Blockly.ConnectionType.NEXT_STATEMENT)) {
+      rt.stepOnce();
+      return;
+    }
+    if (this.pendingStep) {
+      this.pendingStep = false;
+      this.console.info(`▷ step${block ? `: ${blockText(block)}` : ''}`);
+      rt.stepOnce();
+      return;
+    }
+    this.heldAt = id;
+    this.dispatchEvent(new CustomEvent('held', { detail: id }));
+  }
+
   _error(rt, e, blockId) {
     if (this.rt !== rt || rt.stopped) return;
     const block = blockId ? this.workspace.getBlockById(blockId) : null;
@@ -108,6 +129,7 @@ export class Runner extends EventTarget {
     if (this.rt === rt) {
       this.rt = null;
       this.heldAt = null;
+      this.pendingStep = false;
       this.workspace.highlightBlock(null);
       this._setState('idle');
       this.console.info(text);
@@ -137,9 +159,9 @@ export class Runner extends EventTarget {
   }
 
   // Runs the highlighted block to its end (a move, a wait), then holds before the next one
-  // with the robot stopped; the first Step starts a paused run.
+  // with the robot stopped; the first Step starts a run and runs its first block.
   step() {
-    if (!this.rt) { this.run({ paused: true }); return; }
+    if (!this.rt) { this.run({ step: true }); return; }
     const block = this.heldAt ? this.workspace.getBlockById(this.heldAt) : null;
     this.console.info(`▷ step${block ? `: ${blockText(block)}` : ''}`);
     this.heldAt = null;

@@ -1,12 +1,17 @@
 // The teleop page: joystick, keys and buttons publish a velocity at a fixed rate while
-// held and zero on release, within the robot's own limits (its node parameters); gauges,
-// camera and history plots show what the robot reports. On a fleet the page drives only a
-// station of its own (claimed, or picked and free).
+// held and zero on release, within the robot's own limits (its node parameters); a world view,
+// gauges, camera and history plots show what the robot reports (the world, camera and gauges
+// only where their topics exist: a turtlesim lesson on a phone had a black camera and empty
+// gauges, and no turtle). On a fleet the page drives only a station of its own (claimed, or
+// picked and free), and nothing after the teacher's Release until a new claim.
 import nipplejs from 'nipplejs';
 import { field, zeroVelocity, withNamespace } from '../runtime/util.js';
 import { DriverLease, bindDriverBadge, DRIVER_TOPIC } from './driver.js';
-import { bindNamespace, CLAIM_SERVICE } from './robotns.js';
+import { bindNamespace, CLAIM_SERVICE, STOPPED } from './robotns.js';
 import { gauge, History, SAMPLE_EVERY } from './dashboard.js';
+import { WorldView } from './worldview.js';
+import { bindSpan } from './history.js';
+import { HomeEstimate } from './gohome.js';
 import { Link } from './link.js';
 
 const $ = (s) => document.querySelector(s);
@@ -27,6 +32,8 @@ const state = {
 window.teleop = state;
 window.teleopGauge = gauge;   // for tests of the warning colours
 const lease = new DriverLease();
+const home = new HomeEstimate(document.querySelector('#home'));   // enough charge to drive back?
+state.home = home;
 state.lease = lease;
 
 // ---- connection -----------------------------------------------------------
@@ -89,6 +96,7 @@ async function onConnected() {
     const { topics, types } = await callRosapi('/rosapi/topics');
     if (topics.includes(DRIVER_TOPIC)) lease.watch();
     const ns = state.robotNs.get();
+    showWhatTheRobotHas(topics, ns);
     if (fleet && !ns) {
       block('Claiming a robot of this fleet… (or type a station such as /s01 under "robot")');
       resubscribe();
@@ -108,6 +116,26 @@ async function onConnected() {
     await applyLimits();
   } catch { /* rosapi unavailable: keep the defaults */ }
   resubscribe();
+}
+
+// ---- what the robot has: a world view where it publishes markers (turtlesim, the rover, a real
+// robot with /world/markers), the camera and gauges only where their topics exist -----------------
+function showWhatTheRobotHas(topics, ns) {
+  const has = (t) => topics.includes(t);
+  const world = withNamespace(ns, '/world/markers');
+  const camera = has($('#camera-topic').value.trim());
+  $('#world-card').hidden = !has(world);
+  document.body.toggleAttribute('data-world', has(world) && !camera);   // the world in the camera's place
+  if (has(world)) {
+    if (!state.world) state.world = new WorldView($('#world'), world);
+    state.world.setTopic(world);
+    state.world.attach(state.ros);
+  }
+  $('#camera-card').hidden = !camera;
+  const gauges = { '#g-battery': $('#battery-topic').value.trim(), '#g-left': withNamespace(ns, '/motor/left/temperature'),
+    '#g-right': withNamespace(ns, '/motor/right/temperature') };
+  for (const [el, topic] of Object.entries(gauges)) $(el).hidden = !has(topic);
+  $('#battery-card').hidden = !Object.values(gauges).some(has);
 }
 
 // ---- the robot's limits: the node that takes the velocity topic says them ------------------
@@ -182,7 +210,7 @@ function twist(lin, ang) {
 
 function publish(lin, ang) {
   const ros = state.ros;
-  if (!ros?.isConnected || state.blocked) return;
+  if (!ros?.isConnected || state.blocked || state.robotNs.lost) return;
   const topic = $('#topic').value.trim();
   const type = $('#msgtype').value;
   if (state.advertised !== `${topic} ${type}`) {
@@ -277,10 +305,12 @@ function resubscribe() {
   subscribe($('#battery-topic').value, 'sensor_msgs/msg/BatteryState', showBattery, { throttle_rate: 500, queue_length: 1 });
   subscribe($('#camera-topic').value, 'sensor_msgs/msg/CompressedImage', showImage, { throttle_rate: 200, queue_length: 1 });
   for (const s of dash.history.series) if (s.topic) subscribePlot(s);
+  subscribe(withNamespace(state.robotNs.get(), '/odom'), 'nav_msgs/msg/Odometry', (m) => home.odom(m), { throttle_rate: 200, queue_length: 1 });
 }
 
 function showBattery(msg) {
   state.battery = msg;
+  home.battery(msg);
   const pct = Number.isFinite(msg.percentage) ? msg.percentage * 100 : null;
   dash.gauges.battery.set(pct ?? NaN);
   dash.series.battery.last = pct;
@@ -333,6 +363,10 @@ function setupDashboard() {
   addSeries({ id: 'right', label: 'right motor', unit: '°C', topic: ns('/motor/right/temperature'), path: 'temperature', type: 'sensor_msgs/msg/Temperature' });
   addSeries({ id: 'speed', label: 'speed', unit: 'm/s', topic: ns('/odom'), path: 'twist.twist.linear.x', type: 'nav_msgs/msg/Odometry' });
   addSeries({ id: 'battery', label: 'battery', unit: '%' });
+  const loadSpan = bindSpan($('#plot-span'), dash.history, () => [
+    ...dash.history.series.filter((s) => s.topic && s.path).map((s) => ({ id: s.id, topic: s.topic, field: s.path })),
+    { id: 'battery', topic: $('#battery-topic').value, field: 'percentage', scale: 100 }]);
+  loadSpan();
   setInterval(() => dash.history.sample(), SAMPLE_EVERY);
   setInterval(() => dash.history.save(), 5000);
   addEventListener('pagehide', () => dash.history.save());
@@ -353,14 +387,28 @@ function setupRobot() {
     call: callRosapi,
     onChange: () => { stopAll(); location.reload(); },
     onError: (text) => { stopAll(); showNotice(text); },
+    onState: () => banner(),
   });
   const ns = (name) => withNamespace(state.robotNs.get(), name);
   for (const el of ['#topic', '#battery-topic', '#camera-topic']) $(el).value = ns($(el).value);
+  if (state.robotNs.get()) $('#twin-link').search = `?ns=${encodeURIComponent(state.robotNs.get())}`;
   bindDriverBadge(lease);
   state.robotNs.follow(lease);
   lease.addEventListener('refused', (e) => showNotice(`Your commands are refused: ${e.detail}`));
-  lease.addEventListener('change', () => { if (lease.state !== 'other' && !state.blocked) showNotice(''); });
-  lease.addEventListener('stop', () => { stopAll(); showNotice('Stopped by the teacher: this robot stays still until you press Take.'); });
+  lease.addEventListener('change', () => { if (!banner() && lease.state !== 'other' && !state.blocked) showNotice(''); });
+  lease.addEventListener('stop', () => { stopAll(); showNotice(STOPPED); });
+}
+
+// What holds this robot still until the student acts (released, stopped, no robot): said for as
+// long as it holds, as the IDE's banner says it. Returns the text ('' : nothing holds it).
+function banner() {
+  const why = state.robotNs.banner();
+  if (why) { if (state.timer || active()) stopAll(); showNotice(why); }
+  if (state.robotNs.lost && state.advertised && state.ros?.isConnected) {   // not hers: leave it to the next student
+    state.ros.callOnConnection({ op: 'unadvertise', topic: state.advertised.split(' ')[0], id: `advertise:${state.advertised.split(' ')[0]}:teleop` });
+    state.advertised = '';
+  }
+  return why;
 }
 
 function showNotice(text) {

@@ -112,9 +112,13 @@ def test_teacher_sees_stops_and_releases_stations(fleet, ide_factory, chromium):
         ide.page.wait_for_function("/teacher released \\/s01/.test(document.querySelector('#console-lines').textContent)")
         assert ide.js("rosgateIde.robotNs.mine") == ""
 
-        # stop all: every station stopped (the gateway says when)
+        # stop all: every station in use stopped (the gateway says when); a free one stays ready
+        assert ros.call("/s02/fleet/claim", "std_srvs/srv/Trigger")["success"]
+        page.wait_for_function("classView.owners['/s02']")
         page.click("#stop-all")
-        page.wait_for_function("['/s01', '/s02', '/s03'].every((ns) => classView.lease.info.stopped[ns])")
+        page.wait_for_function("classView.lease.info.stopped['/s02']")
+        ros.call("/rosapi/get_time", "rosapi/srv/GetTime")
+        assert page.evaluate("['/s01', '/s03'].filter((ns) => classView.lease.info.halted[ns])") == []
         page.screenshot(path=str(ARTIFACTS / "class-tablet.png"))
         page.set_viewport_size(PHONE)
         page.wait_for_function("document.querySelector('article.tile').getBoundingClientRect().width < 390")

@@ -257,12 +257,12 @@ def test_step_pause_and_resume(turtle_gateway, turtle_ros, ide_factory):
     ide.js("(p) => rosgateIde.loadProgram(p)", program(ex.seq(
         {**ex.log(ex.text("a")), "id": "A"}, {**ex.log(ex.text("b")), "id": "B"}, {**ex.log(ex.text("c")), "id": "C"})))
     highlighted = "rosgateIde.runner.rt && rosgateIde.runner.rt.current"
-    ide.page.click("#step")
-    ide.page.wait_for_function(f"{highlighted} === 'A'")
-    assert ide.js("document.body.dataset.run") == "paused" and ide.logs() == []
-    ide.page.click("#step")
+    ide.page.click("#step")                     # the first press runs the first block
     ide.page.wait_for_function(f"{highlighted} === 'B'")
-    assert ide.logs() == ["a"]
+    assert ide.js("document.body.dataset.run") == "paused" and ide.logs() == ["a"]
+    ide.page.click("#step")
+    ide.page.wait_for_function(f"{highlighted} === 'C'")
+    assert ide.logs() == ["a", "b"]
     ide.page.click("#run")                      # resume
     ide.wait_idle(timeout=5)
     assert ide.logs() == ["a", "b", "c"]

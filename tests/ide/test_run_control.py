@@ -113,10 +113,10 @@ def test_step_runs_one_whole_block_then_holds(turtle_gateway, turtle_ros, ide_fa
         ide.page.wait_for_function("(id) => rosgateIde.runner.heldAt === id", arg=block_id, timeout=30000)
         assert ide.js("document.body.dataset.run") == "paused"
 
-    step_to(ids["pen"])                  # the first Step starts a paused run
-    step_to(ids["repeat"])               # the pen block ran
-    step_to(ids["move"])                 # into the loop
     start = pose_xy(pose)
+    step_to(ids["move"])                 # the first Step runs the pen block; the loop itself is no step
+    assert pose_xy(pose) == start
+    assert "▷ step: " in ide.console_text()
     t0 = time.monotonic()
     step_to(ids["turn"])                 # the whole move: 3 m, then it holds with the robot stopped
     wait_for(lambda: (pose.latest() or {}).get("linear_velocity", 1) == 0, what="the turtle halted")
@@ -125,10 +125,9 @@ def test_step_runs_one_whole_block_then_holds(turtle_gateway, turtle_ros, ide_fa
     assert abs(moved - 3) < 0.1, f"one Step moved the turtle {moved:.3f} m, not 3"
     assert any(m["linear"]["x"] == 0 and m["angular"]["z"] == 0 for t, m in cmd.since(t0))
     theta0 = pose.latest()["theta"]
-    step_to(ids["repeat"])               # the whole turn: 90 degrees; the loop block shows its next round
+    step_to(ids["move"])                 # the whole turn: 90 degrees, then the next round's move holds
     turned = (pose.latest()["theta"] - theta0 + math.pi) % (2 * math.pi) - math.pi
     assert abs(math.degrees(turned) - 90) < 2, math.degrees(turned)
-    step_to(ids["move"])                 # the second side's move holds before it starts
     assert math.hypot(pose_xy(pose)[0] - end[0], pose_xy(pose)[1] - end[1]) < 0.01
     ide.page.click("#stop")
     ide.wait_idle()
@@ -149,10 +148,7 @@ def test_step_runs_a_whole_block_while_a_handler_runs(turtle_gateway, turtle_ros
         handler, ex.seq(move, {**ex.log(ex.text("moved")), "id": "after"}),
         variables={"msg": "v-msg", "n": "v-n"}))
     start = wait_for(lambda: pose_xy(pose), what="a pose")
-    ide.page.click("#step")                         # a paused run: main holds before the move
-    ide.page.wait_for_function("rosgateIde.runner.rt && rosgateIde.runner.rt.paused")
-    wait_for(lambda: ide.js("rosgateIde.runner.heldAt") is not None, what="the program holding")
-    ide.page.click("#step")                         # the whole move, with the handler stepping too
+    ide.page.click("#step")                         # the first press: the whole move, the handler stepping too
     wait_for(lambda: math.hypot(pose_xy(pose)[0] - start[0], pose_xy(pose)[1] - start[1]) > 1.95,
              timeout=30, what="one Step moving the turtle the whole 2 m")
     wait_for(lambda: (pose.latest() or {}).get("linear_velocity", 1) == 0, what="the turtle halted")
