@@ -107,6 +107,7 @@ OBJ, OBJ_REQ = Check(_obj), Check(_obj, True)
 ARGS = Check(_obj_or_list)
 ANY = Check(_any)
 NONNEG = Check(_integer(0))
+STAMP = Check(_number(0.0, 2.0**53))   # a client's clock in ms (rosgate's extension: docs/protocol.md)
 FRAGMENT_SIZE = Check(_integer(1))
 COMPRESSION = Check(_enum(*COMPRESSIONS))
 
@@ -136,13 +137,14 @@ class Unadvertise:
 class Publish:
     OP: ClassVar[str] = 'publish'
     SPEC: ClassVar = {'topic': STR_REQ, 'msg': OBJ_REQ, 'id': ID, 'latch': BOOL, 'queue_size': NONNEG,
-                      'type': STR}
+                      'type': STR, 't': STAMP}
     topic: str
     msg: dict
     id: str | None = None
     latch: bool = False
     queue_size: int = 100
     type: str | None = None
+    t: float | None = None   # when the client made it, its clock in ms (extension; others ignore it)
 
 
 @dataclass(frozen=True, slots=True)
@@ -305,6 +307,17 @@ class Fragment:
 
 
 @dataclass(frozen=True, slots=True)
+class Ping:
+    """rosgate's extension (docs/protocol.md): answered at once with a ``pong`` carrying the same
+    ``id`` and ``t``, so a page sees its round trip and that the link is alive, and the gateway
+    learns the client's clock (``t``, ms) before its first stamped command."""
+    OP: ClassVar[str] = 'ping'
+    SPEC: ClassVar = {'id': ID, 't': STAMP}
+    id: str | None = None
+    t: float | None = None
+
+
+@dataclass(frozen=True, slots=True)
 class Png:
     """A png-compressed op (rosbridge sends these to clients; accepted in for symmetry)."""
     OP: ClassVar[str] = 'png'
@@ -318,11 +331,11 @@ class Png:
 OPS: dict[str, type] = {cls.OP: cls for cls in (
     Advertise, Unadvertise, Publish, Subscribe, Unsubscribe, CallService, ServiceResponse,
     AdvertiseService, UnadvertiseService, AdvertiseAction, UnadvertiseAction, SendActionGoal,
-    CancelActionGoal, ActionFeedback, ActionResult, SetLevel, Auth, Fragment, Png)}
+    CancelActionGoal, ActionFeedback, ActionResult, SetLevel, Auth, Fragment, Png, Ping)}
 
 Op = (Advertise | Unadvertise | Publish | Subscribe | Unsubscribe | CallService | ServiceResponse
       | AdvertiseService | UnadvertiseService | AdvertiseAction | UnadvertiseAction | SendActionGoal
-      | CancelActionGoal | ActionFeedback | ActionResult | SetLevel | Auth | Fragment | Png)
+      | CancelActionGoal | ActionFeedback | ActionResult | SetLevel | Auth | Fragment | Png | Ping)
 
 
 def peek_id(obj: object) -> str | None:

@@ -2,7 +2,7 @@
 
 Each incoming message is encoded at most once per (compression, fragment_size) and the same
 frames are queued to every subscriber's outbox; throttle_rate and queue_length are applied per
-subscriber at its queue.
+subscriber at its queue (a throttled MarkerArray stream is merged rather than thinned: markers.py).
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import itertools
 import time
 from typing import TYPE_CHECKING, Any
 
-from . import encode
+from . import encode, markers
 
 if TYPE_CHECKING:
     from .session import ClientSession
@@ -61,6 +61,7 @@ class TopicFanout:
         self.msgdef = backend.msg_def(type)
         self.subscribers: dict[int, Subscriber] = {}
         self.last: dict | None = None
+        self.merges = type == markers.MARKER_ARRAY   # throttled: merged, not dropped (markers.py)
         self.handle = backend.subscribe(topic, type, self._on_message, cdr=True)
         self._cdr_wanted = False    # a subscriber takes cbor-raw: the backend keeps the CDR as received
 
@@ -136,7 +137,10 @@ class TopicFanout:
         for sub in tuple(self.subscribers.values()):
             if sub.throttle:
                 if now - sub.last_sent < sub.throttle:
-                    sub.pending = (msg, cdr)   # keep the latest; sent when the period ends
+                    if self.merges:   # increments: every change kept, the newest of each marker
+                        sub.pending = (markers.merge(sub.pending and sub.pending[0], msg), None)
+                    else:
+                        sub.pending = (msg, cdr)   # keep the latest; sent when the period ends
                     if sub.timer is None:
                         delay = sub.throttle - (now - sub.last_sent)
                         sub.timer = asyncio.get_running_loop().call_later(delay, self._flush, sub)

@@ -89,8 +89,12 @@ class Gateway:
         self.policy = Policy(settings)
         self.service_owners: dict[str, ClientSession] = {}
         self.hooks: list = []          # objects with an optional on_close(session)
+<<<<<<< HEAD
         self.rules: list = []          # (sender, SharedPublisher, msg) -> msg, or None to drop; may raise
         self.guards: list = []         # (session, op) -> None, or raise ProtocolError to refuse the op
+=======
+        self.rules: list = []          # (sender, SharedPublisher, msg, issued) -> msg, or None to drop; may raise
+>>>>>>> issue-31link
         self.senders: dict[int, Sender] = {}   # open senders that are not clients (playbacks)
         # the gateway's own services besides rosapi (the stations' claims): name -> (type, answer),
         # answer(session, request) -> response values, knowing who calls
@@ -145,11 +149,12 @@ class Gateway:
         pub.attach(sender.id)
         return pub
 
-    def publish(self, sender, pub: SharedPublisher, msg: dict) -> bool:
+    def publish(self, sender, pub: SharedPublisher, msg: dict, issued: float | None = None) -> bool:
         """The one door: the rules, once, then the backend. False when a rule dropped the
-        message; a ProtocolError when one refused it."""
+        message; a ProtocolError when one refused it. ``issued``: when the sender made the
+        message, on the loop's clock, when it says (a client's stamped command, ``rules.freshness``)."""
         for rule in self.rules:
-            msg = rule(sender, pub, msg)
+            msg = rule(sender, pub, msg, issued)
             if msg is None:
                 return False
         pub._handle.publish(msg)

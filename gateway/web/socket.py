@@ -17,6 +17,10 @@ TORNADO_TESTED = 'tornado>=6.4,<6.7'   # the range pyproject.toml pins; its priv
 TEXT, BINARY, CLOSE = 0x1, 0x2, 0x8  # websocket opcodes
 FLUSH_BEFORE_CLOSE = 1.0  # seconds a failing connection waits for its last status to go out
 READ_CHUNK = 128 * 1024   # bytes a connection asks its socket for at once (more when a frame needs it)
+# ?compression=deflate on the websocket URL: permessage-deflate (RFC 7692) for this connection alone,
+# at zlib's fastest level. The class view asks for it: its marker JSON shrinks about tenfold over a
+# home line, and deflate costs CPU for that one connection rather than for every student's.
+DEFLATE = {'compression_level': 1}
 
 
 class TextAsBytesProtocol(tornado.websocket.WebSocketProtocol13):
@@ -115,6 +119,7 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
         self.session: ClientSession | None = None
         self.text_frame = False   # set by TextAsBytesProtocol while it delivers a text message
         self.auth_deadline: asyncio.TimerHandle | None = None
+        self._deflate: bool | None = None
 
     async def get(self, *args, **kwargs) -> None:
         if self.request.headers.get('Upgrade', '').lower() != 'websocket':
@@ -136,8 +141,18 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
             return True
         return self.gateway.policy.origin_allowed(origin, self.request)
 
+    def deflates(self) -> bool:
+        """Whether this connection offers permessage-deflate: --use-compression, or the client
+        asked with ?compression=deflate."""
+        if self._deflate is None:
+            self._deflate = (self.gateway.settings.use_compression
+                             or self.get_query_argument('compression', '') == 'deflate')
+        return self._deflate
+
     def get_compression_options(self):
-        return {} if self.gateway.settings.use_compression else None
+        if self.gateway.settings.use_compression:
+            return {}
+        return DEFLATE if self.deflates() else None
 
     def open(self, *args, **kwargs) -> None:
         self.set_nodelay(True)   # without it Nagle's algorithm stalls small messages
@@ -168,7 +183,7 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
         """The connection's stream when frames may be written to it as the gateway builds them
         (no compression, open); else None, and tornado's write_message builds each frame."""
         conn = self.ws_connection
-        if self.gateway.settings.use_compression or conn is None or conn.is_closing():
+        if conn is None or conn.is_closing() or self.deflates():
             return None
         return conn.stream
 

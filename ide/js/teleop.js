@@ -4,7 +4,6 @@
 // only where their topics exist: a turtlesim lesson on a phone had a black camera and empty
 // gauges, and no turtle). On a fleet the page drives only a station of its own (claimed, or
 // picked and free), and nothing after the teacher's Release until a new claim.
-import { Ros } from 'roslib';
 import nipplejs from 'nipplejs';
 import { field, zeroVelocity, withNamespace } from '../runtime/util.js';
 import { DriverLease, bindDriverBadge, DRIVER_TOPIC } from './driver.js';
@@ -13,6 +12,7 @@ import { gauge, History, SAMPLE_EVERY } from './dashboard.js';
 import { WorldView } from './worldview.js';
 import { bindSpan } from './history.js';
 import { HomeEstimate } from './gohome.js';
+import { Link } from './link.js';
 
 const $ = (s) => document.querySelector(s);
 const params = new URLSearchParams(location.search);
@@ -39,21 +39,32 @@ state.lease = lease;
 // ---- connection -----------------------------------------------------------
 function setStatus(s, text) { const el = $('#status'); el.dataset.state = s; el.textContent = text; document.body.dataset.connection = s; }
 
+// One link, made again by itself (link.js); its loss stops driving at once: what the page would
+// send cannot arrive, and the gateway stops the robot when commands stop coming.
 function connect() {
   const url = params.get('url') || `${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/`
     + (params.get('name') ? `?name=${encodeURIComponent(params.get('name'))}` : '');
-  const ros = new Ros({});
-  state.ros = ros;
-  state.advertised = '';
+  const link = new Link(url);
+  state.link = link;
   setStatus('connecting', 'connecting…');
-  ros.on('connection', () => { setStatus('connected', 'connected'); lease.attach(ros); state.robotNs.attach(ros); onConnected(); });
-  ros.on('close', () => {
-    if (state.ros !== ros) return;
-    setStatus('closed', 'disconnected');
-    setTimeout(connect, 2000);
+  link.addEventListener('open', (e) => {
+    const ros = e.detail;
+    state.ros = ros;
+    state.advertised = '';
+    setStatus('connected', 'connected');
+    lease.attach(ros);
+    state.robotNs.attach(ros);
+    onConnected();
   });
-  ros.on('error', () => setStatus('error', 'cannot connect'));
-  ros.connect(url).catch(() => setStatus('error', 'bad URL'));
+  link.addEventListener('lost', () => {
+    state.keys.clear();
+    state.joy = { x: 0, y: 0, active: false };
+    if (state.timer) { clearInterval(state.timer); state.timer = null; }
+    state.ros = null;
+    setStatus('lost', 'connection lost — robot stopped');
+  });
+  setInterval(() => { $('#link').textContent = link.describe(); }, 250);
+  link.start();
 }
 
 let subSeq = 0;
@@ -206,7 +217,7 @@ function publish(lin, ang) {
     ros.callOnConnection({ op: 'advertise', topic, type, id: `advertise:${topic}:teleop` });
     state.advertised = `${topic} ${type}`;
   }
-  ros.callOnConnection({ op: 'publish', topic, msg: twist(lin, ang) });
+  ros.callOnConnection({ op: 'publish', topic, msg: twist(lin, ang), t: state.link.now() });   // stamped: docs/protocol.md
   state.published += 1;
   $('#cmd').textContent = `linear ${lin.toFixed(2)} m/s · angular ${ang.toFixed(2)} rad/s`;
 }
@@ -278,8 +289,8 @@ function stopAll() {
   state.keys.clear();
   state.joy = { x: 0, y: 0, active: false };
   if (state.timer) { clearInterval(state.timer); state.timer = null; }
-  publish(0, 0);
-}
+  if (state.advertised) publish(0, 0);   // a topic this page never drove gets nothing (the root
+}                                        // /cmd_vel before the page reloads into its station)
 
 addEventListener('pagehide', () => { if (state.timer) stopAll(); });
 document.addEventListener('visibilitychange', () => { if (document.hidden && state.timer) stopAll(); });

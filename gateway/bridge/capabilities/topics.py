@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 from typing import TYPE_CHECKING
 
 from protocol.convert import from_json
@@ -92,7 +93,8 @@ def publish(s: ClientSession, op: Publish) -> None:
     elif op.type and normalize(op.type, 'msg') != pub.type:   # never sent silently as another type
         raise ProtocolError(f'{topic} is advertised by this client with type {pub.type}, not {op.type}',
                             op=op.OP, id=op.id)
-    s.gateway.publish(s, pub, from_json(s.backend.defs, pub.msgdef, op.msg))
+    issued = None if op.t is None else s.clock.sample(op.t, asyncio.get_running_loop().time())
+    s.gateway.publish(s, pub, from_json(s.backend.defs, pub.msgdef, op.msg), issued)
 
 
 def subscribe(s: ClientSession, op: Subscribe) -> None:
