@@ -89,12 +89,8 @@ class Gateway:
         self.policy = Policy(settings)
         self.service_owners: dict[str, ClientSession] = {}
         self.hooks: list = []          # objects with an optional on_close(session)
-<<<<<<< HEAD
-        self.rules: list = []          # (sender, SharedPublisher, msg) -> msg, or None to drop; may raise
-        self.guards: list = []         # (session, op) -> None, or raise ProtocolError to refuse the op
-=======
         self.rules: list = []          # (sender, SharedPublisher, msg, issued) -> msg, or None to drop; may raise
->>>>>>> issue-31link
+        self.guards: list = []         # (session, op) -> None, or raise ProtocolError to refuse the op
         self.senders: dict[int, Sender] = {}   # open senders that are not clients (playbacks)
         # the gateway's own services besides rosapi (the stations' claims): name -> (type, answer),
         # answer(session, request) -> response values, knowing who calls
