@@ -1,8 +1,14 @@
 """One backend subscription per topic, shared by every client subscribed to it.
 
-Each incoming message is encoded at most once per (compression, fragment_size) and the same
-frames are queued to every subscriber's outbox; throttle_rate and queue_length are applied per
-subscriber at its queue.
+Each incoming message is encoded at most once per (compression, fragment_size, image) and the
+same frames are queued to every subscriber's outbox; throttle_rate and queue_length are applied
+per subscriber at its queue. An image made to measure (the ``image`` field of subscribe, the
+``/stream`` viewers) is rendered once per message and ``images.Target`` for all who asked.
+
+Sensor streams (``NEWEST_WINS``: images, point clouds, scans, marker arrays, poses, odometry)
+keep only their newest message queued for a client that falls behind, whatever queue_length it
+asked: a frame that waited behind a newer one is only latency (a 10 Hz camera over 1 Mbit/s
+grew 5 s -> 15 s old with the default queue), and the next message replaces it anyway.
 """
 
 from __future__ import annotations
@@ -12,40 +18,49 @@ import itertools
 import time
 from typing import TYPE_CHECKING, Any
 
-from . import encode
+from . import encode, images
 
 if TYPE_CHECKING:
     from .session import ClientSession
 
 _fragment_ids = itertools.count(1)
+NEWEST_WINS = frozenset({
+    images.RAW, images.COMPRESSED, 'sensor_msgs/msg/PointCloud2', 'sensor_msgs/msg/LaserScan',
+    'visualization_msgs/msg/MarkerArray', 'geometry_msgs/msg/PoseStamped', 'geometry_msgs/msg/Pose',
+    'geometry_msgs/msg/PoseWithCovarianceStamped', 'nav_msgs/msg/Odometry', 'turtlesim/msg/Pose',
+})
 
 
 class Subscriber:
     """One client's subscription to one topic (all its subscribe ids merged, as rosbridge does)."""
 
     __slots__ = ('session', 'fanout', 'options', 'compression', 'fragment_size', 'throttle',
-                 'queue_length', 'last_sent', 'pending', 'timer', 'key')
+                 'queue_length', 'last_sent', 'pending', 'timer', 'key', 'image')
 
     def __init__(self, session: ClientSession, fanout: TopicFanout):
         self.session, self.fanout = session, fanout
-        self.options: dict[str | None, tuple] = {}   # subscribe id -> (throttle_ms, queue_length, compression, fragment_size)
+        self.options: dict[str | None, tuple] = {}   # subscribe id -> (throttle_ms, queue_length, compression, fragment_size, image)
         self.last_sent = 0.0
         self.pending = None
         self.timer = None
         self.key = (fanout.topic, session.id)
         self.compression, self.fragment_size, self.throttle, self.queue_length = 'none', None, 0.0, 0
+        self.image: images.Target | None = None
 
     def update(self, default_queue_length: int) -> None:
         opts = list(self.options.values())
         self.throttle = min(o[0] for o in opts) / 1000.0
         lengths = [o[1] for o in opts]
-        self.queue_length = max(lengths) or default_queue_length
+        self.queue_length = 1 if self.fanout.type in NEWEST_WINS else max(lengths) or default_queue_length
         self.compression, self.fragment_size = opts[-1][2], opts[-1][3]
+        spec = opts[-1][4] if len(opts[-1]) > 4 else None
+        self.image = images.Target.of(spec) if spec is not None else None
 
     def deliver(self, frames: encode.Frames) -> None:
         outbox = self.session.outbox
+        keep = max(self.queue_length, len(frames))   # a fragmented message is kept whole
         for payload, binary in frames:
-            outbox.message(payload, binary, self.key, self.queue_length)
+            outbox.message(payload, binary, self.key, keep)
 
     def cancel(self) -> None:
         if self.timer is not None:
@@ -60,7 +75,11 @@ class TopicFanout:
         backend = gateway.backend
         self.msgdef = backend.msg_def(type)
         self.subscribers: dict[int, Subscriber] = {}
+        self.watchers: dict[object, object] = {}   # key -> callable(msg): takers of the message itself
         self.last: dict | None = None
+        self._rendered: dict[images.Target, bytes | images.ImageError] = {}   # for _rendered_msg
+        self._rendered_msg: dict | None = None
+        self.renders = 0   # images rendered: one per message and target, however many take it
         self.handle = backend.subscribe(topic, type, self._on_message, cdr=True)
         self._cdr_wanted = False    # a subscriber takes cbor-raw: the backend keeps the CDR as received
 
@@ -98,11 +117,38 @@ class TopicFanout:
             return False
         sub.cancel()
         del self.subscribers[session.id]
-        if not self.subscribers:
+        if not self.subscribers and not self.watchers:
             self.gateway.drop_fanout(self)
         else:
             self._want_cdr()
         return True
+
+    def watch(self, key: object, callback) -> None:
+        """``callback(msg)`` for each message, beside the subscribers (a ``/stream`` source)."""
+        self.watchers[key] = callback
+
+    def unwatch(self, key: object) -> None:
+        self.watchers.pop(key, None)
+        if not self.subscribers and not self.watchers:
+            self.gateway.drop_fanout(self)
+
+    def render(self, msg: dict, target: images.Target) -> bytes:
+        """The message's image made to ``target``, rendered once per message and target for all
+        who ask (raises images.ImageError, also once)."""
+        if self._rendered_msg is not msg:
+            self._rendered_msg, self._rendered = msg, {}
+        done = self._rendered.get(target)
+        if done is None:
+            try:
+                done = images.render(msg, self.type, target)
+            except images.ImageError as e:
+                done = e
+            self._rendered[target] = done
+            self.renders += 1
+            self.gateway.images_rendered += 1
+        if isinstance(done, images.ImageError):
+            raise done
+        return done
 
     def _want_cdr(self) -> None:
         wanted = any(sub.compression == 'cbor-raw' for sub in self.subscribers.values())
@@ -114,6 +160,7 @@ class TopicFanout:
         for sub in self.subscribers.values():
             sub.cancel()
         self.subscribers.clear()
+        self.watchers.clear()
         self.handle.destroy()
 
     # --- the hot path -----------------------------------------------------------------------
@@ -126,7 +173,7 @@ class TopicFanout:
             return   # a new shared subscription: the backend delivers the retained messages itself
         for msg in backend.latched_messages(self.topic) or [self.last]:
             sub.last_sent = time.monotonic()
-            sub.deliver(self._encode(msg, sub.compression, sub.fragment_size))
+            sub.deliver(self._encode(msg, sub.compression, sub.fragment_size, None, sub.image))
 
     def _on_message(self, msg: dict, cdr: bytes | None = None) -> None:
         """cdr: the message as the backend received it, for cbor-raw (else built from msg)."""
@@ -142,21 +189,31 @@ class TopicFanout:
                         sub.timer = asyncio.get_running_loop().call_later(delay, self._flush, sub)
                     continue
                 sub.last_sent = now
-            key = (sub.compression, sub.fragment_size)
+            key = (sub.compression, sub.fragment_size, sub.image)
             frames = cache.get(key)
             if frames is None:
-                frames = cache[key] = self._encode(msg, *key, cdr)
+                frames = cache[key] = self._encode(msg, sub.compression, sub.fragment_size, cdr, sub.image)
             sub.deliver(frames)
+        for watcher in tuple(self.watchers.values()):
+            watcher(msg)
 
     def _flush(self, sub: Subscriber) -> None:
         sub.timer = None
         pending, sub.pending = sub.pending, None
         if pending is not None and sub.session.id in self.subscribers:
             sub.last_sent = time.monotonic()
-            sub.deliver(self._encode(pending[0], sub.compression, sub.fragment_size, pending[1]))
+            sub.deliver(self._encode(pending[0], sub.compression, sub.fragment_size, pending[1], sub.image))
 
     def _encode(self, msg: dict, compression: str, fragment_size: int | None,
-                cdr: bytes | None = None) -> encode.Frames:
+                cdr: bytes | None = None, image: images.Target | None = None) -> encode.Frames:
+        msgdef = self.msgdef
+        if image is not None:   # a CompressedImage made to measure, whatever the topic's image type
+            try:
+                data = self.render(msg, image)
+            except images.ImageError as e:
+                return encode.frames({'op': 'status', 'level': 'warning', 'msg': f'{self.topic}: {e}'})
+            msg = {'header': msg.get('header', {}), 'format': 'jpeg', 'data': data}
+            msgdef = self.gateway.backend.msg_def(images.COMPRESSED)
         if compression == 'cbor-raw':
             sec, nanosec = self.gateway.backend.now()
             if cdr is None:
@@ -166,4 +223,4 @@ class TopicFanout:
         op = {'op': 'publish', 'topic': self.topic, 'msg': msg}
         if fragment_size or compression == 'png':
             op['id'] = f'publish:{self.topic}:{next(_fragment_ids)}'
-        return encode.frames(op, compression, fragment_size, msgdef=self.msgdef, defs=self.gateway.backend.defs)
+        return encode.frames(op, compression, fragment_size, msgdef=msgdef, defs=self.gateway.backend.defs)

@@ -2,7 +2,8 @@
 
 ``/`` upgrades to the rosbridge websocket (``socket``) and, as a plain GET, serves the IDE;
 ``/teleop`` and ``/class`` are the other pages; ``/health``; the JSON API apps (``/api/programs``,
-``/api/runs``, ``/api/recordings``) and the login pages; the IDE's static files last.
+``/api/runs``, ``/api/recordings``) and the login pages; web_video_server's camera URLs
+(``/stream``, ``/snapshot``, ``/stream_viewer``, ``/streams``: ``video``); the IDE's static files last.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from .programs import program_routes
 from .recordings import recording_routes
 from .runs import run_routes
 from .socket import RosbridgeHandler
+from .video import video_routes
 
 HARD_LIMIT_FACTOR = 4   # frames up to this many times max_message_size get a status; larger ones close 1009
 
@@ -34,6 +36,7 @@ class HealthHandler(tornado.web.RequestHandler):
         self.write(orjson.dumps({
             'status': 'ok', 'backend': gw.backend.name, 'clients': len(gw.sessions),
             'uptime': round(time.time() - gw.started, 3), 'topics': len(gw.fanouts),
+            'images_rendered': gw.images_rendered,
         }))
 
 
@@ -68,7 +71,7 @@ def make_app(gateway: Gateway) -> tornado.web.Application:
     routes += login_routes(policy, secure_cookie=bool(settings.certfile and settings.keyfile))
     if settings.programs_dir is not None:
         routes += program_routes(settings.programs_dir, policy)
-    routes += run_routes(gateway) + recording_routes(gateway)
+    routes += run_routes(gateway) + recording_routes(gateway) + video_routes(gateway)
     routes.append((r'/(.*)', PublicFileHandler, {'path': str(settings.ide_dir), 'default_filename': 'index.html'}))
     return Application(
         gateway, routes,
