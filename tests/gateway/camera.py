@@ -102,6 +102,11 @@ class Stream:
         out, self.buf = self.buf[:n], self.buf[n:]
         return out
 
+    def body(self) -> bytes:
+        """The reply's body: Content-Length bytes when the head gives it, else until the close."""
+        m = re.search(rb'\r\nContent-Length: (\d+)\r\n', self.head, re.I)
+        return self.take(int(m.group(1))) if m else self.rest()
+
     def rest(self) -> bytes:
         """Everything until the server closes."""
         while True:
