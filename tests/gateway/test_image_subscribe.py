@@ -6,12 +6,14 @@ from __future__ import annotations
 import base64
 import io
 import json
+import time
 import urllib.request
 
 import pytest
 import roslibpy
 from PIL import Image
 
+from tests.bench.camera import ws_client, ws_stamps
 from tests.conftest import client, wait_for
 from tests.gateway.camera import Camera
 from tests.gateway.rawclient import Raw
@@ -127,3 +129,26 @@ def test_refused_where_it_does_not_apply(gw, camera):
         assert status['id'] == 'bad' and "field 'image' 'width' must be an integer from 1" in status['msg']
     finally:
         c.ws.close()
+
+
+@pytest.mark.parametrize('options', [{}, {'throttle_rate': 200, 'queue_length': 1}])
+def test_a_client_that_falls_behind_gets_the_newest_frame(gw, camera, options):
+    """Sensor streams are newest-wins and the kernel's unsent share is small: a websocket client
+    that stops reading for 3 s finds a few frames from its pause, then fresh ones, not a backlog
+    (before: the default queue held 100 frames and the kernel ~400 KiB)."""
+    c = ws_client(gw.port, None, {'op': 'subscribe', 'topic': TOPIC, 'type': 'sensor_msgs/msg/CompressedImage',
+                                  **options})
+    try:
+        stamps = ws_stamps(c)
+        next(stamps)
+        time.sleep(3.0)   # the client's own pause: what this test is about
+        ages = []
+        for stamp in stamps:
+            ages.append(time.time() - stamp)
+            if len(ages) >= 10:
+                break
+        stale = [a for a in ages if a > 1.0]
+        assert len(stale) <= 5, ages   # what was already in the buffers when the pause began
+        assert max(ages[-3:]) < 1.0, ages
+    finally:
+        c.sock.close()
