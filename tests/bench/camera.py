@@ -13,7 +13,8 @@ wall clock. Then, one at a time, each for ``--seconds``:
   subscribed with no options / with the teleop page's (throttle_rate 200, queue_length 1);
 * ``ws-image``: the same client asking for ``"image": {"width": 320, "height": 240,
   "quality": 50}`` (the subscribe extension);
-* ``stream-slow``: a ``/stream`` (mjpeg, 320x240, quality 50) viewer reading at the same rate;
+* ``stream-slow`` / ``stream-slow-full``: a ``/stream`` viewer reading at the same rate, of
+  mjpeg at 320x240 quality 50 / of the full frames (``type=ros_compressed``);
 * ``viewers-1`` / ``viewers-12``: 1 and 12 fast ``/stream`` viewers of the 640x480 image at
   quality 80 (re-encoded): the gateway's CPU over the run.
 
@@ -38,6 +39,7 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[2]
 LINE = re.compile(r'websocket ws://([^:/]+):(\d+)')
+BURST = 8192   # bytes a paced reader may take at once after being idle
 
 
 def percentile(values: list[float], p: float) -> float | None:
@@ -111,20 +113,25 @@ class Paced:
         self.sock.sendall(request)
         self.rate = rate / 8 if rate else None
         self.buf = bytearray()
-        self.start, self.taken = time.monotonic(), 0
+        self.credit, self.at = 0.0, time.monotonic()
 
     def fill(self) -> None:
+        """A token bucket of BURST bytes: a reader idle between frames does not save up credit
+        to read the next frame faster than the rate (as a link would not)."""
         want = 65536
         if self.rate:
-            allowed = self.rate * (time.monotonic() - self.start) - self.taken
-            if allowed < 1024:
-                time.sleep((1024 - allowed) / self.rate)
-                allowed = 1024
-            want = int(min(want, allowed))
+            now = time.monotonic()
+            self.credit = min(BURST, self.credit + (now - self.at) * self.rate)
+            self.at = now
+            if self.credit < 1024:
+                time.sleep((1024 - self.credit) / self.rate)
+                self.credit, self.at = 1024, time.monotonic()
+            want = int(min(want, self.credit))
         chunk = self.sock.recv(want)
         if not chunk:
             raise EOFError
-        self.taken += len(chunk)
+        if self.rate:
+            self.credit -= len(chunk)
         self.buf += chunk
 
     def take(self, n: int) -> bytes:
@@ -262,6 +269,8 @@ def main(argv: list[str]) -> int:
         if 'stream' in only:
             runs.append(('stream-slow', lambda: stream_stamps(
                 stream_client(gw.port, args.rate, 'topic=/cam/image_raw&width=320&height=240&quality=50'))))
+            runs.append(('stream-slow-full', lambda: stream_stamps(
+                stream_client(gw.port, args.rate, 'topic=/cam/image_raw&type=ros_compressed'))))
         for name, make in runs:
             try:
                 results[name] = measure(make(), args.seconds)
