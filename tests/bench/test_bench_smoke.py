@@ -217,3 +217,17 @@ def test_lesson_run_yields_its_figures(tmp_path):
     assert {"bounds", "robots", "pen"} <= set(late["markers"])
     assert len(doc["bar"]) == 5
 
+
+
+def test_camera_bench_yields_its_figures(tmp_path):
+    """`python -m tests.bench camera` for a few seconds: every client's figures are there."""
+    if not rosgate_available():
+        pytest.skip("no gateway")
+    out = tmp_path / "camera.json"
+    proc = subprocess.run([sys.executable, "-m", "tests.bench", "camera", "--seconds", "3", "--out", str(out)],
+                          cwd=REPO, capture_output=True, text=True, timeout=180)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    doc = json.loads(out.read_text())
+    for name in ("ws-default", "ws-teleop", "ws-image", "stream-slow", "stream-slow-full"):
+        assert doc[name]["frames"] > 0 and doc[name]["age_p95"] is not None, (name, doc[name])
+    assert doc["viewers-12"]["frames_per_viewer_per_s"] > 0 and doc["cpu_ratio_12_to_1"] is not None
