@@ -5,10 +5,11 @@ same frames are queued to every subscriber's outbox; throttle_rate and queue_len
 per subscriber at its queue. An image made to measure (the ``image`` field of subscribe, the
 ``/stream`` viewers) is rendered once per message and ``images.Target`` for all who asked.
 
-Sensor streams (``NEWEST_WINS``: images, point clouds, scans, marker arrays, poses, odometry)
-keep only their newest message queued for a client that falls behind, whatever queue_length it
-asked: a frame that waited behind a newer one is only latency (a 10 Hz camera over 1 Mbit/s
-grew 5 s -> 15 s old with the default queue), and the next message replaces it anyway.
+Sensor streams (``NEWEST_WINS``: images, point clouds, scans, poses, odometry) keep only their
+newest message queued for a client that falls behind, whatever queue_length it asked: each
+message is the whole state, so one that waited behind a newer one is only latency (a 10 Hz
+camera over 1 Mbit/s grew 5 s -> 16 s old with the default queue). Marker arrays are not among
+them: the world view sends increments (pen batches), and a dropped one is a lost trail.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ if TYPE_CHECKING:
 _fragment_ids = itertools.count(1)
 NEWEST_WINS = frozenset({
     images.RAW, images.COMPRESSED, 'sensor_msgs/msg/PointCloud2', 'sensor_msgs/msg/LaserScan',
-    'visualization_msgs/msg/MarkerArray', 'geometry_msgs/msg/PoseStamped', 'geometry_msgs/msg/Pose',
+    'geometry_msgs/msg/PoseStamped', 'geometry_msgs/msg/Pose',
     'geometry_msgs/msg/PoseWithCovarianceStamped', 'nav_msgs/msg/Odometry', 'turtlesim/msg/Pose',
 })
 
