@@ -129,8 +129,7 @@ class TopicFanout:
         self.watchers[key] = callback
 
     def unwatch(self, key: object) -> None:
-        self.watchers.pop(key, None)
-        if not self.subscribers and not self.watchers:
+        if self.watchers.pop(key, None) is not None and not self.subscribers and not self.watchers:
             self.gateway.drop_fanout(self)
 
     def render(self, msg: dict, target: images.Target) -> bytes:

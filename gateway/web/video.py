@@ -2,7 +2,7 @@
 host and port changed:
 
 GET /stream?topic=T&type=mjpeg|ros_compressed|png&width=&height=&quality=&qos_profile=
-GET /snapshot?topic=T&width=&height=&quality=     one JPEG
+GET /snapshot?topic=T&width=&height=&quality=     one JPEG (the next frame)
 GET /stream_viewer?topic=T&type=...               a page with the stream in an <img>
 GET /streams                                      the list page (web_video_server's ``/``; here
                                                   ``/`` is the IDE)
@@ -51,7 +51,7 @@ BOUNDARY = 'boundarydonotcross'
 NO_CACHE = 'no-cache, no-store, must-revalidate, pre-check=0, post-check=0, max-age=0'
 TYPES = ('mjpeg', 'ros_compressed', 'png')
 FIND_WAIT = 2.0         # s an unknown topic is looked for (a camera node starting) before 404
-SNAPSHOT_WAIT = 10.0    # s a snapshot waits for a frame before 504
+SNAPSHOT_WAIT = 4.0     # s a snapshot waits for the next frame (then the last one, or 504)
 STALL = 30.0            # s a viewer's write may take before the viewer is given up (a vanished peer)
 _keys = itertools.count(1)
 
@@ -88,21 +88,23 @@ class Source:
         self.fan = video.gateway.fanout(topic, type)
         self.fan.watch(self.key, self._on_message)
 
+    def part(self, msg: dict) -> Part:
+        """The message as this source's frame (raises images.ImageError)."""
+        if self.target is None:
+            kind = images.content_type(msg)
+            if kind is None:
+                raise images.ImageError(f'unknown compressed format {msg.get("format")!r}')
+            return Part(kind, stamp_of(msg), bytes(msg.get('data') or b''))
+        kind = 'image/png' if self.target.format == 'png' else 'image/jpeg'
+        return Part(kind, stamp_of(msg), self.fan.render(msg, self.target))
+
     def _on_message(self, msg: dict) -> None:
         try:
-            if self.target is None:
-                kind = images.content_type(msg)
-                if kind is None:
-                    raise images.ImageError(f'unknown compressed format {msg.get("format")!r}')
-                data = bytes(msg.get('data') or b'')
-            else:
-                kind = 'image/png' if self.target.format == 'png' else 'image/jpeg'
-                data = self.fan.render(msg, self.target)
+            part = self.part(msg)
         except images.ImageError as e:
             self.problem = str(e)
             return
         self.problem = None
-        part = Part(kind, stamp_of(msg), data)
         for viewer in tuple(self.viewers):
             viewer.offer(part)
 
@@ -121,7 +123,6 @@ class Viewer:
         self.waiting: Part | None = None
         self.ready = asyncio.Event()
         self.closed = False
-        self.sent = 0
 
     def offer(self, part: Part) -> None:
         self.waiting = part   # a frame not yet sent is replaced: newest wins
@@ -295,7 +296,6 @@ class StreamHandler(VideoHandler):
                     part = await viewer.next()
                     if part is None or not await viewer.write(part.wire):
                         break
-                    viewer.sent += 1
         finally:
             source.remove(viewer)
             closer.cancel()
@@ -314,6 +314,11 @@ class SnapshotHandler(VideoHandler):
         source.viewers.add(viewer)
         try:
             part = await viewer.next(SNAPSHOT_WAIT)
+            if part is None and source.fan.last is not None:   # a slow camera: its last frame
+                try:
+                    part = source.part(source.fan.last)
+                except images.ImageError as e:
+                    source.problem = str(e)
         finally:
             source.remove(viewer)
         if part is None:

@@ -231,3 +231,20 @@ def test_rover_camera_by_its_base_topic(start_gateway):
     finally:
         s.close()
     wait_for(lambda: health(gw)['topics'] == 0, 10)
+
+
+def test_a_silent_camera_gets_an_answer_too(cam_gw):
+    """A camera topic that exists but sends nothing: a snapshot says so within 5 s (504)."""
+    import roslibpy
+    with client(cam_gw) as ros:
+        topic = roslibpy.Topic(ros, '/silent/image_raw/compressed', 'sensor_msgs/msg/CompressedImage')
+        topic.advertise()
+        try:
+            wait_for(lambda: '/silent/image_raw/compressed' in ros.get_topics(), 10)
+            started = time.monotonic()
+            with pytest.raises(urllib.error.HTTPError) as e:
+                urllib.request.urlopen(cam_gw.http_url + 'snapshot?topic=/silent/image_raw', timeout=10)
+            assert e.value.code == 504 and b'no image on /silent/image_raw/compressed' in e.value.read()
+            assert time.monotonic() - started < 5
+        finally:
+            topic.unadvertise()
