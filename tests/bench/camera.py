@@ -11,8 +11,8 @@ wall clock. Then, one at a time, each for ``--seconds``:
 * ``ws-default`` / ``ws-teleop``: a websocket client reading at ``--rate`` bits/s (default
   1 Mbit/s: it takes at most rate x elapsed bytes from its socket, whose SO_RCVBUF is 64 KiB)
   subscribed with no options / with the teleop page's (throttle_rate 200, queue_length 1);
-* ``ws-image``: the same client asking for ``"image": {"width": 320, "height": 240,
-  "quality": 50}`` (the subscribe extension);
+* ``ws-image``: the same client with the teleop page's options now (throttle_rate 150,
+  queue_length 1, ``"image": {"width": 320, "quality": 60}``: the subscribe extension);
 * ``stream-slow`` / ``stream-slow-full``: a ``/stream`` viewer reading at the same rate, of
   mjpeg at 320x240 quality 50 / of the full frames (``type=ros_compressed``);
 * ``viewers-1`` / ``viewers-12``: 1 and 12 fast ``/stream`` viewers of the 640x480 image at
@@ -264,8 +264,8 @@ def main(argv: list[str]) -> int:
             runs += [('ws-default', lambda: ws_stamps(ws_client(gw.port, args.rate, sub))),
                      ('ws-teleop', lambda: ws_stamps(ws_client(gw.port, args.rate, {**sub, 'throttle_rate': 200,
                                                                                      'queue_length': 1})))]
-            runs.append(('ws-image', lambda: ws_stamps(ws_client(gw.port, args.rate, {
-                **sub, 'throttle_rate': 100, 'queue_length': 1, 'image': {'width': 320, 'height': 240, 'quality': 50}}))))
+            runs.append(('ws-image', lambda: ws_stamps(ws_client(gw.port, args.rate, {   # the teleop page's now
+                **sub, 'throttle_rate': 150, 'queue_length': 1, 'image': {'width': 320, 'quality': 60}}))))
         if 'stream' in only:
             runs.append(('stream-slow', lambda: stream_stamps(
                 stream_client(gw.port, args.rate, 'topic=/cam/image_raw&width=320&height=240&quality=50'))))
