@@ -281,6 +281,10 @@ def fragment_ops(frame: bytes | str, fragment_size: int, id: str) -> list[dict]:
              'num': i, 'total': total} for i in range(total)]
 
 
+PIECE_COST = 128    # bytes a stored piece counts beyond its data: its envelope and the memory that holds it
+MESSAGE_COST = 512  # bytes an incomplete message counts beyond its pieces (its entry and id)
+
+
 class _Pending:
     __slots__ = ('last', 'pieces', 'size', 'total')
 
@@ -292,7 +296,15 @@ class _Pending:
 
 
 class Reassembler:
-    """Collects incoming fragment ops per id into the op they carry, with timeout and flood limits."""
+    """Collects incoming fragment ops per id into the op they carry, with timeout and flood limits.
+
+    Every bound holds before anything is stored: a piece counts its data plus ``PIECE_COST`` (an
+    empty piece is not free: 200,000 of them held ~16 MB when they counted 0), a message its
+    ``MESSAGE_COST``, ``total`` may not exceed ``max_bytes`` (each piece of a real message carries
+    at least a character), and all pending messages of one client share ``max_bytes`` and
+    ``max_messages``. Passing a bound raises a ProtocolError with ``close`` 1008: the client is
+    told why and disconnected, as one that floods should be.
+    """
 
     def __init__(self, timeout: float = 600.0, max_bytes: int = 64 * 2**20, max_messages: int = 64) -> None:
         self.timeout = timeout
@@ -317,26 +329,33 @@ class Reassembler:
         """Store one fragment; the decoded op object once all of its id's pieces are in."""
         fid = frag.id
 
-        def fail(why: str):
+        def fail(why: str, close: int | None = None):
             self._drop(fid)
-            return ProtocolError(f'fragment: {why}', op='fragment', id=fid)
+            if close is not None:
+                why += f'; closing the connection ({close})'
+            return ProtocolError(f'fragment: {why}', op='fragment', id=fid, close=close)
 
         entry = self._pending.get(fid)
         if entry is None:
             if len(self._pending) >= self.max_messages:
-                raise ProtocolError(f'fragment: too many incomplete messages (limit {self.max_messages})',
-                                    op='fragment', id=fid)
+                raise fail(f'too many incomplete messages (limit {self.max_messages})', 1008)
+            if frag.total > self.max_bytes:
+                raise fail(f'total {frag.total} exceeds the message limit of {self.max_bytes} bytes', 1008)
+            grow = MESSAGE_COST + len(fid)
+            if self._bytes + grow > self.max_bytes:
+                raise fail(f'incomplete messages exceed {self.max_bytes} bytes', 1008)
             entry = _Pending(frag.total, now)
+            entry.size = grow
+            self._bytes += grow
             self._pending[fid] = entry
         elif entry.total != frag.total:
             raise fail(f'total changed from {entry.total} to {frag.total}')
         if not 0 <= frag.num < frag.total:
             raise fail(f'num {frag.num} is outside 0..{frag.total - 1}')
-        size = len(frag.data)
         old = entry.pieces.get(frag.num)
-        grow = size - (len(old) if old is not None else 0)
+        grow = len(frag.data) - (len(old) if old is not None else -PIECE_COST)
         if self._bytes + grow > self.max_bytes:
-            raise fail(f'incomplete messages exceed {self.max_bytes} bytes')
+            raise fail(f'incomplete messages exceed {self.max_bytes} bytes', 1008)
         entry.pieces[frag.num] = frag.data
         entry.size += grow
         entry.last = now

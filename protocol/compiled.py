@@ -43,7 +43,15 @@ def compiled(defs: Definitions, kind: str, msgdef: MsgDef, make):
 
 
 def field_default(defs: Definitions, f: Field, owner: str = ''):
-    """(constant, factory) for a field of message type owner; factory is None when immutable."""
+    """(constant, factory) for a field of message type owner; factory is None when immutable.
+    A default its definition gives (``float64 x 1.5``, ``int32[] a [1, 2]``) comes first."""
+    if f.default is not None:
+        if f.array is None:
+            return f.default, None
+        if f.type in B64_TYPES:
+            return bytes(f.default), None
+        given = f.default
+        return None, lambda: list(given)
     if f.array is None:
         if f.primitive:
             return FIELD_DEFAULTS.get((owner, f.name), scalar_default(f)), None

@@ -4,15 +4,18 @@ from __future__ import annotations
 
 
 class ProtocolError(Exception):
-    """The client sent something wrong; it becomes a ``status`` op naming op and id."""
+    """The client sent something wrong; it becomes a ``status`` op naming op and id. ``close``
+    (a websocket close code, 1008) when the client passed a bound and the connection ends after
+    the status."""
 
     def __init__(self, message: str, *, op: str | None = None, id: str | None = None,
-                 level: str = 'error') -> None:
+                 level: str = 'error', close: int | None = None) -> None:
         super().__init__(message)
         self.message = message
         self.op = op
         self.id = id
         self.level = level
+        self.close = close
 
     def __str__(self) -> str:
         return self.message

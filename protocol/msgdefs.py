@@ -41,6 +41,7 @@ class Field:
     array: int | None = None  # None: scalar; 0: sequence (unbounded or bounded); N > 0: fixed array
     bound: int = 0            # upper bound of a bounded sequence (0: none)
     string_bound: int = 0     # upper bound of a bounded string (0: none)
+    default: object = None    # the value its definition gives it (a tuple for an array); None: none
 
     @property
     def primitive(self) -> bool:
@@ -271,71 +272,83 @@ def scalar_default(f: Field):
 def definition_text(msg: MsgDef) -> str:
     lines = []
     for name, type_, value in msg.constants:
-        lines.append(f'{type_} {name}={value}')
+        lines.append(f'{type_} {name}={_literal(value)}')
     for f in msg.fields:
         t = f.type if f.primitive else short_name(f.type)
         if f.string_bound:
             t += f'<={f.string_bound}'
         if f.array is not None:
             t += f'[{f.array}]' if f.array else (f'[<={f.bound}]' if f.bound else '[]')
-        lines.append(f'{t} {f.name}')
+        lines.append(f'{t} {f.name}' if f.default is None else f'{t} {f.name} {_literal(f.default)}')
     return '\n'.join(lines)
 
 
-_FIELD_RE = re.compile(
-    r'^(?P<type>[A-Za-z_][\w/]*)(?:<=(?P<sbound>\d+))?(?:\[(?P<arr>(?:<=)?\d*)\])?\s+'
-    r'(?P<name>[A-Za-z_]\w*)\s*(?P<rest>.*)$')
-
-
 def parse_msg(name: str, text: str) -> MsgDef:
-    """Parse .msg text (as in a .msg file or one section of .srv/.action) into a MsgDef."""
-    pkg = name.split('/')[0]
-    fields, consts = [], []
-    for raw in text.splitlines():
-        line = raw.split('#', 1)[0].strip()
-        if not line:
-            continue
-        m = _FIELD_RE.match(line)
-        if not m:
-            raise ValueError(f'{name}: cannot parse line {raw!r}')
-        type_, rest = m['type'], m['rest'].strip()
-        if type_ not in PRIMITIVES:
-            type_ = _resolve(type_, pkg)
-        if rest.startswith('='):
-            value = rest[1:].strip()
-            consts.append((m['name'], type_, _const(type_, value)))
-            continue
-        arr = m['arr']
+    """Parse .msg text (as in a .msg file or one section of .srv/.action) into a MsgDef.
+
+    rosbags' parser is the one parser of message texts here (its typestore reads what this
+    returns, through ``definition_text``): a parser of our own cut ``string C="x#y"`` at the
+    ``#`` and dropped field defaults. Names without a package resolve in ``pkg/msg/`` (a
+    service's fields too); ``Header`` and ``time`` as ROS 2 spells them. ValueError on bad text."""
+    from rosbags.typesys import TypesysError  # noqa: PLC0415 (rosbags is heavy; load once)
+    from rosbags.typesys.base import BaseType, Cardinality  # noqa: PLC0415
+    from rosbags.typesys.msg import MSGParser  # noqa: PLC0415
+
+    pkg, short = name.split('/')[0], name.rpartition('/')[2]
+    whole = f'MSG: {pkg}/msg/{short}\n{text}\n'   # a message of pkg/msg: relative names resolve there
+    try:
+        [parsed] = MSGParser(whole).specification()
+    except TypesysError as e:
+        raise ValueError(f'{name}: cannot parse line {_failed_line(whole, str(e))!r}') from None
+    consts = tuple((c.name, c.typ.value, _const(c.typ.value, c.value)) for c in parsed.constants)
+    fields = []
+    for f in parsed.fields:
+        t = f.typ
+        type_ = t.ref.name.value if isinstance(t.ref, BaseType) else t.ref.name
         array = bound = None
-        if arr is not None:
-            if arr.startswith('<='):
-                array, bound = 0, int(arr[2:])
-            else:
-                array = int(arr) if arr else 0
-        fields.append(Field(m['name'], type_, array, bound or 0, int(m['sbound'] or 0)))
-    return MsgDef(name, tuple(fields), tuple(consts))
+        if t.cardinality == Cardinality.ARRAY:
+            array = t.size
+        elif t.cardinality == Cardinality.SEQUENCE:
+            array, bound = 0, t.size
+        default = f.value
+        if default is not None:
+            default = (tuple(_const(type_, v) for v in default) if isinstance(default, list)
+                       else _const(type_, default))
+        fields.append(Field(f.name, type_, array, bound or 0, t.str_size, default))
+    return MsgDef(name, tuple(fields), consts)
 
 
-def _resolve(type_: str, pkg: str) -> str:
-    if type_ == 'time':
-        return 'builtin_interfaces/msg/Time'
-    if type_ == 'duration':
-        return 'builtin_interfaces/msg/Duration'
-    if type_ == 'Header':
-        return 'std_msgs/msg/Header'
-    if '/' not in type_:
-        return f'{pkg}/msg/{type_}'
-    return normalize(type_, 'msg')
+def _failed_line(whole: str, error: str) -> str:
+    """The line of the text where rosbags' parser stopped (its error gives the offset)."""
+    parts = error.split('\n')
+    pos = int(parts[2]) if len(parts) > 2 and parts[2].isdigit() else 0
+    rest = whole[pos:].lstrip('\n')
+    return rest.split('\n', 1)[0] if rest else whole.split('\n', 1)[-1].strip()
 
 
-def _const(type_: str, value: str):
+def _const(type_: str, value):
+    """A constant or default as its type holds it (rosbags reads ``float64 X=1`` as the int 1)."""
+    if type_ == 'bool':
+        return bool(value)
     if type_ in INTEGERS:
-        return int(value, 0)
+        return int(value)
     if type_ in FLOATS:
         return float(value)
-    if type_ == 'bool':
-        return value.lower() in ('true', '1')
-    return value.strip('"\'')
+    return value if isinstance(value, str) else str(value)
+
+
+def _literal(value) -> str:
+    """A value as message text writes it, read back the same by rosbags' parser."""
+    if isinstance(value, tuple):
+        return f'[{", ".join(_literal(v) for v in value)}]'
+    if isinstance(value, bool):
+        return 'true' if value else 'false'
+    if not isinstance(value, str):
+        return repr(value)
+    for quote in ('"', "'"):
+        if quote not in value and '\\' not in value:
+            return f'{quote}{value}{quote}'
+    return value   # unquoted: the rest of the line
 
 
 def _register_parts(defs: Definitions, typestore) -> None:

@@ -38,6 +38,9 @@ class Session:
         self.max_message_size = max_message_size
         limit = max_fragment_bytes if max_message_size is None else min(max_message_size, max_fragment_bytes)
         self.reassembler = Reassembler(fragment_timeout, limit, max_fragment_messages)
+        # False while the client has still to authenticate: a fragment then is refused and ends the
+        # connection, so a client that has not signed in can make the gateway hold nothing
+        self.fragments_allowed = True
 
     def receive_text(self, data: str | bytes, now: float) -> list[Op | ProtocolError]:
         """Handle one text frame: the ops it completes and the errors it causes, in order."""
@@ -113,6 +116,9 @@ class Session:
                 if outer is not None:
                     raise ProtocolError('fragment: a fragment may not carry another fragment',
                                         op='fragment', id=op.id)
+                if not self.fragments_allowed:
+                    raise ProtocolError('fragment: not accepted before authentication (send auth first); '
+                                        'closing the connection (1008)', op='fragment', id=op.id, close=1008)
                 full = self.reassembler.add(op, now)
                 if full is not None:
                     self._handle(full, now, out, op)

@@ -68,6 +68,7 @@ class ClientSession:
         now = asyncio.get_running_loop().time()
         if text is None:
             text = not isinstance(data, bytes)
+        self.proto.fragments_allowed = self.gateway.policy.signed_in(self)
         try:
             if text:
                 items = self.proto.receive_text(data, now)
@@ -79,6 +80,10 @@ class ClientSession:
         for item in items:
             if isinstance(item, ProtocolError):
                 self.report(item.op, item.id, item)
+                if item.close is not None:   # past a bound: told why, then disconnected
+                    self.closing = True   # later frames, already read, are not handled
+                    asyncio.ensure_future(self.hang_up(item.close, f'{item.op or "message"}: past a limit'))
+                    return
                 continue
             handler = HANDLERS.get(type(item))
             if handler is None:

@@ -123,6 +123,10 @@ class Policy:
     def authenticate(self, session, op) -> None:
         session.status('info', 'authentication is not required by this gateway', op.OP, op.id)
 
+    def signed_in(self, session) -> bool:
+        """Whether the client may make the gateway hold state for it (fragments): here always."""
+        return True
+
     def host_allowed(self, host: str) -> bool:
         """The Host header of any request (DNS rebinding: a page on evil.example that resolves to
         this machine sends Host: evil.example). Passed: IP literals, this machine's names and
@@ -174,6 +178,9 @@ class SecurePolicy(Policy):
         self.auth, self.limits, self.lease, self.stations = auth, limits, lease, stations
 
     # --- the gate in front of every op -------------------------------------------------------
+
+    def signed_in(self, session) -> bool:
+        return self.auth is None or 'role' in session.attrs
 
     def admit(self, session, op) -> bool:
         if not self._rate(session, op):

@@ -54,7 +54,7 @@ from .programs import space_owner, stored_program
 from ..settings import data_dir
 from ..backends.base import QoS
 from ..rules.safety import Safety, moving_command
-from .sandbox import HOME, Cgroups, RunCgroup, Sandbox, SandboxUnavailable, exit_code, kill_box
+from .sandbox import HOME, Cgroups, RunCgroup, Sandbox, SandboxUnavailable, exit_code, kill_box, limits_in_force
 
 log = logging.getLogger('rosgate.runs')
 STRING = 'std_msgs/msg/String'
@@ -597,7 +597,10 @@ def run_routes(gateway) -> list:
         cgroups, how = Cgroups.find()
         if cgroups is not None:
             cgroups.sweep()
-        log.info('runs: in a bwrap sandbox; %s', how if cgroups is not None else f'rlimits only ({how})')
+        lim = RunLimits()
+        log.info('runs: in a bwrap sandbox; %s', limits_in_force(
+            cgroups, how, memory_mb=lim.memory_mb, processes=lim.processes, cpus=lim.cpus,
+            cpu_seconds=lim.cpu_seconds, open_files=lim.open_files))
     manager = RunManager(gateway, allowed=settings.allow_runs, runs_dir=runs_dir, box=box, cgroups=cgroups,
                          max_runs=settings.max_runs, max_per_person=settings.max_runs_per_person)
     gateway.hooks.append(manager)

@@ -213,10 +213,13 @@ class Cgroups:
     v1 memory, pids and cpu hierarchies when they are writable. None of that is required: without
     it a run has its rlimits only."""
     parents: tuple[tuple[str, Path], ...]     # (controller, directory); v2: one ('v2', directory)
+    v2_controllers: tuple[str, ...] = ('memory', 'pids', 'cpu')   # v2: those enabled for the runs
 
     @classmethod
-    def find(cls, fs: Path = CGROUP_FS, own: str | None = None) -> tuple[Cgroups | None, str]:
-        """The cgroups the runs can have here and a sentence saying so (or why not)."""
+    def find(cls, fs: Path = CGROUP_FS, own: str | None = None, want=('memory', 'pids', 'cpu'),
+             need=('memory', 'pids')) -> tuple[Cgroups | None, str]:
+        """The cgroups the runs can have here and a sentence saying so (or why not). ``want``:
+        the controllers asked for, ``need``: those without which runs get no cgroup at all."""
         try:
             own = own if own is not None else Path('/proc/self/cgroup').read_text()
         except OSError as e:
@@ -226,20 +229,19 @@ class Cgroups:
             path = next((p for h, c, p in lines if h == '0'), None)
             if path is None:
                 return None, 'no cgroup v2 entry in /proc/self/cgroup'
-            parent = fs / path.lstrip('/')
-            missing = _delegate(parent, ('memory', 'pids', 'cpu'))
-            if {'memory', 'pids'} & set(missing):
-                return None, (f'cgroup v2: {" and ".join(missing)} not delegated to {parent} (start the gateway '
-                              'in a cgroup of its own with Delegate=yes)')
-            return _writable([('v2', parent)])
+            found, how = _v2(fs / path.lstrip('/'), want, need)
+            if found is not None or want != ('memory', 'pids', 'cpu'):
+                return found, how
+            scopes, why = Scopes.find()
+            return (scopes, f'{how}; instead {why}') if scopes is not None else (None, f'{how}; {why}')
         parents = []
-        for controller in ('memory', 'pids', 'cpu'):
+        for controller in want:
             path = next((p for h, c, p in lines if controller in c.split(',')), None)
             if path is not None and (fs / controller).is_dir():
                 parents.append((controller, fs / controller / path.lstrip('/')))
-            elif controller != 'cpu':
+            elif controller in need:
                 return None, f'cgroup v1 without a {controller} hierarchy'
-        return _writable(parents)
+        return _writable(parents, need)
 
     def make(self, run_id: str, memory: int, processes: int, cpus: float) -> RunCgroup | None:
         """A cgroup per run with its limits, or None (logged) when the kernel refuses one."""
@@ -262,6 +264,15 @@ class Cgroups:
         return RunCgroup(tuple(made))
 
 
+    @property
+    def kind(self) -> str:
+        return 'cgroup v2' if self.parents[0][0] == 'v2' else 'cgroup v1'
+
+    @property
+    def controllers(self) -> tuple[str, ...]:
+        """The controllers each run's cgroup has: memory, pids, cpu, or fewer."""
+        return self.v2_controllers if self.parents[0][0] == 'v2' else tuple(c for c, _ in self.parents)
+
     def sweep(self) -> None:
         """Remove the empty run cgroups of gateways that are gone (killed before they could)."""
         for _, parent in self.parents:
@@ -272,6 +283,24 @@ class Cgroups:
                         d.rmdir()
                     except OSError:
                         pass
+
+
+def limits_in_force(cgroups: Cgroups | Scopes | None, how: str, *, memory_mb: int, processes: int, cpus: float,
+                    cpu_seconds: int, open_files: int) -> str:
+    """The start-up sentence saying exactly which limit holds each run, and by what: a cgroup
+    (v1 or v2) or only the rlimits the launcher sets (which always apply as well)."""
+    on = cgroups.controllers if cgroups is not None else ()
+    kind = cgroups.kind if cgroups is not None else ''
+    parts = [
+        f'memory {memory_mb} MiB by {kind} memory' if 'memory' in on
+        else f'memory: only the {memory_mb} MiB address-space rlimit (RLIMIT_AS)',
+        f'processes {processes} by {kind} pids' if 'pids' in on
+        else f'processes: only RLIMIT_NPROC {processes}',
+        f'CPU {cpus:g} core(s) by {kind} cpu quota' if 'cpu' in on
+        else 'CPU: no share limit, only RLIMIT_CPU',
+        f'CPU time {cpu_seconds} s by RLIMIT_CPU, open files {open_files} by RLIMIT_NOFILE',
+    ]
+    return f'run limits: {"; ".join(parts)} ({how if cgroups is not None else f"no run cgroups: {how}"})'
 
 
 def _limits(controller: str, memory: int, processes: int, cpus: float) -> list[tuple[str, str, bool]]:
@@ -286,6 +315,65 @@ def _limits(controller: str, memory: int, processes: int, cpus: float) -> list[t
         'v2': [('memory.max', str(memory), True), ('memory.swap.max', '0', False), ('pids.max', str(processes), True),
                ('cpu.max', f'{quota} 100000', False)],
     }[controller]
+
+
+LEAF = 'rosgate-gateway'   # the leaf cgroup v2 the gateway moves itself into (see _v2)
+
+
+def _v2(parent: Path, want, need) -> tuple[Cgroups | None, str]:
+    """Run cgroups under the gateway's own cgroup v2. The kernel enables a controller for a
+    cgroup's children only while that cgroup holds no process (the "no internal processes" rule:
+    writing +memory to cgroup.subtree_control answers EBUSY), and the gateway's own cgroup holds
+    the gateway. So, as systemd documents for a delegated cgroup (Delegate=yes), the gateway
+    first moves itself into a leaf of its own, ``rosgate-gateway``, then enables the controllers;
+    the runs' cgroups are that leaf's siblings. Where the cgroup holds other processes too (a
+    login shell's scope), or the controllers were never delegated to it, the sentence says so."""
+    available = _read_words(parent / 'cgroup.controllers')
+    lacking = [c for c in want if c not in available]
+    if [c for c in lacking if c in need]:
+        return None, (f'cgroup v2: {" and ".join(lacking)} not delegated to {parent} (start the gateway in a cgroup '
+                      'of its own with Delegate=yes, e.g. a systemd service, or systemd-run --scope -p Delegate=yes)')
+    moved = ''
+    missing = _delegate(parent, [c for c in want if c in available])
+    if missing and _busy(parent):
+        moved = _into_leaf(parent)
+        missing = _delegate(parent, missing) if moved.startswith('moved') else missing
+    if [c for c in missing if c in need]:
+        why = moved or f'{parent}/cgroup.subtree_control refused them'
+        return None, f'cgroup v2: {" and ".join(missing)} not enabled for the runs in {parent} ({why})'
+    found, how = _writable([('v2', parent)], need)
+    if found is None:
+        return None, how
+    on = tuple(c for c in want if c not in missing and c not in lacking)
+    return Cgroups(found.parents, on), (f'cgroup v2 limits ({", ".join(on)}) in {parent}'
+                                        + (f'; the gateway {moved}' if moved else ''))
+
+
+def _read_words(path: Path) -> list[str]:
+    try:
+        return path.read_text().split()
+    except OSError:
+        return []
+
+
+def _busy(parent: Path) -> bool:
+    """Whether the cgroup holds processes (then the kernel refuses to enable controllers)."""
+    return bool(_read_words(parent / 'cgroup.procs'))
+
+
+def _into_leaf(parent: Path) -> str:
+    """Move this process into parent/rosgate-gateway, so that parent holds no process of ours; a
+    sentence saying what was done or why not."""
+    others = [p for p in _read_words(parent / 'cgroup.procs') if p != str(os.getpid())]
+    if others:
+        return f'{parent} holds {len(others)} other process(es), so its controllers cannot be enabled'
+    leaf = parent / LEAF
+    try:
+        leaf.mkdir(exist_ok=True)
+        (leaf / 'cgroup.procs').write_text(str(os.getpid()))
+    except OSError as e:
+        return f'could not move itself into {leaf} ({e.strerror})'
+    return f'moved itself into {leaf} first'
 
 
 def _delegate(parent: Path, controllers) -> list[str]:
@@ -304,7 +392,7 @@ def _delegate(parent: Path, controllers) -> list[str]:
     return [c for c in controllers if c not in on]
 
 
-def _writable(parents: list[tuple[str, Path]]) -> tuple[Cgroups | None, str]:
+def _writable(parents: list[tuple[str, Path]], need=('memory', 'pids')) -> tuple[Cgroups | None, str]:
     """Those parents in which the gateway can make a cgroup (cpu is optional), with a sentence."""
     probe = f'rosgate-probe-{os.getpid()}'
     usable = []
@@ -314,11 +402,82 @@ def _writable(parents: list[tuple[str, Path]]) -> tuple[Cgroups | None, str]:
             (parent / probe).rmdir()
             usable.append((controller, parent))
         except OSError as e:
-            if controller != 'cpu':
+            if controller in need or controller == 'v2':
                 return None, f'cannot make cgroups in {parent} ({e.strerror})'
-    kinds = 'memory, pids, cpu' if usable[0][0] == 'v2' else ', '.join(c for c, _ in usable)
+    if not usable:
+        return None, 'no cgroup hierarchy to make run cgroups in'
+    kinds = ', '.join(c for c, _ in usable)
     where = ', '.join(str(p) for _, p in usable)
-    return Cgroups(tuple(usable)), f'cgroup {"v2" if usable[0][0] == "v2" else "v1"} limits ({kinds}) in {where}'
+    return Cgroups(tuple(usable)), f'cgroup v1 limits ({kinds}) in {where}'
+
+
+SYSTEMD = Path('/run/systemd/system')   # present when systemd is the init (what sd_booted checks)
+SCOPE_CHECK = ('d=/sys/fs/cgroup$(sed -n "s/^0:://p" /proc/self/cgroup); '
+               'for f in memory.max pids.max cpu.max; do echo "$f $(cat "$d/$f" 2>/dev/null)"; done')
+
+
+@dataclass(frozen=True)
+class Scopes:
+    """Run limits by systemd where the gateway's own cgroup v2 cannot have run cgroups (a login
+    shell's scope holds the shell too): each run starts in a transient scope unit made by
+    ``systemd-run --scope -p MemoryMax= -p TasksMax= -p CPUQuota=``, systemd's documented way to
+    give a command resource limits (systemd owns the cgroup tree and enables the controllers on
+    the way down). As root the system manager makes them, else the user's (``--user``)."""
+    command: tuple[str, ...]                  # systemd-run [--user]
+    controllers: tuple[str, ...]              # those the start-up probe saw in force
+    kind = 'systemd scope'
+
+    @classmethod
+    def find(cls, systemd: Path = SYSTEMD) -> tuple[Scopes | None, str]:
+        """Scopes where systemd runs and a probe scope shows its limits in its own cgroup files."""
+        if not systemd.is_dir():
+            return None, f'systemd is not running here ({systemd} is missing)'
+        exe = shutil.which('systemd-run')
+        if exe is None:
+            return None, 'systemd-run is not installed'
+        command = (exe,) if os.geteuid() == 0 else (exe, '--user')
+        probe = [*command, *_scope_options('rosgate-probe', 64 * 2**20, 16, 1.0), '/bin/sh', '-c', SCOPE_CHECK]
+        try:
+            done = subprocess.run(probe, capture_output=True, text=True, timeout=30, stdin=subprocess.DEVNULL)
+        except (OSError, subprocess.SubprocessError) as e:
+            return None, f'systemd-run does not run: {e}'
+        if done.returncode != 0:
+            return None, f'systemd-run --scope refused: {done.stderr.strip()[-300:]}'
+        seen = dict(line.split(' ', 1) for line in done.stdout.splitlines() if ' ' in line)
+        expected = {'memory': ('memory.max', str(64 * 2**20)), 'pids': ('pids.max', '16'),
+                    'cpu': ('cpu.max', '100000 100000')}
+        on = tuple(c for c, (f, v) in expected.items() if seen.get(f, '').strip() == v)
+        if 'memory' not in on or 'pids' not in on:
+            return None, f'systemd-run scopes here do not get memory and pids limits (saw {seen})'
+        return cls(command, on), f'a systemd scope per run ({" ".join(command)} --scope), checked at start'
+
+    def make(self, run_id: str, memory: int, processes: int, cpus: float) -> RunScope:
+        return RunScope((*self.command, *_scope_options(f'rosgate-{os.getpid()}-{run_id}', memory, processes, cpus)))
+
+    def sweep(self) -> None:
+        """Nothing to sweep: systemd removes a scope once its processes are gone (--collect)."""
+
+
+def _scope_options(unit: str, memory: int, processes: int, cpus: float) -> list[str]:
+    return ['--scope', '--quiet', '--collect', f'--unit={unit}', '-p', f'MemoryMax={memory}', '-p', 'MemorySwapMax=0',
+            '-p', f'TasksMax={processes}', '-p', f'CPUQuota={max(1, round(cpus * 100))}%', '--']
+
+
+@dataclass(frozen=True)
+class RunScope:
+    """A run's systemd scope: systemd-run execs the run's command in it (same pid), and removes
+    it when the run ends."""
+    prefix: tuple[str, ...]
+    dirs: tuple[Path, ...] = ()
+
+    def join(self, argv: list[str]) -> list[str]:
+        return [*self.prefix, *argv]
+
+    def oom_killed(self) -> bool:
+        return False   # systemd stops and collects the scope: a kill reads as SIGKILL, perhaps memory
+
+    def remove(self) -> bool:
+        return True
 
 
 @dataclass(frozen=True)

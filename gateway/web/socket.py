@@ -14,6 +14,7 @@ from ..bridge.gateway import Gateway
 from ..bridge.session import ClientSession
 from .pages import write_page
 
+TORNADO_TESTED = 'tornado>=6.4,<6.7'   # the range pyproject.toml pins; its private parts are checked below
 TEXT, BINARY, CLOSE = 0x1, 0x2, 0x8  # websocket opcodes
 FLUSH_BEFORE_CLOSE = 1.0  # seconds a failing connection waits for its last status to go out
 READ_CHUNK = 128 * 1024   # bytes a connection asks its socket for at once (more when a frame needs it)
@@ -80,6 +81,32 @@ class TextAsBytesProtocol(tornado.websocket.WebSocketProtocol13):
             self.handler.text_frame = False
 
 
+def check_tornado(protocol: type = tornado.websocket.WebSocketProtocol13) -> None:
+    """TextAsBytesProtocol overrides two private methods of tornado's websocket protocol, which
+    its frame loop (``_receive_frame``) calls, and keeps tornado's byte count (``_wire_bytes_in``).
+    A tornado release that renames any of them would leave the override silently unused (text
+    frames decoded by tornado again, invalid UTF-8 dropping the connection without a close), so
+    the gateway refuses to start instead, naming what is missing (RuntimeError)."""
+    loop = getattr(protocol, '_receive_frame', None)
+    calls = set(getattr(getattr(loop, '__code__', None), 'co_names', ()))
+    reads = getattr(protocol, '_read_bytes', None)
+    counts = set(getattr(getattr(reads, '__code__', None), 'co_names', ()))
+    missing = [what for what, ok in (
+        (f'{protocol.__name__}._receive_frame', callable(loop)),
+        (f'{protocol.__name__}._read_bytes, called by _receive_frame', callable(reads) and '_read_bytes' in calls),
+        (f'{protocol.__name__}._handle_message, called by _receive_frame',
+         callable(getattr(protocol, '_handle_message', None)) and '_handle_message' in calls),
+        (f'{protocol.__name__}._wire_bytes_in, counted by _read_bytes', '_wire_bytes_in' in counts),
+    ) if not ok]
+    if missing:
+        raise RuntimeError(f'rosgate\'s websocket reads frames through private parts of tornado that tornado '
+                           f'{tornado.version} does not have: {"; ".join(missing)}. Install the tested '
+                           f'tornado: pip install \'{TORNADO_TESTED}\'')
+
+
+check_tornado()
+
+
 def _is_utf8(data: bytes) -> bool:
     try:
         data.decode('utf-8')
@@ -128,7 +155,7 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
                 on_connect(self.session, self.request)
         self.gateway.count_clients()
         timeout = self.gateway.settings.auth_timeout
-        if getattr(self.gateway.policy, 'auth', None) is not None and 'role' not in self.session.attrs and timeout > 0:
+        if not self.gateway.policy.signed_in(self.session) and timeout > 0:
             self.auth_deadline = asyncio.get_running_loop().call_later(timeout, self._auth_deadline, timeout)
 
     def _auth_deadline(self, timeout: float) -> None:

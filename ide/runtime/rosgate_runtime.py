@@ -112,12 +112,13 @@ def yaw(q):
 
 
 def angle_diff(a, b):
-    d = a - b
-    while d > math.pi:
-        d -= 2 * math.pi
-    while d <= -math.pi:
-        d += 2 * math.pi
-    return d
+    """Smallest a - b, wrapped into (-pi, pi] in closed form (a loop of 2*pi steps never ends for
+    1e20); nan when either angle is not finite (an infinite angle has no direction), as in the IDE."""
+    d = float(a) - float(b)
+    if not math.isfinite(d):
+        return math.nan
+    d = math.remainder(d, 2 * math.pi)
+    return math.pi if d <= -math.pi else d
 
 
 def range_at(scan, degrees=0, window=20):
@@ -179,8 +180,26 @@ class _Sub:
         self.handlers = []
 
 
+ROSLIBPY_TESTED = "roslibpy>=2.1,<2.2"
+
+
+def check_roslibpy():
+    """roslibpy drops rosbridge status ops (its table of handlers maps "status" to None), and a
+    refused publish has to end the program: the runtime puts its own handler in that table,
+    roslibpy's private RosBridgeProtocol._message_handlers. If a roslibpy release renames it,
+    refused publishes would silently stop ending programs; the program stops at start instead."""
+    proto = roslibpy.comm.RosBridgeProtocol()
+    handlers = getattr(proto, "_message_handlers", None)
+    if not isinstance(handlers, dict) or "status" not in handlers:
+        raise RuntimeError(
+            "this program's runtime needs roslibpy's RosBridgeProtocol._message_handlers table (with a "
+            "'status' entry) to end the program when the gateway refuses a publish; roslibpy %s has none. "
+            "Install the tested roslibpy: pip install '%s'" % (getattr(roslibpy, "__version__", "?"), ROSLIBPY_TESTED))
+
+
 class Runtime:
     def __init__(self, url, namespace=""):
+        check_roslibpy()
         self.namespace = norm_namespace(namespace)
         self.ros = roslibpy.Ros(url)
         self.ros.run(timeout=10)
@@ -203,9 +222,8 @@ class Runtime:
 
     def _take_status(self, proto):
         # roslibpy drops rosbridge status ops; a refused publish has to end the program
-        handlers = getattr(proto, "_message_handlers", None)
-        if isinstance(handlers, dict):
-            handlers["status"] = self._on_status
+        # (check_roslibpy made sure at start that this table is there)
+        proto._message_handlers["status"] = self._on_status
 
     def _on_status(self, message):
         # a status error about a publish or advertise of one of the program's topics ends it

@@ -66,11 +66,15 @@ export function yaw(q) {
   return Math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z));
 }
 
-// Smallest a - b, wrapped into (-pi, pi].
+// Smallest a - b, wrapped into (-pi, pi] in closed form (a loop of 2*pi steps never ends for
+// 1e20); NaN when either angle is not finite (an infinite angle has no direction), as in Python.
 export function angleDiff(a, b) {
-  let d = a - b;
-  while (d > Math.PI) d -= 2 * Math.PI;
-  while (d <= -Math.PI) d += 2 * Math.PI;
+  const tau = 2 * Math.PI;
+  let d = Number(a) - Number(b);
+  if (!Number.isFinite(d)) return NaN;
+  d %= tau;                      // (-tau, tau), the sign of a - b
+  if (d > Math.PI) d -= tau;
+  else if (d <= -Math.PI) d += tau;
   return d;
 }
 

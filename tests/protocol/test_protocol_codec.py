@@ -18,7 +18,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from PIL import Image
 
-from protocol.codec import (Reassembler, decode_binary, decode_png, decode_text, dumps, encode_cbor, fragment_ops,
+from protocol.codec import (MESSAGE_COST, PIECE_COST, Reassembler, decode_binary, decode_png, decode_text, dumps, encode_cbor, fragment_ops,
                             png_ops)
 from protocol.errors import ProtocolError
 from protocol.ops import Fragment
@@ -274,22 +274,41 @@ def test_reassembler_limits_pending_messages():
     with pytest.raises(ProtocolError) as info:
         r.add(Fragment('m3', 'x', 0, 2), 0)
     assert 'too many incomplete messages' in info.value.message and info.value.id == 'm3'
+    assert info.value.close == 1008   # a client past a bound is disconnected
     assert len(r) == 3
-    assert r.add(Fragment('m0', 'y', 0, 2), 0) is None  # known ids may still go on
 
 
 def test_reassembler_limits_pending_bytes():
-    r = Reassembler(max_bytes=100)
+    message = MESSAGE_COST + 1 + PIECE_COST   # a message of a one-letter id holding one empty piece
+    r = Reassembler(max_bytes=2 * message + PIECE_COST + 60 + 30 + 20)
     r.add(Fragment('a', 'x' * 60, 0, 3), 0)
     r.add(Fragment('b', 'x' * 30, 0, 3), 0)
+    assert r.pending_bytes == 2 * message + 90
     with pytest.raises(ProtocolError) as info:
-        r.add(Fragment('a', 'x' * 20, 1, 3), 0)
-    assert 'exceed 100 bytes' in info.value.message
-    assert len(r) == 1 and r.pending_bytes == 30  # the flooding message is dropped
-    assert r.add(Fragment('b', 'x' * 60, 1, 3), 0) is None
+        r.add(Fragment('a', 'x' * 21, 1, 3), 0)
+    assert 'exceed' in info.value.message and info.value.close == 1008
+    assert len(r) == 1 and r.pending_bytes == message + 30  # the flooding message is dropped
 
 
-def test_reassembler_flood_of_total_does_not_allocate():
-    r = Reassembler()
-    assert r.add(Fragment('huge', 'x', 0, 10**12), 0) is None
-    assert r.pending_bytes == 1
+def test_reassembler_empty_pieces_count_their_envelope():
+    """200,000 empty pieces of one message counted 0 bytes and held ~16 MB: each counts PIECE_COST."""
+    limit = 10 * 2**20
+    r = Reassembler(max_bytes=limit)
+    stored = 0
+    with pytest.raises(ProtocolError) as info:
+        for num in range(200_000):
+            r.add(Fragment('e', '', num, limit), 0)
+            stored += 1
+    assert 'exceed' in info.value.message and info.value.close == 1008
+    assert 0 < stored <= limit // PIECE_COST
+    assert len(r) == 0 and r.pending_bytes == 0
+
+
+def test_reassembler_caps_total_by_the_message_limit():
+    r = Reassembler(max_bytes=1000)
+    for total in (2**31 - 1, 10**12, 1001):
+        with pytest.raises(ProtocolError) as info:
+            r.add(Fragment('huge', 'x', 0, total), 0)
+        assert f'total {total} exceeds' in info.value.message and info.value.close == 1008
+    assert len(r) == 0 and r.pending_bytes == 0
+    assert r.add(Fragment('ok', '{', 0, 1000), 0) is None

@@ -115,14 +115,30 @@ def test_fragment_flood_is_limited():
     for i in range(10):
         errors += s.receive_text(dumps({'op': 'fragment', 'id': f'f{i}', 'data': 'x', 'num': 0, 'total': 2}), 0)
     assert len(errors) == 6 and all('too many incomplete messages' in e.message for e in errors)
-    s = Session(max_message_size=1000)
+    assert all(e.close == 1008 for e in errors)
+    s = Session(max_message_size=4000)
     errors = []
-    for i in range(5):
-        frame = dumps({'op': 'fragment', 'id': 'big', 'data': 'x' * 300, 'num': i, 'total': 10})
+    for i in range(20):
+        frame = dumps({'op': 'fragment', 'id': 'big', 'data': 'x' * 300, 'num': i, 'total': 20})
         errors += s.receive_text(frame, 0)
-    assert len(errors) == 1 and 'exceed 1000 bytes' in errors[0].message
-    assert s.reassembler.pending_bytes == 300  # the flooding message was dropped, the session lives on
+        if errors:
+            break
+    assert i < 19 and len(errors) == 1 and 'exceed 4000 bytes' in errors[0].message and errors[0].close == 1008
     assert s.receive_text(dumps(SUB), 0)[0].topic == '/chatter'
+
+
+def test_fragments_refused_until_allowed():
+    """Before authentication a fragment is refused, with 1008, before anything is stored."""
+    s = Session()
+    s.fragments_allowed = False
+    frames = [dumps(f) for f in fragment_ops(dumps(SUB), 10, 'early')]
+    [error] = s.receive_text(frames[0], 0)
+    assert (error.op, error.id, error.close) == ('fragment', 'early', 1008)
+    assert 'before authentication' in error.message
+    assert len(s.reassembler) == 0 and s.reassembler.pending_bytes == 0
+    s.fragments_allowed = True
+    results = [r for f in frames for r in s.receive_text(f, 1)]
+    assert [type(r) for r in results] == [ops.Subscribe]
 
 
 def test_oversize_frames_are_refused():

@@ -38,11 +38,34 @@ def test_no_token_value_in_the_log(launch, tokens_file, tmp_path):
     status, body = api(gw, 'POST', '/api/runs', {'source': 'print("hi")'}, TOKENS['operator'])
     assert status == 201, body
     wait_for(lambda: api(gw, 'GET', f"/api/runs/{body['id']}", token=TOKENS['viewer'])[1]['state'] != 'running', 30)
-    wait_for(lambda: '/api/runs/nope?token=[redacted]' in gw.log_text(), 10)
+    wait_for(lambda: '/api/runs/nope?[query]' in gw.log_text(), 10)
     log = gw.log_text()
     for token in (*TOKENS.values(), wrong):
         assert token not in log
     assert 'run_key=' not in log.replace('run_key=[redacted]', '')
+
+
+SPELLINGS = ('token', '%74oken', 'to%6Ben', 'TOKEN', '%54%4F%4B%45%4E')   # tornado decodes each name
+
+
+def test_no_token_in_the_log_however_it_is_spelled(launch, tokens_file):
+    """?%74oken= is the token to tornado, and a regex over the word "token" let it through."""
+    gw = launch('--auth', tokens_file, '--auth-backoff', '0', '--log-level', 'debug')
+    secrets = {}
+    for i, name in enumerate(SPELLINGS):
+        wrong = secrets[f'wrong-{i}'] = f'wrong-secret-{i}-5e5e5e'
+        for token in (TOKENS['viewer'], wrong):
+            get(gw, f'/?{name}={token}')                        # a page
+            get(gw, f'/teleop?x=1&{name}={token}')              # a page, the token not first
+            get(gw, f'/api/runs?{name}={token}')                # an API (no --allow-runs: 404)
+            get(gw, f'/api/programs?{name}={token}')            # an API
+            get(gw, f'/no/such/page?{name}={token}')            # a missing path
+            get(gw, f'/api/no/such?{name}={token}#frag')        # a missing API path
+    wait_for(lambda: gw.log_text().count('/no/such/page') >= 2 * len(SPELLINGS), 10)   # all logged
+    log = gw.log_text()
+    for secret in (TOKENS['viewer'], *secrets.values()):
+        assert secret not in log, f'{secret} in the log'
+    assert '/no/such/page' in log and '/api/programs' in log   # the paths are there
 
 
 def test_no_log_line_forged_by_a_name(launch, tokens_file, tmp_path):
