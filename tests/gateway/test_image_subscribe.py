@@ -152,3 +152,18 @@ def test_a_client_that_falls_behind_gets_the_newest_frame(gw, camera, options):
         assert max(ages[-3:]) < 1.0, ages
     finally:
         c.sock.close()
+
+
+def test_an_image_already_small_enough_passes_unchanged(gw, camera):
+    """Asked for more than the camera gives, the gateway sends the camera's own JPEG (never
+    enlarged, and not re-encoded: re-encoding costs the event loop for a few bytes)."""
+    c = Raw(gw.ws_url)
+    try:
+        c.send({'op': 'subscribe', 'topic': TOPIC, 'id': 'big', 'image': {'width': 1000, 'quality': 30}})
+        for _ in range(3):
+            msg = c.expect(is_publish, 10)
+            stamp = msg['msg']['header']['stamp']
+            key = '%.06f' % ((stamp['sec'] * 10**9 + stamp['nanosec']) / 1e9)
+            assert base64.b64decode(msg['msg']['data']) == camera.sent[key]
+    finally:
+        c.ws.close()
