@@ -86,21 +86,25 @@ class Source:
         self.problem: str | None = None   # why the last frame could not be made
         self.key = ('video', next(_keys))
         self.fan = video.gateway.fanout(topic, type)
-        self.fan.watch(self.key, self._on_message)
+        self.fan.watch(self.key, self._on_message, target)
 
-    def part(self, msg: dict) -> Part:
-        """The message as this source's frame (raises images.ImageError)."""
+    def part(self, msg: dict, image: bytes | images.ImageError | None = None) -> Part:
+        """The message as this source's frame, from its image as the fan-out rendered it (or
+        rendered here when not given: a snapshot of the last message); raises images.ImageError."""
         if self.target is None:
             kind = images.content_type(msg)
             if kind is None:
                 raise images.ImageError(f'unknown compressed format {msg.get("format")!r}')
             return Part(kind, stamp_of(msg), bytes(msg.get('data') or b''))
-        kind = 'image/png' if self.target.format == 'png' else 'image/jpeg'
-        return Part(kind, stamp_of(msg), self.fan.render(msg, self.target))
+        if image is None:
+            image = images.render(msg, self.type, self.target)
+        if isinstance(image, images.ImageError):
+            raise image
+        return Part('image/png' if self.target.format == 'png' else 'image/jpeg', stamp_of(msg), image)
 
-    def _on_message(self, msg: dict) -> None:
+    def _on_message(self, msg: dict, image: bytes | images.ImageError | None) -> None:
         try:
-            part = self.part(msg)
+            part = self.part(msg, image)
         except images.ImageError as e:
             self.problem = str(e)
             return
