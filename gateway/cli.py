@@ -56,8 +56,11 @@ def build_parser() -> argparse.ArgumentParser:
         g.add_argument(f'--{kind}-glob', help=f"allowed {kind.replace('-', ' ')} names, e.g. \"['/turtle1/*']\"")
     g.add_argument('--default-call-service-timeout', type=float, default=d.default_call_service_timeout,
                    help='[%(default)s] s')
-    g.add_argument('--websocket-ping-interval', type=float, default=d.websocket_ping_interval)
-    g.add_argument('--websocket-ping-timeout', type=float, default=d.websocket_ping_timeout)
+    g.add_argument('--websocket-ping-interval', type=float, default=d.websocket_ping_interval, metavar='S',
+                   help='ping every websocket this often, so a proxy does not cut a quiet one (nginx: 60 s); '
+                        '0 for never [%(default)s]')
+    g.add_argument('--websocket-ping-timeout', type=float, default=d.websocket_ping_timeout, metavar='S',
+                   help='close a websocket that has not answered a ping this long [%(default)s]')
     g.add_argument('--send-buffer-limit', type=int, default=d.send_buffer_limit,
                    help='bytes queued per client before its topic messages are dropped [%(default)s]')
     g.add_argument('--body-timeout', type=float, default=d.body_timeout, metavar='S',
@@ -107,6 +110,16 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument('--db', '--history-db', dest='db_url', metavar='URL',
                    help='where bookings and history are kept: an SQLAlchemy URL, e.g. '
                         'postgresql+psycopg://rosgate@dbhost/rosgate [sqlite:///$XDG_DATA_HOME/rosgate/rosgate.db]')
+    h = p.add_argument_group('history and the twin')
+    h.add_argument('--history', metavar='GLOBS',
+                   help='topics whose numeric fields the gateway keeps, e.g. "[\'/s*/battery_state\', \'/turtle1/pose\']"; '
+                        '"none" keeps nothing [every topic of type BatteryState, Temperature, Odometry or turtlesim Pose]')
+    h.add_argument('--history-max-mb', type=float, default=d.history_max_mb, metavar='MB',
+                   help='past this size in the store, the oldest history goes [%(default)s]')
+    h.add_argument('--history-full-hours', type=float, default=d.history_full_hours, metavar='H',
+                   help='history kept at full rate (1 Hz) this long, then as per-minute min/mean/max [%(default)s]')
+    h.add_argument('--opcua', type=int, metavar='PORT',
+                   help='serve the robots\' history fields and pose over OPC UA on this port (0: any free one)')
     b.add_argument('--log-level', default='info', choices=('debug', 'info', 'warning', 'error'))
     robots.add_arguments(p)
     rules.add_arguments(p)

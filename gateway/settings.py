@@ -54,7 +54,7 @@ class Settings:
     unregister_timeout: float = 10.0           # grace before an unadvertised publisher is destroyed
     use_compression: bool = False              # permessage-deflate
     default_call_service_timeout: float = 5.0
-    websocket_ping_interval: float = 0.0
+    websocket_ping_interval: float = 20.0      # below the idle timeouts of common proxies (nginx 60 s)
     websocket_ping_timeout: float = 30.0
     send_buffer_limit: int = 16 * 2**20        # per-client queued bytes before topic messages drop
     body_timeout: float = 30.0                 # s to send a request body before the connection closes
@@ -82,4 +82,8 @@ class Settings:
     record: Path | None = None                 # record from start-up into this directory
     record_topics: str | None = None           # globs of the topics --record takes
     db_url: str | None = None                  # the store (None: SQLite in the data directory)
+    history: str | None = None                 # globs of the topics kept (None: battery, temperature, odometry; 'none': off)
+    history_max_mb: float = 1024.0             # the history's cap in the store
+    history_full_hours: float = 24.0           # full rate (1 Hz) this long, per-minute rows before
+    opcua: int | None = None                   # OPC UA server on this port (0: any free one)
     extra: dict = field(default_factory=dict)  # options of optional parts (robots, security)

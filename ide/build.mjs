@@ -14,6 +14,9 @@ const bundles = {
   'roslib.mjs': "export * from 'roslib';",
   'nipplejs.mjs': "export { default } from 'nipplejs'; export * from 'nipplejs';",
   'uplot.mjs': "export { default } from 'uplot';",
+  // one copy of three for the twin, with the orbit controls and the URDF loader built on it
+  'three.mjs': "export * from 'three'; export { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js'; "
+    + "export { default as URDFLoader } from 'urdf-loader';",
 };
 for (const [out, contents] of Object.entries(bundles)) {
   await build({

@@ -1,12 +1,13 @@
 """The rules: who may do what, and keeping robots safe.
 
-Name globs and the Host/Origin checks (``names``), roles, tokens, caps and op rate (``policy``,
-``tokens``: one policy), robot stations and the person who owns each (``stations``), the driver
+Name globs, the Host/Origin checks and a trusted proxy's forwarded headers (``names``), roles,
+tokens, caps and op rate (``policy``, ``tokens``: one policy), sign-in sessions kept in the store
+(``sessions``), who an LMS launch says someone is and whether to believe it (``lti``), robot stations and the person who owns each (``stations``), the driver
 lease per station (``lease``), velocity clamps and stops (``safety``). ``add_arguments(parser)`` adds their flags; ``install(gateway, reads)`` puts the
 policy in front of every op and the lease and safety at the publish door (``Gateway.publish``).
 
-May import: ``protocol`` and ``backends`` (for QoS and types), never ``bridge`` or ``web``: the
-gateway is handed in.
+May import: ``protocol`` and ``backends`` (for QoS and types), ``store`` (sessions) and ``settings``,
+never ``bridge`` or ``web``: the gateway is handed in.
 """
 
 from __future__ import annotations
@@ -15,9 +16,11 @@ import argparse
 import logging
 
 from .lease import Lease
-from .names import parse_globs
+from .names import parse_globs, parse_networks
 from .policy import GATEWAY_ROLE, Limits, SecurePolicy  # noqa: F401 (GATEWAY_ROLE: for the bridge)
 from .safety import DEFAULT_TYPES, Clamp, Safety, VelocityLimits
+from .lti import LtiConfig
+from .sessions import DEFAULT_HOURS, Sessions, cookie_secret
 from .stations import CLAIM_GRACE, CLAIM_IDLE, Stations
 from .tokens import Authenticator, Brake, TokenStore
 
@@ -51,6 +54,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument('--auth-backoff', type=_positive(float), default=0.5, metavar='S',
                    help='after 3 failed attempts from an address, wait this long, doubling each failure '
                         '(up to 30 s) [%(default)s]')
+    g.add_argument('--session-hours', type=_positive(float), default=DEFAULT_HOURS, metavar='H',
+                   help='a sign-in (/login or an LMS launch) lasts this long; /logout ends it at once [%(default)s]')
+    g.add_argument('--lti', metavar='TOOL.json', type=_loaded(LtiConfig.load),
+                   help='launch from an LMS (LTI 1.3): platforms and deployments in PyLTI1p3\'s tool '
+                        'configuration JSON; see /lti/config')
+    g.add_argument('--trusted-proxies', metavar='ADDRS', type=_loaded(lambda v: parse_networks(v) and v),
+                   help='addresses or networks of TLS reverse proxies whose X-Forwarded-Proto/Host/For are '
+                        'believed, e.g. "127.0.0.1,10.0.0.0/8" (others\' are ignored)')
     g.add_argument('--max-subscriptions', type=_positive(int), default=d.max_subscriptions,
                    help='topics one client may subscribe to [%(default)s]')
     g.add_argument('--max-publishers', type=_positive(int), default=d.max_publishers,
@@ -94,10 +105,15 @@ def install(gateway, reads=lambda name: False) -> None:
     safety = Safety(gateway, types=types, stop_on_disconnect=extra.get('stop_on_disconnect', True),
                     cmd_timeout=extra.get('cmd_timeout', 1.0), limits=velocity)
 
-    auth = None
-    if extra.get('auth'):
-        store = extra['auth'] if isinstance(extra['auth'], TokenStore) else TokenStore.load(extra['auth'])
+    auth = sessions = None
+    if extra.get('auth') or extra.get('lti'):
+        if extra.get('auth'):
+            store = extra['auth'] if isinstance(extra['auth'], TokenStore) else TokenStore.load(extra['auth'])
+        else:
+            store = TokenStore([])   # only LMS launches sign in
         auth = Authenticator(store, Brake(base=extra.get('auth_backoff', 0.5)))
+        sessions = Sessions(gateway.store, cookie_secret(), hours=extra.get('session_hours', DEFAULT_HOURS),
+                            still_valid=lambda s: s.kind != 'token' or s.identity.listed(store.entries))
     stations = Stations(gateway, types=frozenset(types), idle=extra.get('claim_idle', CLAIM_IDLE),
                         grace=extra.get('claim_grace', CLAIM_GRACE), admin_role='admin' if auth else None)
     lease = None
@@ -120,7 +136,8 @@ def install(gateway, reads=lambda name: False) -> None:
     d = Limits()
     limits = Limits(**{k: extra.get(k, getattr(d, k)) for k in
                        ('max_subscriptions', 'max_publishers', 'max_pending_calls', 'max_op_rate')})
-    gateway.policy = SecurePolicy(settings, auth=auth, limits=limits, lease=lease, stations=stations, reads=reads)
+    gateway.policy = SecurePolicy(settings, auth=auth, limits=limits, lease=lease, stations=stations, reads=reads,
+                                  sessions=sessions)
     gateway.hooks.append(stations)
 
     if lease is not None:

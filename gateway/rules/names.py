@@ -66,6 +66,53 @@ def is_ip(name: str) -> bool:
     return True
 
 
+def parse_networks(value: str | None) -> tuple:
+    """--trusted-proxies: addresses or networks, comma or space separated ("127.0.0.1, 10.0.0.0/8")."""
+    out = []
+    for item in (parse_globs(value) or ()):
+        try:
+            out.append(ipaddress.ip_network(item, strict=False))
+        except ValueError:
+            raise ValueError(f'{item!r} is not an address or a network (e.g. 127.0.0.1 or 10.0.0.0/8)') from None
+    return tuple(out)
+
+
+def in_networks(address: str, networks) -> bool:
+    try:
+        ip = ipaddress.ip_address(address.split('%', 1)[0])
+    except ValueError:
+        return False
+    if ip.version == 6 and ip.ipv4_mapped is not None:
+        ip = ip.ipv4_mapped
+    return any(ip in n for n in networks)
+
+
+def forwarded(request, proxies) -> None:
+    """Behind a TLS reverse proxy: when the request comes from one of ``proxies``, believe its
+    X-Forwarded-Proto, X-Forwarded-Host and X-Forwarded-For (the client: the rightmost address
+    that is not itself a trusted proxy), so origins, redirects, Secure cookies, the sign-in brake
+    and the logs see what the browser sees. From anyone else these headers change nothing (a
+    client could claim any address and dodge the brake)."""
+    if not proxies or not in_networks(request.remote_ip or '', proxies):
+        return
+    headers = request.headers
+    client = request.remote_ip
+    for address in reversed([a.strip() for a in headers.get('X-Forwarded-For', '').split(',') if a.strip()]):
+        if not is_ip(address):
+            break
+        client = address
+        if not in_networks(address, proxies):
+            break
+    request.remote_ip = client
+    proto = headers.get('X-Forwarded-Proto', '').split(',')[0].strip().lower()
+    if proto in ('http', 'https'):
+        request.protocol = proto
+    host = headers.get('X-Forwarded-Host', '').split(',')[0].strip()
+    if host:
+        request.host = host
+        request.host_name = host_name(host)
+
+
 def _absolute(name: str) -> str:
     return name if name.startswith('/') else '/' + name
 

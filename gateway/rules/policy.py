@@ -17,10 +17,10 @@ from protocol import ops
 from protocol.errors import ProtocolError
 
 from .stations import person_of
-from .names import ACTION_KINDS, LOCAL_HOSTS, host_name, is_ip, own_names, parse_globs, refuse, target
-from .tokens import AuthError, Authenticator
+from .names import ACTION_KINDS, LOCAL_HOSTS, host_name, is_ip, own_names, parse_globs, parse_networks, refuse, target
+from .sessions import SESSION_COOKIE, Sessions
+from .tokens import AuthError, Authenticator, Identity
 
-COOKIE = 'rosgate_token'
 GATEWAY_ROLE = 'gateway'   # the role of what the gateway publishes itself (stops): passes the lease, never moves
 OWN_PREFIX = '/rosgate/'              # the gateway's own topics (driver, runs' state and output)
 CONTROL_TOPIC = '/rosgate/control'    # where clients ask for the driver lease
@@ -35,7 +35,7 @@ VERBS = {'subscribe': 'subscribe to', 'read': 'call', 'publish': 'publish to', '
          'param': 'change parameters through', 'programs': 'use'}
 WRITING_ROSAPI = ('/rosapi/set_param', '/rosapi/delete_param')
 NOT_AUTHENTICATED = ('not authenticated: send {"op": "auth", "token": ...} first '
-                     '(or connect with ?token=, an Authorization: Bearer header, or the /login cookie)')
+                     '(or connect with ?token=, an Authorization: Bearer header, or the session cookie of /login)')
 _NAME = re.compile(r'[^A-Za-z0-9 _.@-]')
 DEFAULT_PORTS = {'http': 80, 'https': 443, 'ws': 80, 'wss': 443}
 SMALL_BODY = 64 * 1024   # bodies up to this size are read without a token (the login form)
@@ -51,14 +51,19 @@ def permission(action: str, name: str, reads: Callable[[str], bool]) -> str:
 
 
 def token_from_request(request) -> str | None:
-    """A token given at connect: ?token=, Authorization: Bearer, or the login cookie."""
+    """A token given with a request: ?token= or Authorization: Bearer (the session cookie of
+    /login is not a token: see ``sessions``)."""
     values = request.query_arguments.get('token')
     if values:
         return values[-1].decode('utf-8', 'replace')
     header = request.headers.get('Authorization', '')
     if header[:7].lower() == 'bearer ':
         return header[7:].strip()
-    cookie = request.cookies.get(COOKIE)
+    return None
+
+
+def session_cookie(request) -> str | None:
+    cookie = request.cookies.get(SESSION_COOKIE)
     return cookie.value if cookie is not None else None
 
 
@@ -79,9 +84,11 @@ def origin_parts(origin: str) -> tuple[str, str, int] | None:
 class Policy:
     def __init__(self, settings, *, reads: Callable[[str], bool] = lambda name: False):
         self.auth: Authenticator | None = None
+        self.sessions: Sessions | None = None
         self.reads = reads     # the gateway's own read-only services (rosapi)
         self.allowed_origins = parse_globs(settings.allowed_origins)
         self.allowed_hosts = parse_globs(settings.allowed_hosts)
+        self.trusted_proxies = parse_networks(settings.extra.get('trusted_proxies'))
         self.own_names = own_names()
         self.globs = {
             kind: parse_globs(getattr(settings, f'{kind}_glob'))
@@ -173,9 +180,22 @@ class Limits:
 
 class SecurePolicy(Policy):
     def __init__(self, settings, *, auth: Authenticator | None = None, limits: Limits = Limits(), lease=None,
-                 stations=None, reads: Callable[[str], bool] = lambda name: False):
+                 stations=None, reads: Callable[[str], bool] = lambda name: False, sessions: Sessions | None = None):
         super().__init__(settings, reads=reads)
         self.auth, self.limits, self.lease, self.stations = auth, limits, lease, stations
+        self.sessions = sessions
+
+    def identity_of(self, request) -> Identity | None:
+        """Who sends a request: a token (?token=, Authorization: Bearer; the brake counts a
+        wrong one against the client's address), else the session cookie (signed and looked up
+        on the server: a forged or ended one is no one, and costs no guess). None: no one; raises
+        AuthError for a wrong token or a brake that holds."""
+        token = token_from_request(request)
+        if token:
+            return self.auth.token(request.remote_ip or '?', token)
+        if self.sessions is not None:
+            return self.sessions.find(session_cookie(request))
+        return None
 
     # --- the gate in front of every op -------------------------------------------------------
 
@@ -276,13 +296,12 @@ class SecurePolicy(Policy):
         """With auth on, only small bodies (the login form) come without a valid token."""
         if self.auth is None or 0 <= size <= SMALL_BODY:
             return None
-        token = token_from_request(request)
-        if not token:
-            return 401, 'a token is required to send this: sign in at /login or send Authorization: Bearer'
         try:
-            self.auth.token(request.remote_ip or '?', token)
+            identity = self.identity_of(request)
         except AuthError as e:
             return e.status, str(e)
+        if identity is None:
+            return 401, 'a token is required to send this: sign in at /login or send Authorization: Bearer'
         return None
 
     def connect_attrs(self, request) -> dict:
@@ -295,13 +314,12 @@ class SecurePolicy(Policy):
             if key is not None:
                 attrs['person'] = key
             return attrs
-        token = token_from_request(request)
-        if token:
-            try:
-                identity = self.auth.token(request.remote_ip or '?', token)
-            except AuthError as e:
-                attrs['auth_error'] = str(e)
-            else:
+        try:
+            identity = self.identity_of(request)
+        except AuthError as e:
+            attrs['auth_error'] = str(e)
+        else:
+            if identity is not None:
                 attrs.update(role=identity.role, name=identity.name, person=person_of(identity, {}))
         return attrs
 

@@ -73,7 +73,7 @@ def person_of(identity, cookies) -> str | None:
     """The person of a request: the signed-in name (identity), else the browser's id (cookies:
     a tornado request's), else None."""
     if identity is not None:
-        return f'user {identity.name}'
+        return f'user {identity.owner}'
     cookie = cookies.get(BROWSER_COOKIE)
     value = cookie.value if cookie is not None else ''
     return f'browser {value}' if BROWSER_ID.fullmatch(value) else None

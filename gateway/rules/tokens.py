@@ -29,8 +29,20 @@ TOKEN_CHARS = re.compile(r'[A-Za-z0-9._~-]{8,}')
 
 @dataclass(frozen=True)
 class Identity:
+    """Who a client is. ``name``: what pages show; ``key``: what the person owns things under
+    (station, library space, runs, recordings) when the name alone is not unique: an LMS launch's
+    issuer and subject (``lti-`` and a digest), stable across launches and courses of that platform."""
     name: str
     role: str
+    key: str = ''
+
+    @property
+    def owner(self) -> str:
+        return self.key or self.name
+
+    def listed(self, entries) -> bool:
+        """Whether a token file's entries still hold this name with this role."""
+        return any(i.name == self.name and i.role == self.role for _, i in entries)
 
 
 class AuthError(Exception):

@@ -7,7 +7,7 @@ import json
 
 import tornado.web
 
-from ..rules.policy import PERMISSIONS, token_from_request
+from ..rules.policy import PERMISSIONS
 from ..rules.tokens import AuthError
 
 
@@ -82,13 +82,12 @@ def require(handler: tornado.web.RequestHandler, policy, permission: str):
     auth = policy.auth
     if auth is None:
         return None
-    token = token_from_request(handler.request)
-    if not token:
-        raise tornado.web.HTTPError(401, 'a token is required: sign in at /login or send Authorization: Bearer')
     try:
-        identity = auth.token(handler.request.remote_ip or '?', token)
+        identity = policy.identity_of(handler.request)
     except AuthError as e:
         raise tornado.web.HTTPError(e.status, str(e)) from None
+    if identity is None:
+        raise tornado.web.HTTPError(401, 'a token is required: sign in at /login or send Authorization: Bearer')
     if permission not in PERMISSIONS[identity.role]:
         raise tornado.web.HTTPError(403, f'role {identity.role} may not use this; it needs admin')
     return identity

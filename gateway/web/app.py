@@ -1,9 +1,10 @@
 """The tornado application: every route in one place.
 
 ``/`` upgrades to the rosbridge websocket (``socket``) and, as a plain GET, serves the IDE;
-``/teleop`` and ``/class`` are the other pages; ``/health``; the JSON API apps (``/api/programs``,
-``/api/runs``, ``/api/recordings``) and the login pages; web_video_server's camera URLs
-(``/stream``, ``/snapshot``, ``/stream_viewer``, ``/streams``: ``video``); the IDE's static files last.
+``/teleop``, ``/twin`` (the robot in 3D) and ``/class`` are the other pages; ``/health``; the JSON
+API apps (``/api/programs``, ``/api/runs``, ``/api/recordings``, ``/api/history``), the login pages and
+LTI's (``/lti/...``, with ``--lti``); the OPC UA server beside them (``--opcua``); web_video_server's
+camera URLs (``/stream``, ``/snapshot``, ``/stream_viewer``, ``/streams``: ``video``); the IDE's static files last.
 """
 
 from __future__ import annotations
@@ -15,7 +16,11 @@ import tornado.web
 
 from ..bridge.gateway import Gateway
 from .classview import ClassHandler
+from .history import start_history
+from .history_api import history_routes
+from .opcua import start_twin
 from .login import login_routes
+from .lti import lti_routes
 from .pages import Application, PublicFileHandler, write_page
 from .programs import program_routes
 from .recordings import recording_routes
@@ -41,7 +46,7 @@ class HealthHandler(tornado.web.RequestHandler):
 
 
 class TeleopHandler(tornado.web.RequestHandler):
-    """GET /teleop: the teleop page (its relative asset paths resolve from the root)."""
+    """GET /teleop, /twin: a page whose relative asset paths resolve from the root."""
 
     def initialize(self, page) -> None:
         self.page = page
@@ -65,13 +70,20 @@ def make_app(gateway: Gateway) -> tornado.web.Application:
         (r'/health', HealthHandler, {'gateway': gateway}),
         (r'/teleop/', tornado.web.RedirectHandler, {'url': '/teleop'}),
         (r'/teleop', TeleopHandler, {'page': settings.ide_dir / 'teleop.html'}),
+        (r'/twin/', tornado.web.RedirectHandler, {'url': '/twin'}),
+        (r'/twin', TeleopHandler, {'page': settings.ide_dir / 'twin.html'}),
         (r'/class/?', ClassHandler, {'gateway': gateway, 'page': settings.ide_dir / 'class.html'}),
         (r'/examples/(.*)', IdeFileHandler, {'path': str(settings.examples_dir)}),
     ]
-    routes += login_routes(policy, secure_cookie=bool(settings.certfile and settings.keyfile))
+    routes += login_routes(policy)
+    if settings.extra.get('lti') is not None:
+        routes += lti_routes(settings.extra['lti'], policy, settings.examples_dir)
     if settings.programs_dir is not None:
         routes += program_routes(settings.programs_dir, policy)
     routes += run_routes(gateway) + recording_routes(gateway) + video_routes(gateway)
+    history = start_history(gateway)
+    routes += history_routes(history)
+    start_twin(gateway, history, settings.opcua)
     routes.append((r'/(.*)', PublicFileHandler, {'path': str(settings.ide_dir), 'default_filename': 'index.html'}))
     return Application(
         gateway, routes,

@@ -1,4 +1,5 @@
-"""Signing in: a small login page that sets the token cookie, sign-out, and /whoami."""
+"""Signing in: a small login page that begins a session (its cookie is a signed session id, never
+the token: ``rules.sessions``), sign-out that ends it on the server, and /whoami."""
 
 from __future__ import annotations
 
@@ -6,9 +7,11 @@ import html
 
 import tornado.web
 
-from ..rules.policy import COOKIE
+from ..rules.policy import session_cookie
+from ..rules.sessions import SESSION_COOKIE
 from ..rules.tokens import AuthError
 from .api import JsonHandler, check_origin, require
+from .cookies import clear_cookie, is_https, set_cookie
 
 PAGE = """<!doctype html>
 <html lang="en"><head><meta charset="utf-8"><meta name="viewport" content="width=device-width">
@@ -29,8 +32,8 @@ def _safe_next(value: str) -> str:
 
 
 class LoginHandler(tornado.web.RequestHandler):
-    def initialize(self, policy, secure_cookie: bool) -> None:
-        self.policy, self.secure_cookie = policy, secure_cookie
+    def initialize(self, policy) -> None:
+        self.policy = policy
 
     def set_default_headers(self) -> None:
         self.set_header('Cache-Control', 'no-store')
@@ -58,8 +61,7 @@ class LoginHandler(tornado.web.RequestHandler):
         except AuthError as e:
             self._page(str(e), e.status)
             return
-        self.set_cookie(COOKIE, self.get_argument('token'), httponly=True, secure=self.secure_cookie,
-                        samesite='Strict', expires_days=30)
+        begin_session(self, self.policy, identity, 'token')
         self.set_header('X-Rosgate-Role', identity.role)
         self.redirect(_safe_next(self.get_argument('next', '/')), status=303)
 
@@ -70,7 +72,9 @@ class LogoutHandler(tornado.web.RequestHandler):
 
     def get(self) -> None:
         check_origin(self, self.policy)
-        self.clear_cookie(COOKIE)
+        if self.policy.sessions is not None:
+            self.policy.sessions.end(session_cookie(self.request))
+        clear_cookie(self, SESSION_COOKIE, secure=is_https(self))
         self.redirect('/login', status=303)
 
     post = get
@@ -91,7 +95,19 @@ class WhoAmIHandler(JsonHandler):
         self.finish({'auth': True, 'name': identity.name, 'role': identity.role})
 
 
-def login_routes(policy, *, secure_cookie: bool) -> list:
-    kw = {'policy': policy, 'secure_cookie': secure_cookie}
+def begin_session(handler: tornado.web.RequestHandler, policy, identity, kind: str, *, framed: bool = False) -> None:
+    """Sign this browser in as ``identity``: a new session and its cookie. SameSite=Lax, so the
+    cookie comes along when a link or an LMS brings the browser here; ``framed`` (a launch inside
+    an LMS's iframe): SameSite=None; Secure; Partitioned, the only kind Chromium keeps there."""
+    value = policy.sessions.begin(identity, kind)
+    max_age = int(policy.sessions.seconds)
+    if framed:
+        set_cookie(handler, SESSION_COOKIE, value, max_age=max_age, samesite='None', partitioned=True)
+    else:
+        set_cookie(handler, SESSION_COOKIE, value, max_age=max_age, samesite='Lax', secure=is_https(handler))
+
+
+def login_routes(policy) -> list:
+    kw = {'policy': policy}
     return [(r'/login/?', LoginHandler, kw), (r'/logout/?', LogoutHandler, {'policy': policy}),
             (r'/whoami', WhoAmIHandler, {'policy': policy})]

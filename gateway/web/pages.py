@@ -1,5 +1,7 @@
 """What the HTTP side lets through, before any handler runs.
 
+- Behind a TLS reverse proxy listed in ``--trusted-proxies``, its X-Forwarded-Proto/Host/For
+  replace what the gateway sees of the request (``rules.names.forwarded``), before anything else.
 - ``Application`` checks the ``Host`` header of every request, websocket upgrades included,
   against ``Policy.host_allowed``: a page on a rebound domain (``evil.example`` resolving to this
   machine) sends its own name as Host and is refused with 421, on every route.
@@ -19,11 +21,13 @@ from pathlib import Path
 
 import tornado.web
 
+from ..rules.names import forwarded
+
 # Top-level entries of ide/ that anyone may load; everything else there (node_modules/, package
 # files, the build script) is for building them, and class.html only goes out through /class,
 # which checks who asks.
 PUBLIC_DIRS = frozenset({'blocks', 'css', 'generators', 'js', 'runtime', 'vendor'})
-PUBLIC_FILES = frozenset({'index.html', 'teleop.html', 'toolbox.json'})
+PUBLIC_FILES = frozenset({'index.html', 'teleop.html', 'twin.html', 'toolbox.json'})
 MAX_HTTP_BODY = 4 * 2**20   # the largest request body any route takes (a program is at most 2 MiB)
 # What the pages cannot work without (the bundles come from `npm run build` in ide/).
 IDE_REQUIRED = ('index.html', 'teleop.html', 'vendor/roslib.mjs', 'vendor/blockly/blockly_compressed.js')
@@ -54,6 +58,7 @@ class Application(tornado.web.Application):
 
     def find_handler(self, request, **kwargs):
         policy = self.gateway.policy
+        forwarded(request, policy.trusted_proxies)   # first: every check below sees the browser's view
         if not policy.host_allowed(request.host):
             return self._refuse(request, 421, f'this gateway does not answer to the name {request.host[:100]!r}; '
                                               'start it with --allowed-hosts to add names')

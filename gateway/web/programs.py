@@ -70,9 +70,9 @@ def space_owner(identity, asked: str | None, verb: str = "open") -> str | None:
     shared space); anyone else gets their own and may not name someone else's."""
     if identity is None or identity.role == "admin":
         return asked
-    if asked is not None and asked != identity.name:
+    if asked is not None and asked != identity.owner:
         raise tornado.web.HTTPError(403, "%s may %s only their own programs" % (identity.name, verb))
-    return identity.name
+    return identity.owner
 
 
 class _Base(JsonHandler):
@@ -110,7 +110,7 @@ class _Base(JsonHandler):
 class ProgramListHandler(_Base):
     def get(self) -> None:
         if not self._admin():
-            spaces = [(self.identity.name, self._space(self.identity.name))]
+            spaces = [(self.identity.owner, self._space(self.identity.owner))]
         else:
             spaces = [(None, self.programs_dir)]
             users = self.programs_dir / USERS

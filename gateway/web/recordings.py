@@ -274,7 +274,7 @@ class RecordingManager:
         if rec_id not in self.recordings and not (self.dir / rec_id).is_dir():
             return
         owner = self.owner(rec_id)
-        if owner != identity.name:
+        if owner != identity.owner:
             whose = f"{owner}'s" if owner else 'not yours'
             raise tornado.web.HTTPError(403, f'recording {rec_id} is {whose}; {identity.name} may not {verb} it')
 
@@ -297,7 +297,7 @@ class RecordingManager:
         if rec_id in self.plays and not self.plays[rec_id].done():
             raise tornado.web.HTTPError(409, f'recording {rec_id} is already playing')
         path = self.path(rec_id)
-        name, role = (identity.name, identity.role) if identity is not None else ('playback', None)
+        name, role = (identity.owner, identity.role) if identity is not None else ('playback', None)
         try:
             playback = Playback(self.gateway, path, rate, prefix, name, role, person)
         except Exception as e:   # a damaged file, a type rosbags cannot parse
@@ -382,7 +382,7 @@ class RecordingListHandler(_Handler):
         seconds = body.get('max_seconds', m.limits.default_seconds)
         if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not 0 < seconds <= m.limits.max_seconds:
             raise tornado.web.HTTPError(400, f'"max_seconds" is a number, 0 < max_seconds <= {m.limits.max_seconds:g}')
-        rec = m.start(tuple(topics), float(seconds), identity.name if identity is not None else None)
+        rec = m.start(tuple(topics), float(seconds), identity.owner if identity is not None else None)
         self.set_status(201)
         self.finish(rec.summary())
 
@@ -449,7 +449,7 @@ class PlayHandler(_Handler):
         m = self.manager
         identity = caller(self, m.gateway, change=True, roles=('operator', 'admin'))
         player = m.player(rec_id)
-        if identity is not None and identity.role != 'admin' and player is not None and player != identity.name:
+        if identity is not None and identity.role != 'admin' and player is not None and player != identity.owner:
             raise tornado.web.HTTPError(403, f'{player} plays {rec_id}; {identity.name} may not stop it')
         self.finish({'stopped': m.stop_playing(rec_id)})
 

@@ -533,7 +533,7 @@ class RunListHandler(JsonHandler):
         role = identity.role if identity is not None else None
         run = m.start(source, name, ns, float(timeout), role, _local_address(self),
                       person_of(identity, self.request.cookies))
-        run.owner = identity.name if identity is not None else None
+        run.owner = identity.owner if identity is not None else None
         self.set_status(201)
         self.finish({'id': run.id, **run.summary()})
 
@@ -573,7 +573,7 @@ class RunHandler(JsonHandler):
     def delete(self, run_id: str) -> None:
         identity = caller(self, self.manager.gateway, change=True, roles=('operator', 'admin'))
         run = self._run(run_id)
-        if identity is not None and identity.role != 'admin' and run.owner != identity.name:
+        if identity is not None and identity.role != 'admin' and run.owner != identity.owner:
             raise tornado.web.HTTPError(403, f'run {run.id} was started by {run.owner or "someone else"}; '
                                              f'{identity.name} may not stop it')
         self.manager.stop(run)

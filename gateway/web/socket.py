@@ -137,6 +137,11 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
         return protocol
 
     def check_origin(self, origin: str) -> bool:
+        """As for the HTTP routes (``api.check_origin``): a browser's own Sec-Fetch-Site of
+        same-origin passes (behind a TLS proxy the page's https origin differs from what the gateway
+        sees unless the proxy is trusted); otherwise the Origin must be ours or allowed."""
+        if self.request.headers.get('Sec-Fetch-Site', '').lower() == 'same-origin':
+            return True
         return self.gateway.policy.origin_allowed(origin, self.request)
 
     def get_compression_options(self):

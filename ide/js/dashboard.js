@@ -1,7 +1,7 @@
 // The teleop page's dashboard, as robot apps have it: gauges with warning colours (battery,
 // motor temperatures) and history plots, one chart per unit with its own axis. The history of
 // the plotted fields is kept for ten minutes in this browser, per robot namespace, so a reload
-// keeps it.
+// keeps it; longer spans come from the gateway's history (history.js) through replace().
 import uPlot from 'uplot';
 
 export const WINDOW = 600;         // s of history kept
@@ -56,6 +56,7 @@ export class History {
     this.key = key;
     this.series = [];
     this.charts = new Map();   // unit -> {div, readout, chart, series: [...]}
+    this.window = WINDOW;      // s of rows kept (a longer span chosen: as long as that)
     this.rows = this.load();   // {t: [...], [id]: [...]}
   }
 
@@ -73,7 +74,7 @@ export class History {
 
   trim(rows, now = Date.now() / 1000) {
     let drop = 0;
-    while (drop < rows.t.length && rows.t[drop] < now - WINDOW) drop += 1;
+    while (drop < rows.t.length && rows.t[drop] < now - (this.window ?? WINDOW)) drop += 1;
     if (drop) for (const k of Object.keys(rows)) rows[k] = rows[k].slice(drop);
     return rows;
   }
@@ -140,6 +141,14 @@ export class History {
       if (this.rows[k].length < this.rows.t.length) this.rows[k].push(null);
     }
     this.trim(this.rows, now);
+    for (const c of this.charts.values()) { c.chart.setData(this.data(c)); this.legend(c); }
+  }
+
+  // Rows from elsewhere (the gateway's history over `window` seconds); live samples follow them.
+  replace(rows, window) {
+    this.window = window;
+    for (const k of Object.keys(this.rows)) if (!rows[k]) rows[k] = rows.t.map(() => null);
+    this.rows = rows;
     for (const c of this.charts.values()) { c.chart.setData(this.data(c)); this.legend(c); }
   }
 

@@ -298,10 +298,13 @@ async function start() {
   workspace.registerButtonCallback('makeBlock', () => maker.open());
   ide.makeBlock = maker;
 
-  // the first program: a share link, else the autosave, else empty
+  // the first program: a share link, else ?program= (an LMS activity's: NAME of the library,
+  // example:NAME of the examples), else the autosave, else empty
   try {
     const shared_ = await storage.programFromHash();
+    const named = new URLSearchParams(location.search).get('program');
     if (shared_) ide.loadProgram(shared_);
+    else if (named) ide.loadProgram(await programNamed(named));
     else { const saved = storage.loadAutosave(); if (saved) ide.loadProgram(saved); }
   } catch (e) { consoleView.error(`cannot open the program: ${e.message}`); }
   updateCode();
@@ -317,6 +320,16 @@ async function start() {
   }
   ide.ready = true;
   document.body.dataset.ready = 'true';
+}
+
+async function programNamed(name) {
+  const example = name.startsWith('example:');
+  const file = example ? name.slice(8) : name;
+  if (!/^[A-Za-z0-9_-][A-Za-z0-9 _-]{0,63}$/.test(file)) throw new Error(`no program called ${name}`);
+  const res = await fetch(example ? `examples/${file}.json` : `api/programs/${encodeURIComponent(file)}`,
+    { cache: 'no-store', credentials: 'same-origin' });
+  if (!res.ok) throw new Error(`${name}: ${res.status} ${res.statusText}`);
+  return res.json();
 }
 
 function setupLibrary(program) {

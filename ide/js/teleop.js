@@ -8,6 +8,8 @@ import { field, zeroVelocity, withNamespace } from '../runtime/util.js';
 import { DriverLease, bindDriverBadge, DRIVER_TOPIC } from './driver.js';
 import { bindNamespace, CLAIM_SERVICE } from './robotns.js';
 import { gauge, History, SAMPLE_EVERY } from './dashboard.js';
+import { bindSpan } from './history.js';
+import { HomeEstimate } from './gohome.js';
 
 const $ = (s) => document.querySelector(s);
 const params = new URLSearchParams(location.search);
@@ -27,6 +29,8 @@ const state = {
 window.teleop = state;
 window.teleopGauge = gauge;   // for tests of the warning colours
 const lease = new DriverLease();
+const home = new HomeEstimate(document.querySelector('#home'));   // enough charge to drive back?
+state.home = home;
 state.lease = lease;
 
 // ---- connection -----------------------------------------------------------
@@ -267,6 +271,7 @@ function resubscribe() {
   cam.sub = null;
   subscribeCamera();
   for (const s of dash.history.series) if (s.topic) subscribePlot(s);
+  subscribe(withNamespace(state.robotNs.get(), '/odom'), 'nav_msgs/msg/Odometry', (m) => home.odom(m), { throttle_rate: 200, queue_length: 1 });
 }
 
 // The camera as the link sustains it: the subscribe extension `image` asks the gateway for a
@@ -303,6 +308,7 @@ function frameAge(msg) {
 
 function showBattery(msg) {
   state.battery = msg;
+  home.battery(msg);
   const pct = Number.isFinite(msg.percentage) ? msg.percentage * 100 : null;
   dash.gauges.battery.set(pct ?? NaN);
   dash.series.battery.last = pct;
@@ -358,6 +364,10 @@ function setupDashboard() {
   addSeries({ id: 'right', label: 'right motor', unit: '°C', topic: ns('/motor/right/temperature'), path: 'temperature', type: 'sensor_msgs/msg/Temperature' });
   addSeries({ id: 'speed', label: 'speed', unit: 'm/s', topic: ns('/odom'), path: 'twist.twist.linear.x', type: 'nav_msgs/msg/Odometry' });
   addSeries({ id: 'battery', label: 'battery', unit: '%' });
+  const loadSpan = bindSpan($('#plot-span'), dash.history, () => [
+    ...dash.history.series.filter((s) => s.topic && s.path).map((s) => ({ id: s.id, topic: s.topic, field: s.path })),
+    { id: 'battery', topic: $('#battery-topic').value, field: 'percentage', scale: 100 }]);
+  loadSpan();
   setInterval(() => dash.history.sample(), SAMPLE_EVERY);
   setInterval(() => dash.history.save(), 5000);
   addEventListener('pagehide', () => dash.history.save());
@@ -381,6 +391,7 @@ function setupRobot() {
   });
   const ns = (name) => withNamespace(state.robotNs.get(), name);
   for (const el of ['#topic', '#battery-topic', '#camera-topic']) $(el).value = ns($(el).value);
+  if (state.robotNs.get()) $('#twin-link').search = `?ns=${encodeURIComponent(state.robotNs.get())}`;
   bindDriverBadge(lease);
   state.robotNs.follow(lease);
   lease.addEventListener('refused', (e) => showNotice(`Your commands are refused: ${e.detail}`));

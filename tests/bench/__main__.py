@@ -9,4 +9,7 @@ if __name__ == "__main__":
     if sys.argv[1:2] == ["camera"]:   # cameras for slow clients (tests/bench/camera.py)
         from .camera import main as camera
         sys.exit(camera(sys.argv[2:]))
+    if sys.argv[1:2] == ["history"]:   # the history's cost and reads (tests/bench/history.py)
+        from .history import main as history
+        sys.exit(history(sys.argv[2:]))
     sys.exit(main())

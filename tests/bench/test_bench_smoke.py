@@ -231,3 +231,18 @@ def test_camera_bench_yields_its_figures(tmp_path):
     for name in ("ws-default", "ws-teleop", "ws-image", "stream-slow", "stream-slow-full"):
         assert doc[name]["frames"] > 0 and doc[name]["age_p95"] is not None, (name, doc[name])
     assert doc["viewers-12"]["frames_per_viewer_per_s"] > 0 and doc["cpu_ratio_12_to_1"] is not None
+
+
+def test_history_bench_gives_its_figures(tmp_path):
+    """`python -m tests.bench history` in a short run: both halves give numbers (the bar is the
+    full run's to judge, on a quiet machine)."""
+    out = tmp_path / "history.json"
+    res = subprocess.run([sys.executable, "-m", "tests.bench", "history", "--seconds", "3", "--series", "1",
+                          "--out", str(out)], cwd=REPO, capture_output=True, text=True, timeout=600)
+    assert res.returncode in (0, 1), res.stderr[-2000:]
+    figures = json.loads(out.read_text())
+    assert figures["write"]["rows"] >= 2 * 150 and figures["write"]["cpu_pct_of_core"] > 0
+    read = figures["read"]
+    assert read["points"] == read["http_points"] == 86_400
+    assert read["http_raw"]["p50_ms"] > 0 and read["http_step60"]["p50_ms"] > 0
+    assert "history read: one field over a day" in res.stdout

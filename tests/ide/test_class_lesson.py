@@ -97,13 +97,14 @@ def teacher(lesson):
 
 @pytest.fixture
 def tablets(chromium):
-    """tablet(gw, who, viewport): a browser context of a student (her token as the login cookie)."""
+    """tablet(gw, who, viewport): a browser context of a student, signed in through /login."""
     contexts = []
 
     def make(gw, who: str | None, viewport=TABLET):
         ctx = chromium.new_context(viewport=viewport, has_touch=True)
         if who is not None:
-            ctx.add_cookies([{"name": "rosgate_token", "value": TOKENS[who], "url": gw.http_url}])
+            r = ctx.request.post(gw.http_url + "login", form={"token": TOKENS[who], "next": "/whoami"})
+            assert r.ok, r.status
         contexts.append(ctx)
         return ctx
 

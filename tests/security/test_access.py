@@ -12,6 +12,7 @@ import urllib.request
 import pytest
 from websockets.exceptions import InvalidStatus
 
+from tests.conftest import wait_for
 from tests.security.client import Client
 from tests.security.conftest import ROSAUTH_SECRET, TOKENS
 
@@ -64,6 +65,20 @@ def test_foreign_origin_refused_with_403(gateway):
     for origin in (f'http://127.0.0.1:{port}', f'http://localhost:{port}', f'http://[::1]:{port}'):
         with Client(gateway.ws_url, origin=origin) as ok:
             assert ok.call('/rosapi/get_time')['result'] is True
+
+
+def test_websocket_takes_the_browsers_same_origin_as_http_does(gateway):
+    """Behind a TLS proxy the page is https://lab:8443 while the gateway sees http on its own port:
+    a browser's Sec-Fetch-Site: same-origin passes the websocket's check as it passes the HTTP
+    routes'; the same Origin from another site (or the browser saying so) is refused."""
+    origin = f'https://localhost:{gateway.port + 1}'
+    with Client(gateway.ws_url, origin=origin, additional_headers={'Sec-Fetch-Site': 'same-origin'}) as ok:
+        assert ok.call('/rosapi/get_time')['result'] is True
+    for site in ('same-site', 'cross-site', None):
+        headers = {'Sec-Fetch-Site': site} if site else {}
+        with pytest.raises(InvalidStatus) as info:
+            Client(gateway.ws_url, origin=origin, additional_headers=headers)
+        assert info.value.response.status_code == 403, site
 
 
 def test_state_changing_requests_check_where_they_come_from_whatever_the_body(gateway):
@@ -222,7 +237,8 @@ def test_login_page_sets_the_cookie_the_websocket_accepts(secured):
     status, headers, _ = http(secured, '/login', method='POST', data=form)
     assert status == 303 and headers['Location'] == '/?x=1'
     cookie = headers['Set-Cookie']
-    assert 'httponly' in cookie.lower() and 'samesite=strict' in cookie.lower()
+    assert 'httponly' in cookie.lower() and 'samesite=lax' in cookie.lower()
+    assert 'secure' not in cookie.lower()        # plain http: a Secure cookie would not come back
     pair = cookie.split(';', 1)[0]
     with Client(secured.ws_url, additional_headers={'Cookie': pair}) as c:
         assert _set_param(c, 'admin')
@@ -230,6 +246,70 @@ def test_login_page_sets_the_cookie_the_websocket_accepts(secured):
     status, _, body = http(secured, '/whoami', headers={'Cookie': pair})
     assert status == 200 and json.loads(body) == {'auth': True, 'name': 'teacher', 'role': 'admin'}
     assert http(secured, '/whoami')[0] == 401
+
+
+def _login(gw, role: str) -> str:
+    form = urllib.parse.urlencode({'token': TOKENS[role], 'next': '/'}).encode()
+    status, headers, _ = http(gw, '/login', method='POST', data=form)
+    assert status == 303
+    return headers['Set-Cookie'].split(';', 1)[0]
+
+
+def test_the_cookie_is_not_the_token(secured):
+    """The session cookie holds a signed random id: neither the token nor anything made from it,
+    a new one at each sign-in; its value with a changed signature, or as a token, is no one."""
+    pair = _login(secured, 'admin')
+    name, value = pair.split('=', 1)
+    assert name == 'rosgate_session'
+    token = TOKENS['admin']
+    for form in (token, urllib.parse.quote(token), hashlib.sha256(token.encode()).hexdigest(),
+                 __import__('base64').b64encode(token.encode()).decode().rstrip('=')):
+        assert form not in urllib.parse.unquote(value)
+    assert _login(secured, 'admin') != pair
+    forged = value[:-4] + ('0000' if not value.endswith('0000') else '1111')
+    assert http(secured, '/whoami', headers={'Cookie': f'{name}={forged}'})[0] == 401
+    assert http(secured, '/whoami', headers={'Cookie': f'rosgate_token={token}'})[0] == 401
+    assert http(secured, '/whoami', headers={'Authorization': f'Bearer {value}'})[0] == 401
+
+
+def test_logout_ends_the_session_on_the_server(secured):
+    """A copy of the cookie (another browser, a stolen one) stops working once its owner signs out."""
+    pair = _login(secured, 'operator')
+    copy = pair
+    assert http(secured, '/whoami', headers={'Cookie': copy})[0] == 200
+    status, headers, _ = http(secured, '/logout', method='POST', headers={'Cookie': pair})
+    assert status == 303 and 'max-age=0' in headers['Set-Cookie'].lower()
+    assert http(secured, '/whoami', headers={'Cookie': copy})[0] == 401
+    with Client(secured.ws_url, additional_headers={'Cookie': copy}) as c:
+        reply = c.call('/rosapi/get_time')
+        assert reply['result'] is False and 'not authenticated' in reply['values']
+
+
+def test_sessions_survive_a_restart_and_end_at_their_expiry(launch, tokens_file, tmp_path):
+    """Kept in the store: a restarted gateway knows its sessions; --session-hours bounds them."""
+    from tests.conftest import GatewayProcess
+    home = str(tmp_path / 'home')
+    gw = GatewayProcess('--auth', tokens_file, env={'XDG_DATA_HOME': home})
+    try:
+        pair = _login(gw, 'viewer')
+        ended = _login(gw, 'operator')
+        assert http(gw, '/logout', method='POST', headers={'Cookie': ended})[0] == 303
+    finally:
+        gw.stop()
+    gw = GatewayProcess('--auth', tokens_file, env={'XDG_DATA_HOME': home})
+    try:
+        status, _, body = http(gw, '/whoami', headers={'Cookie': pair})
+        assert status == 200 and json.loads(body)['role'] == 'viewer'
+        assert http(gw, '/whoami', headers={'Cookie': ended})[0] == 401
+    finally:
+        gw.stop()
+    gw = GatewayProcess('--auth', tokens_file, '--session-hours', '0.001', env={'XDG_DATA_HOME': home})
+    try:
+        short = _login(gw, 'viewer')
+        assert http(gw, '/whoami', headers={'Cookie': short})[0] == 200
+        wait_for(lambda: http(gw, '/whoami', headers={'Cookie': short})[0] == 401, timeout=20)   # past its 3.6 s lifetime
+    finally:
+        gw.stop()
 
 
 def rosauth_op(client: str, level: str, t: int, secret: str = ROSAUTH_SECRET) -> dict:

@@ -1,0 +1,146 @@
+"""Sign-in sessions: what a browser's cookie stands for, kept on the server.
+
+The cookie ``rosgate_session`` holds a random session id, signed with tornado's signed values
+(HMAC-SHA256, a timestamp inside) under a secret kept in the data directory
+(``$XDG_DATA_HOME/rosgate/cookie_secret``, mode 0600, made at first start) — never the token, so a
+copied cookie is not a lasting credential. Each session is a row of the store's ``sessions``
+table (the id's SHA-256, who: name, role, owner key, how they signed in, and when it ends), so it
+survives a restart and is ended on the server: signing out deletes the row, and the cookie is
+then worth nothing anywhere; every session ends at its expiry (``--session-hours``); a token
+session whose name and role the tokens file no longer lists is dropped at start-up.
+
+Lookups run on every request and websocket upgrade, on the event loop: the live sessions are held
+in memory (loaded once at start-up, written through to the store on its own thread), so no
+lookup waits on a disk. With several gateways on one ``--db``, a session begun on one is known to
+another after that one's next start.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+import os
+import secrets
+import time
+from dataclasses import dataclass
+
+import sqlalchemy as sa
+import tornado.web
+
+from ..settings import data_dir
+from ..store import METADATA
+from .tokens import Identity
+
+log = logging.getLogger('rosgate.sessions')
+SESSION_COOKIE = 'rosgate_session'
+DEFAULT_HOURS = 12.0
+
+TABLE = sa.Table(
+    'sessions', METADATA,
+    sa.Column('id_hash', sa.String(64), primary_key=True),
+    sa.Column('name', sa.String(200), nullable=False),
+    sa.Column('role', sa.String(16), nullable=False),
+    sa.Column('owner', sa.String(100), nullable=False),
+    sa.Column('kind', sa.String(16), nullable=False),    # token or lti
+    sa.Column('created', sa.Float, nullable=False),
+    sa.Column('expires', sa.Float, nullable=False),
+)
+
+
+def cookie_secret(path=None) -> bytes:
+    """The secret that signs session cookies: read from the data directory, made there once."""
+    path = path or data_dir('cookie_secret')
+    try:
+        with open(path, 'rb') as f:
+            value = f.read().strip()
+        if len(value) >= 32:
+            return value
+    except FileNotFoundError:
+        pass
+    path.parent.mkdir(parents=True, exist_ok=True)
+    value = secrets.token_urlsafe(48).encode()
+    fd = os.open(f'{path}.tmp', os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+    with os.fdopen(fd, 'wb') as f:
+        f.write(value)
+    os.replace(f'{path}.tmp', path)
+    return value
+
+
+def _hash(session_id: str) -> str:
+    return hashlib.sha256(session_id.encode()).hexdigest()
+
+
+@dataclass(frozen=True)
+class Session:
+    identity: Identity
+    kind: str
+    expires: float
+
+
+class Sessions:
+    """Begin, find and end sessions. ``store``: the gateway's Store (None: kept in memory only)."""
+
+    def __init__(self, store, secret: bytes, *, hours: float = DEFAULT_HOURS, still_valid=lambda s: True):
+        self.store, self.secret, self.seconds = store, secret, hours * 3600
+        self.live: dict[str, Session] = {}
+        if store is not None:
+            now = time.time()
+            rows = store.run_now(lambda c: c.execute(sa.select(TABLE)).all())
+            gone = []
+            for row in rows:
+                s = Session(Identity(row.name, row.role, row.owner), row.kind, row.expires)
+                if row.expires > now and still_valid(s):
+                    self.live[row.id_hash] = s
+                else:
+                    gone.append(row.id_hash)
+            if gone:
+                store.run_now(lambda c: c.execute(TABLE.delete().where(TABLE.c.id_hash.in_(gone))))
+            log.info('sessions: %d signed in, %d ended or expired', len(self.live), len(gone))
+
+    @property
+    def max_age_days(self) -> float:
+        return self.seconds / 86400
+
+    def begin(self, identity: Identity, kind: str) -> str:
+        """A new session for ``identity``; returns the signed cookie value."""
+        session_id = secrets.token_urlsafe(32)
+        now = time.time()
+        s = Session(identity, kind, now + self.seconds)
+        key = _hash(session_id)
+        self.live[key] = s
+        if self.store is not None:
+            row = dict(id_hash=key, name=identity.name[:200], role=identity.role, owner=identity.owner[:100],
+                       kind=kind, created=now, expires=s.expires)
+            self.store.submit(lambda c: c.execute(TABLE.insert().values(**row)))
+        return tornado.web.create_signed_value(self.secret, SESSION_COOKIE, session_id).decode()
+
+    def _key(self, cookie_value: str | None) -> str | None:
+        if not cookie_value:
+            return None
+        raw = tornado.web.decode_signed_value(self.secret, SESSION_COOKIE, cookie_value,
+                                              max_age_days=self.max_age_days)
+        return _hash(raw.decode('utf-8', 'replace')) if raw else None
+
+    def find(self, cookie_value: str | None) -> Identity | None:
+        """Who a cookie stands for, or None (no cookie, a bad signature, ended or expired)."""
+        key = self._key(cookie_value)
+        s = self.live.get(key) if key else None
+        if s is None:
+            return None
+        if s.expires <= time.time():
+            self._drop(key)
+            return None
+        return s.identity
+
+    def end(self, cookie_value: str | None) -> bool:
+        """Sign out: the session is gone on the server. True when there was one."""
+        key = self._key(cookie_value)
+        if key is None or key not in self.live:
+            return False
+        self._drop(key)
+        return True
+
+    def _drop(self, key: str) -> None:
+        self.live.pop(key, None)
+        if self.store is not None:
+            self.store.submit(lambda c: c.execute(TABLE.delete().where(TABLE.c.id_hash == key)))

@@ -1,0 +1,391 @@
+"""LTI 1.3 routes: an LMS (Moodle, Canvas, any LTI 1.3 platform) launches rosgate.
+
+- ``GET|POST /lti/login``: OIDC third-party login initiation. A fresh ``state`` and ``nonce`` are
+  kept on the server for ``PENDING_TTL`` s; the state is also set as a cookie of this browser
+  (``rosgate_lti_<state>``, SameSite=None; Secure; Partitioned, the only kind that survives
+  inside an LMS's iframe in Chromium and that a cross-site form post carries); then the browser
+  goes to the platform's authorization endpoint.
+- ``POST /lti/launch``: the platform's form post of ``id_token`` and ``state``. The state must be
+  one this gateway gave out and not yet used, and this browser's cookie must hold it; the
+  id_token is judged by ``rules.lti.check_launch`` against the platform's key (its JWKS, fetched,
+  cached, fetched again for a key id it does not know). Anything wrong: a page saying what (400),
+  and nobody is signed in. Otherwise the browser is signed in (the same session as ``/login``)
+  and lands where the launch asks (``landing``); a deep linking request gets the picker.
+- ``POST /lti/deeplink``: the picker's choice, answered with a signed LtiDeepLinkingResponse
+  auto-posted to the platform.
+- ``GET /lti/resume``: where a launch whose cookie the browser refused (Safari in an iframe)
+  continues in a new window, with a ticket good for one use within ``RESUME_TTL`` s.
+- ``GET /lti/jwks``: the tool's public keys; ``GET /lti/config``: what to paste into the LMS.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+import logging
+import secrets
+import time
+from collections import OrderedDict
+from urllib.parse import urlencode, urlsplit
+
+import jwt
+import tornado.httpclient
+import tornado.web
+
+from ..rules import lti
+from ..rules.lti import LaunchError
+from .api import check_origin
+from .cookies import clear_cookie, set_cookie
+from .login import begin_session
+
+log = logging.getLogger('rosgate.lti')
+PENDING_TTL = 600.0      # s between the login initiation and the launch
+RESUME_TTL = 120.0       # s a "continue in a new window" ticket stays good
+MAX_PENDING = 10000      # logins in flight kept at most (the oldest are forgotten)
+JWKS_REFRESH = 60.0      # s before a key id missing from a platform's JWKS makes it fetched again
+JWKS_FETCHES = 10        # fetches of one platform's JWKS a minute at most
+STATE_COOKIE = 'rosgate_lti_'
+PAGES = {'ide': '/', '/': '/', 'teleop': '/teleop', '/teleop': '/teleop', 'class': '/class', '/class': '/class'}
+
+
+class Expiring:
+    """Single-use values by key, each forgotten after ``ttl`` s; bounded."""
+
+    def __init__(self, ttl: float, limit: int = MAX_PENDING):
+        self.ttl, self.limit, self.items = ttl, limit, OrderedDict()
+
+    def put(self, key: str, value) -> None:
+        self.items[key] = (time.monotonic() + self.ttl, value)
+        while len(self.items) > self.limit:
+            self.items.popitem(last=False)
+
+    def take(self, key: str):
+        entry = self.items.pop(key, None)
+        if entry is None or entry[0] < time.monotonic():
+            return None
+        return entry[1]
+
+
+class KeySets:
+    """The platforms' public keys by JWKS URL: fetched once, and again when a launch names a key id
+    not in them (a platform rotating its keys). A key id still missing after its fetch is not asked
+    for again for ``JWKS_REFRESH`` s, and all the fetches of one URL together stay under
+    ``JWKS_FETCHES`` a minute: launches with made-up key ids cannot make the gateway a flood."""
+
+    def __init__(self):
+        self.sets: dict[str, jwt.PyJWKSet] = {}
+        self.missed: dict[tuple[str, str | None], float] = {}
+        self.fetches: dict[str, list[float]] = {}
+
+    async def key(self, reg: lti.Registration, kid: str | None):
+        if reg.key_set is not None and not reg.key_set_url:
+            return self._pick(jwt.PyJWKSet.from_dict(reg.key_set), kid, reg)
+        url = reg.key_set_url
+        keys = self.sets.get(url)
+        found = self._find(keys, kid) if keys is not None else None
+        now = time.monotonic()
+        recent = [t for t in self.fetches.get(url, []) if now - t < 60]
+        self.fetches[url] = recent
+        if (found is None and now - self.missed.get((url, kid), -1e9) > JWKS_REFRESH
+                and len(recent) < JWKS_FETCHES):
+            recent.append(now)
+            try:
+                response = await tornado.httpclient.AsyncHTTPClient().fetch(url, request_timeout=10)
+                keys = self.sets[url] = jwt.PyJWKSet.from_dict(json.loads(response.body))
+            except Exception as e:
+                log.warning('lti: cannot fetch the keys of %s from %s: %s', reg.issuer, url, e)
+                raise LaunchError(f'cannot fetch the platform\'s keys from {url}: {e}') from None
+            found = self._find(keys, kid)
+            if found is None:
+                if len(self.missed) > MAX_PENDING:
+                    self.missed.clear()
+                self.missed[(url, kid)] = now
+        if found is None:
+            raise LaunchError(f'the id_token is signed with a key ({str(kid)[:60]}) the platform does not publish '
+                              f'at {url}')
+        return found
+
+    @staticmethod
+    def _find(keys, kid):
+        for k in keys.keys:
+            if kid is None or k.key_id == kid:
+                return k.key
+        return None
+
+    def _pick(self, keys, kid, reg):
+        found = self._find(keys, kid)
+        if found is None:
+            raise LaunchError(f'the id_token is signed with a key ({str(kid)[:60]}) not in key_set for {reg.issuer}')
+        return found
+
+
+class Lti:
+    """What the routes share: the configuration, logins in flight, used states, keys."""
+
+    def __init__(self, config: lti.LtiConfig, policy, examples_dir):
+        self.config, self.policy, self.examples_dir = config, policy, examples_dir
+        self.pending = Expiring(PENDING_TTL)
+        self.used = Expiring(PENDING_TTL)          # states already launched: a replay is told so
+        self.resume = Expiring(RESUME_TTL)
+        self.picks = Expiring(PENDING_TTL)         # deep linking requests waiting for the teacher's pick
+        self.keys = KeySets()
+
+
+def base_url(handler: tornado.web.RequestHandler) -> str:
+    """This gateway as the browser reaches it (through a trusted proxy: its scheme and host)."""
+    return f'{handler.request.protocol}://{handler.request.host}'
+
+
+PAGE = """<!doctype html><html lang="en"><head><meta charset="utf-8"><meta name="viewport" content="width=device-width">
+<title>{title}</title><style>body{{font:16px system-ui,sans-serif;max-width:44rem;margin:3rem auto;padding:0 1rem}}
+.msg{{color:#a00}} code{{background:#eee;padding:0 .2em}} td{{padding:.2rem .5rem;vertical-align:top}}
+button{{font:inherit;padding:.4rem 1rem;margin:.3rem 0}}</style></head><body>{body}</body></html>"""
+
+
+class _Base(tornado.web.RequestHandler):
+    def initialize(self, lti_: Lti) -> None:
+        self.lti = lti_
+        self.script_nonce = secrets.token_urlsafe(12)
+
+    def set_default_headers(self) -> None:
+        self.set_header('Cache-Control', 'no-store')
+        self.set_header('Referrer-Policy', 'no-referrer')
+
+    def page(self, title: str, body: str, status: int = 200) -> None:
+        self.set_status(status)
+        self.set_header('Content-Type', 'text/html; charset=UTF-8')
+        self.set_header('Content-Security-Policy', f"default-src 'self'; style-src 'unsafe-inline'; "
+                                                   f"script-src 'nonce-{self.script_nonce}'; form-action *; "
+                                                   "frame-ancestors *")
+        self.finish(PAGE.format(title=html.escape(title), body=body))
+
+    def refuse(self, reason: str, status: int = 400) -> None:
+        log.info('lti: launch refused from %s: %s', self.request.remote_ip, reason)
+        self.page('rosgate: launch refused',
+                  f'<h1>This launch was refused</h1><p class="msg" id="reason">{html.escape(reason)}</p>'
+                  '<p>Nobody was signed in. Go back to your course and open the activity again; if this '
+                  'keeps happening, show this page to your teacher.</p>', status)
+
+    def write_error(self, status_code: int, **kwargs) -> None:
+        exc = kwargs.get('exc_info')
+        reason = exc[1].log_message if exc and isinstance(exc[1], tornado.web.HTTPError) else None
+        self.refuse(reason or self._reason, status_code)
+
+    def auto_post(self, action: str, fields: dict, note: str) -> None:
+        inputs = ''.join(f'<input type="hidden" name="{html.escape(k)}" value="{html.escape(v)}">'
+                         for k, v in fields.items())
+        self.page('rosgate', f'<form id="f" method="post" action="{html.escape(action)}">{inputs}'
+                             f'<p>{html.escape(note)}</p><button type="submit">Continue</button></form>'
+                             f'<script nonce="{self.script_nonce}">document.getElementById("f").submit()</script>')
+
+
+class LoginInitHandler(_Base):
+    def get(self) -> None:
+        arg = self.get_argument
+        iss, hint = arg('iss', ''), arg('login_hint', '')
+        if not iss or not hint:
+            raise tornado.web.HTTPError(400, 'an LTI login initiation needs iss and login_hint (start the launch '
+                                             'from the course, not from a bookmark)')
+        reg = self.lti.config.find(iss, arg('client_id', None) or None)
+        if reg is None:
+            raise tornado.web.HTTPError(400, f'the platform {iss[:200]!r} (client id {arg("client_id", "")[:100]!r}) '
+                                             'is not registered with this tool (--lti)')
+        deployment = arg('lti_deployment_id', None)
+        if deployment is not None and deployment not in reg.deployment_ids:
+            raise tornado.web.HTTPError(400, f'deployment {deployment[:100]!r} of {iss[:200]} is not registered with '
+                                             'this tool')
+        state, nonce = secrets.token_urlsafe(24), secrets.token_urlsafe(24)
+        self.lti.pending.put(state, {'nonce': nonce, 'iss': reg.issuer, 'client_id': reg.client_id})
+        set_cookie(self, STATE_COOKIE + state, state, max_age=int(PENDING_TTL), samesite='None', partitioned=True)
+        params = {'scope': 'openid', 'response_type': 'id_token', 'response_mode': 'form_post', 'prompt': 'none',
+                  'client_id': reg.client_id, 'redirect_uri': base_url(self) + '/lti/launch',
+                  'login_hint': hint, 'state': state, 'nonce': nonce}
+        if arg('lti_message_hint', None) is not None:
+            params['lti_message_hint'] = arg('lti_message_hint')
+        sep = '&' if '?' in reg.auth_login_url else '?'
+        self.redirect(reg.auth_login_url + sep + urlencode(params))
+
+    post = get
+
+
+class LaunchHandler(_Base):
+    async def post(self) -> None:
+        if self.get_argument('error', None):
+            self.refuse(f'the platform answered {self.get_argument("error")[:100]}: '
+                        f'{self.get_argument("error_description", "")[:300]}')
+            return
+        state, id_token = self.get_argument('state', ''), self.get_argument('id_token', '')
+        if not state or not id_token:
+            self.refuse('a launch needs state and id_token (start it from the course)')
+            return
+        cookie = self.get_cookie(STATE_COOKIE + state)
+        pending = self.lti.pending.take(state)
+        if pending is None:
+            if self.lti.used.take(state) is not None:
+                self.refuse('this launch was already used: state and nonce are good for one launch (a replayed '
+                            'id_token?)')
+            else:
+                self.refuse('unknown state: this gateway did not start this sign-in, or it is more than '
+                            f'{PENDING_TTL / 60:g} minutes old')
+            return
+        self.lti.used.put(state, True)
+        clear_cookie(self, STATE_COOKIE + state, secure=True)
+        if cookie != state:
+            self.refuse('state mismatch: this browser did not start this launch (its state cookie is missing; '
+                        'a browser that blocks cookies in the course\'s frame: open the activity in a new window)')
+            return
+        try:
+            header, unverified = lti.unverified(id_token)
+            reg = lti.registration_for(self.lti.config, unverified)
+            if (reg.issuer, reg.client_id) != (pending['iss'], pending['client_id']):
+                raise LaunchError('the id_token comes from another platform or client than the sign-in began with')
+            if header.get('alg') != 'RS256':
+                raise LaunchError(f'the id_token is signed with {str(header.get("alg"))[:20]}, not RS256')
+            key = await self.lti.keys.key(reg, header.get('kid'))
+            claims = lti.check_launch(id_token, key, reg, pending['nonce'])
+        except LaunchError as e:
+            self.refuse(str(e))
+            return
+        identity = lti.identity_of(claims)
+        framed = self.request.headers.get('Sec-Fetch-Dest', '').lower() == 'iframe'
+        log.info('lti: %s (%s) launched from %s', identity.name, identity.role, reg.issuer)
+        if claims[lti.CLAIM + 'message_type'] == lti.DEEP_LINKING:
+            self._picker(identity, reg, claims)
+            return
+        begin_session(self, self.lti.policy, identity, 'lti', framed=framed)
+        self.set_header('X-Rosgate-Role', identity.role)
+        landing = landing_of(claims)
+        ticket = secrets.token_urlsafe(24)
+        self.lti.resume.put(ticket, (identity, landing))
+        self.page('rosgate', landed_page(landing, ticket, identity, self.script_nonce))
+
+    def _picker(self, identity, reg, claims) -> None:
+        if identity.role != 'admin':
+            self.refuse(f'adding rosgate to a course is for teachers; {identity.name} is {identity.role} here', 403)
+            return
+        ticket = secrets.token_urlsafe(24)
+        self.lti.picks.put(ticket, (reg, claims))
+        options = [('ide', 'Block IDE'), ('teleop', 'Teleop (drive a robot)'), ('class', 'Class view (teacher)')]
+        examples = sorted(p.stem for p in self.lti.examples_dir.glob('*.json') if p.stem != 'index')
+        options += [(f'example:{e}', f'IDE with the example {e}') for e in examples]
+        radios = ''.join(f'<p><label><input type="radio" name="pick" value="{html.escape(v)}"{" checked" if i == 0 else ""}>'
+                         f' {html.escape(t)}</label></p>' for i, (v, t) in enumerate(options))
+        self.page('rosgate: choose an activity',
+                  f'<h1>Add rosgate to the course</h1><form method="post" action="/lti/deeplink">'
+                  f'<input type="hidden" name="ticket" value="{ticket}">{radios}'
+                  '<p><label>Station (optional, e.g. s03) <input name="station"></label></p>'
+                  '<p><label>Title <input name="title" value="Robot lab"></label></p>'
+                  '<button type="submit" id="add">Add to the course</button></form>')
+
+
+def landing_of(claims: dict) -> str:
+    """Where a launch lands: custom parameters page, station, program; else the path of
+    target_link_uri when it is one of the pages; else the IDE."""
+    custom = claims.get(lti.CLAIM + 'custom') or {}
+    page = PAGES.get(str(custom.get('page', '')).strip().lower())
+    if page is None:
+        path = urlsplit(str(claims.get(lti.CLAIM + 'target_link_uri', ''))).path.rstrip('/') or '/'
+        page = PAGES.get(path, '/')
+    query = {}
+    station = str(custom.get('station', '')).strip().strip('/')
+    if station and station.replace('_', '').isalnum():
+        query['ns'] = '/' + station
+    program = str(custom.get('program', '')).strip()
+    if program and page == '/':
+        query['program'] = program[:64]
+    return page + ('?' + urlencode(query, safe='/:') if query else '')
+
+
+def landed_page(landing: str, ticket: str, identity, nonce: str) -> str:
+    """Signed in: on to the landing page once the browser shows it kept the session cookie; a
+    browser that refused it (Safari inside an iframe) is offered the same launch in a new window."""
+    target = html.escape(landing)
+    return (f'<p id="state">Signed in as {html.escape(identity.name)} ({identity.role}); opening '
+            f'<a href="{target}">{target}</a>…</p>'
+            f'<p id="blocked" hidden>This browser keeps no cookies inside the course page. '
+            f'<a id="newwin" href="/lti/resume?ticket={ticket}" target="_blank" rel="opener">'
+            'Continue in a new window</a></p>'
+            f'<script nonce="{nonce}">fetch("/whoami",{{credentials:"same-origin",cache:"no-store"}})'
+            f'.then(r=>r.ok?location.replace({json.dumps(landing)}):Promise.reject())'
+            '.catch(()=>{document.getElementById("blocked").hidden=false})</script>')
+
+
+class ResumeHandler(_Base):
+    def get(self) -> None:
+        found = self.lti.resume.take(self.get_argument('ticket', ''))
+        if found is None:
+            raise tornado.web.HTTPError(400, f'this link is used or more than {RESUME_TTL:g} s old: launch again '
+                                             'from the course')
+        identity, landing = found
+        begin_session(self, self.lti.policy, identity, 'lti')
+        self.redirect(landing, status=303)
+
+
+class DeepLinkHandler(_Base):
+    def post(self) -> None:
+        check_origin(self, self.lti.policy)   # the picker is this gateway's own page
+        found = self.lti.picks.take(self.get_argument('ticket', ''))
+        if found is None:
+            raise tornado.web.HTTPError(400, 'this choice was already sent, or waited too long: add the activity '
+                                             'again from the course')
+        reg, claims = found
+        pick = self.get_argument('pick', 'ide')
+        custom = {}
+        if pick.startswith('example:'):
+            page, custom['program'] = '/', 'example:' + pick.split(':', 1)[1][:64]
+        else:
+            page = PAGES.get(pick, '/')
+        station = self.get_argument('station', '').strip().strip('/')
+        if station:
+            if not station.replace('_', '').isalnum():
+                raise tornado.web.HTTPError(400, f'a station is a name like s03, not {station[:40]!r}')
+            custom['station'] = station
+        item = {'type': 'ltiResourceLink', 'title': self.get_argument('title', 'Robot lab')[:200] or 'Robot lab',
+                'url': base_url(self) + page}
+        if custom:
+            item['custom'] = custom
+        token = lti.deep_linking_response(self.lti.config, reg, claims, [item])
+        settings = claims[lti.DL_CLAIM + 'deep_linking_settings']
+        self.auto_post(settings['deep_link_return_url'], {'JWT': token}, 'Sending your choice to the course…')
+
+
+class JwksHandler(tornado.web.RequestHandler):
+    def initialize(self, lti_: Lti) -> None:
+        self.lti = lti_
+
+    def get(self) -> None:
+        self.set_header('Content-Type', 'application/json')
+        self.set_header('Cache-Control', 'max-age=300')
+        self.finish(json.dumps(self.lti.config.jwks()))
+
+
+class ConfigHandler(_Base):
+    def get(self) -> None:
+        b = html.escape(base_url(self))
+        rows = [
+            ('Tool URL / Target Link URI', 'Tool URL', 'Target Link URI', f'{b}/'),
+            ('Login initiation', 'Initiate login URL', 'OpenID Connect Initiation Url', f'{b}/lti/login'),
+            ('Redirect URI', 'Redirection URI(s)', 'Redirect URIs', f'{b}/lti/launch'),
+            ('Tool keys', 'Public keyset (Public key type: Keyset URL)', 'Public JWK URL (JWK Method)',
+             f'{b}/lti/jwks'),
+            ('Deep linking', 'Content Selection URL (tick Supports Deep Linking)',
+             'Link Selection placement, message type LtiDeepLinkingRequest', f'{b}/lti/launch'),
+        ]
+        table = ''.join(f'<tr><td>{w}</td><td>{m}</td><td>{c}</td><td><code>{u}</code></td></tr>'
+                        for w, m, c, u in rows)
+        regs = ''.join(f'<li><code>{html.escape(r.issuer)}</code> client <code>{html.escape(r.client_id)}</code>, '
+                       f'deployments {html.escape(", ".join(r.deployment_ids))}</li>'
+                       for r in self.lti.config.registrations)
+        self.page('rosgate: LTI 1.3 configuration',
+                  '<h1>Add rosgate to an LMS (LTI 1.3)</h1><table><tr><th></th><th>Moodle (External tool)</th>'
+                  f'<th>Canvas (Developer key, LTI key)</th><th>Value</th></tr>{table}</table>'
+                  '<p>Custom parameters (optional): <code>page=teleop</code> (or ide, class), '
+                  '<code>station=s03</code>, <code>program=NAME</code>.</p>'
+                  f'<h2>Platforms registered (--lti {html.escape(self.lti.config.path)})</h2><ul>{regs}</ul>')
+
+
+def lti_routes(config, policy, examples_dir) -> list:
+    shared = {'lti_': Lti(config, policy, examples_dir)}
+    return [(r'/lti/login', LoginInitHandler, shared), (r'/lti/launch', LaunchHandler, shared),
+            (r'/lti/deeplink', DeepLinkHandler, shared), (r'/lti/resume', ResumeHandler, shared),
+            (r'/lti/jwks', JwksHandler, shared), (r'/lti/config', ConfigHandler, shared)]

@@ -1,0 +1,52 @@
+// The dashboard's plots over a chosen span (10 min, 1 h, 1 day, 7 days), from the gateway's own
+// history (GET api/history: kept whether or not a page was open, see docs/teacher.md), with the
+// live samples appended by the dashboard as before. A gateway that keeps no history of a series
+// (404) leaves that series as this browser saw it.
+
+// span (s) -> the step (s) asked of the gateway: at most ~1000 points a series
+export const SPANS = new Map([[600, 1], [3600, 5], [86400, 90], [604800, 600]]);
+
+async function fetchSeries(src, from, to, step) {
+  const q = new URLSearchParams({ topic: src.topic, field: src.field, from: String(from), to: String(to), step: String(step) });
+  const res = await fetch(`api/history?${q}`, { credentials: 'same-origin' });
+  if (!res.ok) return null;
+  const body = await res.json();
+  const scale = src.scale ?? 1;
+  return { id: src.id, t: body.t, v: body.v.map((v) => v * scale) };
+}
+
+/**
+ * Rows for `history` (a dashboard.js History) over the last `span` seconds: one row per step,
+ * each series' mean there (null where it has none). sources: [{id, topic, field, scale}].
+ */
+export async function loadSpan(history, sources, span, now = Date.now() / 1000) {
+  const step = SPANS.get(span) ?? 1;
+  const got = (await Promise.all(sources.map((s) => fetchSeries(s, now - span, now, step).catch(() => null))))
+    .filter(Boolean);
+  if (!got.length) return 0;   // no history on the gateway: the browser's own stays
+  const keys = new Set();
+  for (const r of got) for (const t of r.t) keys.add(Math.floor(t / step));
+  const sorted = [...keys].sort((a, b) => a - b);
+  const index = new Map(sorted.map((k, i) => [k, i]));
+  const rows = { t: sorted.map((k) => (k + 0.5) * step) };
+  for (const s of history.series) rows[s.id] = rows.t.map(() => null);
+  for (const r of got) {
+    if (!rows[r.id]) continue;
+    r.t.forEach((t, i) => { rows[r.id][index.get(Math.floor(t / step))] = r.v[i]; });
+  }
+  history.replace(rows, span);
+  return got.length;
+}
+
+/** The span chooser (a <select> of seconds): each choice loads that span from the gateway. */
+export function bindSpan(select, history, sources) {
+  const load = () => {
+    const span = Number(select.value);
+    select.dataset.loading = 'true';
+    return loadSpan(history, sources(), span)
+      .then((n) => { select.dataset.loaded = String(n); })
+      .finally(() => { delete select.dataset.loading; });
+  };
+  select.addEventListener('change', load);
+  return load;
+}

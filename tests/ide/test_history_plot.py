@@ -1,0 +1,46 @@
+"""The teleop page's plots from the gateway's history: a browser that was never open during a
+drive shows that drive when it asks for the last hour."""
+
+from __future__ import annotations
+
+import time
+
+import roslibpy
+
+from .conftest import ARTIFACTS, TABLET, open_teleop, wait_for
+
+
+def test_a_fresh_browser_shows_the_earlier_drive_over_an_hour(chromium, rover):
+    gw, ros = rover
+    cmd = roslibpy.Topic(ros.ros, '/cmd_vel', 'geometry_msgs/msg/Twist')
+    cmd.advertise()
+    t0 = time.time()
+    while time.time() - t0 < 8:   # no page is open meanwhile
+        cmd.publish(roslibpy.Message({'linear': {'x': 0.5, 'y': 0, 'z': 0}, 'angular': {'x': 0, 'y': 0, 'z': 0.4}}))
+        time.sleep(0.1)
+    cmd.unadvertise()
+    drove_until = time.time()
+    wait_for(lambda: time.time() > drove_until + 3, timeout=10, what="the gateway's last batch")
+
+    ctx, page, errors = open_teleop(chromium, gw, viewport=TABLET)   # a new context: nothing in its storage
+    try:
+        opened = page.evaluate("Date.now() / 1000")
+        page.select_option("#plot-span", "3600")
+        page.wait_for_function("document.querySelector('#plot-span').dataset.loaded > 0 && "
+                               "!document.querySelector('#plot-span').dataset.loading")
+        rows = page.evaluate("({t: teleop.history.rows.t, speed: teleop.history.rows.speed, "
+                             "battery: teleop.history.rows.battery, window: teleop.history.window})")
+        assert rows['window'] == 3600
+        before = [v for t, v in zip(rows['t'], rows['speed']) if t < opened - 1 and v is not None]
+        assert len(before) >= 3 and max(before) > 0.3            # the drive, from before the page opened
+        assert min(rows['t']) < drove_until
+        assert any(v is not None and 0 < v <= 100 for v in rows['battery'])
+        # the chart draws those rows, and live samples keep coming after them
+        drawn = page.evaluate("[...teleop.history.charts.values()].map((c) => c.chart.data[0].length)")
+        assert all(n == len(rows['t']) for n in drawn) and drawn
+        n = len(rows['t'])
+        page.wait_for_function(f"teleop.history.rows.t.length > {n}")
+        page.screenshot(path=str(ARTIFACTS / "teleop-history-hour.png"))
+        assert not errors, errors
+    finally:
+        ctx.close()

@@ -1,0 +1,98 @@
+"""/twin in Chromium's software WebGL: a three.js robot drawn where the rover is, that turns on
+the canvas when the rover turns; the world's walls, the laser scan, temperature colours and the
+low-battery blink."""
+
+from __future__ import annotations
+
+import time
+
+import roslibpy
+
+from .conftest import ARTIFACTS, PHONE
+
+WAIT = 60000   # ms: a busy machine compiles the shaders slowly
+# the rover's body colour (0xf08c1a, lit): red well above blue, green between
+ORANGE = "(p) => p[0] > 150 && p[2] < 90 && p[1] > 60 && p[1] < 200 && p[0] - p[2] > 110"
+PIXELS = """() => {
+  const gl = twin.renderer.getContext();
+  const w = gl.drawingBufferWidth, h = gl.drawingBufferHeight;
+  const px = new Uint8Array(w * h * 4);
+  gl.readPixels(0, 0, w, h, gl.RGBA, gl.UNSIGNED_BYTE, px);
+  const orange = (%s);
+  const mask = [];
+  for (let i = 0; i < w * h; i++) if (orange(px.subarray(i * 4, i * 4 + 3))) mask.push(i);
+  return { w, h, mask, webgl: gl instanceof WebGLRenderingContext || gl instanceof WebGL2RenderingContext };
+}""" % ORANGE
+
+
+def drive(ros, linear: float, angular: float, seconds: float) -> None:
+    cmd = roslibpy.Topic(ros.ros, "/cmd_vel", "geometry_msgs/msg/Twist")
+    cmd.advertise()
+    t0 = time.time()
+    while time.time() - t0 < seconds:
+        cmd.publish(roslibpy.Message({"linear": {"x": linear, "y": 0, "z": 0}, "angular": {"x": 0, "y": 0, "z": angular}}))
+        time.sleep(0.1)
+    cmd.unadvertise()
+
+
+def test_twin_draws_the_rover_and_it_turns_on_the_canvas(chromium, rover):
+    gw, ros = rover
+    ctx = chromium.new_context(viewport=PHONE, has_touch=True)
+    page = ctx.new_page()
+    errors = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    try:
+        page.goto(gw.http_url + "twin")
+        page.wait_for_function("document.body.dataset.ready === 'true'", timeout=WAIT)
+        page.wait_for_function("twin.state.model === 'rover' && twin.state.pose !== null && twin.state.frames > 5", timeout=WAIT)
+        page.wait_for_function("twin.state.markers >= 4 && twin.state.scanPoints > 100 && twin.state.battery > 0", timeout=WAIT)
+        page.wait_for_function("Number.isFinite(twin.state.temps.left)", timeout=WAIT)
+        before = page.evaluate(PIXELS)
+        yaw0 = page.evaluate("twin.robot.rotation.z")
+        assert before["webgl"] and len(before["mask"]) > 200, len(before["mask"])   # the robot is on the canvas
+
+        drive(ros, 0.0, 1.5, 1.2)   # turn on the spot
+        page.wait_for_function(f"Math.abs(twin.robot.rotation.z - ({yaw0})) > 0.6", timeout=WAIT)
+        frames = page.evaluate("twin.state.frames")
+        page.wait_for_function(f"twin.state.frames > {frames + 3}", timeout=WAIT)
+        after = page.evaluate(PIXELS)
+        a, b = set(before["mask"]), set(after["mask"])
+        assert len(b) > 200
+        assert len(a ^ b) > 0.3 * min(len(a), len(b)), (len(a), len(b), len(a ^ b))   # the drawn body turned
+        page.screenshot(path=str(ARTIFACTS / "twin-phone.png"))
+
+        # a wheel takes its motor's temperature colour (as the gauges: 50 amber, 65 red)
+        colours = page.evaluate("""() => [30, 55, 70].map((t) => {
+          twin.onTemperature('left', { temperature: t });
+          return twin.model.wheels.left.material.color.getHex();
+        })""")
+        assert colours == [0x444a55, 0xffb300, 0xe53935]
+        # a low battery blinks the body red (a fake report every 100 ms outvotes the rover's own)
+        assert not page.evaluate("twin.state.lowBattery")
+        page.evaluate("setInterval(() => twin.onBattery({ percentage: 0.1 }), 100)")
+        page.wait_for_function("twin.state.blinkOn === true && twin.model.body.emissive.getHex() === 0xff0000", timeout=WAIT)
+        page.wait_for_function("twin.state.blinkOn === false && twin.model.body.emissive.getHex() === 0", timeout=WAIT)
+        assert page.get_attribute("#battery", "data-level") == "danger"
+        assert not errors, errors
+    finally:
+        ctx.close()
+
+
+def test_twin_of_a_fleet_station_and_the_teleop_link(chromium, start_gateway):
+    gw = start_gateway("--fleet", "2", "--robot", "rover")
+    ctx = chromium.new_context(viewport=PHONE)
+    page = ctx.new_page()
+    errors = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    try:
+        page.goto(gw.http_url + "teleop?ns=/s02")
+        page.wait_for_function("document.body?.dataset.ready === 'true'", timeout=WAIT)
+        assert page.get_attribute("#twin-link", "href").endswith("twin?ns=%2Fs02")
+        page.click("#twin-link")
+        page.wait_for_function("window.twin && twin.state.model === 'rover' && twin.state.pose !== null", timeout=WAIT)
+        page.wait_for_function("twin.state.markers >= 4 && twin.state.scanPoints > 100", timeout=WAIT)
+        assert page.input_value("#ns") == "/s02"
+        assert len(page.evaluate(PIXELS)["mask"]) > 200
+        assert not errors, errors
+    finally:
+        ctx.close()
