@@ -221,7 +221,7 @@ def test_abandoned_streams_leave_nothing_behind(cam_gw, camera):
 
 
 def test_rover_camera_by_its_base_topic(start_gateway):
-    gw = start_gateway('--robot', 'rover')
+    gw = start_gateway('--robot', 'rover', '--history', 'none')   # nothing else of the gateway's subscribes
     s = Stream(gw.port, '/stream?topic=/camera/image_raw&type=ros_compressed')
     try:
         assert s.head == stream_head(cors=True)

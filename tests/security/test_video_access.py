@@ -1,5 +1,6 @@
 """The camera URLs (/stream, /snapshot, /stream_viewer, /streams) under --auth: the rules of a
-subscribe (a token by header, cookie or ?token=; the topic globs) and no open CORS."""
+subscribe (a token by header or ?token=, or the session cookie of /login; the topic globs) and
+no open CORS."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import pytest
 
 from tests.gateway.camera import BOUNDARY, Stream, stream_head
 from tests.security.conftest import TOKENS
+from tests.security.test_access import _login
 
 CAMERA = '/camera/image_raw'
 
@@ -45,8 +47,8 @@ def test_each_way_of_giving_the_token(secured, how):
     path, headers = f'/stream?topic={CAMERA}', ''
     if how == 'header':
         headers = f'Authorization: Bearer {token}\r\n'
-    elif how == 'cookie':
-        headers = f'Cookie: rosgate_token={token}\r\n'
+    elif how == 'cookie':   # the session cookie of /login
+        headers = f'Cookie: {_login(secured, "viewer")}\r\n'
     else:
         path += f'&token={quote(token)}'
     s = Stream(secured.port, path, headers=headers)
