@@ -113,6 +113,35 @@ COMPRESSION = Check(_enum(*COMPRESSIONS))
 
 
 @dataclass(frozen=True, slots=True)
+class ImageSpec:
+    """What a subscriber asks of an image topic (the ``image`` extension field of subscribe):
+    at most width x height pixels (a missing side follows the image's aspect ratio; never larger
+    than the image), as JPEG of this quality. Hashable: one encode per spec, shared."""
+    width: int | None = None
+    height: int | None = None
+    quality: int = 75
+
+
+MAX_IMAGE_SIDE = 8192
+_IMAGE_KEYS = {'width': (1, MAX_IMAGE_SIDE), 'height': (1, MAX_IMAGE_SIDE), 'quality': (1, 100)}
+
+
+def _image(v):
+    if type(v) is not dict:
+        raise _Bad('must be an object like {"width": 320, "height": 240, "quality": 60}')
+    for key, value in v.items():
+        if key not in _IMAGE_KEYS:
+            raise _Bad(f"has an unknown key {shown(key)} (known: width, height, quality)", v)
+        low, high = _IMAGE_KEYS[key]
+        if type(value) is not int or not low <= value <= high:
+            raise _Bad(f"'{key}' must be an integer from {low} to {high}", v)
+    return ImageSpec(v.get('width'), v.get('height'), v.get('quality', 75))
+
+
+IMAGE = Check(_image)
+
+
+@dataclass(frozen=True, slots=True)
 class Advertise:
     OP: ClassVar[str] = 'advertise'
     SPEC: ClassVar = {'topic': STR_REQ, 'type': STR_REQ, 'id': ID, 'latch': BOOL, 'queue_size': NONNEG,
@@ -152,7 +181,7 @@ class Subscribe:
     OP: ClassVar[str] = 'subscribe'
     SPEC: ClassVar = {'topic': STR_REQ, 'id': ID, 'type': STR, 'throttle_rate': NONNEG,
                       'queue_length': NONNEG, 'fragment_size': FRAGMENT_SIZE, 'compression': COMPRESSION,
-                      'qos': OBJ}
+                      'qos': OBJ, 'image': IMAGE}
     topic: str
     id: str | None = None
     type: str | None = None
@@ -161,6 +190,7 @@ class Subscribe:
     fragment_size: int | None = None
     compression: str = 'none'
     qos: dict | None = None
+    image: ImageSpec | None = None   # extension: a smaller or lower-quality JPEG of an image topic
 
 
 @dataclass(frozen=True, slots=True)

@@ -98,6 +98,7 @@ class Gateway:
         self.itself = Sender('the gateway', GATEWAY_ROLE)
         self._client_count = None
         self._store: Store | None = None
+        self.images_rendered = 0       # images made to measure (fan-out), in /health: one per frame and size
         if hasattr(backend, 'batch_scope'):   # a backend delivering messages in batches
             backend.batch_scope = corked      # sends each client its share in one write
 

@@ -3,7 +3,8 @@
 ``/`` upgrades to the rosbridge websocket (``socket``) and, as a plain GET, serves the IDE;
 ``/teleop``, ``/twin`` (the robot in 3D) and ``/class`` are the other pages; ``/health``; the JSON
 API apps (``/api/programs``, ``/api/runs``, ``/api/recordings``, ``/api/history``), the login pages and
-LTI's (``/lti/...``, with ``--lti``); the OPC UA server beside them (``--opcua``); the IDE's static files last.
+LTI's (``/lti/...``, with ``--lti``); the OPC UA server beside them (``--opcua``); web_video_server's
+camera URLs (``/stream``, ``/snapshot``, ``/stream_viewer``, ``/streams``: ``video``); the IDE's static files last.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from .programs import program_routes
 from .recordings import recording_routes
 from .runs import run_routes
 from .socket import RosbridgeHandler
+from .video import video_routes
 
 HARD_LIMIT_FACTOR = 4   # frames up to this many times max_message_size get a status; larger ones close 1009
 
@@ -39,6 +41,7 @@ class HealthHandler(tornado.web.RequestHandler):
         self.write(orjson.dumps({
             'status': 'ok', 'backend': gw.backend.name, 'clients': len(gw.sessions),
             'uptime': round(time.time() - gw.started, 3), 'topics': len(gw.fanouts),
+            'images_rendered': gw.images_rendered,
         }))
 
 
@@ -83,6 +86,7 @@ def make_app(gateway: Gateway) -> tornado.web.Application:
         routes += program_routes(settings.programs_dir, policy)
     # runs reach the websocket alone, on a unix socket bound into their box (runs.py)
     routes += run_routes(gateway, Application(gateway, [websocket], **options)) + recording_routes(gateway)
+    routes += video_routes(gateway)
     history = start_history(gateway)
     routes += history_routes(history)
     start_twin(gateway, history, settings.opcua)

@@ -4,6 +4,7 @@ message handed to its client's session (``bridge.session``), which answers throu
 from __future__ import annotations
 
 import asyncio
+import socket
 import struct
 
 import tornado.iostream
@@ -21,6 +22,14 @@ READ_CHUNK = 128 * 1024   # bytes a connection asks its socket for at once (more
 # at zlib's fastest level. The class view asks for it: its marker JSON shrinks about tenfold over a
 # home line, and deflate costs CPU for that one connection rather than for every student's.
 DEFLATE = {'compression_level': 1}
+
+# Bytes the kernel may hold for a client beyond what is in flight. Linux's send buffer grows to
+# megabytes for a connection that reads slowly: a 1 Mbit/s client had ~400 KiB (3+ s of camera
+# frames) waiting there, out of reach of the outbox's newest-wins. With TCP_NOTSENT_LOWAT the
+# socket takes more only once its unsent bytes fall below this, so frames wait in the outbox,
+# where a newer one replaces them; what is in flight (the link's own queue) is left to TCP.
+NOTSENT_LOWAT = 16 * 1024
+TCP_NOTSENT_LOWAT = getattr(socket, 'TCP_NOTSENT_LOWAT', 25)   # Linux's number, if Python lacks the name
 
 
 class TextAsBytesProtocol(tornado.websocket.WebSocketProtocol13):
@@ -156,6 +165,7 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
 
     def open(self, *args, **kwargs) -> None:
         self.set_nodelay(True)   # without it Nagle's algorithm stalls small messages
+        bound_unsent(self.ws_connection.stream)
         self.session = ClientSession(self.gateway, self._send, self._send_many, self.close,
                                      self.request.remote_ip or '')
         self.session.attrs.update(self.gateway.policy.connect_attrs(self.request))
@@ -231,6 +241,18 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
         if self.session is not None:
             self.session.close()
             self.gateway.count_clients()
+
+
+def bound_unsent(stream, limit: int = NOTSENT_LOWAT) -> None:
+    """Keep the kernel's unsent share of a connection small (NOTSENT_LOWAT); a stream without
+    a TCP socket (a test's pipe, a platform without the option) is left as it is."""
+    sock = getattr(stream, 'socket', None)
+    if sock is None or sock.family not in (socket.AF_INET, socket.AF_INET6):
+        return
+    try:
+        sock.setsockopt(socket.IPPROTO_TCP, TCP_NOTSENT_LOWAT, limit)
+    except OSError:
+        pass
 
 
 SMALL = 2048       # payloads below this are copied together with their header into one part

@@ -303,9 +303,42 @@ function resubscribe() {
   for (const s of state.subs) s.close();
   state.subs = [];
   subscribe($('#battery-topic').value, 'sensor_msgs/msg/BatteryState', showBattery, { throttle_rate: 500, queue_length: 1 });
-  subscribe($('#camera-topic').value, 'sensor_msgs/msg/CompressedImage', showImage, { throttle_rate: 200, queue_length: 1 });
+  cam.sub = null;
+  subscribeCamera();
   for (const s of dash.history.series) if (s.topic) subscribePlot(s);
   subscribe(withNamespace(state.robotNs.get(), '/odom'), 'nav_msgs/msg/Odometry', (m) => home.odom(m), { throttle_rate: 200, queue_length: 1 });
+}
+
+// The camera as the link sustains it: the subscribe extension `image` asks the gateway for a
+// smaller JPEG (a gateway without it sends the original). Each frame's lag (arrival minus its
+// header stamp, less the smallest lag seen: the clocks' offset) steers the size: down a step when
+// frames arrive late, up again after a long run of fresh ones.
+const CAMERA_SIZES = [{ width: 640, quality: 70 }, { width: 320, quality: 60 }, { width: 160, quality: 50 }];
+const cam = { size: 1, sub: null, minLag: Infinity, late: [], fresh: 0, downAt: 0 };
+
+function subscribeCamera() {
+  if (cam.sub) { cam.sub.close(); state.subs = state.subs.filter((s) => s !== cam.sub); }
+  Object.assign(cam, { minLag: Infinity, late: [], fresh: 0 });
+  cam.sub = subscribe($('#camera-topic').value, 'sensor_msgs/msg/CompressedImage', showImage,
+    { throttle_rate: 150, queue_length: 1, image: CAMERA_SIZES[cam.size] });
+}
+
+function frameAge(msg) {
+  const st = msg.header?.stamp;
+  if (!st || !st.sec) return null;
+  const lag = Date.now() / 1000 - (st.sec + (st.nanosec || 0) / 1e9);
+  cam.minLag = Math.min(cam.minLag, lag);
+  const age = lag - cam.minLag;   // what the link adds, whatever the clocks' offset
+  cam.late.push(age);
+  if (cam.late.length > 5) cam.late.shift();
+  const median = [...cam.late].sort((a, b) => a - b)[cam.late.length >> 1];
+  cam.fresh = age < 0.25 ? cam.fresh + 1 : 0;
+  if (cam.late.length === 5 && median > 0.6 && cam.size < CAMERA_SIZES.length - 1) {
+    cam.size += 1; cam.downAt = Date.now(); subscribeCamera();
+  } else if (cam.fresh > 50 && cam.size > 0 && Date.now() - cam.downAt > 30000) {
+    cam.size -= 1; subscribeCamera();
+  }
+  return Math.abs(cam.minLag) < 1 ? lag : age;   // clocks that agree: the true age
 }
 
 function showBattery(msg) {
@@ -325,7 +358,10 @@ function showImage(msg) {
   const data = typeof msg.data === 'string' ? msg.data : btoa(String.fromCharCode(...msg.data));
   $('#camera').src = `data:image/${fmt};base64,${data}`;
   state.frames += 1;
-  $('#camera-info').textContent = `${state.frames} frames · ${msg.format}`;
+  const age = frameAge(msg);
+  const size = CAMERA_SIZES[cam.size];
+  $('#camera-info').textContent = `${state.frames} frames · ${msg.format} · ≤${size.width} px`
+    + (age === null ? '' : ` · age ${Math.max(0, Math.round(age * 1000))} ms`);
 }
 
 // A plotted field: {id, label, unit, topic, path, type, last}; also drives a gauge when named.
