@@ -107,8 +107,38 @@ OBJ, OBJ_REQ = Check(_obj), Check(_obj, True)
 ARGS = Check(_obj_or_list)
 ANY = Check(_any)
 NONNEG = Check(_integer(0))
+STAMP = Check(_number(0.0, 2.0**53))   # a client's clock in ms (rosgate's extension: docs/protocol.md)
 FRAGMENT_SIZE = Check(_integer(1))
 COMPRESSION = Check(_enum(*COMPRESSIONS))
+
+
+@dataclass(frozen=True, slots=True)
+class ImageSpec:
+    """What a subscriber asks of an image topic (the ``image`` extension field of subscribe):
+    at most width x height pixels (a missing side follows the image's aspect ratio; never larger
+    than the image), as JPEG of this quality. Hashable: one encode per spec, shared."""
+    width: int | None = None
+    height: int | None = None
+    quality: int = 75
+
+
+MAX_IMAGE_SIDE = 8192
+_IMAGE_KEYS = {'width': (1, MAX_IMAGE_SIDE), 'height': (1, MAX_IMAGE_SIDE), 'quality': (1, 100)}
+
+
+def _image(v):
+    if type(v) is not dict:
+        raise _Bad('must be an object like {"width": 320, "height": 240, "quality": 60}')
+    for key, value in v.items():
+        if key not in _IMAGE_KEYS:
+            raise _Bad(f"has an unknown key {shown(key)} (known: width, height, quality)", v)
+        low, high = _IMAGE_KEYS[key]
+        if type(value) is not int or not low <= value <= high:
+            raise _Bad(f"'{key}' must be an integer from {low} to {high}", v)
+    return ImageSpec(v.get('width'), v.get('height'), v.get('quality', 75))
+
+
+IMAGE = Check(_image)
 
 
 @dataclass(frozen=True, slots=True)
@@ -136,13 +166,14 @@ class Unadvertise:
 class Publish:
     OP: ClassVar[str] = 'publish'
     SPEC: ClassVar = {'topic': STR_REQ, 'msg': OBJ_REQ, 'id': ID, 'latch': BOOL, 'queue_size': NONNEG,
-                      'type': STR}
+                      'type': STR, 't': STAMP}
     topic: str
     msg: dict
     id: str | None = None
     latch: bool = False
     queue_size: int = 100
     type: str | None = None
+    t: float | None = None   # when the client made it, its clock in ms (extension; others ignore it)
 
 
 @dataclass(frozen=True, slots=True)
@@ -150,7 +181,7 @@ class Subscribe:
     OP: ClassVar[str] = 'subscribe'
     SPEC: ClassVar = {'topic': STR_REQ, 'id': ID, 'type': STR, 'throttle_rate': NONNEG,
                       'queue_length': NONNEG, 'fragment_size': FRAGMENT_SIZE, 'compression': COMPRESSION,
-                      'qos': OBJ}
+                      'qos': OBJ, 'image': IMAGE}
     topic: str
     id: str | None = None
     type: str | None = None
@@ -159,6 +190,7 @@ class Subscribe:
     fragment_size: int | None = None
     compression: str = 'none'
     qos: dict | None = None
+    image: ImageSpec | None = None   # extension: a smaller or lower-quality JPEG of an image topic
 
 
 @dataclass(frozen=True, slots=True)
@@ -305,6 +337,17 @@ class Fragment:
 
 
 @dataclass(frozen=True, slots=True)
+class Ping:
+    """rosgate's extension (docs/protocol.md): answered at once with a ``pong`` carrying the same
+    ``id`` and ``t``, so a page sees its round trip and that the link is alive, and the gateway
+    learns the client's clock (``t``, ms) before its first stamped command."""
+    OP: ClassVar[str] = 'ping'
+    SPEC: ClassVar = {'id': ID, 't': STAMP}
+    id: str | None = None
+    t: float | None = None
+
+
+@dataclass(frozen=True, slots=True)
 class Png:
     """A png-compressed op (rosbridge sends these to clients; accepted in for symmetry)."""
     OP: ClassVar[str] = 'png'
@@ -318,11 +361,11 @@ class Png:
 OPS: dict[str, type] = {cls.OP: cls for cls in (
     Advertise, Unadvertise, Publish, Subscribe, Unsubscribe, CallService, ServiceResponse,
     AdvertiseService, UnadvertiseService, AdvertiseAction, UnadvertiseAction, SendActionGoal,
-    CancelActionGoal, ActionFeedback, ActionResult, SetLevel, Auth, Fragment, Png)}
+    CancelActionGoal, ActionFeedback, ActionResult, SetLevel, Auth, Fragment, Png, Ping)}
 
 Op = (Advertise | Unadvertise | Publish | Subscribe | Unsubscribe | CallService | ServiceResponse
       | AdvertiseService | UnadvertiseService | AdvertiseAction | UnadvertiseAction | SendActionGoal
-      | CancelActionGoal | ActionFeedback | ActionResult | SetLevel | Auth | Fragment | Png)
+      | CancelActionGoal | ActionFeedback | ActionResult | SetLevel | Auth | Fragment | Png | Ping)
 
 
 def peek_id(obj: object) -> str | None:

@@ -89,7 +89,7 @@ class Gateway:
         self.policy = Policy(settings)
         self.service_owners: dict[str, ClientSession] = {}
         self.hooks: list = []          # objects with an optional on_close(session)
-        self.rules: list = []          # (sender, SharedPublisher, msg) -> msg, or None to drop; may raise
+        self.rules: list = []          # (sender, SharedPublisher, msg, issued) -> msg, or None to drop; may raise
         self.guards: list = []         # (session, op) -> None, or raise ProtocolError to refuse the op
         self.senders: dict[int, Sender] = {}   # open senders that are not clients (playbacks)
         # the gateway's own services besides rosapi (the stations' claims): name -> (type, answer),
@@ -98,6 +98,7 @@ class Gateway:
         self.itself = Sender('the gateway', GATEWAY_ROLE)
         self._client_count = None
         self._store: Store | None = None
+        self.images_rendered = 0       # images made to measure (fan-out), in /health: one per frame and size
         if hasattr(backend, 'batch_scope'):   # a backend delivering messages in batches
             backend.batch_scope = corked      # sends each client its share in one write
 
@@ -145,11 +146,12 @@ class Gateway:
         pub.attach(sender.id)
         return pub
 
-    def publish(self, sender, pub: SharedPublisher, msg: dict) -> bool:
+    def publish(self, sender, pub: SharedPublisher, msg: dict, issued: float | None = None) -> bool:
         """The one door: the rules, once, then the backend. False when a rule dropped the
-        message; a ProtocolError when one refused it."""
+        message; a ProtocolError when one refused it. ``issued``: when the sender made the
+        message, on the loop's clock, when it says (a client's stamped command, ``rules.freshness``)."""
         for rule in self.rules:
-            msg = rule(sender, pub, msg)
+            msg = rule(sender, pub, msg, issued)
             if msg is None:
                 return False
         pub._handle.publish(msg)

@@ -5,7 +5,7 @@ too: a client with more than ``reply_limit`` replies or ``byte_limit`` bytes of 
 not reading what it asks for: everything queued is released at once (none of it will be sent)
 and ``on_reply_overflow`` is told once (the session closes the connection with 1008). Topic
 messages are dropped: each subscription keeps at most ``queue_length`` queued messages (oldest
-dropped first), and once the whole queue holds more than ``byte_limit`` bytes, new topic
+dropped first, its frame released at once), and once the whole queue holds more than ``byte_limit`` bytes, new topic
 messages are dropped and the client is warned (at most once per ``warn_interval``). A slow
 client therefore loses its own oldest messages; it never grows server memory without bound nor
 stalls anyone else. An outbox that held a lot gives the memory back to the system when it
@@ -48,6 +48,7 @@ class Outbox:
         self._write_many = write_many   # several frames in one socket write -> Future
         self._held: Frames | None = None   # frames written while corked, not yet sent
         self._queue: deque[Entry] = deque()
+        self._dead = 0               # dropped entries still in _queue (their frames released)
         self._per_key: dict[object, deque[Entry]] = {}
         self.byte_limit = byte_limit
         self.queued_bytes = 0
@@ -75,6 +76,7 @@ class Outbox:
         self._closed = True
         self.idle.set()
         self._queue.clear()
+        self._dead = 0
         self._per_key.clear()
         self.queued_bytes = self.reply_count = self.reply_bytes = 0
         self._wakeup.set()
@@ -122,9 +124,7 @@ class Outbox:
         per.append(entry)
         if queue_length > 0:
             while len(per) > queue_length:
-                old = per.popleft()
-                old.alive = False
-                self.queued_bytes -= old.size
+                self._release(per.popleft())
                 self.dropped += 1
         self._queue.append(entry)
         self.idle.clear()
@@ -164,8 +164,20 @@ class Outbox:
         """Drop everything still queued for a subscription that went away."""
         for entry in self._per_key.pop(key, ()):
             if entry.alive:
-                entry.alive = False
-                self.queued_bytes -= entry.size
+                self._release(entry)
+
+    def _release(self, entry: Entry) -> None:
+        """A queued entry dropped: its frame goes now, not when the pump reaches its place in
+        the queue (a client that stopped reading never lets the pump get there: a newest-wins
+        camera kept each dropped frame's megabyte in the queue). The queue is compacted once it
+        is mostly such shells."""
+        entry.alive = False
+        entry.frame = b''
+        self.queued_bytes -= entry.size
+        self._dead += 1
+        if self._dead > 64 and self._dead * 2 > len(self._queue):
+            self._queue = deque(e for e in self._queue if e.alive)
+            self._dead = 0
 
     def _drop_warning(self) -> None:
         self.dropped += 1
@@ -185,8 +197,8 @@ class Outbox:
             self._closed = True
 
     async def _pump(self) -> None:
-        queue = self._queue
         while not self._closed:
+            queue = self._queue   # anew each time: _release may have compacted it
             if not queue:
                 self.idle.set()
                 self._wakeup.clear()
@@ -200,6 +212,7 @@ class Outbox:
             while queue and batch < BATCH_BYTES:
                 entry = queue.popleft()
                 if not entry.alive:
+                    self._dead -= 1
                     continue
                 entry.alive = False
                 self.queued_bytes -= entry.size

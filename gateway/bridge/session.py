@@ -17,6 +17,7 @@ from . import encode
 from .capabilities import HANDLERS
 from ..backends.base import BackendError
 from .outbox import Outbox
+from ..rules.freshness import ClientClock
 
 if TYPE_CHECKING:
     from .gateway import Gateway
@@ -46,6 +47,7 @@ class ClientSession:
         self.client_goals: dict[str, Any] = {}         # send_action_goal id -> ClientGoal
         self.tasks: set[asyncio.Task] = set()
         self.attrs: dict[str, Any] = {}                # role, lease, ... for policy hooks
+        self.clock = ClientClock()                     # the client's clock, from its stamped ops
         self.closed = False
         self.closing = False   # the server is closing the connection: later ops are not handled
         self.connected_at = gateway.backend.now()
@@ -66,6 +68,7 @@ class ClientSession:
         if self.closed or self.closing:
             return
         now = asyncio.get_running_loop().time()
+        self.clock.heard(now)
         if text is None:
             text = not isinstance(data, bytes)
         self.proto.fragments_allowed = self.gateway.policy.signed_in(self)

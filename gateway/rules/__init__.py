@@ -20,7 +20,7 @@ from .lease import Lease
 from .names import parse_globs, parse_networks
 from .policy import GATEWAY_ROLE, Limits, SecurePolicy  # noqa: F401 (GATEWAY_ROLE: for the bridge)
 from .queue import Queue
-from .safety import DEFAULT_TYPES, Clamp, Safety, VelocityLimits
+from .safety import CMD_MAX_AGE, DEFAULT_TYPES, Clamp, Safety, VelocityLimits
 from .lti import LtiConfig
 from .sessions import DEFAULT_HOURS, Sessions, cookie_secret
 from .stations import CLAIM_GRACE, CLAIM_IDLE, Stations
@@ -79,6 +79,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                    help='velocity command types [%(default)s]')
     s.add_argument('--cmd-timeout', type=_positive(float), default=1.0, metavar='S',
                    help='zero a command stream that goes silent this long, 0 for never [%(default)s]')
+    s.add_argument('--cmd-max-age', type=_positive(float), default=CMD_MAX_AGE, metavar='S',
+                   help='drop a stamped moving command that waited this long beyond its link\'s fastest trip '
+                        '(a stalled link\'s backlog), 0 for never; see docs/protocol.md [%(default)s]')
+    s.add_argument('--require-cmd-stamp', action='store_true',
+                   help='refuse moving velocity commands that carry no stamp ("t" on publish); without it '
+                        'plain rosbridge clients\' commands pass as they always did')
     s.add_argument('--max-linear', type=_positive(float), metavar='M/S', help='clamp linear velocity')
     s.add_argument('--max-angular', type=_positive(float), metavar='RAD/S', help='clamp angular velocity')
     s.add_argument('--velocity-limits', metavar='LIMITS.toml', type=_loaded(VelocityLimits.load),
@@ -121,7 +127,9 @@ def install(gateway, reads=lambda name: False) -> None:
     velocity = VelocityLimits(Clamp(extra.get('max_linear'), extra.get('max_angular')),
                               per_topic.topics if per_topic else [])
     safety = Safety(gateway, types=types, stop_on_disconnect=extra.get('stop_on_disconnect', True),
-                    cmd_timeout=extra.get('cmd_timeout', 1.0), limits=velocity)
+                    cmd_timeout=extra.get('cmd_timeout', 1.0), limits=velocity,
+                    cmd_max_age=extra.get('cmd_max_age', CMD_MAX_AGE),
+                    require_stamp=extra.get('require_cmd_stamp', False))
 
     auth = sessions = None
     if extra.get('auth') or extra.get('lti'):
@@ -185,5 +193,6 @@ def install(gateway, reads=lambda name: False) -> None:
                         'nothing keeps others\' commands off a booked robot')
         gateway.hooks.append(Slots(gateway, timetable, stations=stations, lease=lease, stop_group=stop_group,
                                    reset=extra.get('station_reset'), queue=queue))
-    log.info('security: auth %s, exclusive control %s, stop on disconnect %s, cmd timeout %s s',
-             'on' if auth else 'off', 'on' if lease else 'off', safety.stop_on_disconnect, safety.cmd_timeout)
+    log.info('security: auth %s, exclusive control %s, stop on disconnect %s, cmd timeout %s s, '
+             'cmd max age %s s%s', 'on' if auth else 'off', 'on' if lease else 'off', safety.stop_on_disconnect,
+             safety.cmd_timeout, safety.cmd_max_age, ', stamps required' if safety.require_stamp else '')

@@ -191,7 +191,7 @@ class Lease:
             return f'{group} is {owner.name}\'s station; claim a free robot, or ask the teacher'
         return self.owners.walk_in_refusal(group, key) if owner is None and key is not None else None
 
-    def publish_hook(self, session, pub, msg):
+    def publish_hook(self, session, pub, msg, issued=None):
         if pub.topic == CONTROL_TOPIC:
             self._command(session, str(msg.get('data', '')).split())
             return None

@@ -7,6 +7,14 @@ default message; a header keeps its frame_id and gets the current stamp) is publ
 A *stream* is three or more commands each within ``cmd_timeout`` of the one before (teleop,
 a program loop); when a moving stream then goes silent for ``cmd_timeout``, zero is published
 too. On shutdown every moving topic gets its zero before clients are closed.
+
+A command is fresh or it is dropped. A client that stamps its commands (``"t"`` on ``publish``,
+``rules.freshness``) has each moving command dropped when it waited longer than ``cmd_max_age``
+beyond the fastest trip seen on its link, when it was made while its link was stalled (a client
+that pings), or when it was made before the last stop of its stream (a dead-man stop, the lease's
+release or the teacher's Stop): after a stop, motion resumes only with a command made after it.
+A zero command always passes. Commands that carry no stamp (plain rosbridge clients) pass as they
+always did, unless ``require_stamp`` refuses their moving ones.
 """
 
 from __future__ import annotations
@@ -28,6 +36,8 @@ log = logging.getLogger('rosgate.safety')
 DEFAULT_TYPES = ('geometry_msgs/msg/Twist', 'geometry_msgs/msg/TwistStamped')
 STREAM_MIN = 3           # commands in a row that make a stream
 SHUTDOWN_FLUSH = 0.5     # s at most to let stop commands reach subscribers before clients close
+CMD_MAX_AGE = 0.3        # s a stamped moving command may have waited beyond its link's fastest trip
+STALE_TELL = 5.0         # s between two warnings to one client about its dropped commands
 
 
 @dataclass(frozen=True)
@@ -100,19 +110,23 @@ def moving_command(value, key: str = '') -> bool:
 
 
 class Stream:
-    __slots__ = ('type', 'msgdef', 'last', 'count', 'moving', 'frame_id', 'timer')
+    __slots__ = ('type', 'msgdef', 'last', 'count', 'moving', 'frame_id', 'timer', 'floor')
 
     def __init__(self, type: str, msgdef):
         self.type, self.msgdef = type, msgdef
         self.last, self.count, self.moving = -math.inf, 0, False
+        self.floor = -math.inf   # moving commands made at or before this (loop time) are dropped
         self.frame_id = None
         self.timer: asyncio.TimerHandle | None = None
 
 
 class Safety:
     def __init__(self, gateway, *, types=DEFAULT_TYPES, stop_on_disconnect: bool = True,
-                 cmd_timeout: float = 1.0, limits: VelocityLimits | None = None):
+                 cmd_timeout: float = 1.0, limits: VelocityLimits | None = None,
+                 cmd_max_age: float = CMD_MAX_AGE, require_stamp: bool = False):
         self.gateway = gateway
+        self.cmd_max_age, self.require_stamp = cmd_max_age, require_stamp
+        self.stale = 0                                    # stamped commands dropped as stale
         self.types = frozenset(types)
         self.stop_on_disconnect, self.cmd_timeout = stop_on_disconnect, cmd_timeout
         self.limits = limits or VelocityLimits()
@@ -122,7 +136,7 @@ class Safety:
 
     # --- the publish hook ---------------------------------------------------------------------
 
-    def publish_hook(self, session, pub, msg):
+    def publish_hook(self, session, pub, msg, issued=None):
         if pub.type not in self.types:
             return msg
         part = twist_part(msg)
@@ -130,11 +144,43 @@ class Safety:
             clamp = self.limits.for_topic(pub.topic)
             _scale(part['linear'], clamp.max_linear, 'linear')
             _scale(part['angular'], clamp.max_angular, 'angular')
-        if (self.stop_on_disconnect or self.cmd_timeout > 0) and session.attrs.get('role') != GATEWAY_ROLE:
-            self._track(session, pub, msg)
+        if session.attrs.get('role') == GATEWAY_ROLE:
+            return msg
+        moving = moving_command(msg)
+        if moving and not self._fresh(session, pub, issued):
+            return None
+        if self.stop_on_disconnect or self.cmd_timeout > 0 or issued is not None:
+            self._track(session, pub, msg, moving, issued)
         return msg
 
-    def _track(self, session, pub, msg) -> None:
+    def _fresh(self, session, pub, issued: float | None) -> bool:
+        """Whether a moving command may pass: made after its stream's last stop and not stale."""
+        if issued is None:
+            if self.require_stamp:
+                raise ProtocolError(f'{pub.topic}: this gateway takes only stamped velocity commands '
+                                    '(a "t" on publish: docs/protocol.md; --require-cmd-stamp)')
+            return True
+        now = asyncio.get_running_loop().time()
+        stream = self.streams.get(session.id, {}).get(pub.topic)
+        clock = getattr(session, 'clock', None)
+        if stream is not None and issued <= stream.floor:
+            why = 'it was made before the robot was stopped'
+        elif clock is not None and clock.in_stall(issued):
+            why = 'it was made while the link was stalled'
+        elif self.cmd_max_age > 0 and now - issued > self.cmd_max_age:
+            why = f'it waited {now - issued:.2f} s on the way (--cmd-max-age {self.cmd_max_age:g})'
+        else:
+            return True
+        self.stale += 1
+        told = session.attrs.get('stale_told', -math.inf)
+        if now - told >= STALE_TELL:
+            session.attrs['stale_told'] = now
+            session.status('warning', f'a command on {pub.topic} was dropped: {why}', 'publish')
+            log.info('client %d: a command on %s dropped: %s (%d stale commands dropped in all)',
+                     session.id, pub.topic, why, self.stale)
+        return False
+
+    def _track(self, session, pub, msg, moving: bool, issued: float | None = None) -> None:
         topics = self.streams.setdefault(session.id, {})
         stream = topics.get(pub.topic)
         if stream is None or stream.type != pub.type:
@@ -142,7 +188,9 @@ class Safety:
         now = asyncio.get_running_loop().time()
         stream.count = stream.count + 1 if now - stream.last <= self.cmd_timeout else 1
         stream.last = now
-        stream.moving = moving_command(msg)
+        stream.moving = moving
+        if not moving and issued is not None:   # a release: nothing made before it moves again
+            stream.floor = max(stream.floor, issued)
         header = msg.get('header')
         if isinstance(header, dict):
             stream.frame_id = header.get('frame_id')
@@ -174,6 +222,7 @@ class Safety:
 
     def _stop(self, topic: str, stream: Stream) -> None:
         stream.moving, stream.count = False, 0
+        stream.floor = asyncio.get_running_loop().time()
         if stream.timer is not None:
             stream.timer.cancel()
             stream.timer = None
@@ -194,10 +243,14 @@ class Safety:
         """Zero every velocity topic this client left moving (those ``where(topic)`` accepts,
         when given); returns how many."""
         count = 0
+        now = asyncio.get_running_loop().time()
         for topic, stream in self.streams.get(session.id, {}).items():
-            if stream.moving and (where is None or where(topic)):
+            if where is not None and not where(topic):
+                continue
+            if stream.moving:
                 self._stop(topic, stream)
                 count += 1
+            stream.floor = now   # what it sent before the stop, still on the way, does not move
         return count
 
     # --- gateway hooks ------------------------------------------------------------------------

@@ -4,6 +4,7 @@
 ``/teleop``, ``/twin`` (the robot in 3D) and ``/class`` are the other pages; ``/health``; the JSON
 API apps (``/api/programs``, ``/api/runs``, ``/api/recordings``, ``/api/history``, ``/api/bookings``),
 the login pages and LTI's (``/lti/...``, with ``--lti``); the OPC UA server beside them (``--opcua``);
+web_video_server's camera URLs (``/stream``, ``/snapshot``, ``/stream_viewer``, ``/streams``: ``video``);
 the IDE's static files last.
 """
 
@@ -27,6 +28,7 @@ from .programs import program_routes
 from .recordings import recording_routes
 from .runs import run_routes
 from .socket import RosbridgeHandler
+from .video import video_routes
 
 HARD_LIMIT_FACTOR = 4   # frames up to this many times max_message_size get a status; larger ones close 1009
 
@@ -41,6 +43,7 @@ class HealthHandler(tornado.web.RequestHandler):
         self.write(orjson.dumps({
             'status': 'ok', 'backend': gw.backend.name, 'clients': len(gw.sessions),
             'uptime': round(time.time() - gw.started, 3), 'topics': len(gw.fanouts),
+            'images_rendered': gw.images_rendered,
         }))
 
 
@@ -85,7 +88,7 @@ def make_app(gateway: Gateway) -> tornado.web.Application:
         routes += program_routes(settings.programs_dir, policy)
     # runs reach the websocket alone, on a unix socket bound into their box (runs.py)
     routes += run_routes(gateway, Application(gateway, [websocket], **options)) + recording_routes(gateway)
-    routes += booking_routes(gateway)
+    routes += booking_routes(gateway) + video_routes(gateway)
     history = start_history(gateway)
     routes += history_routes(history)
     start_twin(gateway, history, settings.opcua)

@@ -131,7 +131,7 @@ class Recording:
         fan = gw.fanout(topic, type)
         tap = _Tap(self, topic)
         self.taps[topic] = (fan, tap)
-        sub = fan.add(tap, None, (0, 0, 'cbor-raw', None))
+        sub = fan.add(tap, None, (0, 0, 'cbor-raw', None, None))
         fan.replay_latched(sub)
 
     def write(self, topic: str, data: bytes) -> None:

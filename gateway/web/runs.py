@@ -527,7 +527,7 @@ class RunManager:
         raise ProtocolError(f'{op.topic}: run {run.id} was started by {run.owner or "someone else"}; its output '
                             'and state are for them and admins', op=op.OP, id=op.id)
 
-    def publish_hook(self, session, pub, msg):
+    def publish_hook(self, session, pub, msg, issued=None):
         """A run being stopped may still send commands before its SIGINT lands: those that would
         move the robot again are dropped."""
         run_id = session.attrs.get('run')

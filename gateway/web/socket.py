@@ -4,6 +4,7 @@ message handed to its client's session (``bridge.session``), which answers throu
 from __future__ import annotations
 
 import asyncio
+import socket
 import struct
 
 import tornado.iostream
@@ -17,6 +18,18 @@ TORNADO_TESTED = 'tornado>=6.4,<6.7'   # the range pyproject.toml pins; its priv
 TEXT, BINARY, CLOSE = 0x1, 0x2, 0x8  # websocket opcodes
 FLUSH_BEFORE_CLOSE = 1.0  # seconds a failing connection waits for its last status to go out
 READ_CHUNK = 128 * 1024   # bytes a connection asks its socket for at once (more when a frame needs it)
+# ?compression=deflate on the websocket URL: permessage-deflate (RFC 7692) for this connection alone,
+# at zlib's fastest level. The class view asks for it: its marker JSON shrinks about tenfold over a
+# home line, and deflate costs CPU for that one connection rather than for every student's.
+DEFLATE = {'compression_level': 1}
+
+# Bytes the kernel may hold for a client beyond what is in flight. Linux's send buffer grows to
+# megabytes for a connection that reads slowly: a 1 Mbit/s client had ~400 KiB (3+ s of camera
+# frames) waiting there, out of reach of the outbox's newest-wins. With TCP_NOTSENT_LOWAT the
+# socket takes more only once its unsent bytes fall below this, so frames wait in the outbox,
+# where a newer one replaces them; what is in flight (the link's own queue) is left to TCP.
+NOTSENT_LOWAT = 16 * 1024
+TCP_NOTSENT_LOWAT = getattr(socket, 'TCP_NOTSENT_LOWAT', 25)   # Linux's number, if Python lacks the name
 
 
 class TextAsBytesProtocol(tornado.websocket.WebSocketProtocol13):
@@ -115,6 +128,7 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
         self.session: ClientSession | None = None
         self.text_frame = False   # set by TextAsBytesProtocol while it delivers a text message
         self.auth_deadline: asyncio.TimerHandle | None = None
+        self._deflate: bool | None = None
 
     async def get(self, *args, **kwargs) -> None:
         if self.request.headers.get('Upgrade', '').lower() != 'websocket':
@@ -136,11 +150,22 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
             return True
         return self.gateway.policy.origin_allowed(origin, self.request)
 
+    def deflates(self) -> bool:
+        """Whether this connection offers permessage-deflate: --use-compression, or the client
+        asked with ?compression=deflate."""
+        if self._deflate is None:
+            self._deflate = (self.gateway.settings.use_compression
+                             or self.get_query_argument('compression', '') == 'deflate')
+        return self._deflate
+
     def get_compression_options(self):
-        return {} if self.gateway.settings.use_compression else None
+        if self.gateway.settings.use_compression:
+            return {}
+        return DEFLATE if self.deflates() else None
 
     def open(self, *args, **kwargs) -> None:
         self.set_nodelay(True)   # without it Nagle's algorithm stalls small messages
+        bound_unsent(self.ws_connection.stream)
         self.session = ClientSession(self.gateway, self._send, self._send_many, self.close,
                                      self.request.remote_ip or '')
         self.session.attrs.update(self.gateway.policy.connect_attrs(self.request))
@@ -168,7 +193,7 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
         """The connection's stream when frames may be written to it as the gateway builds them
         (no compression, open); else None, and tornado's write_message builds each frame."""
         conn = self.ws_connection
-        if self.gateway.settings.use_compression or conn is None or conn.is_closing():
+        if conn is None or conn.is_closing() or self.deflates():
             return None
         return conn.stream
 
@@ -216,6 +241,18 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
         if self.session is not None:
             self.session.close()
             self.gateway.count_clients()
+
+
+def bound_unsent(stream, limit: int = NOTSENT_LOWAT) -> None:
+    """Keep the kernel's unsent share of a connection small (NOTSENT_LOWAT); a stream without
+    a TCP socket (a test's pipe, a platform without the option) is left as it is."""
+    sock = getattr(stream, 'socket', None)
+    if sock is None or sock.family not in (socket.AF_INET, socket.AF_INET6):
+        return
+    try:
+        sock.setsockopt(socket.IPPROTO_TCP, TCP_NOTSENT_LOWAT, limit)
+    except OSError:
+        pass
 
 
 SMALL = 2048       # payloads below this are copied together with their header into one part

@@ -2,15 +2,18 @@
 // is and who drives it, whether its program runs, the last error — with Stop, Release and the
 // student's program (read-only). Owners come from the gateway's /rosgate/stations. Stations are the gateway's (the driver lease's list, else the fleet's, else the
 // namespaces of the graph), so a real multi-robot graph shows the same way as the sim's fleet.
-import { Ros } from 'roslib';
 import { WorldView } from './worldview.js';
 import { DriverLease, DRIVER_TOPIC } from './driver.js';
 import { isVelocityType, zeroVelocity, withNamespace } from '../runtime/util.js';
 import { showProgram } from './classprogram.js';
 import { STATIONS_TOPIC } from './robotns.js';
+import { Link } from './link.js';
 
 const $ = (s) => document.querySelector(s);
 const REFRESH = 10000;   // ms between looks at the graph for new stations
+// A tile's world at 2 Hz: the gateway merges the markers of each half second (newest of each wins,
+// no change lost), so ten tiles fit a home line (docs/teacher.md)
+const TILE_STREAM = { throttle_rate: 500, queue_length: 4 };
 const view = { ros: null, lease: new DriverLease(), tiles: new Map(), topics: [], types: [], services: [], owners: {}, seq: 0 };
 window.classView = view;
 
@@ -20,20 +23,23 @@ function notice(text) { $('#notice').textContent = text; $('#notice').hidden = !
 
 function connect() {
   const params = new URLSearchParams(location.search);
-  const url = params.get('url') || `${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/?name=teacher`;
-  const ros = new Ros({});
-  view.ros = ros;
+  // deflate: the tiles' marker JSON shrinks about tenfold over a home line (gateway/web/socket.py)
+  const url = params.get('url') || `${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/?name=teacher&compression=deflate`;
+  const link = new Link(url);
+  view.link = link;
   setStatus('connecting', 'connecting…');
-  ros.on('connection', () => {
+  link.addEventListener('open', (e) => {
+    const ros = e.detail;
+    view.ros = ros;
     setStatus('connected', 'connected');
     view.lease.attach(ros);
     watchOwners(ros);
     for (const t of view.tiles.values()) t.attach(ros);
     refresh();
   });
-  ros.on('close', () => { if (view.ros === ros) { setStatus('closed', 'disconnected'); setTimeout(connect, 2000); } });
-  ros.on('error', () => setStatus('error', 'cannot connect'));
-  ros.connect(url).catch(() => setStatus('error', 'bad URL'));
+  link.addEventListener('lost', () => { view.ros = null; setStatus('lost', 'connection lost'); });
+  setInterval(() => { $('#link').textContent = link.describe(); }, 500);
+  link.start();
 }
 
 // Who owns each station (a person: the signed-in name, or a browser), as the gateway announces it.
@@ -98,7 +104,7 @@ class Tile {
     this.el = $('#tile').content.firstElementChild.cloneNode(true);
     this.el.dataset.ns = ns;
     this.el.querySelector('.ns').textContent = ns;
-    this.world = new WorldView(this.el.querySelector('.world'), withNamespace(ns, '/world/markers'));
+    this.world = new WorldView(this.el.querySelector('.world'), withNamespace(ns, '/world/markers'), { stream: TILE_STREAM });
     this.report = null;
     this.el.querySelector('.stop').onclick = () => stop(ns);
     this.el.querySelector('.release').onclick = () => release(ns);

@@ -1,7 +1,7 @@
 // The IDE page: registers the blocks, builds the workspace and wires the UI.
 // Nothing else registers anything.
 /* global Blockly */
-import { Ros } from 'roslib';
+import { Link } from './link.js';
 import { RosGraph, shared } from './graph.js';
 import './fields.js';
 import './msgblock.js';
@@ -169,37 +169,32 @@ async function start() {
   url.value = params.get('url') || `${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/`
     + (params.get('name') ? `?name=${encodeURIComponent(params.get('name'))}` : '');
   if (params.get('name')) $('.teleop-link').href = `teleop?name=${encodeURIComponent(params.get('name'))}`;
-  let retry = null;
   const setStatus = (s, text) => {
     const el = $('#status');
     el.dataset.state = s;
     el.textContent = text;
     document.body.dataset.connection = s;
   };
-  const connect = () => {
-    clearTimeout(retry);
-    if (ide.ros) { ide.ros.removeAllListeners?.(); ide.ros.close(); }
-    const ros = new Ros({});
+  const link = new Link(() => url.value);
+  ide.link = link;
+  link.addEventListener('open', (e) => {
+    const ros = e.detail;
     ide.ros = ros;
-    setStatus('connecting', 'connecting…');
-    ros.on('connection', () => {
-      setStatus('connected', 'connected');
-      graph.setRos(ros);
-      ide.robotRuns?.connected(ros);
-      lease.attach(ros);
-      robotNs.attach(ros);
-      world.attach(ros);
-      graph.refresh().catch((e) => consoleView.error(`rosapi: ${e.message}`));
-    });
-    ros.on('close', () => {
-      if (ide.ros !== ros) return;
-      setStatus('closed', 'disconnected');
-      runner.stop();
-      retry = setTimeout(connect, 2000);
-    });
-    ros.on('error', () => setStatus('error', 'cannot connect'));
-    ros.connect(url.value).catch(() => setStatus('error', 'bad URL'));
-  };
+    setStatus('connected', 'connected');
+    graph.setRos(ros);
+    ide.robotRuns?.connected(ros);
+    lease.attach(ros);
+    robotNs.attach(ros);
+    world.attach(ros);
+    graph.refresh().catch((err) => consoleView.error(`rosapi: ${err.message}`));
+  });
+  link.addEventListener('lost', () => {
+    setStatus('lost', 'connection lost');
+    runner.stop();
+  });
+  link.addEventListener('state', (e) => { if (e.detail === 'connecting') setStatus('connecting', 'connecting…'); });
+  setInterval(() => { $('#link').textContent = link.describe(); }, 500);
+  const connect = () => link.restart();
   $('#reconnect').onclick = connect;
   url.addEventListener('change', connect);
 

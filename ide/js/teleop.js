@@ -4,7 +4,6 @@
 // only where their topics exist: a turtlesim lesson on a phone had a black camera and empty
 // gauges, and no turtle). On a fleet the page drives only a station of its own (claimed, or
 // picked and free), and nothing after the teacher's Release until a new claim.
-import { Ros } from 'roslib';
 import nipplejs from 'nipplejs';
 import { field, zeroVelocity, withNamespace } from '../runtime/util.js';
 import { DriverLease, bindDriverBadge, DRIVER_TOPIC } from './driver.js';
@@ -13,6 +12,7 @@ import { gauge, History, SAMPLE_EVERY } from './dashboard.js';
 import { WorldView } from './worldview.js';
 import { bindSpan } from './history.js';
 import { HomeEstimate } from './gohome.js';
+import { Link } from './link.js';
 
 const $ = (s) => document.querySelector(s);
 const params = new URLSearchParams(location.search);
@@ -39,21 +39,32 @@ state.lease = lease;
 // ---- connection -----------------------------------------------------------
 function setStatus(s, text) { const el = $('#status'); el.dataset.state = s; el.textContent = text; document.body.dataset.connection = s; }
 
+// One link, made again by itself (link.js); its loss stops driving at once: what the page would
+// send cannot arrive, and the gateway stops the robot when commands stop coming.
 function connect() {
   const url = params.get('url') || `${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/`
     + (params.get('name') ? `?name=${encodeURIComponent(params.get('name'))}` : '');
-  const ros = new Ros({});
-  state.ros = ros;
-  state.advertised = '';
+  const link = new Link(url);
+  state.link = link;
   setStatus('connecting', 'connecting…');
-  ros.on('connection', () => { setStatus('connected', 'connected'); lease.attach(ros); state.robotNs.attach(ros); onConnected(); });
-  ros.on('close', () => {
-    if (state.ros !== ros) return;
-    setStatus('closed', 'disconnected');
-    setTimeout(connect, 2000);
+  link.addEventListener('open', (e) => {
+    const ros = e.detail;
+    state.ros = ros;
+    state.advertised = '';
+    setStatus('connected', 'connected');
+    lease.attach(ros);
+    state.robotNs.attach(ros);
+    onConnected();
   });
-  ros.on('error', () => setStatus('error', 'cannot connect'));
-  ros.connect(url).catch(() => setStatus('error', 'bad URL'));
+  link.addEventListener('lost', () => {
+    state.keys.clear();
+    state.joy = { x: 0, y: 0, active: false };
+    if (state.timer) { clearInterval(state.timer); state.timer = null; }
+    state.ros = null;
+    setStatus('lost', 'connection lost — robot stopped');
+  });
+  setInterval(() => { $('#link').textContent = link.describe(); }, 250);
+  link.start();
 }
 
 let subSeq = 0;
@@ -208,7 +219,7 @@ function publish(lin, ang) {
     ros.callOnConnection({ op: 'advertise', topic, type, id: `advertise:${topic}:teleop` });
     state.advertised = `${topic} ${type}`;
   }
-  ros.callOnConnection({ op: 'publish', topic, msg: twist(lin, ang) });
+  ros.callOnConnection({ op: 'publish', topic, msg: twist(lin, ang), t: state.link.now() });   // stamped: docs/protocol.md
   state.published += 1;
   $('#cmd').textContent = `linear ${lin.toFixed(2)} m/s · angular ${ang.toFixed(2)} rad/s`;
 }
@@ -280,8 +291,8 @@ function stopAll() {
   state.keys.clear();
   state.joy = { x: 0, y: 0, active: false };
   if (state.timer) { clearInterval(state.timer); state.timer = null; }
-  publish(0, 0);
-}
+  if (state.advertised) publish(0, 0);   // a topic this page never drove gets nothing (the root
+}                                        // /cmd_vel before the page reloads into its station)
 
 addEventListener('pagehide', () => { if (state.timer) stopAll(); });
 document.addEventListener('visibilitychange', () => { if (document.hidden && state.timer) stopAll(); });
@@ -294,9 +305,42 @@ function resubscribe() {
   for (const s of state.subs) s.close();
   state.subs = [];
   subscribe($('#battery-topic').value, 'sensor_msgs/msg/BatteryState', showBattery, { throttle_rate: 500, queue_length: 1 });
-  subscribe($('#camera-topic').value, 'sensor_msgs/msg/CompressedImage', showImage, { throttle_rate: 200, queue_length: 1 });
+  cam.sub = null;
+  subscribeCamera();
   for (const s of dash.history.series) if (s.topic) subscribePlot(s);
   subscribe(withNamespace(state.robotNs.get(), '/odom'), 'nav_msgs/msg/Odometry', (m) => home.odom(m), { throttle_rate: 200, queue_length: 1 });
+}
+
+// The camera as the link sustains it: the subscribe extension `image` asks the gateway for a
+// smaller JPEG (a gateway without it sends the original). Each frame's lag (arrival minus its
+// header stamp, less the smallest lag seen: the clocks' offset) steers the size: down a step when
+// frames arrive late, up again after a long run of fresh ones.
+const CAMERA_SIZES = [{ width: 640, quality: 70 }, { width: 320, quality: 60 }, { width: 160, quality: 50 }];
+const cam = { size: 1, sub: null, minLag: Infinity, late: [], fresh: 0, downAt: 0 };
+
+function subscribeCamera() {
+  if (cam.sub) { cam.sub.close(); state.subs = state.subs.filter((s) => s !== cam.sub); }
+  Object.assign(cam, { minLag: Infinity, late: [], fresh: 0 });
+  cam.sub = subscribe($('#camera-topic').value, 'sensor_msgs/msg/CompressedImage', showImage,
+    { throttle_rate: 150, queue_length: 1, image: CAMERA_SIZES[cam.size] });
+}
+
+function frameAge(msg) {
+  const st = msg.header?.stamp;
+  if (!st || !st.sec) return null;
+  const lag = Date.now() / 1000 - (st.sec + (st.nanosec || 0) / 1e9);
+  cam.minLag = Math.min(cam.minLag, lag);
+  const age = lag - cam.minLag;   // what the link adds, whatever the clocks' offset
+  cam.late.push(age);
+  if (cam.late.length > 5) cam.late.shift();
+  const median = [...cam.late].sort((a, b) => a - b)[cam.late.length >> 1];
+  cam.fresh = age < 0.25 ? cam.fresh + 1 : 0;
+  if (cam.late.length === 5 && median > 0.6 && cam.size < CAMERA_SIZES.length - 1) {
+    cam.size += 1; cam.downAt = Date.now(); subscribeCamera();
+  } else if (cam.fresh > 50 && cam.size > 0 && Date.now() - cam.downAt > 30000) {
+    cam.size -= 1; subscribeCamera();
+  }
+  return Math.abs(cam.minLag) < 1 ? lag : age;   // clocks that agree: the true age
 }
 
 function showBattery(msg) {
@@ -316,7 +360,10 @@ function showImage(msg) {
   const data = typeof msg.data === 'string' ? msg.data : btoa(String.fromCharCode(...msg.data));
   $('#camera').src = `data:image/${fmt};base64,${data}`;
   state.frames += 1;
-  $('#camera-info').textContent = `${state.frames} frames · ${msg.format}`;
+  const age = frameAge(msg);
+  const size = CAMERA_SIZES[cam.size];
+  $('#camera-info').textContent = `${state.frames} frames · ${msg.format} · ≤${size.width} px`
+    + (age === null ? '' : ` · age ${Math.max(0, Math.round(age * 1000))} ms`);
 }
 
 // A plotted field: {id, label, unit, topic, path, type, last}; also drives a gauge when named.

@@ -19,8 +19,10 @@ const rgba = (c, fallback = 'rgba(200,200,200,1)') => (c
 const frameOf = (m) => m.header?.frame_id || 'world';
 
 export class WorldView {
-  constructor(canvas, topic = '/world/markers', { tabs = true, enlarge = true } = {}) {
+  // stream: options of its subscribe (throttle_rate, queue_length), 10 Hz and 20 queued by default
+  constructor(canvas, topic = '/world/markers', { tabs = true, enlarge = true, stream = {} } = {}) {
     this.canvas = canvas;
+    this.stream = { queue_length: 20, ...stream };
     this.topic = topic;
     this.markers = new Map();   // 'ns/id' -> marker
     this.dirty = true;
@@ -49,7 +51,7 @@ export class WorldView {
     const id = `subscribe:${this.topic}:worldview`;
     ros.on(this.topic, this.listener);
     ros.callOnConnection({
-      op: 'subscribe', id, topic: this.topic, type: 'visualization_msgs/msg/MarkerArray', queue_length: 20,
+      op: 'subscribe', id, topic: this.topic, type: 'visualization_msgs/msg/MarkerArray', ...this.stream,
     });
   }
 

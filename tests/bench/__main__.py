@@ -6,6 +6,9 @@ if __name__ == "__main__":
     if sys.argv[1:2] == ["lesson"]:   # the long-lesson run (tests/bench/lesson.py), not the scenarios
         from .lesson import main as lesson
         sys.exit(lesson(sys.argv[2:]))
+    if sys.argv[1:2] == ["camera"]:   # cameras for slow clients (tests/bench/camera.py)
+        from .camera import main as camera
+        sys.exit(camera(sys.argv[2:]))
     if sys.argv[1:2] == ["history"]:   # the history's cost and reads (tests/bench/history.py)
         from .history import main as history
         sys.exit(history(sys.argv[2:]))

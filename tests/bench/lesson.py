@@ -9,8 +9,10 @@ page claims a station (``/fleet/claim``), subscribes to its turtle's pose (no th
 program's subscription does) and to its ``world/markers`` (as the IDE's world view does,
 queue_length 20), publishes ``cmd_vel`` at 10 Hz (a meander that differs per page, so the
 turtles cover their squares and meet the walls) and calls ``/rosapi/topics`` once a second (as
-the IDE's graph refresh does). Every minute it samples the gateway's RSS (``VmRSS``), the CPU it
-used over the minute, the rosapi latency p50/p95 of the minute and what the pages received. At
+the IDE's graph refresh does); with ``--camera`` each station also has a rover and each page
+shows its camera as the teleop page does (throttle 200 ms, queue_length 1). Every minute it
+samples the gateway's RSS (``VmRSS``), the CPU it used over the minute, the rosapi latency
+p50/p95 of the minute and what the pages received. At
 the end a late viewer subscribes to the first station's ``world/markers``; the first message it
 gets (the latched snapshot) is measured in bytes.
 
@@ -59,6 +61,7 @@ class Minute:
     poses: int = 0
     marker_msgs: int = 0
     marker_bytes: int = 0
+    camera_frames: int = 0
     rss_mb: float | None = None
     cpu_pct: float | None = None
     other_pct: float | None = None
@@ -74,13 +77,14 @@ class Minute:
             "rosapi_calls": len(lat), "rosapi_failed": self.failed_calls,
             "pose_per_s": self.poses / per_s, "markers_per_s": self.marker_msgs / per_s,
             "markers_kib_per_s": self.marker_bytes / per_s / 1024,
+            "camera_per_s": self.camera_frames / per_s,
             "client_cpu_pct": self.client_pct, "other_cpu_pct": self.other_pct,
         }
 
 
 class Lesson:
-    def __init__(self, url: str, stations: int) -> None:
-        self.url, self.stations = url, stations
+    def __init__(self, url: str, stations: int, camera: bool = False) -> None:
+        self.url, self.stations, self.camera = url, stations, camera
         self.minute = Minute(0)       # the bucket being filled; 0 is the warm-up
         self.stop = asyncio.Event()
         self.namespaces: list[str] = []
@@ -99,6 +103,8 @@ class Lesson:
                     if b'"publish"' in head:
                         if b'/pose"' in head:
                             self.minute.poses += 1
+                        elif b'/camera/' in head:
+                            self.minute.camera_frames += 1
                         else:
                             self.minute.marker_msgs += 1
                             self.minute.marker_bytes += len(frame)
@@ -135,6 +141,10 @@ class Lesson:
                                "type": "turtlesim/msg/Pose"})
             await send_op(ws, {"op": "subscribe", "id": "world", "topic": f"{ns}/world/markers",
                                "type": "visualization_msgs/msg/MarkerArray", "queue_length": 20})
+            if self.camera:   # as the teleop page shows a camera: 5 frames a second at most, newest only
+                await send_op(ws, {"op": "subscribe", "id": "camera", "topic": f"{ns}/camera/image_raw/compressed",
+                                   "type": "sensor_msgs/msg/CompressedImage", "throttle_rate": 200,
+                                   "queue_length": 1})
             cmd = f"{ns}/turtle1/cmd_vel"
             await send_op(ws, {"op": "advertise", "id": "cmd", "topic": cmd, "type": "geometry_msgs/msg/Twist"})
             await ready.put(ns)
@@ -197,8 +207,9 @@ async def late_viewer(url: str, topic: str) -> dict:
         await close_quietly(ws)
 
 
-async def drive(target: Target, stations: int, minutes: float, log, warmup: float = WARMUP) -> dict:
-    lesson = Lesson(target.url, stations)
+async def drive(target: Target, stations: int, minutes: float, log, warmup: float = WARMUP,
+                camera: bool = False) -> dict:
+    lesson = Lesson(target.url, stations, camera)
     meter = ProcMeter(target.pid)
     ready: asyncio.Queue = asyncio.Queue()
     pages = [asyncio.create_task(lesson.page(i, ready)) for i in range(stations)]
@@ -236,7 +247,7 @@ async def drive(target: Target, stations: int, minutes: float, log, warmup: floa
                 f"rosapi p50 {fmt(fig['rosapi_p50_ms'])} ms p95 {fmt(fig['rosapi_p95_ms'])} ms "
                 f"({fig['rosapi_calls']} calls, {fig['rosapi_failed']} failed), "
                 f"pose {fig['pose_per_s']:.0f}/s, markers {fig['markers_per_s']:.0f}/s "
-                f"{fig['markers_kib_per_s']:.0f} KiB/s, client CPU {fig['client_cpu_pct']:.0f} %, "
+                f"{fig['markers_kib_per_s']:.0f} KiB/s, camera {fig['camera_per_s']:.0f}/s, client CPU {fig['client_cpu_pct']:.0f} %, "
                 f"other {fig['other_cpu_pct']:.0f} %")
         lesson.stop.set()
         await asyncio.gather(*pages, return_exceptions=True)
@@ -288,6 +299,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                    help=f"seconds of driving before minute 1 (default {WARMUP:g})")
     p.add_argument("--rosgate-arg", action="append", default=[],
                    help="an extra argument for the gateway's command line, repeatable")
+    p.add_argument("--camera", action="store_true",
+                   help="a rover beside each turtle (--robot rover) and each page showing its camera as the "
+                        "teleop page does (throttle 200 ms, queue 1)")
     p.add_argument("--out", help="write the figures as JSON to this file")
     return p.parse_args(argv)
 
@@ -300,12 +314,13 @@ def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     if not args.minutes > 0 or args.stations < 1:
         raise SystemExit("--minutes must be positive and --stations at least 1")
-    gw_args = ["--backend", "sim", "--robot", "turtlesim", "--fleet", str(args.stations),
+    robots = ["--robot", "turtlesim", *(["--robot", "rover"] if args.camera else [])]
+    gw_args = ["--backend", "sim", *robots, "--fleet", str(args.stations),
                "--programs-dir", tempfile.mkdtemp(prefix="bench-lesson-programs-"), *args.rosgate_arg]
     target = start_rosgate(gw_args)
     log(f"rosgate: {target.url} pid {target.pid} ({' '.join(target.argv)}); log {target.log}")
     try:
-        result = asyncio.run(drive(target, args.stations, args.minutes, log, args.warmup))
+        result = asyncio.run(drive(target, args.stations, args.minutes, log, args.warmup, args.camera))
     finally:
         target.stop()
     rows = verdict(result)
@@ -319,7 +334,7 @@ def main(argv: list[str] | None = None) -> int:
         log(f"  {'ok  ' if met else 'MISS'} {what}: {figure}")
     if args.out:
         doc = {"argv": ["--minutes", str(args.minutes), "--stations", str(args.stations),
-                        "--warmup", str(args.warmup)],
+                        "--warmup", str(args.warmup), *(["--camera"] if args.camera else [])],
                "gateway": target.argv, **{k: v for k, v in result.items() if k != "latencies_ms"},
                "bar": [{"what": w, "figure": f, "met": m} for w, f, m in rows]}
         with open(args.out, "w") as f:

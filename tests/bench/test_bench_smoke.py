@@ -219,6 +219,20 @@ def test_lesson_run_yields_its_figures(tmp_path):
 
 
 
+def test_camera_bench_yields_its_figures(tmp_path):
+    """`python -m tests.bench camera` for a few seconds: every client's figures are there."""
+    if not rosgate_available():
+        pytest.skip("no gateway")
+    out = tmp_path / "camera.json"
+    proc = subprocess.run([sys.executable, "-m", "tests.bench", "camera", "--seconds", "3", "--out", str(out)],
+                          cwd=REPO, capture_output=True, text=True, timeout=180)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    doc = json.loads(out.read_text())
+    for name in ("ws-default", "ws-teleop", "ws-image", "stream-slow", "stream-slow-full"):
+        assert doc[name]["frames"] > 0 and doc[name]["age_p95"] is not None, (name, doc[name])
+    assert doc["viewers-12"]["frames_per_viewer_per_s"] > 0 and doc["cpu_ratio_12_to_1"] is not None
+
+
 def test_history_bench_gives_its_figures(tmp_path):
     """`python -m tests.bench history` in a short run: both halves give numbers (the bar is the
     full run's to judge, on a quiet machine)."""

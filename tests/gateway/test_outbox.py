@@ -134,3 +134,23 @@ async def test_an_outbox_closed_under_a_cork_writes_nothing():
         box.message(b'm1', False, 'topic', 0)
         box.close()
     assert sock.writes == []
+
+
+async def test_frames_dropped_for_a_stalled_client_are_let_go_at_once():
+    """A client that stopped reading: its socket never takes the first frame, and each newer
+    frame of a newest-wins subscription replaces the waiting one. The replaced frames are
+    released then, not kept in the queue until the pump reaches them (it never does)."""
+    sock = Socket()
+    box = started(sock)
+    box.message(b'x' * 2**20, True, 'camera', 1)      # written; the socket never finishes it
+    await sock.until_writes(1)
+    for i in range(300):
+        assert box.message(bytes([i % 256]) * 2**20, True, 'camera', 1)
+    held = sum(len(e.frame) for e in box._queue)
+    assert held == 2**20 and box.queued_bytes == 2**20   # the newest frame only
+    assert len(box._queue) <= 130                        # the dropped ones' shells compacted
+    assert box.dropped == 299
+    sock.drain()
+    writes = await sock.until_writes(2)
+    assert writes[1] == [(bytes([299 % 256]) * 2**20, True)]   # the newest frame goes out next
+    box.close()

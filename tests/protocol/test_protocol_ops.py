@@ -34,6 +34,7 @@ MINIMAL = {
     'auth': ({}, ops.Auth()),
     'fragment': ({'id': 'f', 'data': '{', 'num': 0, 'total': 2}, ops.Fragment('f', '{', 0, 2)),
     'png': ({'data': 'iVBO'}, ops.Png('iVBO')),
+    'ping': ({}, ops.Ping()),
 }
 
 REQUIRED = {
@@ -44,6 +45,7 @@ REQUIRED = {
     'unadvertise_action': ['action'], 'send_action_goal': ['action', 'action_type'],
     'cancel_action_goal': ['action', 'id'], 'action_feedback': ['action'], 'action_result': ['action'],
     'set_level': ['level'], 'auth': [], 'fragment': ['id', 'data', 'num', 'total'], 'png': ['data'],
+    'ping': [],
 }
 
 

@@ -220,6 +220,24 @@ def test_rover_world_markers(fresh):
         markers.close()
 
 
+def test_a_still_rovers_scan_marker_is_sent_once_and_again_when_it_moves(fresh):
+    ros = fresh
+    markers = Inbox(ros, '/world/markers', 'visualization_msgs/msg/MarkerArray')
+    pub = roslibpy.Topic(ros, '/cmd_vel', 'geometry_msgs/msg/Twist')
+    try:
+        markers.wait()
+        start = time.monotonic()
+        wait_for(lambda: time.monotonic() - start > 1.5, timeout=5)   # 7 scans at 5 Hz
+        scans = [m for m in markers.since(start) if any(x['ns'] == 'scan' for x in m['markers'])]
+        assert len(scans) <= 1
+        moved = time.monotonic()
+        stream(pub, twist(0.0, 1.0), 0.5)
+        wait_for(lambda: any(x['ns'] == 'scan' for m in markers.since(moved) for x in m['markers']), timeout=5)
+    finally:
+        markers.close()
+        pub.unadvertise()
+
+
 def test_velocity_limits_are_parameters(fresh):
     ros = fresh
     limit = roslibpy.Param(ros, '/rover:max_linear_velocity')
@@ -251,3 +269,19 @@ def test_a_world_that_does_not_exist_is_refused():
                           cwd=ROOT, capture_output=True, text=True, timeout=30)
     assert done.returncode != 0 and done.stdout == ''
     assert "no world 'no_such_world'" in done.stderr and 'arena, maze' in done.stderr
+
+
+def test_camera_of_a_still_robot_is_encoded_once():
+    """The same pose gives the same bytes without rendering again; another pose renders anew."""
+    import math
+
+    from gateway.backends.sim.robots.camera import Camera
+    from gateway.backends.sim.robots.world import World
+    cam = Camera(World.load('arena'))
+    renders = []
+    original = cam.render
+    cam.render = lambda *a: renders.append(a) or original(*a)
+    first = cam.jpeg(1.0, 1.0, 0.5)
+    assert cam.jpeg(1.0, 1.0, 0.5) is first and len(renders) == 1
+    turned = cam.jpeg(1.0, 1.0, 0.5 + math.pi / 2)
+    assert turned != first and len(renders) == 2

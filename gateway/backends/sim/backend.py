@@ -27,6 +27,15 @@ class SimBackend:
         self._node: Node | None = None
         self.robots: list = []
 
+    @property
+    def batch_scope(self):
+        """What a timer's tick publishes inside (the gateway sets its ``corked``): graph.Ticker."""
+        return self.graph.batch_scope
+
+    @batch_scope.setter
+    def batch_scope(self, scope) -> None:
+        self.graph.batch_scope = scope
+
     async def start(self) -> None:
         self._node = self.graph.node(self.node_name)
         if self._demo:

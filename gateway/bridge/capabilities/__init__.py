@@ -1,5 +1,7 @@
 """One small handler per op, ``(session, op) -> None``, registered by op class."""
 
+import asyncio
+
 from protocol import ops
 
 from . import actions, services, topics
@@ -11,6 +13,18 @@ def _set_level(session, op) -> None:
 
 def _auth(session, op) -> None:
     session.gateway.policy.authenticate(session, op)
+
+
+def _ping(session, op) -> None:
+    """Answered at once, in order with what is queued for the client: the round trip a page
+    sees includes the wait in its outbox, as its data's does."""
+    if op.t is not None:
+        session.clock.sample(op.t, asyncio.get_running_loop().time())
+        session.clock.pinging = True
+    pong = {'op': 'pong', 'id': op.id}
+    if op.t is not None:
+        pong['t'] = op.t
+    session.reply(pong)
 
 
 HANDLERS = {
@@ -31,4 +45,5 @@ HANDLERS = {
     ops.ActionResult: actions.action_result,
     ops.SetLevel: _set_level,
     ops.Auth: _auth,
+    ops.Ping: _ping,
 }

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 from typing import TYPE_CHECKING
 
 from protocol.convert import from_json
@@ -10,6 +11,7 @@ from protocol.msgdefs import normalize
 from protocol.ops import MAX_INT, MAX_SECONDS, Advertise, Publish, Subscribe, Unadvertise, Unsubscribe
 
 from ...backends.base import QoS
+from .. import images
 
 if TYPE_CHECKING:
     from ..session import ClientSession
@@ -92,7 +94,8 @@ def publish(s: ClientSession, op: Publish) -> None:
     elif op.type and normalize(op.type, 'msg') != pub.type:   # never sent silently as another type
         raise ProtocolError(f'{topic} is advertised by this client with type {pub.type}, not {op.type}',
                             op=op.OP, id=op.id)
-    s.gateway.publish(s, pub, from_json(s.backend.defs, pub.msgdef, op.msg))
+    issued = None if op.t is None else s.clock.sample(op.t, asyncio.get_running_loop().time())
+    s.gateway.publish(s, pub, from_json(s.backend.defs, pub.msgdef, op.msg), issued)
 
 
 def subscribe(s: ClientSession, op: Subscribe) -> None:
@@ -101,10 +104,17 @@ def subscribe(s: ClientSession, op: Subscribe) -> None:
     existing = s.subscriptions.get(topic)
     if existing is not None and existing.fanout.type != type:
         raise ProtocolError(f'{topic} is already subscribed with type {existing.fanout.type}', op=op.OP, id=op.id)
+    if op.image is not None:
+        if type not in images.TYPES:
+            raise ProtocolError(f"{topic} is {type}: the field 'image' applies to {' and '.join(images.TYPES)} "
+                                'topics', op=op.OP, id=op.id)
+        if op.compression == 'cbor-raw':
+            raise ProtocolError("the field 'image' cannot be combined with cbor-raw (the topic's own bytes)",
+                                op=op.OP, id=op.id)
     fan = s.gateway.fanout(topic, type)
     fresh = s.id not in fan.subscribers
     try:
-        sub = fan.add(s, op.id, (op.throttle_rate, op.queue_length, op.compression, op.fragment_size))
+        sub = fan.add(s, op.id, (op.throttle_rate, op.queue_length, op.compression, op.fragment_size, op.image))
     except BaseException:   # release next to creation: a failed subscribe leaves no subscription
         if not fan.subscribers:
             s.gateway.drop_fanout(fan)

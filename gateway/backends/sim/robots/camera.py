@@ -15,6 +15,7 @@ class Camera:
     def __init__(self, world: World, width: int = 160, height: int = 120, fov: float = math.radians(62),
                  mount_height: float = 0.15, quality: int = 75):
         self.world, self.width, self.height, self.quality = world, width, height, quality
+        self._last: tuple[tuple[float, float, float], bytes] | None = None   # pose -> its JPEG
         self.mount_height = mount_height
         self.focal = (width / 2) / math.tan(fov / 2)
         cols = np.arange(width) + 0.5
@@ -45,6 +46,13 @@ class Camera:
         return (img * 255).astype(np.uint8)
 
     def jpeg(self, x: float, y: float, yaw: float) -> bytes:
+        """The JPEG seen from (x, y, yaw). The world's walls do not move, so a robot standing still
+        sees the same image: it is kept (a class of 30 mostly idle rovers rendered and encoded the
+        same frame 150 times a second, 28 % of the gateway's samples)."""
+        if self._last is not None and self._last[0] == (x, y, yaw):
+            return self._last[1]
         buf = io.BytesIO()
         Image.fromarray(self.render(x, y, yaw), 'RGB').save(buf, 'JPEG', quality=self.quality)
-        return buf.getvalue()
+        data = buf.getvalue()
+        self._last = ((x, y, yaw), data)
+        return data

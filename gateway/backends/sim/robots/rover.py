@@ -98,6 +98,7 @@ class Rover:
         self.bumper = self.bump_logged = False
         self.empty_logged = False
         self.last_marker_pose = None
+        self.last_scan_pose = None   # the scan's marker is sent again only when the robot moved
         self.ranges = None
 
     # --- inputs ---------------------------------------------------------------------------
@@ -278,7 +279,8 @@ class Rover:
             self.hub.update(mk.marker('robots', self.robot_id, mk.ARROW, pose=mk.pose(*pose),
                                       scale=(0.45, 0.3, 0.2), rgba=mk.color(0.95, 0.55, 0.1),
                                       text=self.node.name.rsplit('/', 1)[-1]))
-        if self.steps % EVERY['scan'] == 0 and has_subscribers(self.hub.pub):
+        if self.steps % EVERY['scan'] == 0 and pose != self.last_scan_pose and has_subscribers(self.hub.pub):
+            self.last_scan_pose = pose   # the walls do not move: a still robot's scan is the same
             ranges = self.ranges if self.ranges is not None and has_subscribers(self.scan_pub) else self.cast_scan()
             hit = np.isfinite(ranges)
             angles = SCAN_ANGLES[hit] + self.yaw

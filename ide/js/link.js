@@ -1,0 +1,197 @@
+// The pages' link to the gateway (the IDE, the teleop page, the class view): one connection at a
+// time, seen and made again by itself.
+//
+// Seen: every PING_EVERY the page sends rosgate's `ping` op (docs/protocol.md); the `pong` gives
+// the round trip, and any frame from the gateway proves the link alive. A link that carries
+// nothing for SILENCE (three pongs missing: not a lost packet's retransmission) is lost (a TCP connection through an outage stays "open" for minutes):
+// the page says so within a second and drops the connection — what it queued is stale, and the
+// gateway stops the robot by itself when commands stop coming (its cmd timeout). A server that
+// does not know `ping` answers it with an error status: the page then relies on the socket alone.
+//
+// Made again: one attempt at a time. One refused or closed (a gateway restarting) is followed by
+// the next after a backoff with jitter (so thirty pages do not knock at once), capped at
+// RETRY.cap; one that goes unanswered (its SYN lost in an outage, retried by the kernel only
+// seconds later) is dropped after attemptTimeout() and a fresh one sent at once, so the link's
+// return is met within about 1.5 s. The page's station is the person's (robotns.js), so it is kept.
+import { Ros } from 'roslib';
+
+export const PING_EVERY = 250;          // ms between pings
+export const SILENCE = 800;             // ms without a frame from the gateway: the link is lost
+const LOOK_EVERY = 100;                 // ms between looks at the silence
+export const RETRY = { first: 150, factor: 2, cap: 800, jitter: 0.3 };   // ms; each delay ±30 %
+export const ATTEMPT_TIMEOUT = 2500;    // ms an attempt may go unanswered while the round trip is unknown
+const PING_ID = 'link.ping';
+
+// The delay before attempt n (0, 1, ...): first·factor^n, at most cap, spread by ±jitter.
+export function backoff(n, { first, factor, cap, jitter } = RETRY, random = Math.random) {
+  return Math.min(cap, first * factor ** n) * (1 - jitter + 2 * jitter * random());
+}
+
+// url: the websocket address (a string, or a function giving it at each attempt).
+// Events: 'open' (detail: the new Ros; subscribe and advertise again there), 'lost' (detail:
+// 'silent' or 'closed'; the old Ros is dropped), 'state' (after each change; see .state).
+export class Link extends EventTarget {
+  constructor(url) {
+    super();
+    this.url = typeof url === 'function' ? url : () => url;
+    this.ros = null;
+    this.state = 'idle';       // connecting | connected | lost
+    this.rtt = null;           // ms, the last pong's round trip
+    this.heardAt = null;       // performance.now() of the last frame from the gateway
+    this.dataAt = null;        // ... of the last frame that was not a pong
+    this.pings = true;         // the server answers pings (rosgate does)
+    this.pongs = 0;
+    this.tries = 0;
+    this.pending = new Set();  // attempts not yet open
+    this.retry = null;
+    this.ticker = null;
+    this.pinged = 0;
+  }
+
+  // The page's clock for stamps ("t" on publish, ms): never jumps while the page lives.
+  now() { return performance.now(); }
+
+  start() {
+    this.tries = 0;
+    this._attempt();
+  }
+
+  // Drop the connection and connect again at once (a new address, the ↻ button).
+  restart() {
+    this._drop();
+    for (const ros of this.pending) this._abandon(ros);
+    this._set('connecting');
+    this.start();
+  }
+
+  // A short line for the page: round trip and how old the newest data is.
+  describe(now = performance.now()) {
+    if (this.state !== 'connected') return '';
+    const parts = [];
+    if (this.rtt !== null) parts.push(`RTT ${Math.round(this.rtt)} ms`);
+    if (this.dataAt !== null) parts.push(`data ${((now - this.dataAt) / 1000).toFixed(1)} s old`);
+    return parts.join(' · ');
+  }
+
+  _set(state) {
+    this.state = state;
+    this.dispatchEvent(new CustomEvent('state', { detail: state }));
+  }
+
+  // One attempt at a time (browsers open one websocket to a host at a time anyway, RFC 6455 4.1).
+  _attempt() {
+    clearTimeout(this.retry);
+    if (this.state === 'idle') this._set('connecting');
+    const ros = new Ros({});
+    this.pending.add(ros);
+    const failed = () => {   // refused or closed before it opened: the server is there, or soon
+      if (!this.pending.delete(ros)) return;
+      clearTimeout(timeout);
+      this._later(backoff(this.tries++));
+    };
+    const timeout = setTimeout(() => {   // no answer: the network is dark; try afresh at once
+      this._abandon(ros);
+      this._later(0);
+    }, this.attemptTimeout());
+    ros.on('connection', () => {
+      clearTimeout(timeout);
+      if (!this.pending.delete(ros) || this.ros) { ros.close(); return; }
+      this._open(ros);
+    });
+    ros.on('close', () => {
+      if (ros === this.ros) this._lose('closed');
+      else failed();
+    });
+    ros.on('error', () => {});   // a close follows
+    ros.connect(this.url())
+      .then(() => ros.transport?.on('message', (m) => this._heard(ros, m)))
+      .catch(failed);
+  }
+
+  // How long an attempt may go unanswered. The kernel sends a connection's SYN again after 1 s,
+  // then after 3 s more: an attempt whose SYNs fell into an outage is dropped soon after the
+  // first retry and a fresh one sent, so the link's return is met within about 1.5 s. A slow link
+  // (its round trip known from the pongs) gets the time its handshake needs.
+  attemptTimeout() {
+    if (this.rtt === null) return ATTEMPT_TIMEOUT;
+    return Math.min(4000, Math.max(1200, 2 * this.rtt + 600));
+  }
+
+  _later(ms) {
+    clearTimeout(this.retry);
+    this.retry = setTimeout(() => { if (!this.ros && !this.pending.size) this._attempt(); }, ms);
+  }
+
+  _abandon(ros) {
+    if (!this.pending.delete(ros)) return;
+    ros.removeAllListeners?.();
+    try { ros.close(); } catch { /* never opened */ }
+  }
+
+  _open(ros) {
+    clearTimeout(this.retry);
+    this.ros = ros;
+    this.tries = 0;
+    this.heardAt = performance.now();
+    this.dataAt = null;
+    this.rtt = null;
+    this.pongs = 0;
+    this.pings = true;
+    this._set('connected');
+    this.dispatchEvent(new CustomEvent('open', { detail: ros }));
+    this._ping();
+    this.pinged = performance.now();
+    this.ticker = setInterval(() => this._tick(), LOOK_EVERY);
+  }
+
+  _ping() {
+    if (this.pings) this.ros?.callOnConnection({ op: 'ping', id: PING_ID, t: this.now() });
+  }
+
+  _tick() {
+    if (!this.ros) return;
+    const now = performance.now();
+    // silence counts only where pings are answered (elsewhere a quiet link may be well), and not
+    // in a hidden tab, whose timers the browser slows to one a second or less
+    const hidden = typeof document !== 'undefined' && document.hidden;
+    if (this.pongs && !hidden && now - this.heardAt > SILENCE) { this._lose('silent'); return; }
+    if (now - this.pinged >= PING_EVERY - LOOK_EVERY / 2) { this.pinged = now; this._ping(); }
+  }
+
+  _heard(ros, m) {
+    if (ros !== this.ros) return;
+    const now = performance.now();
+    this.heardAt = now;
+    if (m?.op === 'pong') {
+      this.pongs += 1;
+      if (typeof m.t === 'number') this.rtt = now - m.t;
+    } else if (m?.op === 'status' && m.id === PING_ID) {
+      // not rosgate ("Unknown operation"): no pings, no silence detection; another refusal
+      // (not signed in yet) leaves them on
+      if (/unknown op/i.test(m.msg ?? '')) this.pings = false;
+    } else {
+      this.dataAt = now;
+    }
+  }
+
+  _drop() {
+    clearInterval(this.ticker);
+    this.ticker = null;
+    const old = this.ros;
+    this.ros = null;
+    if (old) {
+      old.removeAllListeners?.();
+      try { old.close(); } catch { /* already closed */ }
+    }
+    return old;
+  }
+
+  _lose(why) {
+    const old = this._drop();
+    if (!old) return;
+    this._set('lost');
+    this.dispatchEvent(new CustomEvent('lost', { detail: why }));
+    this.tries = 0;
+    this._attempt();
+  }
+}

@@ -1,0 +1,330 @@
+"""A lesson over an emulated home link (tests/netlink.py): clients and Chromium in one network
+namespace, the gateway in another, 150 ms ± 50 ms each way between them.
+
+- After a 2 s freeze, nothing made during it moves the turtle (stamped commands, ``rules.freshness``).
+- Jitter: a released key stops the turtle within the cmd timeout + 0.5 s.
+- The teleop page says "connection lost — robot stopped" within about a second of silence and
+  connects again by itself within 2 s of the link's return, on the same station.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import threading
+import time
+
+import pytest
+
+from tests import netlink
+from tests.gateway.rawclient import Raw
+from tests.ide.conftest import CHROMIUM, CHROMIUM_ARGS, wait_for
+
+pytestmark = pytest.mark.skipif(netlink.available() is not None, reason=str(netlink.available()))
+
+DELAY, JITTER = 0.15, 0.05
+TWIST = 'geometry_msgs/msg/Twist'
+
+
+class Poses:
+    """The turtle's pose as seen next to the gateway (its own namespace: no link in between)."""
+
+    def __init__(self, link, gw, topic: str):
+        with link.inside('server'):
+            self.raw = Raw(gw.ws_url)
+        self.raw.send({'op': 'subscribe', 'topic': topic, 'type': 'turtlesim/msg/Pose'})
+        self.samples: list[tuple[float, float, float]] = []
+        self.lock = threading.Lock()
+        self.done = False
+        self.thread = threading.Thread(target=self._read, daemon=True)
+        self.thread.start()
+
+    def _read(self):
+        while not self.done:
+            try:
+                m = self.raw.recv(0.2)
+            except Exception:
+                continue
+            if m.get('op') == 'publish':
+                with self.lock:
+                    self.samples.append((time.monotonic(), m['msg']['x'], m['msg']['y']))
+
+    def at(self, t: float) -> tuple[float, float]:
+        """The last pose received at or before t."""
+        with self.lock:
+            before = [(x, y) for when, x, y in self.samples if when <= t]
+        assert before, 'no pose yet'
+        return before[-1]
+
+    def latest(self) -> tuple[float, float]:
+        return self.at(time.monotonic())
+
+    def close(self):
+        self.done = True
+        self.thread.join(2)
+        self.raw.ws.close()
+
+
+def moved(a, b) -> float:
+    return math.hypot(a[0] - b[0], a[1] - b[1])
+
+
+class Driver:
+    """A client doing what the teleop page does: pings every 250 ms, a stamped command every
+    100 ms while a key is held, a zero on release (all through the link)."""
+
+    def __init__(self, link, gw, topic: str):
+        with link.inside('client'):
+            self.raw = Raw(gw.ws_url)
+        self.topic = topic
+        self.raw.send({'op': 'advertise', 'topic': topic, 'type': TWIST})
+        self.speed = 0.0
+        self.held = False
+        self.pongs: list[float] = []
+        self.lock = threading.Lock()
+        self.done = False
+        self.threads = [threading.Thread(target=f, daemon=True) for f in (self._send, self._read)]
+        for t in self.threads:
+            t.start()
+
+    @staticmethod
+    def ms() -> float:
+        return time.monotonic() * 1000
+
+    def _send(self):
+        n = 0
+        while not self.done:
+            with self.lock:
+                if n % 5 == 0:
+                    self.raw.send({'op': 'ping', 'id': 'p', 't': self.ms()})
+                if self.held and n % 2 == 0:
+                    self.raw.send({'op': 'publish', 'topic': self.topic, 't': self.ms(),
+                                   'msg': {'linear': {'x': self.speed}, 'angular': {}}})
+            n += 1
+            time.sleep(0.05)
+
+    def _read(self):
+        while not self.done:
+            try:
+                m = self.raw.recv(0.2)
+            except Exception:
+                continue
+            if m.get('id') == 'p':   # a pong (a server without pings answers with an error status)
+                self.pongs.append(time.monotonic())
+
+    def hold(self, speed: float):
+        with self.lock:
+            self.speed, self.held = speed, True
+
+    def release(self):
+        with self.lock:
+            self.held = False
+            self.raw.send({'op': 'publish', 'topic': self.topic, 't': self.ms(),
+                           'msg': {'linear': {}, 'angular': {}}})
+
+    def close(self):
+        self.done = True
+        for t in self.threads:
+            t.join(2)
+        self.raw.ws.close()
+
+
+def test_nothing_made_during_a_2_s_freeze_moves_the_turtle():
+    with netlink.NetLink(delay=DELAY, jitter=JITTER) as link:
+        gw = link.start_gateway('--robot', 'turtlesim')
+        poses = Poses(link, gw, '/turtle1/pose')
+        driver = Driver(link, gw, '/turtle1/cmd_vel')
+        try:
+            wait_for(lambda: len(driver.pongs) >= 3, what='pongs through the link')
+            start = poses.latest()
+            driver.hold(0.6)
+            wait_for(lambda: moved(poses.latest(), start) > 0.2, what='the turtle drives')
+            back = link.freeze(2.0)
+            time.sleep(1.5)
+            driver.release()           # let go late in the outage: the zero waits with the rest
+            wait_for(lambda: time.monotonic() > back, timeout=5, what='the link back')
+            at_return = poses.latest()
+            returned = len(driver.pongs)
+            wait_for(lambda: len(driver.pongs) > returned + 4, timeout=15, what='pongs after the outage')
+            end = poses.latest()
+        finally:
+            driver.close()
+            poses.close()
+        log = gw.log_text()
+    print(f'\nafter the link returned the turtle moved {moved(end, at_return) * 1000:.1f} mm')
+    assert moved(end, at_return) < 0.005, log[-2000:]
+
+
+def test_released_key_stops_within_cmd_timeout_over_jitter():
+    """Releases over 150 ms ± 50 ms with 2 % loss stop the turtle within the cmd timeout + 0.5 s."""
+    with netlink.NetLink(delay=DELAY, jitter=JITTER, loss=0.02) as link:
+        gw = link.start_gateway('--robot', 'turtlesim')
+        poses = Poses(link, gw, '/turtle1/pose')
+        driver = Driver(link, gw, '/turtle1/cmd_vel')
+        stops = []
+        try:
+            wait_for(lambda: len(driver.pongs) >= 3, what='pongs through the link')
+            for i in range(5):
+                driver.hold(0.4 if i % 2 == 0 else -0.4)
+                time.sleep(0.6)
+                released = time.monotonic()
+                driver.release()
+
+                def still() -> float | None:
+                    with poses.lock:
+                        recent = [s for s in poses.samples if s[0] >= released]
+                    for j in range(len(recent)):   # the first pose from which it no longer moves
+                        rest = recent[j:]
+                        if time.monotonic() - rest[0][0] > 0.5 and all(
+                                moved(r[1:], rest[0][1:]) < 1e-4 for r in rest):
+                            return rest[0][0]
+                    return None
+                stopped = wait_for(still, timeout=5, what='the turtle stops')
+                stops.append(stopped - released)
+        finally:
+            driver.close()
+            poses.close()
+    print(f'\nstops after release: {", ".join(f"{s:.2f}" for s in stops)} s')
+    assert max(stops) <= 1.0 + 0.5
+
+
+@pytest.fixture
+def linked_browser(tmp_path):
+    """A link, a fleet gateway beyond it, and Chromium inside the client namespace."""
+    from playwright.sync_api import sync_playwright
+    with netlink.NetLink(delay=DELAY, jitter=JITTER) as link:
+        gw = link.start_gateway('--robot', 'turtlesim', '--fleet', '2')
+        with sync_playwright() as p:
+            browser = p.chromium.launch(executable_path=str(link.chromium_wrapper(CHROMIUM, tmp_path)),
+                                        args=CHROMIUM_ARGS)
+            try:
+                yield link, gw, browser
+            finally:
+                browser.close()
+
+
+def test_teleop_page_sees_the_outage_and_heals_on_its_station(linked_browser):
+    link, gw, browser = linked_browser
+    page = browser.new_page()
+    errors = []
+    page.on('pageerror', lambda e: errors.append(str(e)))
+    page.goto(gw.http_url + 'teleop', timeout=60000)
+    ready = ("document.body?.dataset.connection === 'connected'"
+             " && /^\\/s0\\d\\/turtle1\\/cmd_vel$/.test(document.querySelector('#topic').value)")
+
+    def settled() -> bool:   # the page claims a station, then reloads into it: ready twice, 1 s apart
+        try:
+            page.wait_for_function(ready, timeout=60000)
+            time.sleep(1.0)
+            return page.evaluate(ready)
+        except Exception:   # navigating
+            return False
+    wait_for(settled, timeout=90, what='the teleop page on its station')
+    page.wait_for_function("document.querySelector('#link').textContent.includes('RTT')", timeout=10000)
+    rtt = page.evaluate('teleop.link.rtt')
+    topic = page.evaluate("document.querySelector('#topic').value")
+    station = page.evaluate('teleop.robotNs.get()')
+    assert topic == f'{station}/turtle1/cmd_vel'
+    poses = Poses(link, gw, f'{station}/turtle1/pose')
+    try:
+        wait_for(lambda: poses.samples, what='poses')
+        start = poses.latest()
+        page.focus('body')
+        page.keyboard.down('ArrowUp')
+        wait_for(lambda: moved(poses.latest(), start) > 0.1, what='the page drives the turtle')
+        frozen = time.monotonic()
+        back = link.freeze(2.0)
+        page.wait_for_function("document.body.dataset.connection === 'lost'", timeout=5000, polling=20)
+        seen_lost = time.monotonic() - frozen
+        text = page.evaluate("document.querySelector('#status').textContent")
+        page.keyboard.up('ArrowUp')
+        wait_for(lambda: time.monotonic() > back, timeout=5, what='the link back')
+        at_return = poses.latest()
+        page.wait_for_function("document.body.dataset.connection === 'connected'", timeout=10000, polling=20)
+        healed = time.monotonic() - back
+        assert page.evaluate('teleop.robotNs.get()') == station
+        assert page.evaluate("document.querySelector('#topic').value") == topic
+        settle = time.monotonic()
+        wait_for(lambda: time.monotonic() - settle > 1.5, what='a while after')
+        end = poses.latest()
+    finally:
+        poses.close()
+    print(f'\nRTT {rtt:.0f} ms; lost shown {seen_lost:.2f} s into the outage; connected again '
+          f'{healed:.2f} s after the link returned; moved {moved(end, at_return) * 1000:.1f} mm after it')
+    assert text == 'connection lost — robot stopped'
+    assert 0.2 <= rtt / 1000 <= 2 * (DELAY + JITTER) + 0.2
+    assert seen_lost <= 1.5
+    assert healed <= 2.0
+    assert moved(end, at_return) < 0.005
+    assert not errors
+
+
+def drive_circles(link, gw, topics: list[str], stop: threading.Event) -> threading.Thread:
+    """Students driving every turtle in circles at 10 Hz, from beside the gateway (their links are
+    not the teacher's)."""
+    with link.inside('server'):
+        raw = Raw(gw.ws_url)
+    for t in topics:
+        raw.send({'op': 'advertise', 'topic': t, 'type': TWIST})
+
+    def run():
+        while not stop.is_set():
+            for i, t in enumerate(topics):
+                raw.send({'op': 'publish', 'topic': t, 'msg': {'linear': {'x': 1.0}, 'angular': {'z': 0.8 + 0.05 * i}}})
+            time.sleep(0.1)
+        raw.ws.close()
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    return thread
+
+
+TILE_AGES = """() => {
+  const now = Date.now();
+  return [...classView.tiles.values()].map((t) => {
+    const robots = [...t.world.markers.values()].filter((m) => m.ns === 'robots');
+    if (!robots.length) return null;
+    const s = Math.max(...robots.map((m) => m.header.stamp.sec * 1000 + m.header.stamp.nanosec / 1e6));
+    return (now - s) / 1000;
+  });
+}"""
+
+
+def test_class_view_of_ten_stations_fits_a_1_mbit_line(tmp_path):
+    """/class for 10 driven stations over 1 Mbit/s (64 KiB buffer) + 150 ms: every tile drawn within
+    20 s of opening the page, and what the tiles show at most 2 s old (p95)."""
+    from playwright.sync_api import sync_playwright
+    stations = 10
+    with netlink.NetLink(delay=DELAY, rate=125_000, buffer=64 * 1024) as link:
+        gw = link.start_gateway('--robot', 'turtlesim', '--fleet', str(stations))
+        stop = threading.Event()
+        driving = drive_circles(link, gw, [f'/s{i:02d}/turtle1/cmd_vel' for i in range(1, stations + 1)], stop)
+        try:
+            time.sleep(2.0)   # the lesson is under way when the teacher opens the page
+            with sync_playwright() as p:
+                browser = p.chromium.launch(executable_path=str(link.chromium_wrapper(CHROMIUM, tmp_path)),
+                                            args=CHROMIUM_ARGS)
+                try:
+                    page = browser.new_page(viewport={'width': 1400, 'height': 900})
+                    opened = time.monotonic()
+                    page.goto(gw.http_url + 'class', timeout=60000)
+                    page.wait_for_function(f"(document.body.dataset.tiles === '{stations}') && "
+                                           "[...classView.tiles.values()].every((t) => "
+                                           "[...t.world.markers.values()].some((m) => m.ns === 'robots'))",
+                                           timeout=60000, polling=100)
+                    ready = time.monotonic() - opened
+                    ages = []
+                    sampled = time.monotonic()
+                    while time.monotonic() - sampled < 20:
+                        ages += [a for a in page.evaluate(TILE_AGES) if a is not None]
+                        time.sleep(0.25)
+                finally:
+                    browser.close()
+        finally:
+            stop.set()
+            driving.join(2)
+    ages.sort()
+    p50, p95 = ages[len(ages) // 2], ages[int(len(ages) * 0.95)]
+    print(f'\n/class, {stations} stations at 1 Mbit/s + 150 ms: ready in {ready:.1f} s; tile age '
+          f'p50 {p50:.2f} s, p95 {p95:.2f} s, max {ages[-1]:.2f} s ({len(ages)} samples)')
+    assert ready <= 20
+    assert p95 <= 2.0

@@ -1,0 +1,75 @@
+// The pages' link helper (ide/js/link.js) against a real gateway: pings, a gateway that goes
+// away and comes back, and the backoff's bounds.
+import { after, test } from 'node:test';
+import assert from 'node:assert/strict';
+import { spawn } from 'node:child_process';
+import { once } from 'node:events';
+import { fileURLToPath } from 'node:url';
+import path from 'node:path';
+import { Link, RETRY, backoff } from '../../ide/js/link.js';
+
+const root = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '..', '..');
+const python = process.env.ROSGATE_PYTHON || path.join(root, '.venv', 'bin', 'python');
+const running = new Set();
+
+async function startGateway(port = 0) {
+  const proc = spawn(python, ['-m', 'gateway', '--port', String(port), '--address', '127.0.0.1', '--robot', 'none',
+    '--programs-dir', path.join(root, '.venv', 'node-test-programs')], { cwd: root, stdio: ['ignore', 'pipe', 'inherit'] });
+  running.add(proc);
+  proc.on('exit', () => running.delete(proc));
+  let line = '';
+  for await (const chunk of proc.stdout) {
+    line += chunk;
+    if (line.includes('\n')) break;
+  }
+  proc.stdout.resume();
+  return { proc, url: line.match(/websocket (ws:\/\/\S+)/)[1] };
+}
+
+after(() => { for (const p of running) p.kill('SIGKILL'); });
+
+function event(target, name, ms, what) {
+  return new Promise((resolve, reject) => {
+    const timer = setTimeout(() => reject(new Error(`${what}: not within ${ms} ms`)), ms);
+    target.addEventListener(name, (e) => { clearTimeout(timer); resolve(e); }, { once: true });
+  });
+}
+
+test('backoff grows from RETRY.first to RETRY.cap, spread by the jitter', () => {
+  const { first, cap, jitter } = RETRY;
+  assert.equal(backoff(0, RETRY, () => 0.5), first);
+  assert.equal(backoff(30, RETRY, () => 0.5), cap);
+  assert.equal(backoff(30, RETRY, () => 0), cap * (1 - jitter));
+  assert.ok(backoff(30, RETRY, () => 0.999999) < cap * (1 + jitter));
+  assert.ok(cap * (1 + jitter) < 1100, 'an attempt starts within about a second of the link\'s return');
+  const spread = new Set(Array.from({ length: 20 }, () => backoff(5)));
+  assert.ok(spread.size > 10, 'pages do not knock at once');
+});
+
+test('a link shows its round trip, and heals by itself when the gateway comes back', async () => {
+  const first = await startGateway();
+  const port = Number(new URL(first.url).port);
+  const link = new Link(first.url);
+  const opened = event(link, 'open', 10000, 'open');
+  link.start();
+  await opened;
+  while (link.rtt === null) await new Promise((r) => setTimeout(r, 20));
+  assert.ok(link.rtt >= 0 && link.rtt < 1000);
+  assert.match(link.describe(), /^RTT \d+ ms/);
+
+  const lost = event(link, 'lost', 5000, 'lost');
+  first.proc.kill('SIGKILL');
+  await lost;
+  assert.equal(link.state, 'lost');
+  await new Promise((r) => setTimeout(r, 1500));   // attempts fail meanwhile, backing off
+  const again = await startGateway(port);
+  const back = performance.now();
+  await event(link, 'open', 5000, 'open again');
+  const healed = performance.now() - back;
+  assert.equal(link.state, 'connected');
+  assert.ok(healed < 2000, `connected again ${healed.toFixed(0)} ms after the gateway came back`);
+  link.restart();   // the ↻ button: a fresh connection
+  await event(link, 'open', 5000, 'restart');
+  link._drop();
+  again.proc.kill('SIGKILL');
+});
