@@ -15,9 +15,11 @@ from __future__ import annotations
 import argparse
 import logging
 
+from .bookings import BookingLimits, Slots, Timetable
 from .lease import Lease
 from .names import parse_globs, parse_networks
 from .policy import GATEWAY_ROLE, Limits, SecurePolicy  # noqa: F401 (GATEWAY_ROLE: for the bridge)
+from .queue import Queue
 from .safety import CMD_MAX_AGE, DEFAULT_TYPES, Clamp, Safety, VelocityLimits
 from .lti import LtiConfig
 from .sessions import DEFAULT_HOURS, Sessions, cookie_secret
@@ -96,6 +98,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     c.add_argument('--claim-idle', type=_positive(float), default=CLAIM_IDLE, metavar='S',
                    help='a station stays its owner\'s (through reloads, closed tabs, sleeping tablets) until '
                         'released, or until none of the owner\'s pages has been connected this long [%(default)s]')
+    b = parser.add_argument_group('bookings (slots per station, booked ahead; the gateway ends each on time)')
+    dl = BookingLimits()
+    b.add_argument('--booking', action='store_true',
+                   help='stations are booked ahead in slots (/api/bookings); during a slot the station is its '
+                        'booker\'s, and at its end the gateway stops it, frees it and resets it')
+    b.add_argument('--slot-minutes', type=_positive(float), default=dl.slot / 60, metavar='MIN',
+                   help='the longest slot, in minutes (fractions allowed) [%(default)s]')
+    b.add_argument('--booking-per-day', type=_positive(int), default=dl.per_day, metavar='N',
+                   help='slots one person may book per day, admins excepted, 0 for no limit [%(default)s]')
+    b.add_argument('--booking-per-week', type=_positive(int), default=dl.per_week, metavar='N',
+                   help='slots one person may book per week, admins excepted, 0 for no limit [%(default)s]')
+    b.add_argument('--booking-ahead', type=_positive(float), default=dl.ahead / 86400, metavar='DAYS',
+                   help='how far ahead a slot may be booked, in days, 0 for no limit [%(default)s]')
+    b.add_argument('--station-reset', metavar='NAME',
+                   help='at a slot\'s end, call this service (std_srvs Empty or Trigger) in the station\'s '
+                        'namespace, e.g. "reset" (turtlesim) or "reset_world"')
     c.add_argument('--claim-grace', type=_positive(float), default=CLAIM_GRACE, metavar='S',
                    help='a station claimed by a client with no name and no browser id (a script) stays its '
                         'own this long after it leaves [%(default)s]')
@@ -122,21 +140,37 @@ def install(gateway, reads=lambda name: False) -> None:
         auth = Authenticator(store, Brake(base=extra.get('auth_backoff', 0.5)))
         sessions = Sessions(gateway.store, cookie_secret(), hours=extra.get('session_hours', DEFAULT_HOURS),
                             still_valid=lambda s: s.kind != 'token' or s.identity.listed(store.entries))
+    timetable = None
+    if extra.get('booking'):
+        d = BookingLimits()
+        timetable = Timetable(gateway.store, BookingLimits(
+            slot=float(extra.get('slot_minutes', d.slot / 60)) * 60, per_day=extra.get('booking_per_day', d.per_day),
+            per_week=extra.get('booking_per_week', d.per_week),
+            ahead=float(extra.get('booking_ahead', d.ahead / 86400)) * 86400))
+    queue = Queue(timetable, grace=extra.get('claim_grace', CLAIM_GRACE)) if timetable is not None else None
     stations = Stations(gateway, types=frozenset(types), idle=extra.get('claim_idle', CLAIM_IDLE),
-                        grace=extra.get('claim_grace', CLAIM_GRACE), admin_role='admin' if auth else None)
+                        grace=extra.get('claim_grace', CLAIM_GRACE), admin_role='admin' if auth else None,
+                        timetable=timetable, queue=queue)
     lease = None
+
+    def group_of(topic):
+        return lease.group(topic) if lease is not None else next(
+            (ns for ns in stations.stations() if topic.startswith(ns + '/')), '/')
+
+    def in_group(group):
+        return lambda topic: group_of(topic) == group
+
+    def stop_group(group):
+        """The teacher's Stop and a slot's end: every command left moving in the group is zeroed,
+        what else publishes into it (playbacks) ends."""
+        for session in gateway.everyone():
+            safety.stop_session(session, in_group(group))
+        for hook in gateway.hooks:
+            stopped = getattr(hook, 'on_group_stopped', None)
+            if stopped:
+                stopped(group, group_of)
+
     if extra.get('exclusive_control'):
-        def in_group(group):
-            return lambda topic: lease.group(topic) == group
-
-        def stop_group(group):
-            for session in gateway.everyone():
-                safety.stop_session(session, in_group(group))
-            for hook in gateway.hooks:   # what else publishes into the group ends (playbacks)
-                stopped = getattr(hook, 'on_group_stopped', None)
-                if stopped:
-                    stopped(group, lease.group)
-
         lease = Lease(gateway, types=frozenset(types), globs=parse_globs(extra.get('control_glob')),
                       takeover_role='admin' if auth else None, stations=stations,
                       on_lost=lambda session, group: safety.stop_session(session, in_group(group)),
@@ -153,6 +187,12 @@ def install(gateway, reads=lambda name: False) -> None:
         gateway.hooks.append(lease)
     gateway.rules.append(safety.publish_hook)
     gateway.hooks.append(safety)
+    if timetable is not None:
+        if lease is None:
+            log.warning('--booking without --exclusive-control: slots seat their bookers and end on time, but '
+                        'nothing keeps others\' commands off a booked robot')
+        gateway.hooks.append(Slots(gateway, timetable, stations=stations, lease=lease, stop_group=stop_group,
+                                   reset=extra.get('station_reset'), queue=queue))
     log.info('security: auth %s, exclusive control %s, stop on disconnect %s, cmd timeout %s s, '
              'cmd max age %s s%s', 'on' if auth else 'off', 'on' if lease else 'off', safety.stop_on_disconnect,
              safety.cmd_timeout, safety.cmd_max_age, ', stamps required' if safety.require_stamp else '')

@@ -137,19 +137,26 @@ class Lease:
             return
         if holder is None:
             owner = self.owners.owner(group)
-            barred = owner is None and self.owners.is_barred(group, key)
-            if (owner is None and not barred) or (owner is not None and owner.person == key):
+            barred = self._walk_in_refusal(group, key) if owner is None else None
+            if barred is None and (owner is None or owner.person == key):
                 self._grant(group, session)
                 return
             if not moving:
                 return
-            if barred:
-                raise ProtocolError(f'{name}: {self._released(group)}')
+            if barred is not None:
+                raise ProtocolError(f'{name}: {barred}')
             raise ProtocolError(f'{name}: {group} is {owner.name}\'s station; press "Claim a robot" for your '
                                 'own, or ask the teacher')
         where = '' if group == ROOT else f' {group}'
         raise ProtocolError(f'{name}: {who(holder)} is driving{where} (exclusive control); '
                             f'{self._way_out(session, group)}')
+
+    def _walk_in_refusal(self, group: str, key: str) -> str | None:
+        """Why person ``key`` may not take a station nobody owns: the teacher released it from her,
+        someone else's booked slot is on, or hers there just ended (rules.stations); None: she may."""
+        if self.owners.is_barred(group, key):
+            return self._released(group)
+        return self.owners.walk_in_refusal(group, key)
 
     def _way_out(self, session, group: str) -> str:
         """What resolves a refusal because someone else holds group's lease, for this client."""
@@ -182,7 +189,7 @@ class Lease:
             return self._released(group)
         if owner is not None and owner.person != key:
             return f'{group} is {owner.name}\'s station; claim a free robot, or ask the teacher'
-        return None
+        return self.owners.walk_in_refusal(group, key) if owner is None and key is not None else None
 
     def publish_hook(self, session, pub, msg, issued=None):
         if pub.topic == CONTROL_TOPIC:
@@ -211,6 +218,9 @@ class Lease:
             return self._released(group)
         if owner is not None and owner.person != key and not self.may_take_over(role):
             return f'{group} is {owner.name}\'s station; claim a free robot, or ask the teacher'
+        barred = self.owners.walk_in_refusal(group, key) if owner is None and not admin else None
+        if barred is not None:
+            return barred
         holder = self.holders.get(group)
         if holder is not None and person(holder) != key and not self.may_take_over(role):
             return (f'{who(holder)} holds the driver lease{where} (exclusive control); a run needs it: wait for '
@@ -237,6 +247,11 @@ class Lease:
         owner = self.owners.owner(group)
         barred = owner is None and self.owners.is_barred(group, person(session))
         mine = (owner is None and not barred) or (owner is not None and owner.person == person(session))
+        ended = self.owners.walk_in_refusal(group, person(session)) if owner is None else None
+        if ended is not None and verb.startswith('take') and not self._may_override(session):
+            if verb == 'take-if-free':   # someone else's slot, or hers just ended (rules.bookings)
+                return
+            raise ProtocolError(ended)
         if verb == 'take-if-free':   # a page on its own station: never a stopped one, never another's
             if holder is None and mine and group not in self.halted:
                 self._grant(group, session)
@@ -290,6 +305,19 @@ class Lease:
         else:
             raise ProtocolError(f'{who(holder)} is driving{"" if group == ROOT else " " + group}; '
                                 f'only an admin can take over: {self._way_out(session, group)}')
+
+    def hand_over(self, group: str, key: str | None, why: str) -> None:
+        """A booked slot begins (key: its booker) or ends (None): the lease is freed unless a
+        client of the booker holds it, a stop of the teacher's no longer holds, and whoever held
+        it stops moving and is told why."""
+        self.halted.pop(group, None)
+        holder = self.holders.get(group)
+        if holder is not None and (key is None or person(holder) != key):
+            self._grant(group, None)
+            if not holder.closed:
+                holder.status('warning', f'{why}: the driver lease for {group} is no longer yours; your '
+                                         'commands were stopped')
+        self._announce()
 
     def free(self, group: str, by) -> None:
         """A station given back (the teacher's Release, or its owner's): no holder and no stop."""

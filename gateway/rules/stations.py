@@ -9,8 +9,10 @@ of its own while it stays connected. A robot-side run acts for the person who st
 
 While there are stations the gateway answers (std_srvs, knowing who calls):
 
-- ``/fleet/claim`` (Trigger): your station; else the lowest one nobody owns, drives or watches;
-  ``success`` false with the reason when none is free (a page then drives nothing);
+- ``/fleet/claim`` (Trigger): your station (the one your booked slot is on, with ``--booking``);
+  else the lowest one nobody owns, drives or has booked now; ``success`` false with the reason when
+  none is free (a page then drives nothing). Watching is not claiming: a client that only
+  subscribes to a station's topics (a projector page, a dashboard, a recorder) leaves it free;
 - ``/sNN/fleet/claim`` (Trigger): that station, if nobody else owns it (one station per person:
   your previous one is given back);
 - ``/sNN/fleet/release`` (Trigger): give it back (its owner, or an admin: the teacher's Release,
@@ -25,9 +27,14 @@ station back on its next command, and the release was undone within a second.
 A claim holds for the lesson, through reloads, closed tabs and sleeping tablets, until its owner
 or the teacher releases it or none of the owner's clients has been connected for ``--claim-idle``
 seconds (an hour by default); a script's claim lapses ``--claim-grace`` seconds after it leaves.
-Who owns what is announced, latched, on /rosgate/stations as JSON: {"stations": [...],
-"owners": {ns: {"name", "since"}}, "released": {ns: {"by", "at"}}} ("released": the last time
-someone other than its owner gave a station back).
+With ``--booking`` a booked slot seats its booker on the station for the slot (``seat``) whatever
+the claims, and ends with it (``unseat``); a walk-in's claim of an unbooked station holds until
+the next booking begins. Who owns what is announced, latched, on /rosgate/stations as JSON:
+{"stations": [...], "owners": {ns: {"name", "since", "until"}}, "released": {ns: {"by", "at"}},
+"booked": {ns: {"name", "start", "end"}}, "next": {ns: {"name", "start", "end"}}} ("released": the
+last time someone other than its owner gave a station back; "until": a booked slot's end;
+"booked"/"next": the slot on now and the next one, and "queue": the names of walk-ins waiting,
+in order, with --booking; rules.queue seats them at stations as they free).
 """
 
 from __future__ import annotations
@@ -52,8 +59,10 @@ STATIONS_TTL = 1.0        # s between looks at the graph for stations
 CHECK_PERIOD = 1.0        # s between looks for lapsed claims and new stations
 CLAIM_IDLE = 3600.0       # s a person's station stays theirs with none of their clients connected
 CLAIM_GRACE = 60.0        # s a script's station stays its own after it leaves
-# topics of a station that watching does not count as using it (the teacher's view watches them)
-WATCHED = ('world/markers', 'rosgate/program')
+
+
+def _clock(at: float) -> str:
+    return time.strftime('%H:%M:%S', time.localtime(at))
 
 
 def find_stations(backend, types: frozenset[str]) -> tuple[str, ...]:
@@ -95,13 +104,17 @@ class Owner:
     name: str
     since: float
     seen: float      # monotonic time one of the owner's clients was last connected
+    until: float | None = None   # a booked slot's end (epoch s): the seat holds till then, present or not
 
 
 class Stations:
     def __init__(self, gateway, *, types: frozenset[str], idle: float = CLAIM_IDLE,
-                 grace: float = CLAIM_GRACE, admin_role: str | None = None):
-        """admin_role: who may release others' stations (None: anyone, as without --auth)."""
+                 grace: float = CLAIM_GRACE, admin_role: str | None = None, timetable=None, queue=None):
+        """admin_role: who may release others' stations (None: anyone, as without --auth);
+        timetable: the bookings (rules.bookings.Timetable) and queue: the walk-ins' line
+        (rules.queue.Queue), with --booking."""
         self.gateway, self.types, self.idle, self.grace, self.admin_role = gateway, types, idle, grace, admin_role
+        self.timetable, self.queue = timetable, queue
         self.owners: dict[str, Owner] = {}
         self.released: dict[str, dict] = {}
         self.barred: dict[str, str] = {}      # station -> the person the teacher released it from
@@ -133,17 +146,40 @@ class Stations:
         return self.barred.get(station) == key
 
     def in_use(self, station: str, key: str) -> bool:
-        """Whether a client of another person publishes on one of the station's topics, or
-        subscribes to one that is not only watched."""
+        """Whether a client of another person advertises one of the station's topics (drives it,
+        or is about to). Subscribers do not count: watching is not claiming."""
         gw, prefix = self.gateway, station + '/'
         ids: set[int] = set()
         for topic, pub in gw.publishers.items():
             if topic.startswith(prefix):
                 ids |= pub.clients
-        for topic, fan in gw.fanouts.items():
-            if topic.startswith(prefix) and topic[len(prefix):] not in WATCHED:
-                ids |= set(fan.subscribers)
         return any(person(s) != key for i in ids if (s := gw.sessions.get(i)) is not None)
+
+    def free_for(self, key: str) -> str | None:
+        """The lowest station person ``key`` may walk into now: nobody owns it, has it booked, or
+        drives it (but them), and no slot of theirs just ended there."""
+        lease = getattr(self.gateway.policy, 'lease', None)
+        for ns in self.stations():
+            held = lease.holders.get(ns) if lease is not None else None
+            if (ns not in self.owners and not self.in_use(ns, key) and (held is None or person(held) == key)
+                    and self.booked(ns) is None and self.walk_in_refusal(ns, key) is None):
+                return ns
+        return None
+
+    def walk_in_refusal(self, station: str, key: str) -> str | None:
+        """Why person ``key`` may not take a station nobody owns now (a slot of theirs just ended
+        there, rules.bookings, or someone else's slot is on though nobody holds the seat: the
+        teacher released it); None: they may."""
+        if self.timetable is None:
+            return None
+        slot = self.timetable.current(station)
+        if slot is not None and slot.person != key:
+            return f'{station} is booked by {slot.name} until {_clock(slot.end)}; claim a free one, or book a slot'
+        return self.timetable.walk_in_refusal(station, key)
+
+    def booked(self, station: str):
+        """The booking whose slot is on now at the station (None: none, or no --booking)."""
+        return self.timetable.current(station) if self.timetable is not None else None
 
     # --- claims ---------------------------------------------------------------------------------
 
@@ -154,17 +190,27 @@ class Stations:
         if station is None:
             if mine is not None:
                 return self._own(session, mine)
-            lease = getattr(self.gateway.policy, 'lease', None)
-            for ns in self.stations():
-                held = lease.holders.get(ns) if lease is not None else None
-                if ns not in self.owners and not self.in_use(ns, key) and (held is None or person(held) == key):
-                    return self._own(session, ns)
+            first = self.queue.first_in_line() if self.queue is not None else None
+            if first is not None and first != key:
+                n = len(self.queue.line)
+                return {'success': False, 'message': f'{n} {"person is" if n == 1 else "people are"} waiting for a '
+                                                     'station; join the queue (Booking, then Queue)'}
+            ns = self.free_for(key)
+            if ns is not None:
+                if self.queue is not None:
+                    self.queue.leave(key)
+                return self._own(session, ns)
             n = len(self.stations())
-            return {'success': False, 'message': f'all {n} stations are taken; ask the teacher to release one'}
+            also = '; or join the queue (Booking, then Queue)' if self.queue is not None else ''
+            return {'success': False, 'message': f'all {n} stations are taken; ask the teacher to release one{also}'}
         o = self.owners.get(station)
         if o is not None and o.person != key:
-            return {'success': False, 'message': f'{station} is {o.name}\'s station; ask the teacher, or '
+            held = f' until {_clock(o.until)} (booked)' if o.until is not None else ''
+            return {'success': False, 'message': f'{station} is {o.name}\'s station{held}; ask the teacher, or '
                                                  'claim a free one'}
+        why = self.walk_in_refusal(station, key) if o is None else None
+        if why is not None:
+            return {'success': False, 'message': why}
         if mine is not None and mine != station:
             del self.owners[mine]
         return self._own(session, station)
@@ -174,7 +220,9 @@ class Stations:
         name = session.attrs.get('name') or f'client {session.id}'
         if o is None:
             key = person(session)
-            self.owners[station] = Owner(key, name, round(time.time(), 3), time.monotonic())
+            slot = self.booked(station)
+            until = slot.end if slot is not None and slot.person == key else None
+            self.owners[station] = Owner(key, name, round(time.time(), 3), time.monotonic(), until)
             self.released.pop(station, None)
             for ns in [ns for ns, p in self.barred.items() if p == key or ns == station]:
                 del self.barred[ns]     # she claimed again: the teacher's Release is behind her
@@ -182,6 +230,36 @@ class Stations:
             o.name, o.seen = name, time.monotonic()
         self._announce()
         return {'success': True, 'message': station}
+
+    def seat(self, station: str, key: str, name: str, until: float) -> list[str]:
+        """A booked slot begins: the station is ``key``'s till ``until`` (a walk-in's claim ends,
+        and the booker's claim of another station is given back: those are returned)."""
+        given_back = [ns for ns, o in self.owners.items() if o.person == key and ns != station]
+        for ns in given_back:
+            del self.owners[ns]
+        o = self.owners.get(station)
+        if o is not None and o.person != key:
+            for s in self._clients_of(o.person):
+                s.status('warning', f'{station} is booked by {name} from now: it is no longer your station')
+        self.owners[station] = Owner(key, name, round(time.time(), 3), time.monotonic(), until)
+        self.released.pop(station, None)
+        self.barred.pop(station, None)   # her booked slot: a Release of a walk-in before it is behind
+        for s in self._clients_of(key):
+            s.status('info', f'your booked slot on {station} began; it ends at {_clock(until)}')
+        self._announce()
+        return given_back
+
+    def unseat(self, station: str, key: str, why: str) -> None:
+        """A booked slot ended: the station is no longer its booker's."""
+        o = self.owners.get(station)
+        if o is not None and o.person == key:
+            del self.owners[station]
+            for s in self._clients_of(key):
+                s.status('warning', f'{why}: it is no longer your station')
+        self._announce()
+
+    def refresh(self) -> None:
+        self._announce()
 
     def release(self, session, station: str) -> dict:
         o = self.owners.get(station)
@@ -244,9 +322,18 @@ class Stations:
         self._served = set(wanted)
 
     def _announce(self) -> None:
-        text = json.dumps({'stations': list(self.stations()),
-                           'owners': {ns: {'name': o.name, 'since': o.since} for ns, o in sorted(self.owners.items())},
-                           'released': self.released})
+        info = {'stations': list(self.stations()),
+                'owners': {ns: {'name': o.name, 'since': o.since, 'until': o.until}
+                           for ns, o in sorted(self.owners.items())},
+                'released': self.released}
+        if self.timetable is not None:
+            slot = lambda b: {'name': b.name, 'start': b.start, 'end': b.end}   # noqa: E731
+            now = self.timetable.now()
+            info['booked'] = {ns: slot(b) for ns in self.stations() if (b := self.timetable.current(ns, now))}
+            info['next'] = {ns: slot(b) for ns in self.stations() if (b := self.timetable.next(ns, now))}
+        if self.queue is not None:
+            info['queue'] = [w.name for w in self.queue.line]
+        text = json.dumps(info)
         if text != self._announced:
             self._announced = text
             self._topic.publish({'data': text})
@@ -258,9 +345,17 @@ class Stations:
         for ns, o in list(self.owners.items()):
             if o.person in present:
                 o.seen = now
+            elif o.until is not None:
+                continue   # a booked seat: its slot's end unseats it (rules.bookings)
             elif now - o.seen > (self.idle if lasting(o.person) else self.grace):
                 del self.owners[ns]
         self._stations_at = -float('inf')
+        if self.queue is not None:
+            for key, name, ns in self.queue.serve(self, present):
+                self.owners[ns] = Owner(key, name, round(time.time(), 3), now)
+                self.released.pop(ns, None)
+                for s in self._clients_of(key):
+                    s.status('info', f'{ns} is yours now (your turn in the queue): press "Claim a robot"')
         self._serve()
         self._announce()
         try:

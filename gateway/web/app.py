@@ -2,9 +2,10 @@
 
 ``/`` upgrades to the rosbridge websocket (``socket``) and, as a plain GET, serves the IDE;
 ``/teleop``, ``/twin`` (the robot in 3D) and ``/class`` are the other pages; ``/health``; the JSON
-API apps (``/api/programs``, ``/api/runs``, ``/api/recordings``, ``/api/history``), the login pages and
-LTI's (``/lti/...``, with ``--lti``); the OPC UA server beside them (``--opcua``); web_video_server's
-camera URLs (``/stream``, ``/snapshot``, ``/stream_viewer``, ``/streams``: ``video``); the IDE's static files last.
+API apps (``/api/programs``, ``/api/runs``, ``/api/recordings``, ``/api/history``, ``/api/bookings``),
+the login pages and LTI's (``/lti/...``, with ``--lti``); the OPC UA server beside them (``--opcua``);
+web_video_server's camera URLs (``/stream``, ``/snapshot``, ``/stream_viewer``, ``/streams``: ``video``);
+the IDE's static files last.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import orjson
 import tornado.web
 
 from ..bridge.gateway import Gateway
+from .bookings import booking_routes
 from .classview import ClassHandler
 from .history import start_history
 from .history_api import history_routes
@@ -86,7 +88,7 @@ def make_app(gateway: Gateway) -> tornado.web.Application:
         routes += program_routes(settings.programs_dir, policy)
     # runs reach the websocket alone, on a unix socket bound into their box (runs.py)
     routes += run_routes(gateway, Application(gateway, [websocket], **options)) + recording_routes(gateway)
-    routes += video_routes(gateway)
+    routes += booking_routes(gateway) + video_routes(gateway)
     history = start_history(gateway)
     routes += history_routes(history)
     start_twin(gateway, history, settings.opcua)

@@ -542,6 +542,14 @@ class RunManager:
         safety = self._safety()
         return type in safety.types if safety is not None else type.startswith('geometry_msgs/msg/Twist')
 
+    def on_slot_ended(self, station: str, person: str, why: str) -> None:
+        """A booked slot ended (rules.bookings): the booker's runs in that station end."""
+        for run in list(self.runs.values()):
+            if run.person == person and (run.ns == station or run.ns.startswith(station + '/')):
+                if run.state in ('starting', 'running') and not run.ending:
+                    self._line(run, f'[{why}: stopping]\n', ours=True)
+                    self.stop(run)
+
     def on_close(self, session) -> None:
         run = self.runs.get(session.attrs.get('run'))
         if run is not None and session in run.sessions:

@@ -132,13 +132,14 @@ export function bindNamespace({ call, onChange, onError = () => {}, onState = ()
     get mine() { return mine; },
     // Why this page drives nothing at all until a claim ('' : it may): released, or no robot.
     get lost() { return fleet && !mine ? (released || (none ? `No robot for you: ${none}.` : '')) : ''; },
-    // The gateway hands out stations: show Claim, and ask for this person's station once.
+    // The gateway hands out stations: show Claim, and ask for this person's station once
+    // (returns that claim, for a page that waits for its answer).
     claimable: (yes) => {
       const first = !known;
       known = true;
       fleet = yes;
       $('#claim').hidden = !yes;
-      if (yes && first) claim(asked);
+      return yes && first ? claim(asked) : Promise.resolve();
     },
     // A new connection: follow the gateway's announcement of who owns which station.
     attach: (next) => {

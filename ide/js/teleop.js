@@ -92,13 +92,15 @@ async function onConnected() {
   try {
     const { services } = await callRosapi('/rosapi/services');
     const fleet = services.includes(CLAIM_SERVICE);
-    state.robotNs.claimable(fleet);          // on a fleet with no robot chosen this claims one
+    const claiming = state.robotNs.claimable(fleet);   // on a fleet with no robot chosen this claims one
+    if (fleet && !state.robotNs.get()) block('Claiming a robot of this fleet… (or type a station such as /s01 under "robot")');
     const { topics, types } = await callRosapi('/rosapi/topics');
     if (topics.includes(DRIVER_TOPIC)) lease.watch();
+    await claiming;                          // its answer, not this notice, has the last word
     const ns = state.robotNs.get();
     showWhatTheRobotHas(topics, ns);
     if (fleet && !ns) {
-      block('Claiming a robot of this fleet… (or type a station such as /s01 under "robot")');
+      block(state.robotNs.whyNot());
       resubscribe();
       return;
     }

@@ -1,0 +1,317 @@
+"""Bookings (``--booking``): who may drive which station when, and the gateway's own clock ending
+each slot.
+
+A lab with a few real robots and many students shares them by slots booked ahead. A booking is
+(station, person, start, end) in epoch seconds, kept in the one store (table ``bookings``), so it
+survives a restart. ``Timetable`` holds them, checks a new one against the teacher's limits
+(``--slot-minutes`` the longest slot, ``--booking-per-day`` / ``--booking-per-week`` slots one
+person may book, ``--booking-ahead`` days) and answers what the rules ask: whose slot is on now,
+when the next one begins, who may not walk in.
+
+``Slots`` is the timer. At a slot's start the station becomes its booker's (``Stations.seat``):
+anyone else's claim and driver lease end, the booker's first command takes the lease without
+Take. At its end the gateway acts by itself, whatever the pages do (a sleeping laptop or a dead
+link changes nothing): the lease is freed and every command left moving in the station is zeroed
+through the same path as the teacher's Stop (``stop_group``: clients, playbacks), the booker's
+robot-side runs in the station end (hooks' ``on_slot_ended``), the ``--station-reset`` service is
+called in the station's namespace, and the next booking takes over. Until the next booking, or
+one slot length after hers, the booker may not walk back in (a slot cannot be stretched).
+
+The timer sleeps until the next boundary (start or end of any booking), never more than
+MAX_SLEEP: the wall clock decides, and a clock that jumps is caught at the next wake-up.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import bisect
+import datetime
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import sqlalchemy as sa
+
+from ..store import METADATA
+
+log = logging.getLogger('rosgate.bookings')
+MAX_SLEEP = 5.0            # s the timer sleeps at most (catches a clock that jumped)
+LATE = 0.002               # s past a boundary that still counts as "at" it
+SLACK = 0.5               # s a slot may run over --slot-minutes (clients' rounding)
+RESET_TIMEOUT = 5.0        # s the --station-reset service may take
+RESET_TYPES = ('std_srvs/srv/Empty', 'std_srvs/srv/Trigger')
+
+TABLE = sa.Table(
+    'bookings', METADATA,
+    sa.Column('id', sa.Integer, primary_key=True, autoincrement=True),
+    sa.Column('station', sa.String(100), nullable=False),
+    sa.Column('person', sa.String(200), nullable=False),
+    sa.Column('name', sa.String(200), nullable=False),
+    sa.Column('start_at', sa.Float, nullable=False),
+    sa.Column('end_at', sa.Float, nullable=False),
+    sa.Column('created_at', sa.Float, nullable=False),
+    sa.Index('bookings_by_station', 'station', 'start_at'),
+)
+
+
+class BookingError(Exception):
+    """A booking refused: ``status`` is the HTTP status that says why (400, 403, 404, 409, 429)."""
+
+    def __init__(self, status: int, message: str):
+        super().__init__(message)
+        self.status, self.message = status, message
+
+
+@dataclass(frozen=True)
+class BookingLimits:
+    slot: float = 3600.0       # s, the longest slot (--slot-minutes)
+    per_day: int = 8           # slots one person may book per calendar day (0: no limit)
+    per_week: int = 30         # per ISO week (0: no limit)
+    ahead: float = 14 * 86400.0   # s ahead a slot may begin
+
+
+@dataclass(eq=False)
+class Booking:
+    station: str
+    person: str
+    name: str
+    start: float
+    end: float
+    id: int | None = None      # None until the store has written it
+    created: float = field(default_factory=time.time)
+
+    def json(self) -> dict:
+        return {'id': self.id, 'station': self.station, 'name': self.name, 'owner': self.name, 'start': self.start,
+                'end': self.end}
+
+    def on(self, at: float) -> bool:
+        return self.start <= at < self.end
+
+
+def clock(at: float) -> str:
+    return time.strftime('%H:%M:%S', time.localtime(at))
+
+
+class Timetable:
+    """Every booking not long past, in memory (sorted by start), written through to the store."""
+
+    def __init__(self, store, limits: BookingLimits, now: Callable[[], float] = time.time):
+        self.store, self.limits, self.now = store, limits, now
+        self.bookings: list[Booking] = []
+        self.changed: Callable[[], None] = lambda: None   # Slots wakes up
+        self.ended: dict[str, tuple[str, float]] = {}       # station -> (its last booker, barred until)
+        since = now() - 8 * 86400.0   # the past that quotas still count
+        rows = store.run_now(lambda c: c.execute(sa.select(TABLE).where(TABLE.c.end_at > since)
+                                                 .order_by(TABLE.c.start_at)).all())
+        for r in rows:
+            self.bookings.append(Booking(r.station, r.person, r.name, r.start_at, r.end_at, r.id, r.created_at))
+        log.info('bookings: %d loaded from %s', len(self.bookings), store.url)
+
+    # --- questions the rules ask ------------------------------------------------------------------
+
+    def walk_in_refusal(self, station: str, key: str) -> str | None:
+        """Why person ``key`` may not claim or drive the station while nobody has it booked (her
+        slot there just ended); None: they may."""
+        ended = self.ended.get(station)
+        if ended is not None and ended[0] == key and self.now() < ended[1]:
+            return f'your slot on {station} has ended; book another, or walk in again after {clock(ended[1])}'
+        return None
+
+    def current(self, station: str, at: float | None = None) -> Booking | None:
+        at = self.now() if at is None else at
+        return next((b for b in self.bookings if b.station == station and b.on(at)), None)
+
+    def next(self, station: str, at: float | None = None) -> Booking | None:
+        """The first booking of the station that begins after ``at``."""
+        at = self.now() if at is None else at
+        return next((b for b in self.bookings if b.station == station and b.start > at), None)
+
+    def of(self, person: str) -> list[Booking]:
+        return [b for b in self.bookings if b.person == person]
+
+    def find(self, booking_id: int) -> Booking | None:
+        return next((b for b in self.bookings if b.id == booking_id), None)
+
+    def query(self, station: str | None = None, start: float | None = None, end: float | None = None,
+              person: str | None = None) -> list[Booking]:
+        return [b for b in self.bookings if b.id is not None
+                and (station is None or b.station == station) and (person is None or b.person == person)
+                and (start is None or b.end > start) and (end is None or b.start < end)]
+
+    def boundaries_after(self, at: float) -> float | None:
+        times = [t for b in self.bookings for t in (b.start, b.end) if t > at]
+        return min(times) if times else None
+
+    # --- changes --------------------------------------------------------------------------------
+
+    def check(self, station: str, person: str, start: float, end: float, exempt: bool) -> None:
+        """Raise BookingError when the slot may not be booked (exempt: an admin, no quotas)."""
+        now, lim = self.now(), self.limits
+        if not end > start:
+            raise BookingError(400, f'"end" ({end:g}) must come after "start" ({start:g})')
+        if end <= now:
+            raise BookingError(400, f'that slot ended at {clock(end)}; book one that ends in the future')
+        if end - start > lim.slot + SLACK:
+            raise BookingError(400, f'a slot lasts at most {lim.slot / 60:g} minutes (--slot-minutes), not '
+                                    f'{(end - start) / 60:g}')
+        for b in self.bookings:
+            if b.start < end and start < b.end:
+                if b.station == station:
+                    raise BookingError(409, f'{station} is booked by {b.name} from {clock(b.start)} to '
+                                            f'{clock(b.end)} (booking {b.id}); pick another time or station')
+                if b.person == person:
+                    raise BookingError(409, f'you have {b.station} booked from {clock(b.start)} to '
+                                            f'{clock(b.end)} (booking {b.id}): one station at a time')
+        if exempt:
+            return
+        if lim.ahead and start - now > lim.ahead:
+            raise BookingError(429, f'slots may be booked at most {lim.ahead / 86400:g} days ahead '
+                                    '(--booking-ahead)')
+        day = datetime.date.fromtimestamp(start)
+        week = day.isocalendar()[:2]
+        mine = self.of(person)
+        same_day = sum(1 for b in mine if datetime.date.fromtimestamp(b.start) == day)
+        if lim.per_day and same_day >= lim.per_day:
+            raise BookingError(429, f'{lim.per_day} slots a day per person (--booking-per-day): you have '
+                                    f'{same_day} on {day.isoformat()}')
+        same_week = sum(1 for b in mine if datetime.date.fromtimestamp(b.start).isocalendar()[:2] == week)
+        if lim.per_week and same_week >= lim.per_week:
+            raise BookingError(429, f'{lim.per_week} slots a week per person (--booking-per-week): you have '
+                                    f'{same_week} that week')
+
+    async def add(self, station: str, person: str, name: str, start: float, end: float, *,
+                  exempt: bool = False) -> Booking:
+        """Check and keep a booking. It holds its place in memory at once (a second request for
+        the same time, in while this one is written, sees it) and gets its id from the store."""
+        self.check(station, person, start, end, exempt)
+        booking = Booking(station, person, name, float(start), float(end))
+        bisect.insort(self.bookings, booking, key=lambda b: b.start)
+        row = {'station': station, 'person': person, 'name': name, 'start_at': booking.start,
+               'end_at': booking.end, 'created_at': booking.created}
+        try:
+            booking.id = await self.store.run(
+                lambda c: c.execute(sa.insert(TABLE).values(**row)).inserted_primary_key[0])
+        except Exception:
+            self.bookings.remove(booking)
+            raise
+        self.changed()
+        return booking
+
+    async def remove(self, booking: Booking) -> None:
+        await self.store.run(lambda c: c.execute(sa.delete(TABLE).where(TABLE.c.id == booking.id)))
+        if booking in self.bookings:
+            self.bookings.remove(booking)
+        self.changed()
+
+    def forget_old(self) -> None:
+        """Bookings older than the quotas look are dropped from memory (the store keeps them)."""
+        since = self.now() - 8 * 86400.0
+        self.bookings = [b for b in self.bookings if b.end > since]
+
+
+class Slots:
+    """The timer that starts and ends slots (see the module docstring)."""
+
+    def __init__(self, gateway, timetable: Timetable, *, stations, lease, stop_group: Callable[[str], None],
+                 reset: str | None = None, queue=None):
+        """queue: the walk-ins' line (rules.queue), for the API."""
+        self.gateway, self.timetable, self.stations, self.lease = gateway, timetable, stations, lease
+        self.queue = queue
+        self.stop_group, self.reset = stop_group, reset
+        self.active: dict[str, Booking] = {}          # station -> the booking whose slot is on
+        self.resets: set[asyncio.Task] = set()
+        self.timer: asyncio.TimerHandle | None = None
+        timetable.changed = self.tick
+        self.tick()
+
+    def tick(self) -> None:
+        """Bring every station to the booking its slot is on now; sleep until the next boundary."""
+        if self.timer is not None:
+            self.timer.cancel()
+            self.timer = None
+        now = self.timetable.now()
+        stations = set(self.stations.stations()) | set(self.active)
+        for station in sorted(stations):
+            want = self.timetable.current(station, now + LATE)
+            have = self.active.get(station)
+            if have is want:
+                continue
+            if have is not None:
+                self._end(station, have, now)
+            if want is not None:
+                self._start(station, want)
+        for station, (_, until) in list(self.timetable.ended.items()):
+            if until <= now:
+                del self.timetable.ended[station]
+        self.timetable.forget_old()
+        self.stations.refresh()
+        try:
+            loop = asyncio.get_running_loop()
+        except RuntimeError:
+            return
+        nxt = self.timetable.boundaries_after(now + LATE)
+        delay = MAX_SLEEP if nxt is None else min(MAX_SLEEP, max(0.0, nxt - self.timetable.now()))
+        self.timer = loop.call_later(delay, self.tick)
+
+    def _start(self, station: str, booking: Booking) -> None:
+        self.active[station] = booking
+        self.timetable.ended.pop(station, None)
+        log.info('slot of %s on %s begins (booking %s, until %s)', booking.name, station, booking.id,
+                 clock(booking.end))
+        given_back = self.stations.seat(station, booking.person, booking.name, booking.end)
+        if self.lease is not None:
+            self.lease.hand_over(station, booking.person, f'{booking.name}\'s booked slot began')
+            for ns in given_back:   # one station at a time: the walk-in she had is over
+                self.lease.hand_over(ns, None, f'{booking.name}\'s booked slot on {station} began')
+
+    def _end(self, station: str, booking: Booking, now: float) -> None:
+        """The slot is over: the same stop as the teacher's, the booker's runs end, the reset."""
+        del self.active[station]
+        log.info('slot of %s on %s ends (booking %s)', booking.name, station, booking.id)
+        why = f'{booking.name}\'s slot on {station} ended'
+        if self.lease is not None:
+            self.lease.hand_over(station, None, why)
+        self.stop_group(station)
+        for hook in self.gateway.hooks:
+            ended = getattr(hook, 'on_slot_ended', None)
+            if ended is not None:
+                try:
+                    ended(station, booking.person, why)
+                except Exception:
+                    log.exception('slot end hook failed')
+        self.stations.unseat(station, booking.person, why)
+        nxt = self.timetable.next(station, now)
+        self.timetable.ended[station] = (booking.person, nxt.start if nxt is not None else now + self.timetable.limits.slot)
+        if self.reset:
+            task = asyncio.ensure_future(self._reset(station))
+            self.resets.add(task)
+            task.add_done_callback(self.resets.discard)
+
+    async def _reset(self, station: str) -> None:
+        """The --station-reset service in the station's namespace (std_srvs Empty or Trigger)."""
+        name = f'{station}/{self.reset.strip("/")}'
+        backend = self.gateway.backend
+        type = next((t for n, t in backend.services() if n == name), None)
+        if type is None:
+            log.warning('slot end: no service %s to reset %s', name, station)
+            return
+        if type not in RESET_TYPES:
+            log.warning('slot end: %s is %s, not std_srvs Empty or Trigger; not called', name, type)
+            return
+        try:
+            reply = await backend.call_service(name, type, {}, RESET_TIMEOUT)
+        except Exception as e:   # a robot that fails its reset: said in the log, the slot still ends
+            log.warning('slot end: %s failed: %s', name, e)
+            return
+        if type.endswith('Trigger') and not reply.get('success', True):
+            log.warning('slot end: %s said: %s', name, reply.get('message'))
+        else:
+            log.info('slot end: %s reset (%s)', station, name)
+
+    def on_shutdown(self) -> None:
+        if self.timer is not None:
+            self.timer.cancel()
+            self.timer = None
+        for task in self.resets:
+            task.cancel()
