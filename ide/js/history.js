@@ -1,7 +1,7 @@
 // The dashboard's plots over a chosen span (10 min, 1 h, 1 day, 7 days), from the gateway's own
 // history (GET api/history: kept whether or not a page was open, see docs/teacher.md), with the
 // live samples appended by the dashboard as before. A gateway that keeps no history of a series
-// (404) leaves that series as this browser saw it.
+// leaves that series as this browser saw it; only the series it lists are asked for.
 
 // span (s) -> the step (s) asked of the gateway: at most ~1000 points a series
 export const SPANS = new Map([[600, 1], [3600, 5], [86400, 90], [604800, 600]]);
@@ -15,13 +15,27 @@ async function fetchSeries(src, from, to, step) {
   return { id: src.id, t: body.t, v: body.v.map((v) => v * scale) };
 }
 
+/** topic -> fields the gateway keeps and this person may read (none when it keeps no history). */
+async function keptSeries() {
+  try {
+    const res = await fetch('api/history', { credentials: 'same-origin' });
+    if (!res.ok) return new Map();
+    const body = await res.json();
+    return new Map((body.series ?? []).map((s) => [s.topic, s.fields]));
+  } catch {
+    return new Map();
+  }
+}
+
 /**
  * Rows for `history` (a dashboard.js History) over the last `span` seconds: one row per step,
  * each series' mean there (null where it has none). sources: [{id, topic, field, scale}].
  */
 export async function loadSpan(history, sources, span, now = Date.now() / 1000) {
   const step = SPANS.get(span) ?? 1;
-  const got = (await Promise.all(sources.map((s) => fetchSeries(s, now - span, now, step).catch(() => null))))
+  const kept = await keptSeries();
+  const wanted = sources.filter((s) => kept.get(s.topic)?.includes(s.field));
+  const got = (await Promise.all(wanted.map((s) => fetchSeries(s, now - span, now, step).catch(() => null))))
     .filter(Boolean);
   if (!got.length) return 0;   // no history on the gateway: the browser's own stays
   const keys = new Set();

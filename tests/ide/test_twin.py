@@ -47,6 +47,7 @@ def test_twin_draws_the_rover_and_it_turns_on_the_canvas(chromium, rover):
         page.wait_for_function("twin.state.model === 'rover' && twin.state.pose !== null && twin.state.frames > 5", timeout=WAIT)
         page.wait_for_function("twin.state.markers >= 4 && twin.state.scanPoints > 100 && twin.state.battery > 0", timeout=WAIT)
         page.wait_for_function("Number.isFinite(twin.state.temps.left)", timeout=WAIT)
+        page.wait_for_function(f"({PIXELS})().mask.length > 200", timeout=WAIT)
         before = page.evaluate(PIXELS)
         yaw0 = page.evaluate("twin.robot.rotation.z")
         assert before["webgl"] and len(before["mask"]) > 200, len(before["mask"])   # the robot is on the canvas
@@ -72,7 +73,7 @@ def test_twin_draws_the_rover_and_it_turns_on_the_canvas(chromium, rover):
         page.evaluate("setInterval(() => twin.onBattery({ percentage: 0.1 }), 100)")
         page.wait_for_function("twin.state.blinkOn === true && twin.model.body.emissive.getHex() === 0xff0000", timeout=WAIT)
         page.wait_for_function("twin.state.blinkOn === false && twin.model.body.emissive.getHex() === 0", timeout=WAIT)
-        assert page.get_attribute("#battery", "data-level") == "danger"
+        page.wait_for_function("document.querySelector('#battery').dataset.level === 'danger'", timeout=WAIT)
         assert not errors, errors
     finally:
         ctx.close()
@@ -92,7 +93,7 @@ def test_twin_of_a_fleet_station_and_the_teleop_link(chromium, start_gateway):
         page.wait_for_function("window.twin && twin.state.model === 'rover' && twin.state.pose !== null", timeout=WAIT)
         page.wait_for_function("twin.state.markers >= 4 && twin.state.scanPoints > 100", timeout=WAIT)
         assert page.input_value("#ns") == "/s02"
-        assert len(page.evaluate(PIXELS)["mask"]) > 200
+        page.wait_for_function(f"({PIXELS})().mask.length > 200", timeout=WAIT)   # drawn once it is framed
         assert not errors, errors
     finally:
         ctx.close()
