@@ -226,12 +226,9 @@ class TopicFanout:
             if sub.throttle:
                 if now - sub.last_sent < sub.throttle:
                     if self.merges:   # increments: every change kept, the newest of each marker
-                        sub.pending = (markers.merge(sub.pending and sub.pending[0], msg), None)
+                        self._hold(sub, (markers.merge(sub.pending and sub.pending[0], msg), None), now)
                     else:
-                        sub.pending = (msg, cdr)   # keep the latest; sent when the period ends
-                    if sub.timer is None:
-                        delay = sub.throttle - (now - sub.last_sent)
-                        sub.timer = asyncio.get_running_loop().call_later(delay, self._flush, sub)
+                        self._hold(sub, (msg, cdr), now)
                     continue
                 sub.last_sent = now
             key = (sub.compression, sub.fragment_size)
@@ -259,10 +256,7 @@ class TopicFanout:
                 continue
             if sub.throttle:
                 if now - sub.last_sent < sub.throttle:
-                    sub.pending = (msg, result, 'image')   # keep the latest; sent when the period ends
-                    if sub.timer is None:
-                        delay = sub.throttle - (now - sub.last_sent)
-                        sub.timer = asyncio.get_running_loop().call_later(delay, self._flush, sub)
+                    self._hold(sub, (msg, result, 'image'), now)
                     continue
                 sub.last_sent = now
             key = (sub.compression, sub.fragment_size)
@@ -273,6 +267,13 @@ class TopicFanout:
         for callback, wanted in tuple(self.watchers.values()):
             if wanted == target:
                 callback(msg, result)
+
+    def _hold(self, sub: Subscriber, pending: tuple, now: float) -> None:
+        """A throttled subscriber keeps the latest; it is sent when the period ends (``_flush``)."""
+        sub.pending = pending
+        if sub.timer is None:
+            delay = sub.throttle - (now - sub.last_sent)
+            sub.timer = asyncio.get_running_loop().call_later(delay, self._flush, sub)
 
     def _flush(self, sub: Subscriber) -> None:
         sub.timer = None
