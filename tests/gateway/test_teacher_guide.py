@@ -27,9 +27,13 @@ def fenced(text: str, lang: str, marker: str) -> str:
 def test_the_guides_class_command_runs_as_written(tmp_path):
     text = GUIDE.read_text()
     tokens = fenced(text, 'toml', '[[tokens]]')
-    command = fenced(text, 'sh', '--fleet').replace('\\\n', ' ')
+    command = fenced(text, 'sh', '--fleet 30 --exclusive-control')   # the lesson's class gateway
+    command = command.replace('\\\n', ' ')
     argv = shlex.split(command)
     assert argv[0] == '.venv/bin/rosgate', argv[0]          # what `make run` installs, by its path
+    bare = [line for block in re.findall(r'```sh\n(.*?)```', text, flags=re.S)
+            for line in block.splitlines() if line.strip().startswith('rosgate ')]
+    assert not bare, bare                                    # nor does any other command of the guide say less
     # the rosgate folder as `make run` leaves it (its .venv), with the guide's tokens.toml in it
     (tmp_path / '.venv').symlink_to(ROOT / '.venv')
     (tmp_path / 'tokens.toml').write_text(tokens)
