@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import logging
+import os
 import re
 import signal
 import socket
@@ -239,6 +240,15 @@ async def serve(settings: Settings, backend, sockets: list[socket.socket], *, an
     await server.close_all_connections()
 
 
+def announce(line: str) -> None:
+    """A start-up line on stdout. A launcher that read the first line and closed its end (a test
+    runner, a supervisor) is no reason to stop serving: later lines then go nowhere."""
+    try:
+        print(line, flush=True)
+    except BrokenPipeError:
+        sys.stdout = open(os.devnull, 'w')
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     ros_args: list[str] = []
@@ -258,7 +268,7 @@ def main(argv: list[str] | None = None) -> int:
     settings = replace(settings, node_name=node_name)
     backend = make_backend(args, ros_args, node_name)
     try:
-        asyncio.run(serve(settings, backend, sockets, announce=lambda line: print(line, flush=True)))
+        asyncio.run(serve(settings, backend, sockets, announce=announce))
     except KeyboardInterrupt:
         pass
     return 0
