@@ -31,7 +31,7 @@ async function keptSeries() {
  * Rows for `history` (a dashboard.js History) over the last `span` seconds: one row per step,
  * each series' mean there (null where it has none). sources: [{id, topic, field, scale}].
  */
-export async function loadSpan(history, sources, span, now = Date.now() / 1000) {
+export async function loadSpan(history, sources, span, now = Date.now() / 1000, current = () => true) {
   const step = SPANS.get(span) ?? 1;
   const kept = await keptSeries();
   const wanted = sources.filter((s) => kept.get(s.topic)?.includes(s.field));
@@ -48,18 +48,22 @@ export async function loadSpan(history, sources, span, now = Date.now() / 1000) 
     if (!rows[r.id]) continue;
     r.t.forEach((t, i) => { rows[r.id][index.get(Math.floor(t / step))] = r.v[i]; });
   }
+  if (!current()) return 0;   // a newer choice of span was made meanwhile: it draws, not this one
   history.replace(rows, span);
   return got.length;
 }
 
 /** The span chooser (a <select> of seconds): each choice loads that span from the gateway. */
 export function bindSpan(select, history, sources) {
+  let latest = 0;   // the newest load: an older one finishing later (the page's first) is dropped
   const load = () => {
     const span = Number(select.value);
+    const mine = ++latest;
+    const current = () => mine === latest;
     select.dataset.loading = 'true';
-    return loadSpan(history, sources(), span)
-      .then((n) => { select.dataset.loaded = String(n); })
-      .finally(() => { delete select.dataset.loading; });
+    return loadSpan(history, sources(), span, undefined, current)
+      .then((n) => { if (current()) select.dataset.loaded = String(n); })
+      .finally(() => { if (current()) delete select.dataset.loading; });
   };
   select.addEventListener('change', load);
   return load;
