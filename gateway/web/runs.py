@@ -82,7 +82,7 @@ NAMESPACE = re.compile(r'(/[A-Za-z_][A-Za-z0-9_]{0,63}){0,8}')   # ROS names, AS
 # listens first (a program connecting at once finds it there), then a process of its own (a session
 # of its own, so the SIGINT of a stop reaches the program and not the relay, whose connection the
 # program may still need to stop the robot) accepts and copies each connection both ways, while
-# the program starts (socat, started by the launcher, had to be waited for until it listened).
+# the program starts, so the program never finds its port closed.
 LAUNCHER = '''import os, resource, sys
 cpu, mem, files, procs = (int(v) for v in sys.argv[1].split(","))
 port = int(sys.argv[2])
