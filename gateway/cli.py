@@ -109,7 +109,7 @@ def build_parser() -> argparse.ArgumentParser:
                         'unless --recordings-dir says otherwise)')
     r.add_argument('--record-topics', metavar='GLOBS', help='topics --record takes, e.g. "[\'/turtle1/*\']" [all]')
     r.add_argument('--db', '--history-db', dest='db_url', metavar='URL',
-                   help='where bookings and history are kept: an SQLAlchemy URL, e.g. '
+                   help='where sign-in sessions, bookings and history are kept: an SQLAlchemy URL, e.g. '
                         'postgresql+psycopg://rosgate@dbhost/rosgate [sqlite:///$XDG_DATA_HOME/rosgate/rosgate.db]')
     h = p.add_argument_group('history and the twin')
     h.add_argument('--history', metavar='GLOBS',
