@@ -105,10 +105,7 @@ export class History {
       height: 110,
       legend: { show: false },
       cursor: { drag: { x: false, y: false } },
-      scales: { x: { time: true, range: (u, min, max) => {     // at least the last minute, also for one sample
-        const hi = Number.isFinite(max) ? max : Date.now() / 1000;
-        return [Math.min(Number.isFinite(min) ? min : hi, hi - 60), hi];
-      } },
+      scales: { x: { time: true, range: () => this.span() },
       y: unit === '%' ? { range: [0, 100] } : {} },
       axes: [
         { stroke: '#aab3cc', grid: { stroke: '#2c3350' }, size: 28 },
@@ -121,6 +118,21 @@ export class History {
   }
 
   data(c) { return [this.rows.t, ...c.series.map((s) => this.rows[s.id])]; }
+
+  // The time shown: the samples' own, and at least the last minute (uPlot alone would widen one
+  // sample to a thousand days).
+  span() {
+    const t = this.rows.t;
+    const hi = t.length ? t[t.length - 1] : Date.now() / 1000;
+    return [Math.min(t.length ? t[0] : hi, hi - 60), hi];
+  }
+
+  draw(c) {
+    c.chart.setData(this.data(c));
+    const [min, max] = this.span();
+    c.chart.setScale('x', { min, max });
+    this.legend(c);
+  }
 
   // The latest values beside each series' name (not the cursor's: no "--" while nobody hovers).
   legend(c) {
@@ -141,7 +153,7 @@ export class History {
       if (this.rows[k].length < this.rows.t.length) this.rows[k].push(null);
     }
     this.trim(this.rows, now);
-    for (const c of this.charts.values()) { c.chart.setData(this.data(c)); this.legend(c); }
+    for (const c of this.charts.values()) this.draw(c);
   }
 
   // Rows from elsewhere (the gateway's history over `window` seconds); live samples follow them.
@@ -149,7 +161,7 @@ export class History {
     this.window = window;
     for (const k of Object.keys(this.rows)) if (!rows[k]) rows[k] = rows.t.map(() => null);
     this.rows = rows;
-    for (const c of this.charts.values()) { c.chart.setData(this.data(c)); this.legend(c); }
+    for (const c of this.charts.values()) this.draw(c);
   }
 
   resize() {

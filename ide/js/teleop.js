@@ -430,11 +430,28 @@ function setupRobot() {
   const ns = (name) => withNamespace(state.robotNs.get(), name);
   for (const el of ['#topic', '#battery-topic', '#camera-topic']) $(el).value = ns($(el).value);
   if (state.robotNs.get()) $('#twin-link').search = `?ns=${encodeURIComponent(state.robotNs.get())}`;
+  setupTwinPanel(state.robotNs.get());
   bindDriverBadge(lease);
   state.robotNs.follow(lease);
   lease.addEventListener('refused', (e) => showNotice(`Your commands are refused: ${e.detail}`));
   lease.addEventListener('change', () => { if (!banner() && lease.state !== 'other' && !state.blocked) showNotice(''); });
   lease.addEventListener('stop', () => { stopAll(); showNotice(STOPPED); });
+}
+
+// The 3D panel: /twin of this robot in a frame, loaded only while shown, so that a phone draws
+// no WebGL and opens no second connection until its student asks for the view.
+function setupTwinPanel(ns) {
+  const button = $('#twin-show'), frame = $('#twin-frame');
+  button.addEventListener('click', () => {
+    const show = frame.hidden;
+    frame.hidden = !show;
+    button.textContent = show ? 'hide' : 'show';
+    button.setAttribute('aria-expanded', String(show));
+    const q = new URLSearchParams({ embed: '1' });
+    if (ns) q.set('ns', ns);
+    if (params.get('url')) q.set('url', params.get('url'));
+    frame.src = show ? `twin?${q}` : 'about:blank';
+  });
 }
 
 // What holds this robot still until the student acts (released, stopped, no robot): said for as

@@ -284,6 +284,7 @@ function connect() {
   ros.connect(url);
 }
 
+if (params.has('embed')) document.body.dataset.embed = '';   // the teleop page's 3D panel
 $('#ns').value = ns;
 $('#ns').addEventListener('change', (e) => {
   const q = new URLSearchParams(location.search);

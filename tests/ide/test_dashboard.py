@@ -17,6 +17,12 @@ def test_gauges_history_and_limits(chromium, rover):
     cmd = ros.watch("/cmd_vel", "geometry_msgs/msg/Twist")
     ctx, page, errors = open_teleop(chromium, gw, viewport=TABLET, has_touch=True)
     try:
+        # from its first sample each plot shows recent time: the span's own, never uPlot's
+        # thousand days around a single point
+        page.wait_for_function("teleop.history.rows.t.length >= 1")
+        spans = page.evaluate("[...teleop.history.charts.values()].map((c) => "
+                              "[c.chart.scales.x.min, c.chart.scales.x.max, Date.now() / 1000])")
+        assert len(spans) == 3 and all(60 <= hi - lo <= 660 and abs(now - hi) < 120 for lo, hi, now in spans), spans
         # the slider's range is the rover's limit; ▲ at full slider sends exactly that
         page.wait_for_function("document.querySelector('#maxspeed').max === '0.8'")
         assert "0.8 m/s" in page.inner_text("#limits")

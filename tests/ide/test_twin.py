@@ -97,3 +97,37 @@ def test_twin_of_a_fleet_station_and_the_teleop_link(chromium, start_gateway):
         assert not errors, errors
     finally:
         ctx.close()
+
+
+def test_the_teleop_pages_3d_panel_draws_its_station_only_while_shown(chromium, start_gateway):
+    gw = start_gateway("--fleet", "2", "--robot", "rover")
+    ctx = chromium.new_context(viewport=PHONE, has_touch=True)
+    page = ctx.new_page()
+    errors = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    try:
+        page.goto(gw.http_url + "teleop?ns=/s02")
+        page.wait_for_function("document.body?.dataset.ready === 'true'", timeout=WAIT)
+        # hidden: no frame loaded, no WebGL, no second connection
+        assert page.is_hidden("#twin-frame") and page.get_attribute("#twin-frame", "src") is None
+        assert [f.url for f in page.frames if f != page.main_frame] in ([], ["about:blank"])
+        page.click("#twin-show")
+        assert page.get_attribute("#twin-show", "aria-expanded") == "true"
+        page.wait_for_function("document.querySelector('#twin-frame').contentWindow.twin?.state.model === 'rover'",
+                               timeout=WAIT)
+        twin = page.frame_locator("#twin-frame")
+        frame = next(f for f in page.frames if f.url.endswith("twin?embed=1&ns=%2Fs02"))
+        frame.wait_for_function("twin.state.pose !== null && twin.state.scanPoints > 100 && twin.state.frames > 5",
+                                timeout=WAIT)
+        frame.wait_for_function(f"({PIXELS})().mask.length > 200", timeout=WAIT)   # s02's rover, drawn in the panel
+        assert twin.locator("#battery").is_visible() and twin.locator("#ns").is_hidden()   # the page names the robot
+        box = page.locator("#twin-frame").bounding_box()
+        assert box["width"] > 300 and box["height"] > 200, box
+        page.locator("#twin-card").scroll_into_view_if_needed()
+        page.screenshot(path=str(ARTIFACTS / "teleop-3d-panel-phone.png"))
+        page.click("#twin-show")                                   # hidden again: the frame is let go
+        assert page.is_hidden("#twin-frame") and page.get_attribute("#twin-frame", "src") == "about:blank"
+        page.wait_for_function("document.querySelector('#twin-frame').contentWindow.twin === undefined", timeout=WAIT)
+        assert not errors, errors
+    finally:
+        ctx.close()
