@@ -314,9 +314,11 @@ function resubscribe() {
 // The camera as the link sustains it: the subscribe extension `image` asks the gateway for a
 // smaller JPEG (a gateway without it sends the original). Each frame's lag (arrival minus its
 // header stamp, less the smallest lag seen: the clocks' offset) steers the size: down a step when
-// frames arrive late, up again after a long run of fresh ones.
+// frames arrive late, up again after a long run of fresh ones. A step up is tried no sooner than
+// `upWait` after the last change, and a step up the link could not carry doubles that wait (up to
+// 10 min): a home line is not probed every half minute, a school's LAN soon gets the full size.
 const CAMERA_SIZES = [{ width: 640, quality: 70 }, { width: 320, quality: 60 }, { width: 160, quality: 50 }];
-const cam = { size: 1, sub: null, minLag: Infinity, late: [], fresh: 0, downAt: 0 };
+const cam = { size: 1, sub: null, minLag: Infinity, late: [], fresh: 0, changedAt: Date.now(), upAt: 0, upWait: 30000 };
 
 function subscribeCamera() {
   if (cam.sub) { cam.sub.close(); state.subs = state.subs.filter((s) => s !== cam.sub); }
@@ -335,10 +337,12 @@ function frameAge(msg) {
   if (cam.late.length > 5) cam.late.shift();
   const median = [...cam.late].sort((a, b) => a - b)[cam.late.length >> 1];
   cam.fresh = age < 0.25 ? cam.fresh + 1 : 0;
+  const now = Date.now();
   if (cam.late.length === 5 && median > 0.6 && cam.size < CAMERA_SIZES.length - 1) {
-    cam.size += 1; cam.downAt = Date.now(); subscribeCamera();
-  } else if (cam.fresh > 50 && cam.size > 0 && Date.now() - cam.downAt > 30000) {
-    cam.size -= 1; subscribeCamera();
+    if (cam.upAt && now - cam.upAt < 2 * cam.upWait) cam.upWait = Math.min(2 * cam.upWait, 600000);
+    cam.size += 1; cam.changedAt = now; cam.upAt = 0; subscribeCamera();
+  } else if (cam.fresh > 50 && cam.size > 0 && now - cam.changedAt > cam.upWait) {
+    cam.size -= 1; cam.changedAt = now; cam.upAt = now; subscribeCamera();
   }
   return Math.abs(cam.minLag) < 1 ? lag : age;   // clocks that agree: the true age
 }
