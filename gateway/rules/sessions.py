@@ -9,6 +9,10 @@ survives a restart and is ended on the server: signing out deletes the row, and 
 then worth nothing anywhere; every session ends at its expiry (``--session-hours``); a token
 session whose name and role the tokens file no longer lists is dropped at start-up.
 
+Everyone who signed in is also kept in ``people`` (owner key, name, role, how, last seen), after
+their sessions end: a teacher books a slot "for" a student who launched from the LMS by her name
+(``Sessions.people``), though her key is a digest she never typed.
+
 Lookups run on every request and websocket upgrade, on the event loop: the live sessions are held
 in memory (loaded once at start-up, written through to the store on its own thread), so no
 lookup waits on a disk. With several gateways on one ``--db``, a session begun on one is known to
@@ -45,6 +49,27 @@ TABLE = sa.Table(
     sa.Column('created', sa.Float, nullable=False),
     sa.Column('expires', sa.Float, nullable=False),
 )
+
+PEOPLE = sa.Table(
+    'people', METADATA,
+    sa.Column('owner', sa.String(100), primary_key=True),
+    sa.Column('name', sa.String(200), nullable=False),
+    sa.Column('role', sa.String(16), nullable=False),
+    sa.Column('kind', sa.String(16), nullable=False),
+    sa.Column('seen', sa.Float, nullable=False),
+)
+
+
+@dataclass(frozen=True)
+class Person:
+    owner: str
+    name: str
+    role: str
+    kind: str
+    seen: float
+
+    def json(self) -> dict:
+        return {'id': self.owner, 'name': self.name, 'role': self.role, 'kind': self.kind, 'seen': self.seen}
 
 
 def cookie_secret(path=None) -> bytes:
@@ -83,8 +108,11 @@ class Sessions:
     def __init__(self, store, secret: bytes, *, hours: float = DEFAULT_HOURS, still_valid=lambda s: True):
         self.store, self.secret, self.seconds = store, secret, hours * 3600
         self.live: dict[str, Session] = {}
+        self.known: dict[str, Person] = {}
         if store is not None:
             now = time.time()
+            self.known = {r.owner: Person(r.owner, r.name, r.role, r.kind, r.seen)
+                          for r in store.run_now(lambda c: c.execute(sa.select(PEOPLE)).all())}
             rows = store.run_now(lambda c: c.execute(sa.select(TABLE)).all())
             gone = []
             for row in rows:
@@ -112,6 +140,7 @@ class Sessions:
             row = dict(id_hash=key, name=identity.name[:200], role=identity.role, owner=identity.owner[:100],
                        kind=kind, created=now, expires=s.expires)
             self.store.submit(lambda c: c.execute(TABLE.insert().values(**row)))
+        self._seen(Person(identity.owner[:100], identity.name[:200], identity.role, kind, now))
         return tornado.web.create_signed_value(self.secret, SESSION_COOKIE, session_id).decode()
 
     def _key(self, cookie_value: str | None) -> str | None:
@@ -139,6 +168,23 @@ class Sessions:
             return False
         self._drop(key)
         return True
+
+    def _seen(self, person: Person) -> None:
+        self.known[person.owner] = person
+        if self.store is not None:
+            def write(c):
+                c.execute(PEOPLE.delete().where(PEOPLE.c.owner == person.owner))
+                c.execute(PEOPLE.insert().values(owner=person.owner, name=person.name, role=person.role,
+                                                 kind=person.kind, seen=person.seen))
+            self.store.submit(write)
+
+    def people(self, who: str | None = None) -> list[Person]:
+        """Everyone who ever signed in here, newest first; ``who``: only those it names (their
+        id, or their name in any case)."""
+        found = sorted(self.known.values(), key=lambda p: -p.seen)
+        if who is None:
+            return found
+        return [p for p in found if p.owner == who or p.name.casefold() == who.casefold()]
 
     def _drop(self, key: str) -> None:
         self.live.pop(key, None)

@@ -2,7 +2,9 @@
 and ends each slot on time).
 
 POST   /api/bookings      {"station", "start", "end"} (epoch s; an admin may add "for": a person's
-                          name, with --auth, to book for them) -> 201 the booking; 400 a bad slot
+                          name or id, with --auth, to book for them: a token's name, or someone
+                          who signed in, LMS launches included; 409 when a name is several
+                          people's, naming their ids) -> 201 the booking; 400 a bad slot
                           (too long, ended, end before start), 403 a viewer, 404 no such station,
                           409 it overlaps a booking of the station (or one of yours elsewhere),
                           429 past a quota (per day, per week, how far ahead; admins have none)
@@ -14,6 +16,8 @@ DELETE /api/bookings/ID   -> 200 (its booker or an admin; 403 others); a slot on
 GET    /api/queue         -> {"place", "queued", "wait" (s, estimated; null: unknown), "seated", "station",
                           "line"}: the walk-ins' line when every station is taken (rules.queue)
 POST   /api/queue         -> 201 join it (409 with a station already); DELETE /api/queue: leave it
+GET    /api/people        -> {"people": [{"id", "name", "role", "kind", "seen"}]}: who an admin may book
+                          for (everyone who signed in here, newest first); admins only
 GET    /api/bookings.ics  -> the caller's bookings as an iCalendar feed (an admin's: everyone's);
                           a calendar app subscribes with ?token= in the address
 
@@ -106,18 +110,41 @@ class BookingListHandler(_Handler):
         name = identity.name if identity is not None else f'guest {key.split()[-1][:6]}'
         booker = key
         behalf = body.get('for')
-        if behalf is not None:   # the teacher books a slot for a student (by the name of her token)
+        if behalf is not None:   # the teacher books a slot for a student
             if not admin:
                 raise tornado.web.HTTPError(403, '"for" (booking for someone else) is for admins')
-            if not isinstance(behalf, str) or not 0 < len(behalf) <= 64:
-                raise tornado.web.HTTPError(400, '"for" is the name of a signed-in person')
-            booker, name = f'user {behalf}', behalf
+            if not isinstance(behalf, str) or not 0 < len(behalf.strip()) <= 100:
+                raise tornado.web.HTTPError(400, '"for" is the name or id of a person')
+            booker, name = self.behalf(behalf.strip())
         try:
             booking = await self.slots.timetable.add(station, booker, name, start, end, exempt=admin)
         except BookingError as e:
             raise tornado.web.HTTPError(e.status, e.message) from None
         self.set_status(201)
         self.finish(_view(booking, key))
+
+
+    def behalf(self, who: str) -> tuple[str, str]:
+        """(person key, name) of whom "for" names: someone who signed in here (by id or name), else
+        a name of the tokens file (whose key is the name itself)."""
+        sessions = getattr(self.gateway.policy, 'sessions', None)
+        found = sessions.people(who) if sessions is not None else []
+        if len(found) > 1:
+            ids = ', '.join(f'{p.owner} ({p.kind}, {p.role})' for p in found[:5])
+            raise tornado.web.HTTPError(409, f'several people are named {who!r}: book by id, one of {ids}')
+        if found:
+            return f'user {found[0].owner}', found[0].name
+        return f'user {who}', who
+
+
+class PeopleHandler(_Handler):
+    def prepare(self) -> None:
+        pass   # the people are known with or without --booking
+
+    def get(self) -> None:
+        self.who(roles=('admin',))
+        sessions = getattr(self.gateway.policy, 'sessions', None)
+        self.finish({'people': [p.json() for p in sessions.people()] if sessions is not None else []})
 
 
 class BookingHandler(_Handler):
@@ -209,4 +236,5 @@ class QueueHandler(_Handler):
 def booking_routes(gateway) -> list:
     kw = {'gateway': gateway}
     return [(r'/api/bookings\.ics', CalendarHandler, kw), (r'/api/bookings/?', BookingListHandler, kw),
-            (r'/api/bookings/([^/]+)', BookingHandler, kw), (r'/api/queue/?', QueueHandler, kw)]
+            (r'/api/bookings/([^/]+)', BookingHandler, kw), (r'/api/queue/?', QueueHandler, kw),
+            (r'/api/people/?', PeopleHandler, kw)]

@@ -62,8 +62,11 @@ export class Booking {
     this.station = el('select', { id: 'booking-station' });
     this.start = el('input', { id: 'booking-start', type: 'datetime-local', step: 1 });
     this.minutes = el('input', { id: 'booking-minutes', type: 'number', min: 0.05, step: 'any', size: 5 });
-    this.behalf = el('input', { id: 'booking-for', size: 10, placeholder: 'me' });   // an admin books for a student
-    this.behalfLabel = el('label', { hidden: true }, 'for ', this.behalf);
+    // an admin books for a student: by name, offered from everyone who signed in (LMS launches too)
+    this.people = el('datalist', { id: 'booking-people' });
+    this.behalf = el('input', { id: 'booking-for', size: 10, placeholder: 'me' });
+    this.behalf.setAttribute('list', 'booking-people');
+    this.behalfLabel = el('label', { hidden: true }, 'for ', this.behalf, this.people);
     this.message = el('p', { id: 'booking-msg', className: 'booking-msg' });
     this.status = el('p', { id: 'booking-status' });
     this.table = el('div', { id: 'booking-table' });
@@ -161,6 +164,7 @@ export class Booking {
     const shown = ns ? [ns] : d.stations;
     const admin = d.role === 'admin' || d.role === null;
     this.behalfLabel.hidden = d.role !== 'admin';
+    if (d.role === 'admin' && !this.peopleAsked) this.loadPeople();
     this.table.replaceChildren(...shown.map((station) => {
       const rows = d.bookings.filter((b) => b.station === station && b.end > now - 60);
       const items = rows.map((b) => el('li', { className: `${b.mine ? 'mine' : ''}${b.start <= now && now < b.end ? ' on' : ''}`, dataset: { id: b.id } },
@@ -221,6 +225,20 @@ export class Booking {
       this.say(`Booked ${b.station} from ${clock(b.start)} to ${clock(b.end)}${b.mine ? '' : ` for ${b.name}`}.`);
     } catch (e) { this.say(`cannot book: ${e.message}`, true); }
     await this.refresh();
+  }
+
+  // The names "for" offers (a name two people share is offered as each one's id).
+  async loadPeople() {
+    this.peopleAsked = true;
+    let people = [];
+    try {
+      const res = await fetch('api/people', { credentials: 'same-origin' });
+      if (res.ok) people = (await res.json()).people ?? [];
+    } catch { /* offered nothing: a name can still be typed */ }
+    const count = new Map();
+    for (const p of people) count.set(p.name, (count.get(p.name) ?? 0) + 1);
+    this.people.replaceChildren(...people.map((p) => new Option(`${p.role} · ${p.kind === 'lti' ? 'from the LMS' : p.kind}${count.get(p.name) > 1 ? ` · ${p.name}` : ''}`,
+      count.get(p.name) > 1 ? p.id : p.name)));
   }
 
   async cancel(b) {

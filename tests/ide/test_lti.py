@@ -312,3 +312,70 @@ def test_a_frame_that_keeps_no_cookies_continues_in_a_new_window(lab, browser):
     again = browser()
     again.goto(f'{platform.tool}{ticket_url}')
     assert 'used or more than' in again.inner_text('#reason')
+
+
+def test_the_teacher_books_a_slot_for_a_student_from_the_lms(start_gateway, browser, tmp_path):
+    """A student known only by her LMS launch (her key is a digest of issuer and subject) gets a
+    slot the teacher books "for" her by name: it is hers on her pages, and she drives in it."""
+    import time
+    import urllib.request
+    key = rsa.generate_private_key(public_exponent=65537, key_size=2048)
+    (tmp_path / 'tool.pem').write_bytes(key.private_bytes(serialization.Encoding.PEM, serialization.PrivateFormat.PKCS8,
+                                                          serialization.NoEncryption()))
+    platform = Platform(tool='http://localhost:0')
+    try:
+        (tmp_path / 'tool.json').write_text(json.dumps(platform.tool_config('tool.pem')))
+        (tmp_path / 'tokens.toml').write_text(f'[[tokens]]\nname = "teacher"\nrole = "admin"\ntoken = "{ADMIN_TOKEN}"\n')
+        gw = start_gateway('--robot', 'turtlesim', '--fleet', '2', '--auth', str(tmp_path / 'tokens.toml'),
+                           '--lti', str(tmp_path / 'tool.json'), '--booking')
+        platform.tool = f'http://localhost:{gw.port}'
+
+        def api(path, body=None, token=ADMIN_TOKEN):
+            req = urllib.request.Request(gw.http_url.rstrip('/') + path, method='POST' if body else 'GET',
+                                         data=json.dumps(body).encode() if body else None,
+                                         headers={'Authorization': f'Bearer {token}', 'Content-Type': 'application/json'})
+            try:
+                with urllib.request.urlopen(req, timeout=10) as r:
+                    return r.status, json.loads(r.read())
+            except urllib.error.HTTPError as e:
+                return e.code, e.read().decode()
+
+        twins = []
+        for sub in ('student-gil', 'student-gil-2'):        # two Gil Rays in the course, and Hana
+            page = browser()
+            launch(page, platform.add(sub, [LEARNER], name='Gil Ray', target='/teleop'), '/teleop')
+            twins.append(page)
+        hana = browser()
+        launch(hana, platform.add('student-hana', [LEARNER], name='Hana Ito', target='/teleop'), '/teleop')
+        status, people = api('/api/people')
+        assert status == 200
+        named = {p['name']: p for p in people['people'] if p['kind'] == 'lti'}
+        assert named['Hana Ito']['role'] == 'operator' and named['Hana Ito']['id'].startswith('lti-')
+        assert 'student-hana' not in json.dumps(people)                      # the LMS's subject stays out
+        assert api('/api/people', token=None)[0] == 401
+
+        start = time.time() + 1
+        status, booked = api('/api/bookings', {'station': '/s02', 'start': start, 'end': start + 600, 'for': 'hana ito'})
+        assert status == 201 and booked['name'] == 'Hana Ito' and not booked['mine'], booked
+        status, why = api('/api/bookings', {'station': '/s01', 'start': start, 'end': start + 600, 'for': 'Gil Ray'})
+        assert status == 409 and 'several people are named' in why and why.count('lti-') == 2, why
+        gil = [p['id'] for p in people['people'] if p['name'] == 'Gil Ray']
+        status, booked = api('/api/bookings', {'station': '/s01', 'start': start, 'end': start + 600, 'for': gil[0]})
+        assert status == 201 and booked['name'] == 'Gil Ray', booked
+
+        # on her own pages the slot is hers, and her teleop page drives /s02 in it
+        mine = hana.evaluate("fetch('/api/bookings', {credentials: 'same-origin'}).then((r) => r.json())")
+        assert [b['station'] for b in mine['bookings'] if b['mine']] == ['/s02'], mine
+        wait_for(lambda: api('/api/bookings')[1]['now'] >= start, timeout=30, interval=0.2)   # her slot is on
+        hana.goto(platform.tool + '/teleop?ns=/s02')          # the tool's site, where her session is
+        hana.wait_for_function("document.body?.dataset.connection === 'connected' && teleop.robotNs.mine === '/s02'",
+                               timeout=30000)
+        with Client(gw.ws_url, ADMIN_TOKEN) as watcher:
+            watcher.subscribe('/s02/turtle1/cmd_vel', 'geometry_msgs/msg/Twist')
+            hana.locator('body').click(position={'x': 5, 'y': 5})
+            hana.keyboard.down('ArrowUp')
+            watcher.expect(lambda m: m.get('op') == 'publish' and m['msg']['linear']['x'] > 0, timeout=15)
+            hana.keyboard.up('ArrowUp')
+        assert not hana.errors, hana.errors
+    finally:
+        platform.stop()
