@@ -427,7 +427,7 @@ function setupDashboard() {
 function setupRobot() {
   state.robotNs = bindNamespace({
     call: callRosapi,
-    onChange: () => { stopAll(); location.reload(); },
+    onChange: () => { stopAll(); document.body.dataset.reloading = 'true'; location.reload(); },   // (the mark: for tests)
     onError: (text) => { stopAll(); showNotice(text); },
     onState: () => banner(),
   });

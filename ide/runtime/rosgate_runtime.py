@@ -507,18 +507,28 @@ class Runtime:
             if not self.stopped.is_set():
                 self.publish(spec["cmd"], t, zero_velocity(t))
 
-    def shutdown(self):
+    def shutdown(self, timeout=5.0):
+        """Zero velocity, goals cancelled, the connection closed: on a thread of its own, for at
+        most ``timeout`` s. A Ctrl-C that landed inside the connection's own code can leave it
+        unable to send; the program still ends, and the gateway stops the robot when its
+        connection closes. True when all of it was done."""
         self.stopped.set()
-        try:
-            self.stop_robot()
-            self.cancel()
-            self.ros.close()
-        except Exception:
-            pass
-        try:
-            self.ros.terminate()
-        except Exception:
-            pass
+
+        def close():
+            try:
+                self.stop_robot()
+                self.cancel()
+                self.ros.close()
+            except Exception:
+                pass
+            try:
+                self.ros.terminate()
+            except Exception:
+                pass
+        closing = threading.Thread(target=close, name="rosgate-shutdown", daemon=True)
+        closing.start()
+        closing.join(timeout)
+        return not closing.is_alive()
 
 
 rt = None
@@ -549,6 +559,10 @@ def run(main, namespace=""):
         traceback.print_exc()
         code = 1
     finally:
-        rt.shutdown()
-    sys.exit(code)
+        if not rt.shutdown():
+            print("the connection did not close within 5 s: ending anyway (the gateway stops the robot "
+                  "when the connection goes)", file=sys.stderr)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)   # not sys.exit: a thread the connection left behind cannot keep the program alive
 # --- end of the rosgate runtime ---

@@ -55,7 +55,8 @@ def open_teleop(ctx, gw):
 
 def teleop_on(page, ns: str, more: str = "true"):
     """The teleop page on its person's station ns (a first claim reloads the page under it)."""
-    page.wait_for_function(f"window.teleop && document.body.dataset.connection === 'connected' "
+    page.wait_for_function(f"window.teleop && !document.body.dataset.reloading "
+                           f"&& document.body.dataset.connection === 'connected' "
                            f"&& teleop.robotNs.mine === '{ns}' && ({more})", timeout=15000)
 
 
