@@ -95,6 +95,11 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument('--allow-runs', action='store_true',
                    help='let operators run programs as processes on this machine (POST /api/runs): '
                         'this executes code sent over the network')
+    r.add_argument('--trusted-runs', action='store_true',
+                   help='with --allow-runs: runs join the ROS graph themselves (the gateway\'s ROS and DDS '
+                        'variables, no network of their own), for programs that are real ROS 2 nodes at full '
+                        'speed. What they publish that way is OUTSIDE every rule of the gateway: no lease, '
+                        'glob, clamp, stop or slot end applies to it. For a robot whose operators are trusted')
     r.add_argument('--runs-dir', type=Path, help='where runs get their working directories '
                                                  '[$XDG_DATA_HOME/rosgate/runs]')
     r.add_argument('--max-runs', type=_at_least_one, default=d.max_runs, metavar='N',

@@ -58,7 +58,7 @@ from .programs import space_owner, stored_program
 from ..settings import data_dir
 from ..backends.base import QoS
 from ..rules.safety import Safety, moving_command
-from .sandbox import (HOME, SOCKET, Cgroups, RunCgroup, Sandbox, SandboxUnavailable, exit_code, kill_box,
+from .sandbox import (HOME, SOCKET, Cgroups, RunCgroup, Sandbox, SandboxUnavailable, exit_code, graph_env, kill_box,
                       limits_in_force, run_user)
 
 log = logging.getLogger('rosgate.runs')
@@ -346,7 +346,8 @@ class RunManager:
     def _env(self, run: Run, url: str) -> dict:
         """Only what a Python program needs: none of the gateway's own environment (tokens, keys).
         bwrap hands it on as it is (the run key stays out of every command line)."""
-        return {'PATH': '/usr/bin:/bin', 'HOME': HOME, 'LANG': 'C.UTF-8', 'PYTHONUNBUFFERED': '1',
+        graph = graph_env() if self.box is not None and self.box.graph else {}   # --trusted-runs
+        return {**graph, 'PATH': '/usr/bin:/bin', 'HOME': HOME, 'LANG': 'C.UTF-8', 'PYTHONUNBUFFERED': '1',
                 'PYTHONDONTWRITEBYTECODE': '1', 'ROSBRIDGE_URL': url, 'ROSGATE_NS': run.ns,
                 'ROSGATE_RUN': run.id}
 
@@ -688,6 +689,8 @@ def run_routes(gateway, socket_app=None) -> list:
     settings = gateway.settings
     runs_dir = Path(settings.runs_dir or default_runs_dir())
     box = cgroups = home = None
+    if settings.trusted_runs and not settings.allow_runs:
+        raise SystemExit('rosgate: --trusted-runs is a kind of run: give --allow-runs too')
     if settings.allow_runs:
         private = [settings.programs_dir, runs_dir, settings.record, data_dir(''), settings.certfile,
                    settings.keyfile, Path.home(), *(a for a in sys.argv[1:] if a.startswith('/'))]
@@ -700,13 +703,17 @@ def run_routes(gateway, socket_app=None) -> list:
                 os.chown(home, 0, user[1])
                 os.chown(home / 'gateway.sock', 0, user[1])
                 home.chmod(0o750)
-            box = Sandbox.create(private, home=home, socket=str(home / 'gateway.sock'))
+            box = Sandbox.create(private, home=home, socket=str(home / 'gateway.sock'), graph=settings.trusted_runs)
         except SandboxUnavailable as e:
             shutil.rmtree(home, ignore_errors=True)
             raise SystemExit(f'rosgate: {e}') from None
         cgroups, how = Cgroups.find()
         if cgroups is not None:
             cgroups.sweep()
+        if box.graph:
+            log.warning('runs: --trusted-runs: each run is a node of the ROS graph itself; what it publishes '
+                        'that way is outside every rule of this gateway (lease, globs, clamps, stops, slot '
+                        'ends): only its websocket ops obey them')
         lim = RunLimits()
         log.info('runs: in a bwrap sandbox; %s', limits_in_force(
             cgroups, how, memory_mb=lim.memory_mb, processes=lim.processes, cpus=lim.cpus,

@@ -69,6 +69,34 @@ ETC = ('ld.so.cache', 'ld.so.conf', 'ld.so.conf.d', 'localtime', 'hosts', 'host.
 ROOT_LINKS = ('bin', 'sbin', 'lib', 'lib32', 'lib64', 'libx32')
 
 
+GRAPH_VARIABLES = ('ROS_', 'RMW_', 'FASTDDS_', 'FASTRTPS_', 'CYCLONEDDS_', 'AMENT_PREFIX_PATH')
+
+
+def graph_env(environ=None) -> dict:
+    """What a run on the graph (--trusted-runs) takes of the gateway's environment: its ROS and
+    DDS variables, and the library and module paths that lie in what the box shows."""
+    environ = os.environ if environ is None else environ
+    env = {k: v for k, v in environ.items() if k.startswith(GRAPH_VARIABLES)}
+    shown = [*interpreter_paths(), *ament_prefixes(environ), Path('/usr')]
+    for name in ('PYTHONPATH', 'LD_LIBRARY_PATH'):
+        kept = [p for p in environ.get(name, '').split(os.pathsep)
+                if p and os.path.isabs(p) and _within(Path(os.path.realpath(p)), shown)]
+        if kept:
+            env[name] = os.pathsep.join(kept)
+    return env
+
+
+def ament_prefixes(environ=None) -> list[Path]:
+    """The ROS installs the gateway was started in (AMENT_PREFIX_PATH: /opt/ros/jazzy, a workspace)."""
+    environ = os.environ if environ is None else environ
+    found = []
+    for p in environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep):
+        path = Path(os.path.realpath(p)) if p and os.path.isabs(p) else None
+        if path is not None and path.is_dir() and not _within(path, [Path('/usr'), *found]):
+            found.append(path)
+    return found
+
+
 class SandboxUnavailable(Exception):
     """bwrap is missing or cannot build its namespaces here; the message says what to do."""
 
@@ -119,14 +147,17 @@ class Sandbox:
     tmp_bytes: int
     outside: Outside = Outside()
     socket: str | None = None        # the gateway's unix socket, bound into the box at SOCKET
+    graph: bool = False              # --trusted-runs: the machine's network, on the ROS graph
 
     @classmethod
     def create(cls, private=(), tmp_bytes: int = 64 * 2**20, bwrap: str | None = None, home: Path | None = None,
-               socket: str | None = None) -> Sandbox:
+               socket: str | None = None, graph: bool = False) -> Sandbox:
         """The sandbox for this interpreter; ``private``: paths to keep out of the view (masked
         where they fall inside it); ``home``: a folder of the gateway's own for the box's files
         (the unix socket, the mount points of a staged interpreter); ``socket``: the gateway's unix
-        socket there. Raises SandboxUnavailable, saying what to install or change."""
+        socket there; ``graph`` (--trusted-runs): no network of its own, and the ROS installs of
+        AMENT_PREFIX_PATH in view, so that the run is a node of the graph. Raises
+        SandboxUnavailable, saying what to install or change."""
         found = bwrap or shutil.which('bwrap')
         if not found:
             raise SandboxUnavailable(f'--allow-runs runs programs in a bubblewrap sandbox and bwrap is not installed '
@@ -136,13 +167,15 @@ class Sandbox:
         except (OSError, subprocess.SubprocessError) as e:
             raise SandboxUnavailable(f'{found} does not run: {e}') from None
         options = ['--unshare-user', '--uid', str(UID), '--gid', str(UID), '--unshare-pid', '--unshare-ipc',
-                   '--unshare-net', '--unshare-uts', '--hostname', 'run', '--unshare-cgroup-try', '--die-with-parent',
-                   '--new-session', '--cap-drop', 'ALL']
+                   *([] if graph else ['--unshare-net']), '--unshare-uts', '--hostname', 'run',
+                   '--unshare-cgroup-try', '--die-with-parent', '--new-session', '--cap-drop', 'ALL']
         if '--disable-userns' in help_text:          # bwrap >= 0.8
             options.append('--disable-userns')
         sized = '--size' in help_text                 # bwrap >= 0.5
         user = run_user()
         shown = interpreter_paths()
+        if graph:
+            shown += [p for p in ament_prefixes() if not _within(p, shown)]
         stage: list[str] = []
         sources = {}
         if user is not None:
@@ -164,7 +197,7 @@ class Sandbox:
             raise SandboxUnavailable(f'{user[2]} cannot reach {home} (where the gateway keeps the runs\' socket)')
         outside = Outside(*user, tuple(stage)) if user is not None else Outside()
         box = cls(found, tuple(_mounts(private, shown, sources)), tuple(options), tmp_bytes if sized else 0, outside,
-                  socket)
+                  None if graph else socket, graph)
         box.probe()
         return box
 
@@ -176,6 +209,8 @@ class Sandbox:
         # the private /tmp first: an interpreter (a checkout's venv) under /tmp is bound over it
         a = [self.bwrap, *self.options, '--perms', '1777', *size(), '--tmpfs', '/tmp', *self.mounts,
              '--proc', '/proc', '--dev', '/dev', *size(), '--tmpfs', HOME]
+        if self.graph:            # DDS's shared memory transport (Fast DDS's default between local peers)
+            a += ['--bind-try', '/dev/shm', '/dev/shm']
         if self.socket is not None:
             a += ['--ro-bind', self.socket, SOCKET]
         if program_fd is not None:

@@ -286,3 +286,42 @@ def test_another_operators_get_of_a_run_is_403(robot_gw):
     assert state(robot_gw, f'/api/runs/{final["id"]}', 'operator2')[0] == 403
     assert state(robot_gw, f'/api/runs/{final["id"]}', 'admin')[0] == 200
     assert final['id'] not in [r['id'] for r in state(robot_gw, '/api/runs', 'operator2')[1]['runs']]
+
+
+@pytest.fixture(scope='module')
+def trusted_gw(start_gateway, tmp_path_factory, robot):
+    folder = tmp_path_factory.mktemp('trusted-runs')
+    (folder / 'tokens.toml').write_text(tokens_toml())
+    return start_gateway('--backend', 'rclpy', '--auth', str(folder / 'tokens.toml'), '--exclusive-control',
+                         '--allow-runs', '--trusted-runs', '--runs-dir', str(folder / 'runs'),
+                         env={'FASTDDS_BUILTIN_TRANSPORTS': 'UDPv4'})
+
+
+def test_a_trusted_run_is_a_node_of_the_graph(trusted_gw, robot):
+    """--trusted-runs (never the default, and said at start-up to be outside the rules): a program
+    that is a ROS 2 node is heard by the robot (over UDP: a run is another user than the robot's
+    nodes, whose shared memory it may not open); it is still not root outside, and still obeys
+    the gateway where it speaks rosbridge."""
+    before = len(robot.heard)
+    final = run(trusted_gw, SPEAKS_DDS.format(domain=domain(), transports=TRANSPORTS['UDPv4']))
+    assert 'published' in final['output'], final
+    wait_for(lambda: len(robot.heard) > before, 10)
+    assert 9.0 in robot.heard[before:]
+    env = run(trusted_gw, 'import os\nprint(os.environ.get("ROS_DOMAIN_ID"), os.environ.get("FASTDDS_BUILTIN_TRANSPORTS"),'
+                          ' "ROSGATE_TOKEN" in os.environ, flush=True)\n')
+    assert f'{domain()} UDPv4 False' in env['output'], env
+    before = len(robot.heard)
+    status, body = state(trusted_gw, '/api/runs', 'operator', 'POST', {'source': DRIVES, 'name': 'drives'})
+    assert status == 201, body
+    run_id = body['id']
+    try:
+        wait_for(lambda: 'driving' in state(trusted_gw, f'/api/runs/{run_id}', 'operator')[1]['output'], 60)
+        procs = {p: uids(p) for p in descendants(trusted_gw.pid)}
+        assert procs and all(u and 0 not in u for u in procs.values()), procs
+        final = ended(trusted_gw, run_id, 'operator')
+    finally:
+        state(trusted_gw, f'/api/runs/{run_id}', 'admin', 'DELETE')
+        ended(trusted_gw, run_id, 'admin')
+    assert final['state'] == 'finished' and 'drove' in final['output'], final
+    wait_for(lambda: 0.5 in robot.heard[before:], 10)
+

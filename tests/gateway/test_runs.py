@@ -399,3 +399,9 @@ rt.log("end")
     assert len(final['output']) <= 64 * 1024 + 4096
     assert 'end' not in final['output'].splitlines()
     assert final['output'].endswith('[run finished]\n')
+
+
+def test_trusted_runs_need_allow_runs(start_gateway):
+    with pytest.raises(RuntimeError) as refused:
+        start_gateway('--trusted-runs')
+    assert '--trusted-runs is a kind of run: give --allow-runs too' in str(refused.value)
