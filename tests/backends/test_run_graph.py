@@ -302,6 +302,7 @@ def test_a_trusted_run_is_a_node_of_the_graph(trusted_gw, robot):
     that is a ROS 2 node is heard by the robot (over UDP: a run is another user than the robot's
     nodes, whose shared memory it may not open); it is still not root outside, and still obeys
     the gateway where it speaks rosbridge."""
+    assert 'outside every rule of this gateway' in trusted_gw.log_text()
     before = len(robot.heard)
     final = run(trusted_gw, SPEAKS_DDS.format(domain=domain(), transports=TRANSPORTS['UDPv4']))
     assert 'published' in final['output'], final
