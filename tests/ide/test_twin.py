@@ -5,6 +5,7 @@ low-battery blink."""
 from __future__ import annotations
 
 import time
+from contextlib import contextmanager
 
 import roslibpy
 
@@ -25,6 +26,20 @@ PIXELS = """() => {
 }""" % ORANGE
 
 
+@contextmanager
+def phone_page(chromium, url: str):
+    """(page, its errors) of a phone-sized page at url; closed after."""
+    ctx = chromium.new_context(viewport=PHONE, has_touch=True)
+    page = ctx.new_page()
+    errors = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    try:
+        page.goto(url)
+        yield page, errors
+    finally:
+        ctx.close()
+
+
 def drive(ros, linear: float, angular: float, seconds: float) -> None:
     cmd = roslibpy.Topic(ros.ros, "/cmd_vel", "geometry_msgs/msg/Twist")
     cmd.advertise()
@@ -37,12 +52,7 @@ def drive(ros, linear: float, angular: float, seconds: float) -> None:
 
 def test_twin_draws_the_rover_and_it_turns_on_the_canvas(chromium, rover):
     gw, ros = rover
-    ctx = chromium.new_context(viewport=PHONE, has_touch=True)
-    page = ctx.new_page()
-    errors = []
-    page.on("pageerror", lambda e: errors.append(str(e)))
-    try:
-        page.goto(gw.http_url + "twin")
+    with phone_page(chromium, gw.http_url + "twin") as (page, errors):
         page.wait_for_function("document.body.dataset.ready === 'true'", timeout=WAIT)
         page.wait_for_function("twin.state.model === 'rover' && twin.state.pose !== null && twin.state.frames > 5", timeout=WAIT)
         page.wait_for_function("twin.state.markers >= 4 && twin.state.scanPoints > 100 && twin.state.battery > 0", timeout=WAIT)
@@ -75,18 +85,11 @@ def test_twin_draws_the_rover_and_it_turns_on_the_canvas(chromium, rover):
         page.wait_for_function("twin.state.blinkOn === false && twin.model.body.emissive.getHex() === 0", timeout=WAIT)
         page.wait_for_function("document.querySelector('#battery').dataset.level === 'danger'", timeout=WAIT)
         assert not errors, errors
-    finally:
-        ctx.close()
 
 
 def test_twin_of_a_fleet_station_and_the_teleop_link(chromium, start_gateway):
     gw = start_gateway("--fleet", "2", "--robot", "rover")
-    ctx = chromium.new_context(viewport=PHONE)
-    page = ctx.new_page()
-    errors = []
-    page.on("pageerror", lambda e: errors.append(str(e)))
-    try:
-        page.goto(gw.http_url + "teleop?ns=/s02")
+    with phone_page(chromium, gw.http_url + "teleop?ns=/s02") as (page, errors):
         page.wait_for_function("document.body?.dataset.ready === 'true'", timeout=WAIT)
         assert page.get_attribute("#twin-link", "href").endswith("twin?ns=%2Fs02")
         page.click("#twin-link")
@@ -95,18 +98,11 @@ def test_twin_of_a_fleet_station_and_the_teleop_link(chromium, start_gateway):
         assert page.input_value("#ns") == "/s02"
         page.wait_for_function(f"({PIXELS})().mask.length > 200", timeout=WAIT)   # drawn once it is framed
         assert not errors, errors
-    finally:
-        ctx.close()
 
 
 def test_the_teleop_pages_3d_panel_draws_its_station_only_while_shown(chromium, start_gateway):
     gw = start_gateway("--fleet", "2", "--robot", "rover")
-    ctx = chromium.new_context(viewport=PHONE, has_touch=True)
-    page = ctx.new_page()
-    errors = []
-    page.on("pageerror", lambda e: errors.append(str(e)))
-    try:
-        page.goto(gw.http_url + "teleop?ns=/s02")
+    with phone_page(chromium, gw.http_url + "teleop?ns=/s02") as (page, errors):
         page.wait_for_function("document.body?.dataset.ready === 'true'", timeout=WAIT)
         # hidden: no frame loaded, no WebGL, no second connection
         assert page.is_hidden("#twin-frame") and page.get_attribute("#twin-frame", "src") is None
@@ -129,5 +125,3 @@ def test_the_teleop_pages_3d_panel_draws_its_station_only_while_shown(chromium, 
         assert page.is_hidden("#twin-frame") and page.get_attribute("#twin-frame", "src") == "about:blank"
         page.wait_for_function("document.querySelector('#twin-frame').contentWindow.twin === undefined", timeout=WAIT)
         assert not errors, errors
-    finally:
-        ctx.close()
