@@ -543,6 +543,9 @@ def run(main, namespace=""):
     parser.add_argument("--ns", default=os.environ.get("ROSGATE_NS", namespace),
                         help="robot namespace of the robot blocks, e.g. /s07 (default: $ROSGATE_NS or %r)" % namespace)
     args = parser.parse_args()
+    # Ctrl-C (and a run's Stop, a SIGINT) ends the program even when it was started with SIGINT
+    # ignored, as a background job of a shell is: Python then leaves it ignored
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
     rt = Runtime(args.url, args.ns)
     code = 0
