@@ -112,12 +112,25 @@ export class History {
         { stroke: '#aab3cc', grid: { stroke: '#2c3350' }, size: 58, label: unit, labelSize: 16, labelGap: 0 },
       ],
       series: [{}, ...c.series.map((s) => ({
-        label: s.label, stroke: COLOURS[this.series.indexOf(s) % COLOURS.length], width: 2, spanGaps: true }))],
+        label: s.label, stroke: this.colour(s), width: 2, spanGaps: true })),
+      ...this.banded(c).flatMap((s) => [`${s.id}:max`, `${s.id}:min`].map((label) => ({
+        label, stroke: 'transparent', width: 0, points: { show: false }, spanGaps: true })))],
+      bands: this.banded(c).map((s, i) => ({
+        series: [1 + c.series.length + 2 * i, 2 + c.series.length + 2 * i], fill: `${this.colour(s)}33` })),
     }, this.data(c), c.div);
+    c.bands = this.banded(c).map((s) => s.id).join(' ');
     this.legend(c);
   }
 
-  data(c) { return [this.rows.t, ...c.series.map((s) => this.rows[s.id])]; }
+  data(c) {
+    return [this.rows.t, ...c.series.map((s) => this.rows[s.id]),
+      ...this.banded(c).flatMap((s) => [this.rows[`${s.id}:max`], this.rows[`${s.id}:min`]])];
+  }
+
+  colour(s) { return COLOURS[this.series.indexOf(s) % COLOURS.length]; }
+
+  // The chart's series with a min and a max per row (a span the gateway gave in steps): a band.
+  banded(c) { return c.series.filter((s) => this.rows[`${s.id}:min`] && this.rows[`${s.id}:max`]); }
 
   // The time shown: the samples' own, and at least the last minute (uPlot alone would widen one
   // sample to a thousand days).
@@ -138,7 +151,7 @@ export class History {
   legend(c) {
     c.readout.replaceChildren(...c.series.map((s) => {
       const span = document.createElement('span');
-      span.style.setProperty('--c', COLOURS[this.series.indexOf(s) % COLOURS.length]);
+      span.style.setProperty('--c', this.colour(s));
       span.dataset.id = s.id;
       const v = s.last ?? this.rows[s.id].findLast((x) => x !== null);
       span.textContent = `${s.label} ${Number.isFinite(v) ? v.toFixed(2) : '–'}${c.div.dataset.unit ? ` ${c.div.dataset.unit}` : ''}`;
@@ -159,9 +172,12 @@ export class History {
   // Rows from elsewhere (the gateway's history over `window` seconds); live samples follow them.
   replace(rows, window) {
     this.window = window;
-    for (const k of Object.keys(this.rows)) if (!rows[k]) rows[k] = rows.t.map(() => null);
+    for (const k of Object.keys(this.rows)) if (!rows[k] && !/:(min|max)$/.test(k)) rows[k] = rows.t.map(() => null);
     this.rows = rows;
-    for (const c of this.charts.values()) this.draw(c);
+    for (const c of this.charts.values()) {
+      if (c.bands === this.banded(c).map((s) => s.id).join(' ')) this.draw(c);
+      else { this.build(c); this.draw(c); }   // bands came or went with the span
+    }
   }
 
   resize() {

@@ -12,7 +12,8 @@ async function fetchSeries(src, from, to, step) {
   if (!res.ok) return null;
   const body = await res.json();
   const scale = src.scale ?? 1;
-  return { id: src.id, t: body.t, v: body.v.map((v) => v * scale) };
+  const scaled = (a) => (Array.isArray(a) ? a.map((v) => (v === null ? null : v * scale)) : null);
+  return { id: src.id, t: body.t, v: scaled(body.v), min: scaled(body.min), max: scaled(body.max) };
 }
 
 /** topic -> fields the gateway keeps and this person may read (none when it keeps no history). */
@@ -29,7 +30,9 @@ async function keptSeries() {
 
 /**
  * Rows for `history` (a dashboard.js History) over the last `span` seconds: one row per step,
- * each series' mean there (null where it has none). sources: [{id, topic, field, scale}].
+ * each series' mean there (null where it has none), and its min and max where the gateway
+ * gives them (a step of several samples): `${id}:min`, `${id}:max`, drawn as a band.
+ * sources: [{id, topic, field, scale}].
  */
 export async function loadSpan(history, sources, span, now = Date.now() / 1000, current = () => true) {
   const step = SPANS.get(span) ?? 1;
@@ -46,7 +49,13 @@ export async function loadSpan(history, sources, span, now = Date.now() / 1000, 
   for (const s of history.series) rows[s.id] = rows.t.map(() => null);
   for (const r of got) {
     if (!rows[r.id]) continue;
-    r.t.forEach((t, i) => { rows[r.id][index.get(Math.floor(t / step))] = r.v[i]; });
+    const lo = r.min && (rows[`${r.id}:min`] = rows.t.map(() => null));
+    const hi = r.max && (rows[`${r.id}:max`] = rows.t.map(() => null));
+    r.t.forEach((t, i) => {
+      const at = index.get(Math.floor(t / step));
+      rows[r.id][at] = r.v[i];
+      if (lo && hi) { lo[at] = r.min[i]; hi[at] = r.max[i]; }
+    });
   }
   if (!current()) return 0;   // a newer choice of span was made meanwhile: it draws, not this one
   history.replace(rows, span);

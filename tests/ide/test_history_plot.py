@@ -38,6 +38,15 @@ def test_a_fresh_browser_shows_the_earlier_drive_over_an_hour(chromium, rover):
         # the chart draws those rows, and live samples keep coming after them
         drawn = page.evaluate("[...teleop.history.charts.values()].map((c) => c.chart.data[0].length)")
         assert all(n == len(rows['t']) for n in drawn) and drawn
+        # each step's min and max around its mean, drawn as a band behind the line
+        band = page.evaluate("""(() => {
+          const h = teleop.history, c = [...h.charts.values()].find((c) => c.div.dataset.unit === 'm/s');
+          return { bands: c.chart.bands.length, series: c.chart.series.length, v: h.rows.speed,
+                   lo: h.rows['speed:min'], hi: h.rows['speed:max'] };
+        })()""")
+        assert band['bands'] == 1 and band['series'] == 4, band   # x, the speed, its max and its min
+        steps = [(lo, v, hi) for lo, v, hi in zip(band['lo'], band['v'], band['hi']) if v is not None and lo is not None]
+        assert len(steps) >= 3 and all(lo - 1e-9 <= v <= hi + 1e-9 for lo, v, hi in steps), steps
         n = len(rows['t'])
         page.wait_for_function(f"teleop.history.rows.t.length > {n}")
         page.screenshot(path=str(ARTIFACTS / "teleop-history-hour.png"))
