@@ -18,11 +18,24 @@ export class Console {
       div.append(' ', a);
       div.dataset.block = blockId;
     }
-    const box = this.scroller();
-    const following = !box || box.scrollHeight - box.scrollTop - box.clientHeight < 24;
+    const box = this.follow();
     this.el.append(div);
     while (this.el.childElementCount > this.max) this.el.firstElementChild.remove();
-    if (box && following) box.scrollTop = box.scrollHeight;   // the newest line in sight, unless the reader scrolled up
+    if (box && this.pinned) box.scrollTop = box.scrollHeight;   // the newest line in sight, unless the reader scrolled up
+  }
+
+  // Whether the console follows its newest line: until the reader scrolls up, and again once she
+  // scrolls back down. Kept from her scrolling, not from where the box's end happens to be: a
+  // banner that shows above the console shrinks the box, which moves its end without her; the
+  // box then scrolls to its newest line again.
+  follow() {
+    const box = this.scroller();
+    if (!box || this.box === box) return box;
+    this.box = box;
+    this.pinned = true;
+    box.addEventListener('scroll', () => { this.pinned = box.scrollHeight - box.scrollTop - box.clientHeight < 24; });
+    new ResizeObserver(() => { if (this.pinned) box.scrollTop = box.scrollHeight; }).observe(box);
+    return box;
   }
 
   // The element that scrolls (the lines' box, #console): setting the lines' own scrollTop did nothing.

@@ -210,7 +210,13 @@ def test_the_ide_follows_its_console_and_shows_the_stopped_banner(lesson, teache
         console_says(ide, "Stopped by the teacher")
         ide.page.wait_for_function("/Stopped by the teacher/.test(document.querySelector('#notice').textContent)"
                                    " && !document.querySelector('#notice').hidden")
-        # the newest line is in sight, inside the console's box
+        # the newest line comes in sight, inside the console's box (the banner above it shrinks the
+        # box meanwhile: the console scrolls again in the frame after)
+        ide.page.wait_for_function("""() => {
+          const box = document.querySelector('#console').getBoundingClientRect();
+          const r = document.querySelector('#console-lines').lastElementChild.getBoundingClientRect();
+          return box.top <= r.top && r.bottom <= box.bottom + 1;
+        }""", timeout=5000)
         seen = ide.js("""() => {
           const box = document.querySelector('#console').getBoundingClientRect();
           const last = document.querySelector('#console-lines').lastElementChild;

@@ -31,7 +31,8 @@ def ignore_sigint():
 
 
 @pytest.mark.parametrize('started', ['plainly', 'with SIGINT ignored'])
-def test_ctrl_c_stops_the_robot_and_ends_the_program(gateway, tmp_path, started):
+def test_ctrl_c_stops_the_robot_and_ends_the_program(start_gateway, tmp_path, started):
+    gateway = start_gateway('--robot', 'turtlesim')     # its own turtle: no other test drives it
     ros = RosClient(gateway)
     try:
         cmd = ros.watch('/turtle1/cmd_vel', 'geometry_msgs/msg/Twist')
