@@ -58,7 +58,7 @@ from .programs import space_owner, stored_program
 from ..settings import data_dir
 from ..backends.base import QoS
 from ..rules.safety import Safety, moving_command
-from .sandbox import (HOME, SOCKET, Cgroups, RunCgroup, Sandbox, SandboxUnavailable, exit_code, graph_env, kill_box,
+from .sandbox import (HOME, SOCKET, Cgroups, RunCgroup, Sandbox, SandboxUnavailable, exit_code, kill_box,
                       limits_in_force, run_user)
 
 log = logging.getLogger('rosgate.runs')
@@ -264,12 +264,11 @@ class RunManager:
         self.max_runs, self.max_per_person = max_runs, max_per_person
         self.runs: dict[str, Run] = {}
         self.server: tornado.httpserver.HTTPServer | None = None
-        self.home: Path | None = None       # the box's files of the gateway's: the unix socket (sandbox.py)
+        self.home: Path | None = None       # the box's files of the gateway's: the unix socket, staged views
 
-    def serve(self, app, sock, home: Path) -> None:
-        """Serve ``app`` (the rosbridge websocket alone) on the unix socket in ``home`` that the
-        boxes bind in: the runs' one way to the gateway."""
-        self.home = home
+    def serve(self, app, sock) -> None:
+        """Serve ``app`` (the rosbridge websocket alone) on the unix socket that the boxes bind in:
+        the runs' one way to the gateway."""
         settings = self.gateway.settings
         self.server = tornado.httpserver.HTTPServer(app, max_buffer_size=settings.max_message_size * 4,
                                                     idle_connection_timeout=settings.idle_connection_timeout)
@@ -346,7 +345,7 @@ class RunManager:
     def _env(self, run: Run, url: str) -> dict:
         """Only what a Python program needs: none of the gateway's own environment (tokens, keys).
         bwrap hands it on as it is (the run key stays out of every command line)."""
-        graph = graph_env() if self.box is not None and self.box.graph else {}   # --trusted-runs
+        graph = dict(self.box.environment) if self.box is not None else {}   # --trusted-runs
         return {**graph, 'PATH': '/usr/bin:/bin', 'HOME': HOME, 'LANG': 'C.UTF-8', 'PYTHONUNBUFFERED': '1',
                 'PYTHONDONTWRITEBYTECODE': '1', 'ROSBRIDGE_URL': url, 'ROSGATE_NS': run.ns,
                 'ROSGATE_RUN': run.id}
@@ -688,7 +687,7 @@ def run_routes(gateway, socket_app=None) -> list:
     gateway does not start (SystemExit naming what to install)."""
     settings = gateway.settings
     runs_dir = Path(settings.runs_dir or default_runs_dir())
-    box = cgroups = home = None
+    box = cgroups = home = sock = None
     if settings.trusted_runs and not settings.allow_runs:
         raise SystemExit('rosgate: --trusted-runs is a kind of run: give --allow-runs too')
     if settings.allow_runs:
@@ -698,12 +697,16 @@ def run_routes(gateway, socket_app=None) -> list:
         home = Path(tempfile.mkdtemp(prefix=f'{HOME_PREFIX}{os.getpid()}-'))
         try:
             user = run_user()
-            sock = tornado.netutil.bind_unix_socket(str(home / 'gateway.sock'), mode=0o600 if user is None else 0o660)
+            sock = None     # a trusted run, on the machine's network, reaches the gateway's port itself
+            if not settings.trusted_runs:
+                sock = tornado.netutil.bind_unix_socket(str(home / 'gateway.sock'), mode=0o600 if user is None else 0o660)
             if user is not None:     # the runs' user reaches the socket through its group (else it is ours)
                 os.chown(home, 0, user[1])
-                os.chown(home / 'gateway.sock', 0, user[1])
+                if sock is not None:
+                    os.chown(home / 'gateway.sock', 0, user[1])
                 home.chmod(0o750)
-            box = Sandbox.create(private, home=home, socket=str(home / 'gateway.sock'), graph=settings.trusted_runs)
+            box = Sandbox.create(private, home=home, socket=None if sock is None else str(home / 'gateway.sock'),
+                                 graph=settings.trusted_runs)
         except SandboxUnavailable as e:
             shutil.rmtree(home, ignore_errors=True)
             raise SystemExit(f'rosgate: {e}') from None
@@ -720,8 +723,9 @@ def run_routes(gateway, socket_app=None) -> list:
             cpu_seconds=lim.cpu_seconds, open_files=lim.open_files))
     manager = RunManager(gateway, allowed=settings.allow_runs, runs_dir=runs_dir, box=box, cgroups=cgroups,
                          max_runs=settings.max_runs, max_per_person=settings.max_runs_per_person)
-    if box is not None and socket_app is not None:
-        manager.serve(socket_app, sock, home)
+    manager.home = home          # removed at shutdown
+    if sock is not None and socket_app is not None:
+        manager.serve(socket_app, sock)
     gateway.hooks.append(manager)
     gateway.rules.insert(0, manager.publish_hook)
     gateway.guards.append(manager.subscribe_guard)

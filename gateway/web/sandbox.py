@@ -72,12 +72,13 @@ ROOT_LINKS = ('bin', 'sbin', 'lib', 'lib32', 'lib64', 'libx32')
 GRAPH_VARIABLES = ('ROS_', 'RMW_', 'FASTDDS_', 'FASTRTPS_', 'CYCLONEDDS_', 'AMENT_PREFIX_PATH')
 
 
-def graph_env(environ=None) -> dict:
+def graph_env(shown: list[Path], environ=None) -> dict:
     """What a run on the graph (--trusted-runs) takes of the gateway's environment: its ROS and
-    DDS variables, and the library and module paths that lie in what the box shows."""
+    DDS variables, and the library and module paths that lie in what the box shows (``shown``,
+    and /usr)."""
     environ = os.environ if environ is None else environ
     env = {k: v for k, v in environ.items() if k.startswith(GRAPH_VARIABLES)}
-    shown = [*interpreter_paths(), *ament_prefixes(environ), Path('/usr')]
+    shown = [*shown, Path('/usr')]
     for name in ('PYTHONPATH', 'LD_LIBRARY_PATH'):
         kept = [p for p in environ.get(name, '').split(os.pathsep)
                 if p and os.path.isabs(p) and _within(Path(os.path.realpath(p)), shown)]
@@ -148,6 +149,7 @@ class Sandbox:
     outside: Outside = Outside()
     socket: str | None = None        # the gateway's unix socket, bound into the box at SOCKET
     graph: bool = False              # --trusted-runs: the machine's network, on the ROS graph
+    environment: tuple = ()          # (name, value) pairs of the gateway's a run takes (graph_env)
 
     @classmethod
     def create(cls, private=(), tmp_bytes: int = 64 * 2**20, bwrap: str | None = None, home: Path | None = None,
@@ -197,7 +199,7 @@ class Sandbox:
             raise SandboxUnavailable(f'{user[2]} cannot reach {home} (where the gateway keeps the runs\' socket)')
         outside = Outside(*user, tuple(stage)) if user is not None else Outside()
         box = cls(found, tuple(_mounts(private, shown, sources)), tuple(options), tmp_bytes if sized else 0, outside,
-                  None if graph else socket, graph)
+                  socket, graph, tuple(graph_env(shown).items()) if graph else ())
         box.probe()
         return box
 
