@@ -100,6 +100,7 @@ export class History {
   build(c) {
     c.chart?.destroy();
     const unit = c.div.dataset.unit;
+    const banded = this.banded(c);
     c.chart = new uPlot({
       width: Math.max(220, this.el.clientWidth),
       height: 110,
@@ -113,12 +114,12 @@ export class History {
       ],
       series: [{}, ...c.series.map((s) => ({
         label: s.label, stroke: this.colour(s), width: 2, spanGaps: true })),
-      ...this.banded(c).flatMap((s) => [`${s.id}:max`, `${s.id}:min`].map((label) => ({
+      ...banded.flatMap((s) => [`${s.id}:max`, `${s.id}:min`].map((label) => ({
         label, stroke: 'transparent', width: 0, points: { show: false }, spanGaps: true })))],
-      bands: this.banded(c).map((s, i) => ({
+      bands: banded.map((s, i) => ({
         series: [1 + c.series.length + 2 * i, 2 + c.series.length + 2 * i], fill: `${this.colour(s)}33` })),
     }, this.data(c), c.div);
-    c.bands = this.banded(c).map((s) => s.id).join(' ');
+    c.bands = banded.map((s) => s.id).join(' ');
     this.legend(c);
   }
 
