@@ -1,13 +1,18 @@
-// /twin: the robot in 3D (three.js), as it is now. The model: the robot's own URDF when it
-// publishes /robot_description (urdf-loader; meshes it cannot fetch stay out, its primitives
-// show), else a built-in one for the sim's rover and turtle. Posed from TF and odometry (the
-// rover: tf_static world -> odom, then odom), the turtle from its pose; the laser scan as points
+// /twin: the robot in 3D (three.js), as it is now. The model: the robot's own URDF (urdf.js: the
+// gateway's --urdf file, else its robot_description topic, else robot_state_publisher's
+// parameter) with its meshes and its joints moved by its joint_states; else a built-in one for
+// the sim's rover and turtle. Placed by TF (frames.js: its base link in the root of the tree),
+// else odometry (the rover: tf_static world -> odom, then odom), the turtle by its pose; its map
+// and paths on the floor (map3d.js); the laser scan as points
 // around it; the world's markers (walls, bounds); the body blinks red below 20 % battery and
 // each wheel takes its motor's temperature colour (as the dashboard's gauges: 50 °C amber,
 // 65 °C red). Orbit and zoom by mouse or touch (OrbitControls); the view follows the robot.
 import { Ros, Topic, Service } from 'roslib';
 import * as THREE from 'three';
-import { OrbitControls, URDFLoader } from 'three';
+import { OrbitControls } from 'three';
+import { loadUrdf, applyJointState } from './urdf.js';
+import { Frames } from './frames.js';
+import { MapLayer, MAP_SIZE } from './map3d.js';
 
 const params = new URLSearchParams(location.search);
 const ns = (params.get('ns') || '').replace(/\/+$/, '');
@@ -18,8 +23,11 @@ const TEMP = { warn: 50, danger: 65 };
 const COLOURS = { body: 0xf08c1a, turtle: 0x3fa34d, wheel: 0x444a55, warn: 0xffb300, danger: 0xe53935, scan: 0xff3b3b };
 const ARROW = 0, CUBE = 1, LINE_STRIP = 4, LINE_LIST = 5, DELETE = 2, DELETEALL = 3;
 
-const state = { model: null, pose: null, battery: null, temps: {}, frames: 0, markers: 0, scanPoints: 0, blinkOn: false };
-const twin = { state, onBattery, onTemperature };   // the handlers: for tests
+const state = {
+  model: null, pose: null, battery: null, temps: {}, frames: 0, markers: 0, scanPoints: 0, blinkOn: false,
+  meshes: null, missing: [], joints: 0, tf: false, map: null, paths: 0, urdfFrom: null,
+};
+const twin = { state, onBattery, onTemperature, frames: new Frames() };   // the handlers: for tests
 window.twin = twin;
 
 // ---- the scene ---------------------------------------------------------------
@@ -96,15 +104,35 @@ function turtle() {
   return { group: g, body: shell.material, wheels: {}, scanHeight: 0.2 };
 }
 
-function fromUrdf(xml) {
-  const loader = new URDFLoader();
-  loader.loadMeshCb = (path, manager, done) => done(null);   // meshes are not served here
-  const robot = loader.parse(xml);
-  const g = new THREE.Group();
-  g.add(robot);
-  let body = null;
-  robot.traverse((o) => { if (o.isMesh && !body) { o.material = material(COLOURS.body); body = o.material; } });
-  return { group: g, body: body ?? material(COLOURS.body), wheels: {}, scanHeight: 0.2 };
+// A notice over the view (missing meshes, no description): what a person should know.
+function notice(text) {
+  let el = $('#notice');
+  if (!el) {
+    el = document.createElement('p');
+    el.id = 'notice';
+    el.setAttribute('role', 'status');
+    $('#view').after(el);
+  }
+  el.hidden = false;
+  el.textContent = text;
+}
+
+function useUrdf(xml, from) {
+  const problems = [];
+  const model = loadUrdf(xml, { onProblem: (p) => problems.push(p) });
+  state.meshes = 'loading';
+  state.urdfFrom = from;
+  useModel('urdf', model);
+  model.loaded.then((missing) => {
+    if (twin.model !== model) return;
+    state.missing = missing;
+    state.meshes = missing.length ? 'missing' : 'loaded';
+    if (missing.length) {
+      notice(`${missing.length} mesh${missing.length > 1 ? 'es' : ''} of the robot could not be loaded and `
+        + `${missing.length > 1 ? 'are' : 'is'} drawn as grey boxes: ${problems.join('; ')}`);
+    }
+    placeByTf();
+  });
 }
 
 function useModel(kind, model) {
@@ -127,7 +155,31 @@ function setPose(x, y, yaw) {
   const before = robot.position.clone();
   robot.position.set(x, y, 0);
   robot.rotation.set(0, 0, yaw);
-  const moved = robot.position.clone().sub(before);
+  follow(before, x, y, yaw);
+}
+
+// The URDF model's root link where TF puts it (under a namespace, its frames may be prefixed).
+function placeByTf() {
+  const robot = twin.robot, urdf = twin.model?.robot;
+  if (!robot || twin.model?.kind !== 'urdf') return false;
+  const prefix = ns ? `${ns.replace(/^\//, '')}/` : '';
+  const frame = [`${prefix}${urdf.name}`, urdf.name].find((f) => twin.frames.has(f));
+  if (!frame) return false;
+  const before = robot.position.clone();
+  twin.frames.place(robot, frame);
+  state.tf = true;
+  follow(before, robot.position.x, robot.position.y, yawOf(robot.quaternion));
+  return true;
+}
+
+function onTf(msg) {
+  twin.frames.update(msg);
+  placeByTf();
+  twin.map?.place();
+}
+
+function follow(before, x, y, yaw) {
+  const moved = twin.robot.position.clone().sub(before);
   if (state.pose === null) {                   // the first pose: look at the robot
     twin.controls.target.set(x, y, 0);
     twin.camera.position.set(x - 2.2, y - 2.2, 2.0);
@@ -149,6 +201,7 @@ function onTfStatic(msg) {
 }
 
 function onOdom(msg) {
+  if (state.tf) return;                        // TF places the robot
   const p = msg.pose.pose.position, yaw = yawOf(msg.pose.pose.orientation);
   const c = Math.cos(worldOdom.yaw), s = Math.sin(worldOdom.yaw);
   setPose(worldOdom.x + c * p.x - s * p.y, worldOdom.y + s * p.x + c * p.y, worldOdom.yaw + yaw);
@@ -239,24 +292,78 @@ function animate(now) {
 // ---- the connection ------------------------------------------------------------
 function setStatus(s, text) { const el = $('#status'); el.dataset.state = s; el.textContent = text; document.body.dataset.connection = s; }
 
-function listen(ros, topic, type, fn, throttle = 0) {
-  new Topic({ ros, name: topic, messageType: type, throttle_rate: throttle, queue_length: 1 }).subscribe(fn);
+function listen(ros, topic, type, fn, throttle = 0, queue = 1) {
+  new Topic({ ros, name: topic, messageType: type, throttle_rate: throttle, queue_length: queue }).subscribe(fn);
 }
 
+// topic -> type, of every topic on the graph
 async function topics(ros) {
   const srv = new Service({ ros, name: '/rosapi/topics', serviceType: 'rosapi/Topics' });
-  return new Promise((resolve) => srv.callService({}, (r) => resolve(new Set(r.topics)), () => resolve(new Set())));
+  return new Promise((resolve) => srv.callService({},
+    (r) => resolve(new Map(r.topics.map((t, i) => [t, r.types[i]]))), () => resolve(new Map())));
+}
+
+// The gateway's --urdf file ('' without one).
+async function fileUrdf() {
+  try {
+    const r = await fetch('urdf', { credentials: 'same-origin' });
+    return r.ok ? await r.text() : '';
+  } catch { return ''; }
+}
+
+// robot_state_publisher's robot_description parameter (in the robot's namespace), '' if none.
+function paramUrdf(ros) {
+  const srv = new Service({ ros, name: '/rosapi/get_param', serviceType: 'rosapi/GetParam' });
+  const node = name('/robot_state_publisher');
+  return new Promise((resolve) => srv.callService({ name: `${node}:robot_description`, default_value: '' },
+    (r) => { try { resolve(JSON.parse(r.value) || ''); } catch { resolve(''); } }, () => resolve('')));
+}
+
+// The map made to measure (``image`` field of subscribe, CBOR: one byte a cell).
+function listenMap(ros, topic) {
+  ros.on(topic, (m) => {
+    twin.map.onGrid(m.msg);
+    state.map = { topic, ...twin.map.info };
+  });
+  ros.callOnConnection({ op: 'subscribe', id: `subscribe:${topic}:twin`, topic, type: 'nav_msgs/msg/OccupancyGrid',
+    compression: 'cbor', queue_length: 1, image: { width: MAP_SIZE, height: MAP_SIZE } });
+}
+
+async function describe(ros, has) {
+  const file = await fileUrdf();
+  if (file) { useUrdf(file, '--urdf'); return true; }
+  if (has(name('/robot_description'))) {
+    listen(ros, name('/robot_description'), 'std_msgs/msg/String', (msg) => {
+      try { useUrdf(msg.data, 'topic'); } catch (e) { state.error = `robot_description: ${e.message}`; notice(state.error); }
+    });
+    return true;
+  }
+  const param = has(name('/joint_states')) ? await paramUrdf(ros) : '';
+  if (param) { useUrdf(param, 'parameter'); return true; }
+  return false;
 }
 
 async function start(ros) {
-  const have = await topics(ros);
-  if (have.has(name('/robot_description'))) {
-    listen(ros, name('/robot_description'), 'std_msgs/msg/String', (msg) => {
-      try { useModel('urdf', fromUrdf(msg.data)); } catch (e) { state.error = `robot_description: ${e.message}`; }
-    });
+  const types = await topics(ros);
+  const has = (t) => types.has(t);
+  const described = await describe(ros, has);
+  if (has(name('/joint_states'))) {
+    listen(ros, name('/joint_states'), 'sensor_msgs/msg/JointState', (msg) => {
+      if (twin.model?.kind === 'urdf') state.joints += applyJointState(twin.model.robot, msg);
+    }, 0, 10);
   }
-  if (have.has(name('/odom')) || have.has(name('/battery_state'))) {
-    if (!twin.model) useModel('rover', rover());
+  for (const t of new Set([name('/tf'), name('/tf_static'), '/tf', '/tf_static'])) {
+    if (has(t)) listen(ros, t, 'tf2_msgs/msg/TFMessage', onTf, 0, 50);
+  }
+  const map = [name('/map'), '/map'].find((t) => types.get(t) === 'nav_msgs/msg/OccupancyGrid');
+  if (map) listenMap(ros, map);
+  for (const [t, type] of types) {
+    if (type === 'nav_msgs/msg/Path' && (t.startsWith(`${ns}/`) || !ns)) {
+      listen(ros, t, type, (msg) => { twin.map.onPath(t, msg); state.paths = twin.map.paths.size; }, 200);
+    }
+  }
+  if (has(name('/odom')) || has(name('/battery_state'))) {
+    if (!twin.model && !described) useModel('rover', rover());
     listen(ros, name('/tf_static'), 'tf2_msgs/msg/TFMessage', onTfStatic);
     listen(ros, name('/odom'), 'nav_msgs/msg/Odometry', onOdom, 40);
     listen(ros, name('/scan'), 'sensor_msgs/msg/LaserScan', onScan, 200);
@@ -264,11 +371,11 @@ async function start(ros) {
     for (const side of ['left', 'right']) {
       listen(ros, name(`/motor/${side}/temperature`), 'sensor_msgs/msg/Temperature', (m) => onTemperature(side, m), 500);
     }
-  } else if (have.has(name('/turtle1/pose'))) {
-    if (!twin.model) useModel('turtle', turtle());
+  } else if (has(name('/turtle1/pose'))) {
+    if (!twin.model && !described) useModel('turtle', turtle());
     listen(ros, name('/turtle1/pose'), 'turtlesim/msg/Pose', (p) => setPose(p.x, p.y, p.theta), 40);
-  } else {
-    state.error = `no robot under ${ns || '/'}: no odom, battery_state or turtle1/pose`;
+  } else if (!described) {
+    state.error = `no robot under ${ns || '/'}: no robot_description, odom, battery_state or turtle1/pose`;
     $('#model').textContent = state.error;
   }
   listen(ros, name('/world/markers'), 'visualization_msgs/msg/MarkerArray', onMarkers);
@@ -293,6 +400,7 @@ $('#ns').addEventListener('change', (e) => {
 });
 $('#teleop-link').href = `teleop${ns ? `?ns=${encodeURIComponent(ns)}` : ''}`;
 if (makeScene()) {
+  twin.map = new MapLayer(twin.scene, twin.frames);
   twin.scan = new THREE.Points(new THREE.BufferGeometry(), new THREE.PointsMaterial({ color: COLOURS.scan, size: 0.04 }));
   requestAnimationFrame(animate);
   connect();
