@@ -129,7 +129,7 @@ function useUrdf(xml, from) {
     state.meshes = missing.length ? 'missing' : 'loaded';
     if (missing.length) {
       notice(`${missing.length} mesh${missing.length > 1 ? 'es' : ''} of the robot could not be loaded and `
-        + `${missing.length > 1 ? 'are' : 'is'} drawn as grey boxes: ${problems.join('; ')}`);
+        + `${missing.length > 1 ? 'are drawn as grey boxes' : 'is drawn as a grey box'}: ${problems.join('; ')}`);
     }
     placeByTf();
   });

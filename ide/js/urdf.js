@@ -88,6 +88,7 @@ export function loadUrdf(xml, { onProblem = () => {} } = {}) {
     if (!url) { fail('not a package:// or file:// path the gateway serves'); return; }
     if (ext === 'stl') {
       new STLLoader(mgr).load(url, (geom) => {
+        geom.computeVertexNormals();   // flat, from the triangles: exporters often write 0 0 0 normals
         fill(new THREE.Mesh(geom, material ?? new THREE.MeshPhongMaterial()));
       }, undefined, fail);
     } else if (ext === 'dae') {

@@ -1,0 +1,104 @@
+"""/twin with a robot's own description, in Chromium's software WebGL: a robot in namespace /bot
+(published here through the gateway, as a robot_state_publisher and a map server would) whose
+URDF names an STL body and a Collada wheel of the package ``testbot`` (written by the test, found
+by --mesh-path) and a mesh that does not exist. The meshes draw with their materials, the wheel's
+pixels move with its joint state, TF places the robot, the map draws under it, and the missing
+mesh is a grey box with a notice."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+import roslibpy
+
+from tests.conftest import client
+
+from .conftest import ARTIFACTS, TABLET
+from .testbot import joint_state, occupancy_grid, transform, write_package
+
+WAIT = 60000
+MASKS = """() => {
+  const gl = twin.renderer.getContext();
+  const w = gl.drawingBufferWidth, h = gl.drawingBufferHeight;
+  const px = new Uint8Array(w * h * 4);
+  gl.readPixels(0, 0, w, h, gl.RGBA, gl.UNSIGNED_BYTE, px);
+  const orange = [], green = [], floor = [];
+  for (let i = 0; i < w * h; i++) {
+    const r = px[i * 4], g = px[i * 4 + 1], b = px[i * 4 + 2];
+    if (r > 150 && g < 150 && b < 90 && r - g > 60) orange.push(i);
+    else if (g > 120 && r < 110 && b < 110) green.push(i);
+    else if (r > 170 && g > 170 && b > 170 && Math.abs(r - b) < 40) floor.push(i);
+  }
+  return { orange, green, floor };
+}"""
+
+
+@pytest.fixture(scope='module')
+def bot(start_gateway, tmp_path_factory):
+    meshes = write_package(tmp_path_factory.mktemp('mesh-path'))
+    gw = start_gateway('--robot', 'none', '--mesh-path', str(meshes))
+    with client(gw) as ros:
+        def topic(name, type_, latch=False):
+            t = roslibpy.Topic(ros, f'/bot/{name}', type_, latch=latch)
+            t.advertise()
+            return t
+        description = topic('robot_description', 'std_msgs/msg/String', latch=True)
+        description.publish(roslibpy.Message({'data': (meshes / 'testbot' / 'urdf' / 'testbot.urdf').read_text()}))
+        static = topic('tf_static', 'tf2_msgs/msg/TFMessage', latch=True)
+        static.publish(roslibpy.Message({'transforms': [transform('map', 'bot/odom'),
+                                                        transform('bot/odom', 'bot/base_link', 0.5, 0.0, 0.0)]}))
+        grid = topic('map', 'nav_msgs/msg/OccupancyGrid', latch=True)
+        grid.publish(roslibpy.Message(occupancy_grid()))
+        joints = topic('joint_states', 'sensor_msgs/msg/JointState')
+        yield gw, joints
+
+
+def test_the_robots_own_meshes_draw_and_its_wheel_turns(chromium, bot):
+    gw, joints = bot
+    ctx = chromium.new_context(viewport=TABLET)
+    page = ctx.new_page()
+    errors = []
+    page.on('pageerror', lambda e: errors.append(str(e)))
+    try:
+        joints.publish(roslibpy.Message(joint_state(0.0)))
+        page.goto(gw.http_url + 'twin?ns=/bot')
+        page.wait_for_function("document.body.dataset.ready === 'true'", timeout=WAIT)
+        page.wait_for_function("twin.state.model === 'urdf' && twin.state.meshes === 'missing'", timeout=WAIT)
+        assert page.evaluate('twin.state.urdfFrom') == 'topic'
+        missing = page.evaluate('twin.state.missing')
+        assert missing == ['package://testbot/meshes/missing.stl'], missing
+        notice = page.text_content('#notice')
+        assert 'missing.stl' in notice and 'grey box' in notice and page.is_visible('#notice')
+        # the missing mesh is its link's collision box, 12 cm
+        size = page.evaluate("""() => { let p = null;
+          twin.robot.traverse((o) => { if (o.userData.placeholder) p = o.geometry.parameters; }); return p; }""")
+        assert size == {'width': 0.12, 'height': 0.12, 'depth': 0.12, 'widthSegments': 1, 'heightSegments': 1,
+                        'depthSegments': 1}, size
+        # TF: map -> bot/odom -> bot/base_link at x = 0.5
+        page.wait_for_function('twin.state.tf && Math.abs(twin.robot.position.x - 0.5) < 1e-6', timeout=WAIT)
+        # the map, made to measure by the gateway (300 cells fit in 512: as it is)
+        page.wait_for_function("twin.state.map && twin.state.map.width === 300", timeout=WAIT)
+
+        joints.publish(roslibpy.Message(joint_state(0.0)))
+        page.wait_for_function('twin.state.joints > 0', timeout=WAIT)
+        page.wait_for_function(f'({MASKS})().orange.length > 500 && ({MASKS})().green.length > 200', timeout=WAIT)
+        page.evaluate('twin.controls.update()')
+        before = page.evaluate(MASKS)
+        assert len(before['floor']) > 5000, len(before['floor'])        # the map's free floor
+        page.screenshot(path=str(ARTIFACTS / 'twin-urdf-before.png'))
+
+        joints.publish(roslibpy.Message(joint_state(math.pi / 2)))
+        page.wait_for_function("Math.abs(twin.model.robot.joints.wheel_joint.angle - Math.PI / 2) < 1e-6", timeout=WAIT)
+        frames = page.evaluate('twin.state.frames')
+        page.wait_for_function(f'twin.state.frames > {frames + 3}', timeout=WAIT)
+        after = page.evaluate(MASKS)
+        page.screenshot(path=str(ARTIFACTS / 'twin-urdf-after.png'))
+        a, b = set(before['green']), set(after['green'])
+        assert len(b) > 100
+        assert len(a ^ b) > 0.5 * min(len(a), len(b)), (len(a), len(b), len(a ^ b))   # the wheel's pixels moved
+        o1, o2 = set(before['orange']), set(after['orange'])
+        assert len(o1 & o2) > 0.8 * len(o1)                                              # the body stayed
+        assert not errors, errors
+    finally:
+        ctx.close()
