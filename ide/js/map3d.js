@@ -1,24 +1,7 @@
 // The robot's map (nav_msgs/OccupancyGrid) on the twin's floor, and its paths (nav_msgs/Path):
-// the grid becomes one texture (free light, occupied dark, unknown left out) on a plane placed
-// at the map's origin in its frame. The page asks the gateway for the map made to measure (the
-// ``image`` field of subscribe, MAP_SIZE cells a side at most, CBOR): a 4000x4000 map then costs
-// ~250 KB an update, not 16 MB.
+// the grid becomes one texture (grid.js) on a plane placed at the map's origin in its frame.
 import * as THREE from 'three';
-
-export const MAP_SIZE = 512;
-const FREE = [207, 212, 222, 255], OCCUPIED = [24, 26, 32, 255], UNKNOWN = [0, 0, 0, 0];
-
-// RGBA bytes of a grid: each cell by its occupancy (-1 unknown, 0 free .. 100 occupied).
-export function gridPixels(width, height, data) {
-  const px = new Uint8Array(width * height * 4);
-  for (let i = 0; i < width * height; i++) {
-    const v = data[i];
-    const c = v < 0 || v === undefined ? UNKNOWN : v >= 65 ? OCCUPIED : v <= 25 ? FREE
-      : FREE.map((f, k) => (k === 3 ? 255 : Math.round(f + (OCCUPIED[k] - f) * (v - 25) / 40)));
-    px.set(c, i * 4);
-  }
-  return px;
-}
+import { gridPixels } from './grid.js';
 
 export class MapLayer {
   constructor(scene, frames) {
@@ -33,7 +16,7 @@ export class MapLayer {
   onGrid(msg) {
     const { width, height, resolution, origin } = msg.info;
     if (!(width > 0 && height > 0 && resolution > 0)) return;
-    const texture = new THREE.DataTexture(gridPixels(width, height, msg.data), width, height, THREE.RGBAFormat);
+    const texture = new THREE.DataTexture(new Uint8Array(gridPixels(width, height, msg.data).buffer), width, height, THREE.RGBAFormat);
     texture.magFilter = THREE.NearestFilter;
     texture.needsUpdate = true;
     if (this.mesh) {

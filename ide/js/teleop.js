@@ -125,10 +125,11 @@ async function onConnected() {
 function showWhatTheRobotHas(topics, ns) {
   const has = (t) => topics.includes(t);
   const world = withNamespace(ns, '/world/markers');
+  const drawn = has(world) || has(withNamespace(ns, '/map'));   // its markers, or only its map
   const camera = has($('#camera-topic').value.trim());
-  $('#world-card').hidden = !has(world);
-  document.body.toggleAttribute('data-world', has(world) && !camera);   // the world in the camera's place
-  if (has(world)) {
+  $('#world-card').hidden = !drawn;
+  document.body.toggleAttribute('data-world', drawn && !camera);   // the world in the camera's place
+  if (drawn) {
     if (!state.world) state.world = new WorldView($('#world'), world);
     state.world.setTopic(world);
     state.world.attach(state.ros);

@@ -12,7 +12,8 @@ import * as THREE from 'three';
 import { OrbitControls } from 'three';
 import { loadUrdf, applyJointState } from './urdf.js';
 import { Frames } from './frames.js';
-import { MapLayer, MAP_SIZE } from './map3d.js';
+import { MapLayer } from './map3d.js';
+import { mapSubscribe } from './grid.js';
 
 const params = new URLSearchParams(location.search);
 const ns = (params.get('ns') || '').replace(/\/+$/, '');
@@ -319,14 +320,13 @@ function paramUrdf(ros) {
     (r) => { try { resolve(JSON.parse(r.value) || ''); } catch { resolve(''); } }, () => resolve('')));
 }
 
-// The map made to measure (``image`` field of subscribe, CBOR: one byte a cell).
+// The map made to measure (grid.js).
 function listenMap(ros, topic) {
   ros.on(topic, (m) => {
     twin.map.onGrid(m.msg);
     state.map = { topic, ...twin.map.info };
   });
-  ros.callOnConnection({ op: 'subscribe', id: `subscribe:${topic}:twin`, topic, type: 'nav_msgs/msg/OccupancyGrid',
-    compression: 'cbor', queue_length: 1, image: { width: MAP_SIZE, height: MAP_SIZE } });
+  ros.callOnConnection(mapSubscribe(topic, `subscribe:${topic}:twin`));
 }
 
 async function describe(ros, has) {

@@ -102,3 +102,34 @@ def test_the_robots_own_meshes_draw_and_its_wheel_turns(chromium, bot):
         assert not errors, errors
     finally:
         ctx.close()
+
+
+def test_the_map_draws_in_the_teleop_pages_world_view(chromium, bot):
+    gw, _ = bot
+    ctx = chromium.new_context(viewport=TABLET)
+    page = ctx.new_page()
+    errors = []
+    page.on('pageerror', lambda e: errors.append(str(e)))
+    try:
+        page.goto(gw.http_url + 'teleop?ns=/bot')
+        page.wait_for_function("document.body?.dataset.ready === 'true'", timeout=WAIT)
+        page.wait_for_function('window.teleop.world?.grid?.w > 0', timeout=WAIT)
+        assert page.is_visible('#world')
+        grid = page.evaluate('({ w: teleop.world.grid.w, h: teleop.world.grid.h, frame: teleop.world.grid.frame })')
+        assert grid == {'w': 6.0, 'h': 6.0, 'frame': 'map'}, grid
+        page.wait_for_function('teleop.world.fit && teleop.world.fit.extent.x1 - teleop.world.fit.extent.x0 === 6', timeout=WAIT)
+        counts = page.evaluate("""() => {
+          const c = document.querySelector('#world');
+          const px = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+          let free = 0, wall = 0;
+          for (let i = 0; i < px.length; i += 4) {
+            if (px[i] > 190 && px[i + 1] > 190 && px[i + 2] > 200) free++;
+            else if (px[i] < 40 && px[i + 1] < 40 && px[i + 2] < 40 && px[i + 3] === 255) wall++;
+          }
+          return { free, wall, all: px.length / 4 };
+        }""")
+        assert counts['free'] > 0.3 * counts['all'] and counts['wall'] > 100, counts   # the floor and its wall ring
+        page.screenshot(path=str(ARTIFACTS / 'teleop-world-map.png'))
+        assert not errors, errors
+    finally:
+        ctx.close()
