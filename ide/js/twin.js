@@ -14,6 +14,7 @@ import { loadUrdf, applyJointState } from './urdf.js';
 import { Frames } from './frames.js';
 import { MapLayer } from './map3d.js';
 import { mapSubscribe } from './grid.js';
+import { offerGoals } from './goal.js';
 
 const params = new URLSearchParams(location.search);
 const ns = (params.get('ns') || '').replace(/\/+$/, '');
@@ -379,6 +380,9 @@ async function start(ros) {
     $('#model').textContent = state.error;
   }
   listen(ros, name('/world/markers'), 'visualization_msgs/msg/MarkerArray', onMarkers);
+  twin.goals = await offerGoals(ros, twin, {
+    ns, frame: () => twin.map.frame || 'map', onState: (text) => { state.goal = text; notice(text); },
+  });
   document.body.dataset.ready = 'true';
 }
 

@@ -13,6 +13,7 @@ import pytest
 import roslibpy
 
 from tests.conftest import client
+from tests.gateway.rawclient import Raw
 
 from .conftest import ARTIFACTS, TABLET
 from .testbot import joint_state, occupancy_grid, transform, write_package
@@ -51,7 +52,12 @@ def bot(start_gateway, tmp_path_factory):
         grid = topic('map', 'nav_msgs/msg/OccupancyGrid', latch=True)
         grid.publish(roslibpy.Message(occupancy_grid()))
         joints = topic('joint_states', 'sensor_msgs/msg/JointState')
-        yield gw, joints
+        with Raw(gw.ws_url) as nav:   # the robot's navigation: a NavigateToPose action server
+            nav.send({'op': 'advertise_action', 'action': '/bot/navigate_to_pose',
+                      'type': 'nav2_msgs/action/NavigateToPose'})
+            nav.wait_listed('/rosapi/action_servers', 'action_servers', '/bot/navigate_to_pose', 10)
+            gw.nav = nav
+            yield gw, joints
 
 
 def test_the_robots_own_meshes_draw_and_its_wheel_turns(chromium, bot):
@@ -131,5 +137,36 @@ def test_the_map_draws_in_the_teleop_pages_world_view(chromium, bot):
         assert counts['free'] > 0.3 * counts['all'] and counts['wall'] > 100, counts   # the floor and its wall ring
         page.screenshot(path=str(ARTIFACTS / 'teleop-world-map.png'))
         assert not errors, errors
+    finally:
+        ctx.close()
+
+
+def test_a_tap_on_the_floor_sends_a_navigation_goal(chromium, bot):
+    gw, _ = bot
+    ctx = chromium.new_context(viewport=TABLET)
+    page = ctx.new_page()
+    try:
+        page.goto(gw.http_url + 'twin?ns=/bot')
+        page.wait_for_function("document.body.dataset.ready === 'true' && twin.state.map", timeout=WAIT)
+        assert page.is_visible('#goal')
+        # a floor point in front of the robot (x = 1.5, y = 0.5), where the page draws it
+        target = page.evaluate("""() => {
+          const v = new twin.robot.position.constructor(1.5, 0.5, 0).project(twin.camera);
+          const r = twin.renderer.domElement.getBoundingClientRect();
+          return { x: r.left + (v.x + 1) / 2 * r.width, y: r.top + (1 - v.y) / 2 * r.height };
+        }""")
+        page.click('#goal')
+        page.mouse.click(target['x'], target['y'])
+        goal = gw.nav.expect(lambda m: m.get('op') == 'send_action_goal', 20)
+        assert goal['action'] == '/bot/navigate_to_pose' and goal['action_type'] == 'nav2_msgs/action/NavigateToPose'
+        pose = goal['args']['pose']
+        assert pose['header']['frame_id'] == 'map'
+        assert abs(pose['pose']['position']['x'] - 1.5) < 0.05 and abs(pose['pose']['position']['y'] - 0.5) < 0.05, pose
+        q = pose['pose']['orientation']
+        assert abs(2 * math.atan2(q['z'], q['w']) - math.atan2(0.5, 1.0)) < 0.05   # facing away from the robot at (0.5, 0)
+        page.wait_for_function("twin.state.goal?.startsWith('goal sent')", timeout=WAIT)
+        gw.nav.send({'op': 'action_result', 'action': '/bot/navigate_to_pose', 'id': goal['id'], 'status': 4,
+                     'values': {'error_code': 0, 'error_msg': ''}, 'result': True})
+        page.wait_for_function("twin.state.goal === 'goal reached'", timeout=WAIT)
     finally:
         ctx.close()
