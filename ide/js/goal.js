@@ -5,9 +5,10 @@
 import * as THREE from 'three';
 
 export const NAVIGATE = 'nav2_msgs/action/NavigateToPose';
+let calls = 0;
 
 function actionServers(ros) {
-  const id = `call_service:/rosapi/action_servers:twin.${Date.now()}`;
+  const id = `call_service:/rosapi/action_servers:goal.${++calls}`;
   return new Promise((resolve) => {
     ros.once(id, (m) => resolve(m.result === false ? [] : m.values?.action_servers ?? []));
     ros.callOnConnection({ op: 'call_service', id, service: '/rosapi/action_servers', args: {} });

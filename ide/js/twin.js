@@ -10,7 +10,8 @@
 import { Ros, Topic, Service } from 'roslib';
 import * as THREE from 'three';
 import { OrbitControls } from 'three';
-import { loadUrdf, applyJointState } from './urdf.js';
+import { loadUrdf, applyJointState, fileUrdf, paramUrdf } from './urdf.js';
+import { COLOURS, rover, turtle, markerObject } from './models.js';
 import { Frames } from './frames.js';
 import { MapLayer } from './map3d.js';
 import { mapSubscribe } from './grid.js';
@@ -22,8 +23,7 @@ const name = (n) => `${ns}${n}`;
 const $ = (s) => document.querySelector(s);
 const LOW_BATTERY = 0.2;
 const TEMP = { warn: 50, danger: 65 };
-const COLOURS = { body: 0xf08c1a, turtle: 0x3fa34d, wheel: 0x444a55, warn: 0xffb300, danger: 0xe53935, scan: 0xff3b3b };
-const ARROW = 0, CUBE = 1, LINE_STRIP = 4, LINE_LIST = 5, DELETE = 2, DELETEALL = 3;
+const ARROW = 0, DELETE = 2, DELETEALL = 3;
 
 const state = {
   model: null, pose: null, battery: null, temps: {}, frames: 0, markers: 0, scanPoints: 0, blinkOn: false,
@@ -70,40 +70,6 @@ function makeScene() {
   resize();
   Object.assign(twin, { renderer, scene, camera, controls });
   return twin;
-}
-
-// ---- built-in models ------------------------------------------------------------
-function material(colour) { return new THREE.MeshStandardMaterial({ color: colour, roughness: 0.6 }); }
-
-function rover() {
-  const g = new THREE.Group();
-  const body = new THREE.Mesh(new THREE.BoxGeometry(0.4, 0.26, 0.12), material(COLOURS.body));
-  body.position.z = 0.1;
-  const nose = new THREE.Mesh(new THREE.BoxGeometry(0.06, 0.2, 0.06), material(0xffffff));
-  nose.position.set(0.2, 0, 0.12);
-  const lidar = new THREE.Mesh(new THREE.CylinderGeometry(0.05, 0.05, 0.05, 20), material(0x222222));
-  lidar.rotation.x = Math.PI / 2;
-  lidar.position.z = 0.19;
-  const wheels = {};
-  for (const [side, y] of [['left', 0.165], ['right', -0.165]]) {
-    const w = new THREE.Mesh(new THREE.CylinderGeometry(0.07, 0.07, 0.05, 24), material(COLOURS.wheel));
-    w.position.set(0, y, 0.07);     // a cylinder's axis is y: the wheel's axle already
-    wheels[side] = w;
-    g.add(w);
-  }
-  g.add(body, nose, lidar);
-  return { group: g, body: body.material, wheels, scanHeight: 0.17 };
-}
-
-function turtle() {
-  const g = new THREE.Group();
-  const shell = new THREE.Mesh(new THREE.SphereGeometry(0.5, 24, 12), material(COLOURS.turtle));
-  shell.scale.set(1, 0.8, 0.35);
-  shell.position.z = 0.1;
-  const head = new THREE.Mesh(new THREE.SphereGeometry(0.15, 16, 10), material(0x9ccc65));
-  head.position.set(0.55, 0, 0.1);
-  g.add(shell, head);
-  return { group: g, body: shell.material, wheels: {}, scanHeight: 0.2 };
 }
 
 // A notice over the view (missing meshes, no description): what a person should know.
@@ -257,25 +223,6 @@ function onMarkers(msg) {
   state.markers = markers.size;
 }
 
-function markerObject(m) {
-  const colour = new THREE.Color(m.color.r, m.color.g, m.color.b);
-  let obj = null;
-  if (m.type === CUBE) {
-    obj = new THREE.Mesh(new THREE.BoxGeometry(m.scale.x, m.scale.y, m.scale.z),
-      new THREE.MeshStandardMaterial({ color: colour, transparent: m.color.a < 1, opacity: m.color.a }));
-  } else if (m.type === LINE_STRIP || m.type === LINE_LIST) {
-    const g = new THREE.BufferGeometry().setFromPoints(m.points.map((p) => new THREE.Vector3(p.x, p.y, p.z + 0.01)));
-    const mat = new THREE.LineBasicMaterial({ color: colour.getHex() === 0x333333 ? 0x8890a8 : colour });
-    obj = m.type === LINE_STRIP ? new THREE.Line(g, mat) : new THREE.LineSegments(g, mat);
-  } else {
-    return null;
-  }
-  const p = m.pose.position, q = m.pose.orientation;
-  obj.position.set(p.x, p.y, p.z);
-  obj.quaternion.set(q.x, q.y, q.z, q.w);
-  return obj;
-}
-
 // ---- the loop --------------------------------------------------------------------
 function animate(now) {
   requestAnimationFrame(animate);
@@ -305,22 +252,6 @@ async function topics(ros) {
     (r) => resolve(new Map(r.topics.map((t, i) => [t, r.types[i]]))), () => resolve(new Map())));
 }
 
-// The gateway's --urdf file ('' without one).
-async function fileUrdf() {
-  try {
-    const r = await fetch('urdf', { credentials: 'same-origin' });
-    return r.ok ? await r.text() : '';
-  } catch { return ''; }
-}
-
-// robot_state_publisher's robot_description parameter (in the robot's namespace), '' if none.
-function paramUrdf(ros) {
-  const srv = new Service({ ros, name: '/rosapi/get_param', serviceType: 'rosapi/GetParam' });
-  const node = name('/robot_state_publisher');
-  return new Promise((resolve) => srv.callService({ name: `${node}:robot_description`, default_value: '' },
-    (r) => { try { resolve(JSON.parse(r.value) || ''); } catch { resolve(''); } }, () => resolve('')));
-}
-
 // The map made to measure (grid.js).
 function listenMap(ros, topic) {
   ros.on(topic, (m) => {
@@ -339,7 +270,7 @@ async function describe(ros, has) {
     });
     return true;
   }
-  const param = has(name('/joint_states')) ? await paramUrdf(ros) : '';
+  const param = has(name('/joint_states')) ? await paramUrdf(ros, name('/robot_state_publisher')) : '';
   if (param) { useUrdf(param, 'parameter'); return true; }
   return false;
 }

@@ -8,6 +8,7 @@ import * as THREE from 'three';
 import { URDFLoader, STLLoader, ColladaLoader, OBJLoader, MTLLoader } from 'three';
 
 const PLACEHOLDER = 0x9097a8;
+let calls = 0;
 
 // The gateway's URL of a mesh named in a URDF ('' when it names no package file).
 export function meshUrl(uri) {
@@ -137,4 +138,22 @@ export function applyJointState(robot, msg) {
     n += 1;
   });
   return n;
+}
+
+// The gateway's --urdf file ('' without one).
+export async function fileUrdf() {
+  try {
+    const r = await fetch('urdf', { credentials: 'same-origin' });
+    return r.ok ? await r.text() : '';
+  } catch { return ''; }
+}
+
+// robot_state_publisher's robot_description parameter ('' if none); node: its full name.
+export function paramUrdf(ros, node) {
+  const id = `call_service:/rosapi/get_param:urdf.${++calls}`;
+  return new Promise((resolve) => {
+    ros.once(id, (m) => { try { resolve(m.result === false ? '' : JSON.parse(m.values.value) || ''); } catch { resolve(''); } });
+    ros.callOnConnection({ op: 'call_service', id, service: '/rosapi/get_param',
+      args: { name: `${node}:robot_description`, default_value: '' } });
+  });
 }
