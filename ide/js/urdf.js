@@ -68,6 +68,7 @@ export function loadUrdf(xml, { onProblem = () => {} } = {}) {
   manager.setURLModifier((url) => meshUrl(url) || url);   // textures named package:// too
   const loader = new URDFLoader(manager);
   const missing = [];
+  const urdfMaterials = new Set();   // the URDF's <material> colours, sRGB as RViz shows them
   let pending = 0;
   let settle;
   const settled = new Promise((resolve) => { settle = resolve; });
@@ -75,6 +76,7 @@ export function loadUrdf(xml, { onProblem = () => {} } = {}) {
   loader.packages = (pkg) => `package://${pkg}`;     // kept as written: meshUrl maps them
   loader.loadMeshCb = (path, mgr, material, done) => {
     pending += 1;
+    if (material) urdfMaterials.add(material);
     const url = meshUrl(path.replace(/^package:\/\/package:\/\//, 'package://'));
     const holder = new THREE.Group();
     done(holder);                                     // placed now, filled when it arrives
@@ -106,15 +108,31 @@ export function loadUrdf(xml, { onProblem = () => {} } = {}) {
   };
   const robot = loader.parse(xml);
   robot.rotation.set(0, 0, 0);
+  robot.traverse((o) => { if (o.isMesh && o.material) urdfMaterials.add(o.material); });   // primitives
+  for (const m of urdfMaterials) m.color?.convertSRGBToLinear();
   if (pending === 0) settle(missing);
   const group = new THREE.Group();
   group.add(robot);
   let body = null;
   robot.traverse((o) => { if (!body && o.isMesh && o.material?.emissive) body = o.material; });
   return {
-    kind: 'urdf', robot, group, wheels: {}, scanHeight: 0.2, loaded: settled, missing,
+    kind: 'urdf', robot, group, wheels: wheelsOf(robot), scanHeight: 0.2, loaded: settled, missing,
     get body() { return body ?? findBody(robot) ?? new THREE.MeshStandardMaterial(); },
   };
+}
+
+// {left, right}: a material of its own for each wheel link's first primitive (the wheels that
+// take their motor's temperature colour), when the links are named so (left_wheel_link ...).
+function wheelsOf(robot) {
+  const wheels = {};
+  for (const [name, link] of Object.entries(robot.links ?? {})) {
+    const side = /wheel/i.test(name) && (/left/i.test(name) ? 'left' : /right/i.test(name) ? 'right' : null);
+    if (!side || wheels[side]) continue;
+    let mesh = null;
+    link.traverse((o) => { if (!mesh && o.isMesh) mesh = o; });
+    if (mesh) { mesh.material = mesh.material.clone(); wheels[side] = mesh; }
+  }
+  return wheels;
 }
 
 function findBody(robot) {
