@@ -170,3 +170,28 @@ def test_a_tap_on_the_floor_sends_a_navigation_goal(chromium, bot):
         page.wait_for_function("twin.state.goal === 'goal reached'", timeout=WAIT)
     finally:
         ctx.close()
+
+
+def test_the_urdf_flag_gives_the_model_of_a_robot_without_a_description_topic(chromium, start_gateway, tmp_path):
+    """rosgate --urdf FILE: the page draws that description (its meshes from --mesh-path) for a
+    robot that publishes only its joint states (and the sim's rover in / keeps its own)."""
+    meshes = write_package(tmp_path)
+    gw = start_gateway('--robot', 'none', '--mesh-path', str(meshes),
+                       '--urdf', str(meshes / 'testbot' / 'urdf' / 'testbot.urdf'))
+    ctx = chromium.new_context(viewport=TABLET)
+    page = ctx.new_page()
+    errors = []
+    page.on('pageerror', lambda e: errors.append(str(e)))
+    with client(gw) as ros:
+        joints = roslibpy.Topic(ros, '/bot2/joint_states', 'sensor_msgs/msg/JointState')
+        joints.advertise()
+        try:
+            page.goto(gw.http_url + 'twin?ns=/bot2')
+            page.wait_for_function("twin.state.model === 'urdf' && twin.state.meshes === 'missing'", timeout=WAIT)
+            assert page.evaluate('twin.state.urdfFrom') == '--urdf'
+            assert page.evaluate('twin.state.missing') == ['package://testbot/meshes/missing.stl']
+            joints.publish(roslibpy.Message(joint_state(1.25)))
+            page.wait_for_function('Math.abs(twin.model.robot.joints.wheel_joint.angle - 1.25) < 1e-6', timeout=WAIT)
+            assert not errors, errors
+        finally:
+            ctx.close()
