@@ -8,6 +8,7 @@ mesh is a grey box with a notice."""
 from __future__ import annotations
 
 import math
+from contextlib import contextmanager
 
 import pytest
 import roslibpy
@@ -33,6 +34,21 @@ MASKS = """() => {
   }
   return { orange, green, floor };
 }"""
+
+
+@contextmanager
+def tablet_page(chromium, url: str | None = None):
+    """(page, its errors) of a tablet-sized page (at url, when given); closed after."""
+    ctx = chromium.new_context(viewport=TABLET)
+    page = ctx.new_page()
+    errors = []
+    page.on('pageerror', lambda e: errors.append(str(e)))
+    try:
+        if url:
+            page.goto(url)
+        yield page, errors
+    finally:
+        ctx.close()
 
 
 @pytest.fixture(scope='module')
@@ -62,13 +78,8 @@ def bot(start_gateway, tmp_path_factory):
 
 def test_the_robots_own_meshes_draw_and_its_wheel_turns(chromium, bot):
     gw, joints = bot
-    ctx = chromium.new_context(viewport=TABLET)
-    page = ctx.new_page()
-    errors = []
-    page.on('pageerror', lambda e: errors.append(str(e)))
-    try:
-        joints.publish(roslibpy.Message(joint_state(0.0)))
-        page.goto(gw.http_url + 'twin?ns=/bot')
+    joints.publish(roslibpy.Message(joint_state(0.0)))
+    with tablet_page(chromium, gw.http_url + 'twin?ns=/bot') as (page, errors):
         page.wait_for_function("document.body.dataset.ready === 'true'", timeout=WAIT)
         page.wait_for_function("twin.state.model === 'urdf' && twin.state.meshes === 'missing'", timeout=WAIT)
         assert page.evaluate('twin.state.urdfFrom') == 'topic'
@@ -106,18 +117,11 @@ def test_the_robots_own_meshes_draw_and_its_wheel_turns(chromium, bot):
         o1, o2 = set(before['orange']), set(after['orange'])
         assert len(o1 & o2) > 0.8 * len(o1)                                              # the body stayed
         assert not errors, errors
-    finally:
-        ctx.close()
 
 
 def test_the_map_draws_in_the_teleop_pages_world_view(chromium, bot):
     gw, _ = bot
-    ctx = chromium.new_context(viewport=TABLET)
-    page = ctx.new_page()
-    errors = []
-    page.on('pageerror', lambda e: errors.append(str(e)))
-    try:
-        page.goto(gw.http_url + 'teleop?ns=/bot')
+    with tablet_page(chromium, gw.http_url + 'teleop?ns=/bot') as (page, errors):
         page.wait_for_function("document.body?.dataset.ready === 'true'", timeout=WAIT)
         page.wait_for_function('window.teleop.world?.grid?.w > 0', timeout=WAIT)
         assert page.is_visible('#world')
@@ -137,16 +141,11 @@ def test_the_map_draws_in_the_teleop_pages_world_view(chromium, bot):
         assert counts['free'] > 0.3 * counts['all'] and counts['wall'] > 100, counts   # the floor and its wall ring
         page.screenshot(path=str(ARTIFACTS / 'teleop-world-map.png'))
         assert not errors, errors
-    finally:
-        ctx.close()
 
 
 def test_a_tap_on_the_floor_sends_a_navigation_goal(chromium, bot):
     gw, _ = bot
-    ctx = chromium.new_context(viewport=TABLET)
-    page = ctx.new_page()
-    try:
-        page.goto(gw.http_url + 'twin?ns=/bot')
+    with tablet_page(chromium, gw.http_url + 'twin?ns=/bot') as (page, errors):
         page.wait_for_function("document.body.dataset.ready === 'true' && twin.state.map", timeout=WAIT)
         assert page.is_visible('#goal')
         # a floor point in front of the robot (x = 1.5, y = 0.5), where the page draws it
@@ -168,30 +167,22 @@ def test_a_tap_on_the_floor_sends_a_navigation_goal(chromium, bot):
         gw.nav.send({'op': 'action_result', 'action': '/bot/navigate_to_pose', 'id': goal['id'], 'status': 4,
                      'values': {'error_code': 0, 'error_msg': ''}, 'result': True})
         page.wait_for_function("twin.state.goal === 'goal reached'", timeout=WAIT)
-    finally:
-        ctx.close()
+        assert not errors, errors
 
 
 def test_the_urdf_flag_gives_the_model_of_a_robot_without_a_description_topic(chromium, start_gateway, tmp_path):
     """rosgate --urdf FILE: the page draws that description (its meshes from --mesh-path) for a
-    robot that publishes only its joint states (and the sim's rover in / keeps its own)."""
+    robot that publishes only its joint states."""
     meshes = write_package(tmp_path)
     gw = start_gateway('--robot', 'none', '--mesh-path', str(meshes),
                        '--urdf', str(meshes / 'testbot' / 'urdf' / 'testbot.urdf'))
-    ctx = chromium.new_context(viewport=TABLET)
-    page = ctx.new_page()
-    errors = []
-    page.on('pageerror', lambda e: errors.append(str(e)))
-    with client(gw) as ros:
+    with client(gw) as ros, tablet_page(chromium) as (page, errors):
         joints = roslibpy.Topic(ros, '/bot2/joint_states', 'sensor_msgs/msg/JointState')
         joints.advertise()
-        try:
-            page.goto(gw.http_url + 'twin?ns=/bot2')
-            page.wait_for_function("twin.state.model === 'urdf' && twin.state.meshes === 'missing'", timeout=WAIT)
-            assert page.evaluate('twin.state.urdfFrom') == '--urdf'
-            assert page.evaluate('twin.state.missing') == ['package://testbot/meshes/missing.stl']
-            joints.publish(roslibpy.Message(joint_state(1.25)))
-            page.wait_for_function('Math.abs(twin.model.robot.joints.wheel_joint.angle - 1.25) < 1e-6', timeout=WAIT)
-            assert not errors, errors
-        finally:
-            ctx.close()
+        page.goto(gw.http_url + 'twin?ns=/bot2')
+        page.wait_for_function("twin.state.model === 'urdf' && twin.state.meshes === 'missing'", timeout=WAIT)
+        assert page.evaluate('twin.state.urdfFrom') == '--urdf'
+        assert page.evaluate('twin.state.missing') == ['package://testbot/meshes/missing.stl']
+        joints.publish(roslibpy.Message(joint_state(1.25)))
+        page.wait_for_function('Math.abs(twin.model.robot.joints.wheel_joint.angle - 1.25) < 1e-6', timeout=WAIT)
+        assert not errors, errors
