@@ -136,6 +136,7 @@ function placeByTf() {
   const before = robot.position.clone();
   twin.frames.place(robot, frame);
   state.tf = true;
+  state.rootFrame = twin.frames.root(frame);   // the floor's frame (world, map or odom)
   follow(before, robot.position.x, robot.position.y, yawOf(robot.quaternion));
   return true;
 }
@@ -312,7 +313,7 @@ async function start(ros) {
   }
   listen(ros, name('/world/markers'), 'visualization_msgs/msg/MarkerArray', onMarkers);
   twin.goals = await offerGoals(ros, twin, {
-    ns, frame: () => twin.map.frame || 'map', onState: (text) => { state.goal = text; notice(text); },
+    ns, frame: () => twin.map.frame || state.rootFrame || 'map', onState: (text) => { state.goal = text; notice(text); },
   });
   document.body.dataset.ready = 'true';
 }
