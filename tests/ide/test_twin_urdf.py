@@ -1,6 +1,6 @@
 """/twin with a robot's own description, in Chromium's software WebGL: a robot in namespace /bot
 (published here through the gateway, as a robot_state_publisher and a map server would) whose
-URDF names an STL body and a Collada wheel of the package ``testbot`` (written by the test, found
+URDF names an STL body, a Collada wheel and an OBJ mast of the package ``testbot`` (written by the test, found
 by --mesh-path) and a mesh that does not exist. The meshes draw with their materials, the wheel's
 pixels move with its joint state, TF places the robot, the map draws under it, and the missing
 mesh is a grey box with a notice."""
@@ -25,14 +25,15 @@ MASKS = """() => {
   const w = gl.drawingBufferWidth, h = gl.drawingBufferHeight;
   const px = new Uint8Array(w * h * 4);
   gl.readPixels(0, 0, w, h, gl.RGBA, gl.UNSIGNED_BYTE, px);
-  const orange = [], green = [], floor = [];
+  const orange = [], green = [], floor = [], blue = [];
   for (let i = 0; i < w * h; i++) {
     const r = px[i * 4], g = px[i * 4 + 1], b = px[i * 4 + 2];
     if (r > 150 && g < 150 && b < 90 && r - g > 60) orange.push(i);
     else if (g > 120 && r < 110 && b < 110) green.push(i);
+    else if (b > 150 && r < 90 && g < 140) blue.push(i);
     else if (r > 170 && g > 170 && b > 170 && Math.abs(r - b) < 40) floor.push(i);
   }
-  return { orange, green, floor };
+  return { orange, green, floor, blue };
 }"""
 
 
@@ -103,6 +104,7 @@ def test_the_robots_own_meshes_draw_and_its_wheel_turns(chromium, bot):
         page.evaluate('twin.controls.update()')
         before = page.evaluate(MASKS)
         assert len(before['floor']) > 5000, len(before['floor'])        # the map's free floor
+        assert len(before['blue']) > 100, len(before['blue'])           # the OBJ mast in its .mtl colour
         page.screenshot(path=str(ARTIFACTS / 'twin-urdf-before.png'))
 
         joints.publish(roslibpy.Message(joint_state(math.pi / 2)))

@@ -1,6 +1,6 @@
 """A small robot description package written by the tests: ``testbot`` with an STL body (orange
 by its URDF material), a Collada wheel (green by its own Collada material) on a continuous joint,
-and a link whose mesh is missing; its URDF, and the messages a robot publishes (a map, TF)."""
+an OBJ mast (blue by its own .mtl), and a link whose mesh is missing; its URDF, and the messages a robot publishes (a map, TF)."""
 
 from __future__ import annotations
 
@@ -57,6 +57,15 @@ def dae(sx: float, sy: float, sz: float, rgba: str = '0.05 0.85 0.1 1') -> str:
 '''
 
 
+def obj(sx: float, sy: float, sz: float) -> str:
+    """A Wavefront OBJ box using material ``blue`` of ``mast.mtl``."""
+    v, faces = box_triangles(sx, sy, sz)
+    return '\n'.join(['mtllib mast.mtl', 'o mast', *(f'v {x} {y} {z}' for x, y, z in v), 'usemtl blue',
+                      *(f'f {a + 1} {b + 1} {c + 1}' for a, b, c in faces), ''])
+
+
+MTL = 'newmtl blue\nKa 0 0 0\nKd 0.05 0.15 0.95\nKs 0 0 0\nd 1\n'
+
 URDF = f'''<?xml version="1.0"?>
 <robot name="testbot">
   <material name="orange"><color rgba="{ORANGE_RGBA}"/></material>
@@ -68,6 +77,12 @@ URDF = f'''<?xml version="1.0"?>
   </link>
   <joint name="wheel_joint" type="continuous">
     <parent link="base_link"/><child link="wheel_link"/><origin xyz="0 0 0.25"/><axis xyz="0 0 1"/>
+  </joint>
+  <link name="mast_link">
+    <visual><geometry><mesh filename="package://testbot/meshes/mast.obj"/></geometry></visual>
+  </link>
+  <joint name="mast_joint" type="fixed">
+    <parent link="base_link"/><child link="mast_link"/><origin xyz="0.1 0 0.15"/>
   </joint>
   <link name="ghost_link">
     <visual><geometry><mesh filename="package://testbot/meshes/missing.stl"/></geometry></visual>
@@ -81,13 +96,15 @@ URDF = f'''<?xml version="1.0"?>
 
 
 def write_package(folder: Path) -> Path:
-    """folder/testbot/{package.xml, meshes/body.stl, meshes/wheel.dae, urdf/testbot.urdf}; returns folder."""
+    """folder/testbot/{package.xml, meshes/body.stl, wheel.dae, mast.obj, mast.mtl, urdf/testbot.urdf}; returns folder."""
     pkg = folder / 'testbot'
     (pkg / 'meshes').mkdir(parents=True, exist_ok=True)
     (pkg / 'urdf').mkdir(exist_ok=True)
     (pkg / 'package.xml').write_text('<package format="3"><name>testbot</name></package>\n')
     (pkg / 'meshes' / 'body.stl').write_text(stl(0.4, 0.3, 0.1))
     (pkg / 'meshes' / 'wheel.dae').write_text(dae(0.3, 0.08, 0.08))
+    (pkg / 'meshes' / 'mast.obj').write_text(obj(0.1, 0.1, 0.3))
+    (pkg / 'meshes' / 'mast.mtl').write_text(MTL)
     (pkg / 'urdf' / 'testbot.urdf').write_text(URDF)
     return folder
 
