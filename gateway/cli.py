@@ -126,6 +126,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help='history kept at full rate (1 Hz) this long, then as per-minute min/mean/max [%(default)s]')
     h.add_argument('--opcua', type=int, metavar='PORT',
                    help='serve the robots\' history fields and pose over OPC UA on this port (0: any free one)')
+    h.add_argument('--urdf', type=Path, metavar='FILE',
+                   help='the robot description the 3D twin draws (served at /urdf), in place of the '
+                        'robot_description topic')
+    h.add_argument('--mesh-path', type=Path, action='append', default=[], metavar='DIR',
+                   help='a folder of description packages (DIR/PKG/meshes/...) whose files the twin loads '
+                        'as package://PKG/..., besides AMENT_PREFIX_PATH\'s share folders (repeatable)')
     b.add_argument('--log-level', default='info', choices=('debug', 'info', 'warning', 'error'))
     robots.add_arguments(p)
     rules.add_arguments(p)
@@ -165,6 +171,7 @@ def ros_style(argv: list[str], parser: argparse.ArgumentParser | None = None) ->
 def settings_from(args: argparse.Namespace) -> Settings:
     known = {f.name for f in fields(Settings)}
     values = {k: v for k, v in vars(args).items() if k in known}
+    values['mesh_path'] = tuple(values.get('mesh_path') or ())
     extra = {k: v for k, v in vars(args).items() if k not in known}
     return Settings(**values, extra=extra)
 

@@ -87,4 +87,6 @@ class Settings:
     history_max_mb: float = 1024.0             # the history's cap in the store
     history_full_hours: float = 24.0           # full rate (1 Hz) this long, per-minute rows before
     opcua: int | None = None                   # OPC UA server on this port (0: any free one)
+    urdf: Path | None = None                   # the twin's robot description when not from the graph
+    mesh_path: tuple = ()                      # folders of description packages served at /package/
     extra: dict = field(default_factory=dict)  # options of optional parts (robots, security)

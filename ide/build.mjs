@@ -14,9 +14,14 @@ const bundles = {
   'roslib.mjs': "export * from 'roslib';",
   'nipplejs.mjs': "export { default } from 'nipplejs'; export * from 'nipplejs';",
   'uplot.mjs': "export { default } from 'uplot';",
-  // one copy of three for the twin, with the orbit controls and the URDF loader built on it
+  // one copy of three for the twin, with the orbit controls, the URDF loader built on it and
+  // three's own mesh loaders for a description's STL, Collada and OBJ (+ MTL) files
   'three.mjs': "export * from 'three'; export { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js'; "
-    + "export { default as URDFLoader } from 'urdf-loader';",
+    + "export { default as URDFLoader } from 'urdf-loader'; "
+    + "export { STLLoader } from 'three/examples/jsm/loaders/STLLoader.js'; "
+    + "export { ColladaLoader } from 'three/examples/jsm/loaders/ColladaLoader.js'; "
+    + "export { OBJLoader } from 'three/examples/jsm/loaders/OBJLoader.js'; "
+    + "export { MTLLoader } from 'three/examples/jsm/loaders/MTLLoader.js';",
 };
 for (const [out, contents] of Object.entries(bundles)) {
   await build({

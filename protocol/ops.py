@@ -116,7 +116,8 @@ COMPRESSION = Check(_enum(*COMPRESSIONS))
 class ImageSpec:
     """What a subscriber asks of an image topic (the ``image`` extension field of subscribe):
     at most width x height pixels (a missing side follows the image's aspect ratio; never larger
-    than the image), as JPEG of this quality. Hashable: one encode per spec, shared."""
+    than the image), as JPEG of this quality; on a map (OccupancyGrid), at most width x height
+    cells. Hashable: one encode per spec, shared."""
     width: int | None = None
     height: int | None = None
     quality: int = 75

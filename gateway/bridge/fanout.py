@@ -38,6 +38,7 @@ NEWEST_WINS = frozenset({
     images.RAW, images.COMPRESSED, 'sensor_msgs/msg/PointCloud2', 'sensor_msgs/msg/LaserScan',
     'geometry_msgs/msg/PoseStamped', 'geometry_msgs/msg/Pose',
     'geometry_msgs/msg/PoseWithCovarianceStamped', 'nav_msgs/msg/Odometry', 'turtlesim/msg/Pose',
+    'nav_msgs/msg/OccupancyGrid',
 })
 
 
@@ -101,7 +102,7 @@ class Renderer:
         if fan.closed or future.cancelled():
             return
         try:
-            result: bytes | images.ImageError = future.result()
+            result: bytes | dict | images.ImageError = future.result()
         except images.ImageError as e:
             result = e
         except Exception as e:   # a bug or a Pillow failure past decoding: said, never raised into the loop
@@ -287,9 +288,12 @@ class TopicFanout:
 
     def _encode_image(self, msg: dict, result: bytes | images.ImageError, compression: str,
                       fragment_size: int | None) -> encode.Frames:
-        """A CompressedImage made to measure, whatever the topic's image type (or a warning)."""
+        """A CompressedImage made to measure, whatever the topic's image type (or a warning); a
+        map made smaller stays a map of the topic's type."""
         if isinstance(result, images.ImageError):
             return encode.frames({'op': 'status', 'level': 'warning', 'msg': f'{self.topic}: {result}'})
+        if isinstance(result, dict):
+            return self._encode(result, compression, fragment_size)
         made = {'header': msg.get('header', {}), 'format': 'jpeg', 'data': result}
         return self._encode(made, compression, fragment_size, msgdef=self.gateway.backend.msg_def(images.COMPRESSED))
 

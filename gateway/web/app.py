@@ -5,6 +5,7 @@
 API apps (``/api/programs``, ``/api/runs``, ``/api/recordings``, ``/api/history``, ``/api/bookings``),
 the login pages and LTI's (``/lti/...``, with ``--lti``); the OPC UA server beside them (``--opcua``);
 web_video_server's camera URLs (``/stream``, ``/snapshot``, ``/stream_viewer``, ``/streams``: ``video``);
+the robot's description and meshes (``/urdf``, ``/package/PKG/PATH``: ``packages``);
 the IDE's static files last.
 """
 
@@ -21,6 +22,7 @@ from .classview import ClassHandler
 from .history import start_history
 from .history_api import history_routes
 from .opcua import start_twin
+from .packages import package_routes
 from .login import login_routes
 from .lti import lti_routes
 from .pages import Application, PublicFileHandler, write_page
@@ -88,7 +90,7 @@ def make_app(gateway: Gateway) -> tornado.web.Application:
         routes += program_routes(settings.programs_dir, policy)
     # runs reach the websocket alone, on a unix socket bound into their box (runs.py)
     routes += run_routes(gateway, Application(gateway, [websocket], **options)) + recording_routes(gateway)
-    routes += booking_routes(gateway) + video_routes(gateway)
+    routes += booking_routes(gateway) + video_routes(gateway) + package_routes(gateway)
     history = start_history(gateway)
     routes += history_routes(history)
     start_twin(gateway, history, settings.opcua)

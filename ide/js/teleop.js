@@ -6,6 +6,7 @@
 // picked and free), and nothing after the teacher's Release until a new claim.
 import nipplejs from 'nipplejs';
 import { field, zeroVelocity, withNamespace } from '../runtime/util.js';
+import { showCameras } from './cameras.js';
 import { DriverLease, bindDriverBadge, DRIVER_TOPIC } from './driver.js';
 import { bindNamespace, CLAIM_SERVICE, STOPPED } from './robotns.js';
 import { gauge, History, SAMPLE_EVERY } from './dashboard.js';
@@ -99,6 +100,7 @@ async function onConnected() {
     await claiming;                          // its answer, not this notice, has the last word
     const ns = state.robotNs.get();
     showWhatTheRobotHas(topics, ns);
+    showCameras({ ros: state.ros, topics, types, ns, main: $('#camera-topic').value.trim(), after: $('#camera-card') });
     if (fleet && !ns) {
       block(state.robotNs.whyNot());
       resubscribe();
@@ -125,10 +127,11 @@ async function onConnected() {
 function showWhatTheRobotHas(topics, ns) {
   const has = (t) => topics.includes(t);
   const world = withNamespace(ns, '/world/markers');
+  const drawn = has(world) || has(withNamespace(ns, '/map'));   // its markers, or only its map
   const camera = has($('#camera-topic').value.trim());
-  $('#world-card').hidden = !has(world);
-  document.body.toggleAttribute('data-world', has(world) && !camera);   // the world in the camera's place
-  if (has(world)) {
+  $('#world-card').hidden = !drawn;
+  document.body.toggleAttribute('data-world', drawn && !camera);   // the world in the camera's place
+  if (drawn) {
     if (!state.world) state.world = new WorldView($('#world'), world);
     state.world.setTopic(world);
     state.world.attach(state.ros);

@@ -1,13 +1,21 @@
-// /twin: the robot in 3D (three.js), as it is now. The model: the robot's own URDF when it
-// publishes /robot_description (urdf-loader; meshes it cannot fetch stay out, its primitives
-// show), else a built-in one for the sim's rover and turtle. Posed from TF and odometry (the
-// rover: tf_static world -> odom, then odom), the turtle from its pose; the laser scan as points
+// /twin: the robot in 3D (three.js), as it is now. The model: the robot's own URDF (urdf.js: the
+// gateway's --urdf file, else its robot_description topic, else robot_state_publisher's
+// parameter) with its meshes and its joints moved by its joint_states; else a built-in one for
+// the sim's rover and turtle. Placed by TF (frames.js: its base link in the root of the tree),
+// else odometry (the rover: tf_static world -> odom, then odom), the turtle by its pose; its map
+// and paths on the floor (map3d.js); the laser scan as points
 // around it; the world's markers (walls, bounds); the body blinks red below 20 % battery and
 // each wheel takes its motor's temperature colour (as the dashboard's gauges: 50 °C amber,
 // 65 °C red). Orbit and zoom by mouse or touch (OrbitControls); the view follows the robot.
 import { Ros, Topic, Service } from 'roslib';
 import * as THREE from 'three';
-import { OrbitControls, URDFLoader } from 'three';
+import { OrbitControls } from 'three';
+import { loadUrdf, applyJointState, fileUrdf, paramUrdf } from './urdf.js';
+import { COLOURS, rover, turtle, markerObject } from './models.js';
+import { Frames } from './frames.js';
+import { MapLayer } from './map3d.js';
+import { mapSubscribe } from './grid.js';
+import { offerGoals } from './goal.js';
 
 const params = new URLSearchParams(location.search);
 const ns = (params.get('ns') || '').replace(/\/+$/, '');
@@ -15,11 +23,13 @@ const name = (n) => `${ns}${n}`;
 const $ = (s) => document.querySelector(s);
 const LOW_BATTERY = 0.2;
 const TEMP = { warn: 50, danger: 65 };
-const COLOURS = { body: 0xf08c1a, turtle: 0x3fa34d, wheel: 0x444a55, warn: 0xffb300, danger: 0xe53935, scan: 0xff3b3b };
-const ARROW = 0, CUBE = 1, LINE_STRIP = 4, LINE_LIST = 5, DELETE = 2, DELETEALL = 3;
+const ARROW = 0, DELETE = 2, DELETEALL = 3;
 
-const state = { model: null, pose: null, battery: null, temps: {}, frames: 0, markers: 0, scanPoints: 0, blinkOn: false };
-const twin = { state, onBattery, onTemperature };   // the handlers: for tests
+const state = {
+  model: null, pose: null, battery: null, temps: {}, frames: 0, markers: 0, scanPoints: 0, blinkOn: false,
+  meshes: null, missing: [], joints: 0, tf: false, map: null, paths: 0, urdfFrom: null,
+};
+const twin = { state, onBattery, onTemperature, frames: new Frames() };   // the handlers: for tests
 window.twin = twin;
 
 // ---- the scene ---------------------------------------------------------------
@@ -62,49 +72,35 @@ function makeScene() {
   return twin;
 }
 
-// ---- built-in models ------------------------------------------------------------
-function material(colour) { return new THREE.MeshStandardMaterial({ color: colour, roughness: 0.6 }); }
-
-function rover() {
-  const g = new THREE.Group();
-  const body = new THREE.Mesh(new THREE.BoxGeometry(0.4, 0.26, 0.12), material(COLOURS.body));
-  body.position.z = 0.1;
-  const nose = new THREE.Mesh(new THREE.BoxGeometry(0.06, 0.2, 0.06), material(0xffffff));
-  nose.position.set(0.2, 0, 0.12);
-  const lidar = new THREE.Mesh(new THREE.CylinderGeometry(0.05, 0.05, 0.05, 20), material(0x222222));
-  lidar.rotation.x = Math.PI / 2;
-  lidar.position.z = 0.19;
-  const wheels = {};
-  for (const [side, y] of [['left', 0.165], ['right', -0.165]]) {
-    const w = new THREE.Mesh(new THREE.CylinderGeometry(0.07, 0.07, 0.05, 24), material(COLOURS.wheel));
-    w.position.set(0, y, 0.07);     // a cylinder's axis is y: the wheel's axle already
-    wheels[side] = w;
-    g.add(w);
+// A notice over the view (missing meshes, no description): what a person should know.
+function notice(text) {
+  let el = $('#notice');
+  if (!el) {
+    el = document.createElement('p');
+    el.id = 'notice';
+    el.setAttribute('role', 'status');
+    $('#view').after(el);
   }
-  g.add(body, nose, lidar);
-  return { group: g, body: body.material, wheels, scanHeight: 0.17 };
+  el.hidden = false;
+  el.textContent = text;
 }
 
-function turtle() {
-  const g = new THREE.Group();
-  const shell = new THREE.Mesh(new THREE.SphereGeometry(0.5, 24, 12), material(COLOURS.turtle));
-  shell.scale.set(1, 0.8, 0.35);
-  shell.position.z = 0.1;
-  const head = new THREE.Mesh(new THREE.SphereGeometry(0.15, 16, 10), material(0x9ccc65));
-  head.position.set(0.55, 0, 0.1);
-  g.add(shell, head);
-  return { group: g, body: shell.material, wheels: {}, scanHeight: 0.2 };
-}
-
-function fromUrdf(xml) {
-  const loader = new URDFLoader();
-  loader.loadMeshCb = (path, manager, done) => done(null);   // meshes are not served here
-  const robot = loader.parse(xml);
-  const g = new THREE.Group();
-  g.add(robot);
-  let body = null;
-  robot.traverse((o) => { if (o.isMesh && !body) { o.material = material(COLOURS.body); body = o.material; } });
-  return { group: g, body: body ?? material(COLOURS.body), wheels: {}, scanHeight: 0.2 };
+function useUrdf(xml, from) {
+  const problems = [];
+  const model = loadUrdf(xml, { onProblem: (p) => problems.push(p) });
+  state.meshes = 'loading';
+  state.urdfFrom = from;
+  useModel('urdf', model);
+  model.loaded.then((missing) => {
+    if (twin.model !== model) return;
+    state.missing = missing;
+    state.meshes = missing.length ? 'missing' : 'loaded';
+    if (missing.length) {
+      notice(`${missing.length} mesh${missing.length > 1 ? 'es' : ''} of the robot could not be loaded and `
+        + `${missing.length > 1 ? 'are drawn as grey boxes' : 'is drawn as a grey box'}: ${problems.join('; ')}`);
+    }
+    placeByTf();
+  });
 }
 
 function useModel(kind, model) {
@@ -127,7 +123,32 @@ function setPose(x, y, yaw) {
   const before = robot.position.clone();
   robot.position.set(x, y, 0);
   robot.rotation.set(0, 0, yaw);
-  const moved = robot.position.clone().sub(before);
+  follow(before, x, y, yaw);
+}
+
+// The URDF model's root link where TF puts it (under a namespace, its frames may be prefixed).
+function placeByTf() {
+  const robot = twin.robot, urdf = twin.model?.robot;
+  if (!robot || twin.model?.kind !== 'urdf') return false;
+  const prefix = ns ? `${ns.replace(/^\//, '')}/` : '';
+  const frame = [`${prefix}${urdf.name}`, urdf.name].find((f) => twin.frames.has(f));
+  if (!frame) return false;
+  const before = robot.position.clone();
+  twin.frames.place(robot, frame);
+  state.tf = true;
+  state.rootFrame = twin.frames.root(frame);   // the floor's frame (world, map or odom)
+  follow(before, robot.position.x, robot.position.y, yawOf(robot.quaternion));
+  return true;
+}
+
+function onTf(msg) {
+  twin.frames.update(msg);
+  placeByTf();
+  twin.map?.place();
+}
+
+function follow(before, x, y, yaw) {
+  const moved = twin.robot.position.clone().sub(before);
   if (state.pose === null) {                   // the first pose: look at the robot
     twin.controls.target.set(x, y, 0);
     twin.camera.position.set(x - 2.2, y - 2.2, 2.0);
@@ -149,6 +170,7 @@ function onTfStatic(msg) {
 }
 
 function onOdom(msg) {
+  if (state.tf) return;                        // TF places the robot
   const p = msg.pose.pose.position, yaw = yawOf(msg.pose.pose.orientation);
   const c = Math.cos(worldOdom.yaw), s = Math.sin(worldOdom.yaw);
   setPose(worldOdom.x + c * p.x - s * p.y, worldOdom.y + s * p.x + c * p.y, worldOdom.yaw + yaw);
@@ -202,25 +224,6 @@ function onMarkers(msg) {
   state.markers = markers.size;
 }
 
-function markerObject(m) {
-  const colour = new THREE.Color(m.color.r, m.color.g, m.color.b);
-  let obj = null;
-  if (m.type === CUBE) {
-    obj = new THREE.Mesh(new THREE.BoxGeometry(m.scale.x, m.scale.y, m.scale.z),
-      new THREE.MeshStandardMaterial({ color: colour, transparent: m.color.a < 1, opacity: m.color.a }));
-  } else if (m.type === LINE_STRIP || m.type === LINE_LIST) {
-    const g = new THREE.BufferGeometry().setFromPoints(m.points.map((p) => new THREE.Vector3(p.x, p.y, p.z + 0.01)));
-    const mat = new THREE.LineBasicMaterial({ color: colour.getHex() === 0x333333 ? 0x8890a8 : colour });
-    obj = m.type === LINE_STRIP ? new THREE.Line(g, mat) : new THREE.LineSegments(g, mat);
-  } else {
-    return null;
-  }
-  const p = m.pose.position, q = m.pose.orientation;
-  obj.position.set(p.x, p.y, p.z);
-  obj.quaternion.set(q.x, q.y, q.z, q.w);
-  return obj;
-}
-
 // ---- the loop --------------------------------------------------------------------
 function animate(now) {
   requestAnimationFrame(animate);
@@ -239,24 +242,61 @@ function animate(now) {
 // ---- the connection ------------------------------------------------------------
 function setStatus(s, text) { const el = $('#status'); el.dataset.state = s; el.textContent = text; document.body.dataset.connection = s; }
 
-function listen(ros, topic, type, fn, throttle = 0) {
-  new Topic({ ros, name: topic, messageType: type, throttle_rate: throttle, queue_length: 1 }).subscribe(fn);
+function listen(ros, topic, type, fn, throttle = 0, queue = 1) {
+  new Topic({ ros, name: topic, messageType: type, throttle_rate: throttle, queue_length: queue }).subscribe(fn);
 }
 
+// topic -> type, of every topic on the graph
 async function topics(ros) {
   const srv = new Service({ ros, name: '/rosapi/topics', serviceType: 'rosapi/Topics' });
-  return new Promise((resolve) => srv.callService({}, (r) => resolve(new Set(r.topics)), () => resolve(new Set())));
+  return new Promise((resolve) => srv.callService({},
+    (r) => resolve(new Map(r.topics.map((t, i) => [t, r.types[i]]))), () => resolve(new Map())));
+}
+
+// The map made to measure (grid.js).
+function listenMap(ros, topic) {
+  ros.on(topic, (m) => {
+    twin.map.onGrid(m.msg);
+    state.map = { topic, ...twin.map.info };
+  });
+  ros.callOnConnection(mapSubscribe(topic, `subscribe:${topic}:twin`));
+}
+
+async function describe(ros, has) {
+  const file = await fileUrdf();
+  if (file) { useUrdf(file, '--urdf'); return true; }
+  if (has(name('/robot_description'))) {
+    listen(ros, name('/robot_description'), 'std_msgs/msg/String', (msg) => {
+      try { useUrdf(msg.data, 'topic'); } catch (e) { state.error = `robot_description: ${e.message}`; notice(state.error); }
+    });
+    return true;
+  }
+  const param = has(name('/joint_states')) ? await paramUrdf(ros, name('/robot_state_publisher')) : '';
+  if (param) { useUrdf(param, 'parameter'); return true; }
+  return false;
 }
 
 async function start(ros) {
-  const have = await topics(ros);
-  if (have.has(name('/robot_description'))) {
-    listen(ros, name('/robot_description'), 'std_msgs/msg/String', (msg) => {
-      try { useModel('urdf', fromUrdf(msg.data)); } catch (e) { state.error = `robot_description: ${e.message}`; }
-    });
+  const types = await topics(ros);
+  const has = (t) => types.has(t);
+  const described = await describe(ros, has);
+  if (has(name('/joint_states'))) {
+    listen(ros, name('/joint_states'), 'sensor_msgs/msg/JointState', (msg) => {
+      if (twin.model?.kind === 'urdf') state.joints += applyJointState(twin.model.robot, msg);
+    }, 0, 10);
   }
-  if (have.has(name('/odom')) || have.has(name('/battery_state'))) {
-    if (!twin.model) useModel('rover', rover());
+  for (const t of new Set([name('/tf'), name('/tf_static'), '/tf', '/tf_static'])) {
+    if (has(t)) listen(ros, t, 'tf2_msgs/msg/TFMessage', onTf, 0, 50);
+  }
+  const map = [name('/map'), '/map'].find((t) => types.get(t) === 'nav_msgs/msg/OccupancyGrid');
+  if (map) listenMap(ros, map);
+  for (const [t, type] of types) {
+    if (type === 'nav_msgs/msg/Path' && (t.startsWith(`${ns}/`) || !ns)) {
+      listen(ros, t, type, (msg) => { twin.map.onPath(t, msg); state.paths = twin.map.paths.size; }, 200);
+    }
+  }
+  if (has(name('/odom')) || has(name('/battery_state'))) {
+    if (!twin.model && !described) useModel('rover', rover());
     listen(ros, name('/tf_static'), 'tf2_msgs/msg/TFMessage', onTfStatic);
     listen(ros, name('/odom'), 'nav_msgs/msg/Odometry', onOdom, 40);
     listen(ros, name('/scan'), 'sensor_msgs/msg/LaserScan', onScan, 200);
@@ -264,14 +304,17 @@ async function start(ros) {
     for (const side of ['left', 'right']) {
       listen(ros, name(`/motor/${side}/temperature`), 'sensor_msgs/msg/Temperature', (m) => onTemperature(side, m), 500);
     }
-  } else if (have.has(name('/turtle1/pose'))) {
-    if (!twin.model) useModel('turtle', turtle());
+  } else if (has(name('/turtle1/pose'))) {
+    if (!twin.model && !described) useModel('turtle', turtle());
     listen(ros, name('/turtle1/pose'), 'turtlesim/msg/Pose', (p) => setPose(p.x, p.y, p.theta), 40);
-  } else {
-    state.error = `no robot under ${ns || '/'}: no odom, battery_state or turtle1/pose`;
+  } else if (!described) {
+    state.error = `no robot under ${ns || '/'}: no robot_description, odom, battery_state or turtle1/pose`;
     $('#model').textContent = state.error;
   }
   listen(ros, name('/world/markers'), 'visualization_msgs/msg/MarkerArray', onMarkers);
+  twin.goals = await offerGoals(ros, twin, {
+    ns, frame: () => twin.map.frame || state.rootFrame || 'map', onState: (text) => { state.goal = text; notice(text); },
+  });
   document.body.dataset.ready = 'true';
 }
 
@@ -293,6 +336,7 @@ $('#ns').addEventListener('change', (e) => {
 });
 $('#teleop-link').href = `teleop${ns ? `?ns=${encodeURIComponent(ns)}` : ''}`;
 if (makeScene()) {
+  twin.map = new MapLayer(twin.scene, twin.frames);
   twin.scan = new THREE.Points(new THREE.BufferGeometry(), new THREE.PointsMaterial({ color: COLOURS.scan, size: 0.04 }));
   requestAnimationFrame(animate);
   connect();

@@ -2,8 +2,11 @@
 // bounds, walls, pen trails, laser hits and robots. Works for any robot that publishes it.
 // Markers in different frames are different worlds (turtlesim's square and the rover's arena):
 // one is drawn at a time, scaled to fill the canvas, with tabs to choose when there are several;
-// a tap on the view enlarges it (a tap or Escape brings it back).
+// a tap on the view enlarges it (a tap or Escape brings it back). The robot's map
+// (nav_msgs/OccupancyGrid, ``map`` beside ``world/markers``, made to measure: grid.js) lies under
+// the markers of its frame, or alone when there are none.
 import { yaw } from '../runtime/util.js';
+import { gridImage, mapSubscribe } from './grid.js';
 
 const ARROW = 0, CUBE = 1, SPHERE = 2, CYLINDER = 3, LINE_STRIP = 4, LINE_LIST = 5,
   CUBE_LIST = 6, SPHERE_LIST = 7, POINTS = 8, TEXT = 9;
@@ -33,6 +36,8 @@ export class WorldView {
     this.big = null;            // the enlarged view's canvas while it is open
     this.fit = null;            // {w, h, scale, extent} of the last drawing, for tests
     this.listener = (m) => this.receive(m.msg);
+    this.grid = null;           // the map's image and where it lies (grid.js)
+    this.mapListener = (m) => { this.grid = gridImage(m.msg); this.dirty = true; };
     if (tabs) this._makeTabs();
     if (enlarge) canvas.addEventListener('click', () => this.enlarge(true));
     new ResizeObserver(() => { this.dirty = true; }).observe(canvas);
@@ -53,7 +58,11 @@ export class WorldView {
     ros.callOnConnection({
       op: 'subscribe', id, topic: this.topic, type: 'visualization_msgs/msg/MarkerArray', ...this.stream,
     });
+    ros.on(this.mapTopic, this.mapListener);
+    ros.callOnConnection(mapSubscribe(this.mapTopic, `subscribe:${this.mapTopic}:worldview`));
   }
+
+  get mapTopic() { return this.topic.replace(/world\/markers$/, 'map'); }
 
   // Draws another topic (the world of another robot namespace).
   setTopic(topic) {
@@ -62,7 +71,10 @@ export class WorldView {
     if (ros) {
       ros.off(this.topic, this.listener);
       ros.callOnConnection({ op: 'unsubscribe', id: `subscribe:${this.topic}:worldview`, topic: this.topic });
+      ros.off(this.mapTopic, this.mapListener);
+      ros.callOnConnection({ op: 'unsubscribe', id: `subscribe:${this.mapTopic}:worldview`, topic: this.mapTopic });
     }
+    this.grid = null;
     this.ros = null;
     this.topic = topic;
     this.markers.clear();
@@ -180,8 +192,16 @@ export class WorldView {
     return out;
   }
 
+  // The map when it belongs to the world drawn (its frame, or no markers at all).
+  shownGrid() {
+    const g = this.grid;
+    return g && (!this.markers.size || frameOf({ header: { frame_id: g.frame } }) === this.current()) ? g : null;
+  }
+
   extent() {
     const shown = this.visible();
+    const g = this.shownGrid();
+    if (g && !shown.length) return { x0: g.x, y0: g.y, x1: g.x + g.w, y1: g.y + g.h };
     const b = shown.filter((m) => m.ns === 'bounds');
     const src = b.length ? b : shown;
     let x0 = Infinity, y0 = Infinity, x1 = -Infinity, y1 = -Infinity;
@@ -223,7 +243,17 @@ export class WorldView {
       ctx.fillStyle = '#2a3146';
       ctx.fillRect(e.x0, e.y0, e.x1 - e.x0, e.y1 - e.y0);
     }
-    for (const m of sorted) this.drawMarker(ctx, m, px);
+    for (const m of sorted) if (m.ns === 'bounds') this.drawMarker(ctx, m, px);
+    const g = this.shownGrid();
+    if (g) {   // over the floor, under the walls; row 0 at the origin: with y up, drawImage puts it at the bottom
+      ctx.save();
+      ctx.translate(g.x, g.y);
+      ctx.rotate(g.yaw);
+      ctx.imageSmoothingEnabled = false;
+      ctx.drawImage(g.canvas, 0, 0, g.w, g.h);
+      ctx.restore();
+    }
+    for (const m of sorted) if (m.ns !== 'bounds') this.drawMarker(ctx, m, px);
   }
 
   drawMarker(ctx, m, px) {

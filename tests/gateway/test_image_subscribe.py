@@ -120,7 +120,7 @@ def test_refused_where_it_does_not_apply(gw, camera):
         c.send({'op': 'subscribe', 'topic': '/client_count', 'id': 'not-image', 'image': {'width': 10}})
         status = c.expect(lambda m: m.get('op') == 'status', 5)
         assert status['level'] == 'error' and status['id'] == 'not-image'
-        assert "'image' applies to sensor_msgs/msg/Image and sensor_msgs/msg/CompressedImage" in status['msg']
+        assert "'image' applies to sensor_msgs/msg/Image, sensor_msgs/msg/CompressedImage, nav_msgs/msg/OccupancyGrid" in status['msg']
         c.send({'op': 'subscribe', 'topic': TOPIC, 'id': 'raw', 'compression': 'cbor-raw', 'image': {}})
         status = c.expect(lambda m: m.get('op') == 'status', 5)
         assert status['id'] == 'raw' and 'cbor-raw' in status['msg']

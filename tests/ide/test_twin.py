@@ -54,7 +54,7 @@ def test_twin_draws_the_rover_and_it_turns_on_the_canvas(chromium, rover):
     gw, ros = rover
     with phone_page(chromium, gw.http_url + "twin") as (page, errors):
         page.wait_for_function("document.body.dataset.ready === 'true'", timeout=WAIT)
-        page.wait_for_function("twin.state.model === 'rover' && twin.state.pose !== null && twin.state.frames > 5", timeout=WAIT)
+        page.wait_for_function("twin.state.model === 'urdf' && twin.state.pose !== null && twin.state.frames > 5", timeout=WAIT)
         page.wait_for_function("twin.state.markers >= 4 && twin.state.scanPoints > 100 && twin.state.battery > 0", timeout=WAIT)
         page.wait_for_function("Number.isFinite(twin.state.temps.left)", timeout=WAIT)
         page.wait_for_function(f"({PIXELS})().mask.length > 200", timeout=WAIT)
@@ -93,7 +93,7 @@ def test_twin_of_a_fleet_station_and_the_teleop_link(chromium, start_gateway):
         page.wait_for_function("document.body?.dataset.ready === 'true'", timeout=WAIT)
         assert page.get_attribute("#twin-link", "href").endswith("twin?ns=%2Fs02")
         page.click("#twin-link")
-        page.wait_for_function("window.twin && twin.state.model === 'rover' && twin.state.pose !== null", timeout=WAIT)
+        page.wait_for_function("window.twin && twin.state.model === 'urdf' && twin.state.pose !== null", timeout=WAIT)
         page.wait_for_function("twin.state.markers >= 4 && twin.state.scanPoints > 100", timeout=WAIT)
         assert page.input_value("#ns") == "/s02"
         page.wait_for_function(f"({PIXELS})().mask.length > 200", timeout=WAIT)   # drawn once it is framed
@@ -109,7 +109,7 @@ def test_the_teleop_pages_3d_panel_draws_its_station_only_while_shown(chromium, 
         assert [f.url for f in page.frames if f != page.main_frame] in ([], ["about:blank"])
         page.click("#twin-show")
         assert page.get_attribute("#twin-show", "aria-expanded") == "true"
-        page.wait_for_function("document.querySelector('#twin-frame').contentWindow.twin?.state.model === 'rover'",
+        page.wait_for_function("document.querySelector('#twin-frame').contentWindow.twin?.state.model === 'urdf'",
                                timeout=WAIT)
         twin = page.frame_locator("#twin-frame")
         frame = next(f for f in page.frames if f.url.endswith("twin?embed=1&ns=%2Fs02"))

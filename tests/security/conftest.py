@@ -69,8 +69,8 @@ def launch(start_gateway):
     """start_gateway(*flags) for this module: every gateway it started is stopped at module end."""
     started = []
 
-    def start(*flags: str):
-        gw = start_gateway(*flags)
+    def start(*flags: str, env: dict | None = None):
+        gw = start_gateway(*flags, env=env)
         started.append(gw)
         return gw
 

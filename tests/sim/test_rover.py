@@ -29,6 +29,8 @@ TOPICS = {
     '/bumper': 'std_msgs/msg/Bool',
     '/camera/image_raw/compressed': 'sensor_msgs/msg/CompressedImage',
     '/world/markers': 'visualization_msgs/msg/MarkerArray',
+    '/robot_description': 'std_msgs/msg/String',
+    '/joint_states': 'sensor_msgs/msg/JointState',
 }
 
 
@@ -285,3 +287,29 @@ def test_camera_of_a_still_robot_is_encoded_once():
     assert cam.jpeg(1.0, 1.0, 0.5) is first and len(renders) == 1
     turned = cam.jpeg(1.0, 1.0, 0.5 + math.pi / 2)
     assert turned != first and len(renders) == 2
+
+
+def test_the_rover_describes_itself_as_a_real_robot(fresh):
+    """robot_description retained for late subscribers (a URDF whose links are the rover's TF
+    frames); joint_states turn the wheels by the distance each rolled."""
+    import xml.etree.ElementTree as ET
+    ros = fresh
+    description = Inbox(ros, '/robot_description', 'std_msgs/msg/String')
+    joints = Inbox(ros, '/joint_states', 'sensor_msgs/msg/JointState')
+    pub = roslibpy.Topic(ros, '/cmd_vel', 'geometry_msgs/msg/Twist')
+    try:
+        robot = ET.fromstring(description.wait()['data'])   # published at start, long before this subscribe
+        links = {link.get('name') for link in robot.iter('link')}
+        assert {'base_link', 'base_scan', 'left_wheel_link', 'right_wheel_link'} <= links
+        kinds = {j.get('name'): j.get('type') for j in robot.iter('joint')}
+        assert kinds['left_wheel_joint'] == kinds['right_wheel_joint'] == 'continuous'
+        first = joints.wait()
+        assert first['name'] == ['left_wheel_joint', 'right_wheel_joint']
+        assert first['position'] == [0.0, 0.0]
+        last = stream(pub, twist(0.0, 1.0), 1.0)       # turning left on the spot: the wheels turn apart
+        still = joints.wait(lambda m: m['velocity'] == [0.0, 0.0], timeout=3, after=last)
+        left, right = still['position']
+        assert left < -1.0 and right > 1.0 and left == pytest.approx(-right, rel=0.01), (left, right)
+    finally:
+        for inbox in (description, joints):
+            inbox.close()

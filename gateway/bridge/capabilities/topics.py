@@ -105,8 +105,8 @@ def subscribe(s: ClientSession, op: Subscribe) -> None:
     if existing is not None and existing.fanout.type != type:
         raise ProtocolError(f'{topic} is already subscribed with type {existing.fanout.type}', op=op.OP, id=op.id)
     if op.image is not None:
-        if type not in images.TYPES:
-            raise ProtocolError(f"{topic} is {type}: the field 'image' applies to {' and '.join(images.TYPES)} "
+        if type not in images.SIZED:
+            raise ProtocolError(f"{topic} is {type}: the field 'image' applies to {', '.join(images.SIZED)} "
                                 'topics', op=op.OP, id=op.id)
         if op.compression == 'cbor-raw':
             raise ProtocolError("the field 'image' cannot be combined with cbor-raw (the topic's own bytes)",

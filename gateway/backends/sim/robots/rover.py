@@ -4,7 +4,8 @@ Node ``rover``. In: ``cmd_vel`` (geometry_msgs/msg/Twist, or TwistStamped with t
 0.5 s command timeout, velocity and acceleration limits (node parameters). Out: ``odom``,
 ``tf`` (odom -> base_link), ``tf_static``, ``scan`` (360 beams), ``imu``, ``battery_state``,
 ``motor/left|right/temperature``, ``bumper`` (std_msgs/msg/Bool, true while touching a wall),
-``camera/image_raw/compressed`` (JPEG, first-person). Service ``reset_world`` (std_srvs/srv/Empty).
+``camera/image_raw/compressed`` (JPEG, first-person), ``robot_description`` and ``joint_states``
+(its URDF and wheel joints, as a real robot: body.py). Service ``reset_world`` (std_srvs/srv/Empty).
 Hitting a wall stops the rover (its commanded speed too; a new command is needed).
 Costly outputs (scan, camera, odometry) are computed only while someone subscribes.
 """
@@ -17,6 +18,7 @@ import numpy as np
 
 from ...base import BackendError, QoS
 from . import markers as mk
+from .body import Body
 from .camera import Camera
 from .msgs import RosLog, has_subscribers, header, normalize_angle, stamp, transform, vector3, yaw_quaternion
 from .world import World
@@ -64,6 +66,7 @@ class Rover:
         self.bumper_pub = pub('bumper', 'std_msgs/msg/Bool', QoS(depth=10))
         self.camera_pub = pub('camera/image_raw/compressed', 'sensor_msgs/msg/CompressedImage', SENSOR)
         self.prefix = '' if namespace == '/' else namespace.strip('/') + '/'
+        self.body = Body(node, TRACK)
         self.tf_static_pub.publish({'transforms': [
             transform('world', self.prefix + 'odom', *world.start[:2], 0.0, world.start[2]),
             transform(self.prefix + 'base_link', self.prefix + 'base_scan', 0.0, 0.0, 0.17, 0.0),
@@ -100,6 +103,7 @@ class Rover:
         self.last_marker_pose = None
         self.last_scan_pose = None   # the scan's marker is sent again only when the robot moved
         self.ranges = None
+        self.body.reset()
 
     # --- inputs ---------------------------------------------------------------------------
     def on_cmd_vel(self, msg: dict) -> None:
@@ -163,6 +167,7 @@ class Rover:
                     self.log.warn(f'Bumped into a wall at x={nx:.2f}, y={ny:.2f}: stopping')
                 self.v = self.cmd_v = 0.0
         self.x, self.y, self.yaw = nx, ny, normalize_angle(yaw)
+        self.body.roll(self.v, self.w, dt)
         self.accel = (self.v - old_v) / dt if dt else 0.0
         bumper = self.world.clearance(self.x, self.y) < RADIUS + 0.01
         if bumper != self.bumper:
@@ -220,6 +225,7 @@ class Rover:
         if has_subscribers(self.tf_pub):
             self.tf_pub.publish({'transforms': [
                 transform(self.prefix + 'odom', self.prefix + 'base_link', x, y, 0.0, yaw, now)]})
+        self.body.publish(now)
         if has_subscribers(self.imu_pub):
             self.imu_pub.publish({
                 'header': header(self.prefix + 'imu_link', now), 'orientation': yaw_quaternion(yaw),
