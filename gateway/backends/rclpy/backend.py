@@ -369,8 +369,7 @@ class RclpyBackend:
     # --- topics -------------------------------------------------------------------------------
 
     def _topic(self, topic: str, type: str) -> tuple[str, str, Any]:
-        full = normalize(type, 'msg')
-        self.defs.msg(full)
+        full = self.msg_def(type).type
         topic = self.node.resolve_topic_name(topic)
         for name, types in self.node.get_topic_names_and_types():
             if name == topic and full not in types:
@@ -521,8 +520,7 @@ class RclpyBackend:
             raise ServiceTimeout(f'service {service} did not answer within {timeout} s') from None
 
     async def call_service(self, service: str, type: str, request: Message, timeout: float) -> Message:
-        full = normalize(type, 'srv')
-        self.defs.srv(full)
+        full = self.defs.srv(type).type   # also an action's X_SendGoal, X_GetResult
         cls = await self.builder.cls(full, 'srv', timeout, service)
         service = self.node.resolve_service_name(service)
         client = self._clients.get((service, full))

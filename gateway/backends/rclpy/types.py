@@ -227,7 +227,19 @@ class RosDefinitions(Definitions):
 
     # classes
     def msg_class(self, full: str):
-        return self._derived_class(full) or self._class(normalize(full, 'msg'), 'msg')
+        found = self._derived_class(full)
+        if found is not None:
+            return found
+        full = normalize(full, 'msg')
+        try:
+            return self._class(full, 'msg')
+        except UnknownType:
+            # the fields of X_SendGoal, X_GetResult, X_FeedbackMessage name X's parts 'pkg/X_Goal'
+            pkg, _, name = full.split('/')
+            base, _, part = name.rpartition('_')
+            if not base or part not in ('Goal', 'Result', 'Feedback'):
+                raise
+            return getattr(self.action_class(f'{pkg}/action/{base}'), part)
 
     def srv_class(self, full: str):
         return self._derived_class(full) or self._class(normalize(full, 'srv'), 'srv')
