@@ -7,54 +7,24 @@
 // without it, a sim gateway is started here.
 import { after, before, test } from 'node:test';
 import assert from 'node:assert/strict';
-import { spawn } from 'node:child_process';
 import { once } from 'node:events';
-import { fileURLToPath } from 'node:url';
-import path from 'node:path';
 import { Action, Ros } from 'roslib';
+import { call, startGateway, withTimeout } from './support.js';
 
-const root = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '..', '..');
-const python = process.env.ROSGATE_PYTHON || path.join(root, '.venv', 'bin', 'python');
 const fibType = process.env.ROSGATE_FIB_TYPE || 'example_interfaces/action/Fibonacci';
 const otherType = 'action_tutorials_interfaces/action/Fibonacci';
 let gateway;
 let ros;
 
-function withTimeout(promise, ms, what) {
-  let timer;
-  const timeout = new Promise((_, reject) => {
-    timer = setTimeout(() => reject(new Error(`${what}: no answer within ${ms} ms`)), ms);
-  });
-  return Promise.race([promise, timeout]).finally(() => clearTimeout(timer));
-}
-
-const call = (fn, ms = 5000, what = 'call') =>
-  withTimeout(new Promise((resolve, reject) => fn(resolve, reject)), ms, what);
-
 before(async () => {
-  let url = process.env.ROSGATE_URL;
-  if (!url) {
-    gateway = spawn(python, ['-m', 'gateway', '--port', '0', '--address', '127.0.0.1', '--robot', 'none',
-      '--fibonacci-interval', '0.05', '--programs-dir', path.join(root, '.venv', 'node-test-programs')],
-    { cwd: root, stdio: ['ignore', 'pipe', 'inherit'] });
-    let line = '';
-    for await (const chunk of gateway.stdout) {
-      line += chunk;
-      if (line.includes('\n')) break;
-    }
-    gateway.stdout.resume();
-    url = line.match(/websocket (ws:\/\/\S+)/)[1];
-  }
-  ros = new Ros({ url });
+  if (!process.env.ROSGATE_URL) gateway = await startGateway();
+  ros = new Ros({ url: process.env.ROSGATE_URL || gateway.url });
   await withTimeout(once(ros, 'connection'), 10000, 'connect');
 });
 
 after(async () => {
   ros?.close();
-  if (gateway && gateway.exitCode === null) {
-    gateway.kill('SIGTERM');
-    await once(gateway, 'exit');
-  }
+  await gateway?.stop();
 });
 
 // A long Fibonacci goal: resolves `started` at its first feedback and `outcome` with what roslib
