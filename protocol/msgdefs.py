@@ -226,6 +226,9 @@ class Definitions:
             goal_id = Field('goal_id', 'unique_identifier_msgs/msg/UUID')
             if part == 'FeedbackMessage':
                 found = MsgDef(name, (goal_id, Field('feedback', action.feedback.type)))
+                if self._typestore is not None and name not in self._typestore.types:   # for cbor-raw
+                    from rosbags.interfaces import Nodetype  # noqa: PLC0415
+                    self._typestore.register({name: ([], [(f.name, (Nodetype.NAME, f.type)) for f in found.fields])})
             elif part == 'SendGoal':
                 found = SrvDef(name, MsgDef(f'{name}_Request', (goal_id, Field('goal', action.goal.type))),
                                MsgDef(f'{name}_Response', (Field('accepted', 'bool'),
