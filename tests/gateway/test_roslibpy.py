@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import threading
 import time
+import uuid
 
 import roslibpy
 
-from tests.conftest import wait_for
+from tests.conftest import client, wait_for
 
 
 def test_smoke_ten_messages_each_way(ros):
@@ -173,6 +174,18 @@ def test_rosapi_hidden_action_names_only_when_named(ros):
     assert [(t['type'], t['fieldnames']) for t in request][:2] == [
         ('example_interfaces/Fibonacci_SendGoal_Request', ['goal_id', 'goal']),
         ('unique_identifier_msgs/UUID', ['uuid'])]
+
+
+def test_a_goal_sent_through_the_hidden_send_goal_is_canceled_when_its_client_disconnects(ros, gateway):
+    """As its send_action_goal goals are: a robot under a program stops when the connection drops."""
+    goal_id = list(uuid.uuid4().bytes)
+    with client(gateway) as sender:
+        sent = roslibpy.Service(sender, '/fibonacci/_action/send_goal', '').call(
+            roslibpy.ServiceRequest({'goal_id': {'uuid': goal_id}, 'goal': {'order': 46}}), timeout=5)
+        assert sent['accepted'] is True
+    result = roslibpy.Service(ros, '/fibonacci/_action/get_result', '').call(
+        roslibpy.ServiceRequest({'goal_id': {'uuid': goal_id}}), timeout=10)
+    assert result['status'] == 5 and len(result['result']['sequence']) < 47   # CANCELED, before its end
 
 
 def test_params_through_rosapi(ros):
