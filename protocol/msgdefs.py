@@ -28,6 +28,10 @@ BYTE_TYPES = frozenset({'uint8', 'char', 'byte'})
 SEPARATOR = re.compile(r'^---\s*$', re.M)
 INTERFACES_DIR = Path(__file__).parent / 'interfaces'
 PLACEHOLDER = 'structure_needs_at_least_one_member'
+# What rosidl derives from every action X beside its goal, result and feedback: the types of an
+# action server's hidden endpoints, ``X_SendGoal`` and ``X_GetResult`` (services of
+# ``<name>/_action/send_goal`` and ``get_result``) and ``X_FeedbackMessage`` (``_action/feedback``).
+DERIVED = ('SendGoal', 'GetResult', 'FeedbackMessage')
 
 
 class UnknownType(LookupError):
@@ -107,6 +111,7 @@ class Definitions:
         self._msgs: dict[str, MsgDef] = {}
         self._srvs: dict[str, SrvDef] = {}
         self._actions: dict[str, ActionDef] = {}
+        self._derived: dict[str, SrvDef | MsgDef] = {}
         self._typestore = None
 
     # --- building ---------------------------------------------------------------------------
@@ -176,8 +181,11 @@ class Definitions:
         """A message definition; also the parts of services and actions ('pkg/srv/X_Request')."""
         if name.count('/') == 2 and name.split('/')[1] in ('srv', 'action'):
             pkg_kind, _, part = name.rpartition('_')
-            whole = self._srvs.get(pkg_kind) or self._actions.get(pkg_kind)
+            whole = self._srvs.get(pkg_kind) or self._actions.get(pkg_kind) or self.derived(pkg_kind)
             found = getattr(whole, part.lower(), None) if whole else None
+            if isinstance(found, MsgDef):
+                return found
+            found = self.derived(name)
             if isinstance(found, MsgDef):
                 return found
         full = normalize(name, 'msg')
@@ -187,6 +195,10 @@ class Definitions:
             raise UnknownType(f'unknown message type {name!r}') from None
 
     def srv(self, name: str) -> SrvDef:
+        """A service definition; also an action's derived services ('pkg/action/X_SendGoal')."""
+        found = self.derived(name)
+        if isinstance(found, SrvDef):
+            return found
         try:
             return self._srvs[normalize(name, 'srv')]
         except KeyError:
@@ -197,6 +209,36 @@ class Definitions:
             return self._actions[normalize(name, 'action')]
         except KeyError:
             raise UnknownType(f'unknown action type {name!r}') from None
+
+    def derived(self, name: str) -> SrvDef | MsgDef | None:
+        """``pkg/action/X_SendGoal``, ``X_GetResult`` (services) or ``X_FeedbackMessage`` (a message)
+        of action X, with the fields rosidl gives them; None for any other name, UnknownType when
+        X is unknown."""
+        parts = name.split('/') if isinstance(name, str) else ()
+        if len(parts) != 3 or parts[1] != 'action':
+            return None
+        base, _, part = parts[2].rpartition('_')
+        if not base or part not in DERIVED:
+            return None
+        found = self._derived.get(name)
+        if found is None:
+            action = self.action(f'{parts[0]}/action/{base}')
+            goal_id = Field('goal_id', 'unique_identifier_msgs/msg/UUID')
+            if part == 'FeedbackMessage':
+                found = MsgDef(name, (goal_id, Field('feedback', action.feedback.type)))
+                if self._typestore is not None and name not in self._typestore.types:   # for cbor-raw
+                    from rosbags.interfaces import Nodetype  # noqa: PLC0415
+                    self._typestore.register({name: ([], [(f.name, (Nodetype.NAME, f.type)) for f in found.fields])})
+            elif part == 'SendGoal':
+                found = SrvDef(name, MsgDef(f'{name}_Request', (goal_id, Field('goal', action.goal.type))),
+                               MsgDef(f'{name}_Response', (Field('accepted', 'bool'),
+                                                           Field('stamp', 'builtin_interfaces/msg/Time'))))
+            else:
+                found = SrvDef(name, MsgDef(f'{name}_Request', (goal_id,)),
+                               MsgDef(f'{name}_Response', (Field('status', 'int8'),
+                                                           Field('result', action.result.type))))
+            self._derived[name] = found
+        return found
 
     def interfaces(self) -> list[str]:
         return sorted([*self._msgs, *self._srvs, *self._actions])

@@ -30,6 +30,16 @@ STATUS_SUCCEEDED, STATUS_CANCELED, STATUS_ABORTED = 4, 5, 6
 SERVER_WAIT = 1.0
 
 
+# action_msgs/srv/CancelGoal return codes
+CANCEL_ERROR_NONE, CANCEL_ERROR_REJECTED, CANCEL_ERROR_UNKNOWN_GOAL_ID, CANCEL_ERROR_GOAL_TERMINATED = 0, 1, 2, 3
+
+
+def is_hidden(name: str) -> bool:
+    """A hidden ROS 2 name: one of its tokens starts with '_' (an action's ``/x/_action/status``), as
+    rclpy's ``topic_or_service_is_hidden``; ROS 2's tools list these only when asked."""
+    return any(token.startswith('_') for token in name.split('/'))
+
+
 class BackendError(Exception):
     """The ROS side failed (blame: the graph, not the client): no such service, timeout, ..."""
 
@@ -153,8 +163,10 @@ class Backend(Protocol):
     def advertise_action(self, action: str, type: str, callbacks: ActionServerCallbacks) -> Handle: ...
 
     # graph introspection (names are absolute; types full)
-    def topics(self) -> list[tuple[str, str]]: ...
-    def services(self) -> list[tuple[str, str]]: ...
+    def topics(self, hidden: bool = False) -> list[tuple[str, str]]:
+        """hidden: also the hidden topics (``is_hidden``), e.g. an action's ``_action/status``."""
+    def services(self, hidden: bool = False) -> list[tuple[str, str]]:
+        """hidden: also the hidden services, e.g. an action's ``_action/cancel_goal``."""
     def actions(self) -> list[tuple[str, str]]: ...
     def nodes(self) -> list[str]: ...
     def node_info(self, node: str) -> NodeInfo: ...

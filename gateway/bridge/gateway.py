@@ -112,7 +112,7 @@ class Gateway:
     # --- topics ------------------------------------------------------------------------------
 
     def topic_type(self, topic: str) -> str | None:
-        for name, type in self.backend.topics():
+        for name, type in self.backend.topics(hidden=True):   # a hidden topic, when named, too
             if name == topic:
                 return type
         return None

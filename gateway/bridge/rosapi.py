@@ -3,6 +3,14 @@
 Both ``/rosapi/topics`` (roslibpy) and ``rosapi/topics`` (roslibjs) reach these. They are
 listed in the graph as services of a ``/rosapi`` node, with ``rosapi_msgs/srv/*`` types, as the
 reference's rosapi node lists them.
+
+Hidden names (an action's ``/fibonacci/_action/status``, ``_action/cancel_goal``: ``is_hidden``)
+are left out of the listings (topics, services, their ``*_for_type``, node_details), as the
+reference's rosapi and ROS 2's tools leave them out unless asked (``--include-hidden-topics``);
+``action_servers`` lists the actions whose hidden topics are there, as the reference finds them.
+A question naming a hidden name (topic_type, service_type, publishers, ...) is answered: naming
+it is asking for it, as ``ros2 topic info /fibonacci/_action/status`` answers (the reference's
+topic_type and service_type answer '' there).
 """
 
 from __future__ import annotations
@@ -15,7 +23,7 @@ from protocol.convert import from_args
 from protocol.errors import ProtocolError
 from protocol.msgdefs import Definitions, MsgDef, normalize
 
-from ..backends.base import BackendError
+from ..backends.base import BackendError, is_hidden
 
 if TYPE_CHECKING:
     from .session import ClientSession
@@ -57,13 +65,13 @@ def _visible(s: ClientSession, kind: str, pairs):
     return [(n, t) for n, t in pairs if s.gateway.policy.visible(s, kind, n)]
 
 
-def _topics(s):
-    return _visible(s, 'topics', s.backend.topics())
+def _topics(s, hidden: bool = False):
+    return _visible(s, 'topics', s.backend.topics(hidden))
 
 
-def _services(s):
+def _services(s, hidden: bool = False):
     own = [(n, t) for n, (t, _) in s.gateway.own_services.items()]
-    return _visible(s, 'services', [*s.backend.services(), *listing(), *own])
+    return _visible(s, 'services', [*s.backend.services(hidden), *listing(), *own])
 
 
 def topics(s):
@@ -88,7 +96,7 @@ def topics_and_raw_types(s):
 
 
 def topic_type(s, topic):
-    return {'type': dict(_topics(s)).get(_abs(topic), '')}
+    return {'type': dict(_topics(s, hidden=True)).get(_abs(topic), '')}
 
 
 def services(s):
@@ -101,7 +109,7 @@ def services_for_type(s, type):
 
 
 def service_type(s, service):
-    return {'type': dict(_services(s)).get(_abs(service), '')}
+    return {'type': dict(_services(s, hidden=True)).get(_abs(service), '')}
 
 
 def service_providers(s, service):
@@ -129,10 +137,11 @@ def node_details(s, node):
         info = s.backend.node_info(_abs(node))
     except BackendError:
         return {'subscribing': [], 'publishing': [], 'services': []}
-    visible = s.gateway.policy.visible
-    return {'subscribing': [t for t in info.subscribing if visible(s, 'topics', t)],
-            'publishing': [t for t in info.publishing if visible(s, 'topics', t)],
-            'services': [n for n in info.services if visible(s, 'services', n)]}
+    def listed(kind: str, names: list[str]) -> list[str]:
+        return [n for n in names if not is_hidden(n) and s.gateway.policy.visible(s, kind, n)]
+
+    return {'subscribing': listed('topics', info.subscribing), 'publishing': listed('topics', info.publishing),
+            'services': listed('services', info.services)}
 
 
 def publishers(s, topic):

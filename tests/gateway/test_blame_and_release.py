@@ -85,7 +85,8 @@ async def test_a_sim_action_logs_a_refused_goal_as_a_warning_and_its_own_bug_wit
         for order, level, traceback in ((-1, logging.WARNING, False), (3, logging.ERROR, True)):
             caplog.clear()
             with caplog.at_level(logging.WARNING, logger='rosgate'):
-                goal = await backend.graph.send_goal('/blame/fib', {'order': order}, None)
+                goal = await backend.graph.send_goal('/blame/fib', 'example_interfaces/action/Fibonacci',
+                                                    {'order': order}, None)
                 result = await goal.result()
             assert result.status == STATUS_ABORTED
             [record] = [r for r in caplog.records if '/blame/fib' in r.getMessage()]

@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import threading
 import time
+import uuid
 
 import roslibpy
 
-from tests.conftest import wait_for
+from tests.conftest import client, wait_for
 
 
 def test_smoke_ten_messages_each_way(ros):
@@ -153,6 +154,38 @@ def test_rosapi_listings_and_details(ros):
     assert details['typedefs'][0]['fieldtypes'] == ['int64', 'int64']
     msg = ros.get_message_details('geometry_msgs/msg/Twist')['typedefs']
     assert [t['type'] for t in msg] == ['geometry_msgs/Twist', 'geometry_msgs/Vector3']
+
+
+def test_rosapi_hidden_action_names_only_when_named(ros):
+    """/fibonacci's hidden services and topics: out of the listings and a node's details, as ROS 2's
+    tools leave them out unless asked; answered when named; described as ROS 2 types them."""
+    hidden = '/fibonacci/_action/'
+    assert not [n for n in ros.get_services() if hidden in n]
+    assert not [n for n in ros.get_topics() if hidden in n]
+    details = roslibpy.Service(ros, '/rosapi/node_details', 'rosapi_msgs/srv/NodeDetails').call(
+        roslibpy.ServiceRequest({'node': '/fibonacci_action_server'}), timeout=5)
+    assert not [n for kind in ('services', 'publishing') for n in details[kind] if hidden in n], details
+    assert ros.get_service_type(hidden + 'get_result') == 'example_interfaces/action/Fibonacci_GetResult'
+    assert ros.get_topic_type(hidden + 'feedback') == 'example_interfaces/action/Fibonacci_FeedbackMessage'
+    publishers = roslibpy.Service(ros, '/rosapi/publishers', 'rosapi_msgs/srv/Publishers').call(
+        roslibpy.ServiceRequest({'topic': hidden + 'status'}), timeout=5)['publishers']
+    assert publishers == ['/fibonacci_action_server']
+    request = ros.get_service_request_details('example_interfaces/action/Fibonacci_SendGoal')['typedefs']
+    assert [(t['type'], t['fieldnames']) for t in request][:2] == [
+        ('example_interfaces/Fibonacci_SendGoal_Request', ['goal_id', 'goal']),
+        ('unique_identifier_msgs/UUID', ['uuid'])]
+
+
+def test_a_goal_sent_through_the_hidden_send_goal_is_canceled_when_its_client_disconnects(ros, gateway):
+    """As its send_action_goal goals are: a robot under a program stops when the connection drops."""
+    goal_id = list(uuid.uuid4().bytes)
+    with client(gateway) as sender:
+        sent = roslibpy.Service(sender, '/fibonacci/_action/send_goal', '').call(
+            roslibpy.ServiceRequest({'goal_id': {'uuid': goal_id}, 'goal': {'order': 46}}), timeout=5)
+        assert sent['accepted'] is True
+    result = roslibpy.Service(ros, '/fibonacci/_action/get_result', '').call(
+        roslibpy.ServiceRequest({'goal_id': {'uuid': goal_id}}), timeout=10)
+    assert result['status'] == 5 and len(result['result']['sequence']) < 47   # CANCELED, before its end
 
 
 def test_params_through_rosapi(ros):

@@ -1,49 +1,22 @@
 // Black-box tests of rosgate with npm roslib 2.x, the client most browser pages use.
 import { after, before, test } from 'node:test';
 import assert from 'node:assert/strict';
-import { spawn } from 'node:child_process';
 import { once } from 'node:events';
-import { fileURLToPath } from 'node:url';
-import path from 'node:path';
 import { Action, Param, Ros, Service, Topic } from 'roslib';
+import { call, startGateway, withTimeout } from './support.js';
 
-const root = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '..', '..');
-const python = process.env.ROSGATE_PYTHON || path.join(root, '.venv', 'bin', 'python');
 let gateway;
 let ros;
 
-function withTimeout(promise, ms, what) {
-  let timer;
-  const timeout = new Promise((_, reject) => {
-    timer = setTimeout(() => reject(new Error(`${what}: no answer within ${ms} ms`)), ms);
-  });
-  return Promise.race([promise, timeout]).finally(() => clearTimeout(timer));
-}
-
-// roslib's callback API as promises
-const call = (fn, ms = 5000, what = 'call') =>
-  withTimeout(new Promise((resolve, reject) => fn(resolve, reject)), ms, what);
-
 before(async () => {
-  gateway = spawn(python, ['-m', 'gateway', '--port', '0', '--address', '127.0.0.1', '--robot', 'none',
-    '--fibonacci-interval', '0.05', '--programs-dir', path.join(root, '.venv', 'node-test-programs')],
-  { cwd: root, stdio: ['ignore', 'pipe', 'inherit'] });
-  let line = '';
-  for await (const chunk of gateway.stdout) {
-    line += chunk;
-    if (line.includes('\n')) break;
-  }
-  const url = line.match(/websocket (ws:\/\/\S+)/)[1];
-  ros = new Ros({ url });
+  gateway = await startGateway();
+  ros = new Ros({ url: gateway.url });
   await withTimeout(once(ros, 'connection'), 10000, 'connect');
 });
 
 after(async () => {
   ros?.close();
-  if (gateway && gateway.exitCode === null) {
-    gateway.kill('SIGTERM');
-    await once(gateway, 'exit');
-  }
+  await gateway?.stop();
 });
 
 test('Topic: publish and subscribe round trip', async () => {

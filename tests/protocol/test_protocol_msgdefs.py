@@ -95,3 +95,29 @@ def test_service_parts_resolve_names_in_the_package_msg():
 def test_a_bad_line_is_named():
     with pytest.raises(ValueError, match=r"pkg/msg/Bad: cannot parse line '\$\$ x'"):
         parse_msg('pkg/msg/Bad', 'int32 a\n$$ x\n')
+
+
+def test_an_actions_derived_types_have_the_fields_rosidl_gives_them():
+    """X_SendGoal, X_GetResult and X_FeedbackMessage: the types of an action server's hidden
+    endpoints (``_action/send_goal`` ...), found from the action; other names are not derived."""
+    defs = Definitions.jazzy()
+    fib = 'example_interfaces/action/Fibonacci'
+    send = defs.srv(f'{fib}_SendGoal')
+    assert [(f.name, f.type) for f in send.request.fields] == [
+        ('goal_id', 'unique_identifier_msgs/msg/UUID'), ('goal', f'{fib}_Goal')]
+    assert [(f.name, f.type) for f in send.response.fields] == [
+        ('accepted', 'bool'), ('stamp', 'builtin_interfaces/msg/Time')]
+    result = defs.srv(f'{fib}_GetResult')
+    assert [(f.name, f.type) for f in result.response.fields] == [('status', 'int8'), ('result', f'{fib}_Result')]
+    assert defs.msg(f'{fib}_GetResult_Request') is result.request
+    feedback = defs.msg(f'{fib}_FeedbackMessage')
+    assert [(f.name, f.type) for f in feedback.fields] == [
+        ('goal_id', 'unique_identifier_msgs/msg/UUID'), ('feedback', f'{fib}_Feedback')]
+    assert defs.derived('example_interfaces/srv/AddTwoInts') is None
+    assert defs.derived(f'{fib}_Goal') is None
+    with pytest.raises(LookupError, match='example_interfaces/action/Nope'):
+        defs.srv('example_interfaces/action/Nope_SendGoal')
+    message = {'goal_id': {'uuid': bytes(range(16))}, 'feedback': {'sequence': [0, 1, 1]}}   # cbor-raw's CDR
+    data = to_cdr(defs, f'{fib}_FeedbackMessage', message)
+    assert len(data) == 4 + 16 + 4 + 3 * 4
+    assert from_cdr(defs, f'{fib}_FeedbackMessage', data) == message

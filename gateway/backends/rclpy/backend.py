@@ -22,7 +22,9 @@ from typing import Any
 from protocol.msgdefs import ActionDef, MsgDef, SrvDef, normalize
 
 from . import params as rclpy_params
-from ..base import SERVER_WAIT, ActionServerCallbacks, BackendError, Message, NodeInfo, QoS, ServiceTimeout
+from ..base import (
+    SERVER_WAIT, ActionServerCallbacks, BackendError, Message, NodeInfo, QoS, ServiceTimeout, is_hidden,
+)
 from .actions import RclpyActionServer, send_goal
 from .build import Builder
 from .cdr import Slow
@@ -324,7 +326,8 @@ class RclpyBackend:
     # --- types --------------------------------------------------------------------------------
 
     def msg_def(self, type: str) -> MsgDef:
-        return self.defs.msg(normalize(type, 'msg'))
+        found = self.defs.derived(type)   # an action's X_FeedbackMessage
+        return found if isinstance(found, MsgDef) else self.defs.msg(normalize(type, 'msg'))
 
     def srv_def(self, type: str) -> SrvDef:
         return self.defs.srv(type)
@@ -366,8 +369,7 @@ class RclpyBackend:
     # --- topics -------------------------------------------------------------------------------
 
     def _topic(self, topic: str, type: str) -> tuple[str, str, Any]:
-        full = normalize(type, 'msg')
-        self.defs.msg(full)
+        full = self.msg_def(type).type
         topic = self.node.resolve_topic_name(topic)
         for name, types in self.node.get_topic_names_and_types():
             if name == topic and full not in types:
@@ -518,8 +520,7 @@ class RclpyBackend:
             raise ServiceTimeout(f'service {service} did not answer within {timeout} s') from None
 
     async def call_service(self, service: str, type: str, request: Message, timeout: float) -> Message:
-        full = normalize(type, 'srv')
-        self.defs.srv(full)
+        full = self.defs.srv(type).type   # also an action's X_SendGoal, X_GetResult
         cls = await self.builder.cls(full, 'srv', timeout, service)
         service = self.node.resolve_service_name(service)
         client = self._clients.get((service, full))
@@ -587,15 +588,15 @@ class RclpyBackend:
 
         full = normalize(type, 'action')
         self.defs.action(full)
-        cls = await self.builder.cls(full, 'action', None, action)
         action = self.node.resolve_service_name(action)
         status = f'{action}/_action/status'     # published by an action's servers only
         await self._until(lambda: self.node.count_publishers(status) > 0, SERVER_WAIT)
         served = dict(self.actions()).get(action)
         if served is None:
             raise BackendError(f'action server {action} is not available')
-        if served != full:
+        if served != full:   # before building a class of the goal's type: no server would take it
             raise BackendError(f'action {action} has type {served}, not {full}')
+        cls = await self.builder.cls(full, 'action', None, action)
         client = self._action_clients.get((action, full))
         if client is None:
             client = ActionClient(self.node, cls, action, callback_group=self.reentrant)
@@ -629,20 +630,17 @@ class RclpyBackend:
 
     # --- graph --------------------------------------------------------------------------------
 
-    def topics(self) -> list[tuple[str, str]]:
-        from rclpy.topic_or_service_is_hidden import topic_or_service_is_hidden  # noqa: PLC0415
+    def topics(self, hidden: bool = False) -> list[tuple[str, str]]:
         return sorted((n, t[0]) for n, t in self.node.get_topic_names_and_types()
-                      if t and not topic_or_service_is_hidden(n))
+                      if t and (hidden or not is_hidden(n)))
 
     def served_types(self) -> dict[str, list[str]]:
         """Services with a server (clients alone make a name appear in the graph too)."""
         return {n: t for n, t in self.node.get_service_names_and_types()
                 if t and self.node.count_services(n)}
 
-    def services(self) -> list[tuple[str, str]]:
-        from rclpy.topic_or_service_is_hidden import topic_or_service_is_hidden  # noqa: PLC0415
-        return sorted((n, t[0]) for n, t in self.served_types().items()
-                      if not topic_or_service_is_hidden(n))
+    def services(self, hidden: bool = False) -> list[tuple[str, str]]:
+        return sorted((n, t[0]) for n, t in self.served_types().items() if hidden or not is_hidden(n))
 
     def actions(self) -> list[tuple[str, str]]:
         """Actions with a server: a server publishes the action's status topic, clients do not."""

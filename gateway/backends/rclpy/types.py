@@ -36,6 +36,8 @@ TYPECODES = {
     'int32': 'i', 'uint32': 'I', 'int64': 'q', 'uint64': 'Q',
 }
 KINDS = ('msg', 'srv', 'action')
+# the names rosidl_generator_py gives an action's derived types inside its class's Impl
+DERIVED_IMPL = {'SendGoal': 'SendGoalService', 'GetResult': 'GetResultService', 'FeedbackMessage': 'FeedbackMessage'}
 # Jazzy's generated classes write 'string<22>'; 'string<=22' (the .msg spelling) is accepted too
 BOUNDED_STRING = re.compile(r'^(w?string)<=?(\d+)>?$')
 
@@ -225,10 +227,30 @@ class RosDefinitions(Definitions):
 
     # classes
     def msg_class(self, full: str):
-        return self._class(normalize(full, 'msg'), 'msg')
+        found = self._derived_class(full)
+        if found is not None:
+            return found
+        full = normalize(full, 'msg')
+        try:
+            return self._class(full, 'msg')
+        except UnknownType:
+            # the fields of X_SendGoal, X_GetResult, X_FeedbackMessage name X's parts 'pkg/X_Goal'
+            pkg, _, name = full.split('/')
+            base, _, part = name.rpartition('_')
+            if not base or part not in ('Goal', 'Result', 'Feedback'):
+                raise
+            return getattr(self.action_class(f'{pkg}/action/{base}'), part)
 
     def srv_class(self, full: str):
-        return self._class(normalize(full, 'srv'), 'srv')
+        return self._derived_class(full) or self._class(normalize(full, 'srv'), 'srv')
+
+    def _derived_class(self, full: str):
+        """The class rosidl generates for an action's X_SendGoal, X_GetResult or X_FeedbackMessage
+        (in the action class's ``Impl``), or None for any other name."""
+        if self.derived(full) is None:
+            return None
+        whole, _, part = full.rpartition('_')
+        return getattr(self.action_class(whole).Impl, DERIVED_IMPL[part])
 
     def action_class(self, full: str):
         return self._class(normalize(full, 'action'), 'action')

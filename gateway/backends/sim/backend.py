@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import time
 from collections.abc import Awaitable, Callable
 from typing import Any
 
 from protocol.msgdefs import ActionDef, Definitions, MsgDef, SrvDef, normalize
 
 from ..base import ActionServerCallbacks, BackendError, Handle, NodeInfo, QoS
+from .actions import clock
 from .demo import start_demo_nodes
 from .graph import Graph, Node, SimClientGoal, SimPublisher, resolve
 
@@ -116,17 +116,17 @@ class SimBackend:
     # --- actions -----------------------------------------------------------------------------
     async def send_goal(self, action: str, type: str, goal: Message,
                         on_feedback: Callable[[Message], None] | None) -> SimClientGoal:
-        return await self.graph.send_goal(resolve(action), goal, on_feedback)
+        return await self.graph.send_goal(resolve(action), type, goal, on_feedback)
 
     def advertise_action(self, action: str, type: str, callbacks: ActionServerCallbacks) -> Handle:
         return self.node.create_action_server(action, type, callbacks)
 
     # --- introspection -----------------------------------------------------------------------
-    def topics(self) -> list[tuple[str, str]]:
-        return self.graph.topics()
+    def topics(self, hidden: bool = False) -> list[tuple[str, str]]:
+        return self.graph.topics(hidden)
 
-    def services(self) -> list[tuple[str, str]]:
-        return self.graph.services()
+    def services(self, hidden: bool = False) -> list[tuple[str, str]]:
+        return self.graph.services(hidden)
 
     def actions(self) -> list[tuple[str, str]]:
         return self.graph.actions()
@@ -175,8 +175,7 @@ class SimBackend:
         return sorted(f'{n.name}:{p}' for n in self.graph._nodes.values() for p in n.params)
 
     def now(self) -> tuple[int, int]:
-        ns = time.time_ns()
-        return ns // 1_000_000_000, ns % 1_000_000_000
+        return clock()
 
 
 def check_type(kind: str, type: str) -> str:

@@ -11,7 +11,6 @@ import contextlib
 import inspect
 import itertools
 import logging
-import uuid
 from collections import deque
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
@@ -21,13 +20,15 @@ from protocol.msgdefs import Definitions, normalize
 
 from .. import blame
 from ..base import (
-    STATUS_ABORTED, STATUS_ACCEPTED, STATUS_CANCELED, STATUS_CANCELING, STATUS_EXECUTING,
-    STATUS_SUCCEEDED, SERVER_WAIT, ActionResult, ActionServerCallbacks, BackendError, QoS, ServiceTimeout,
+    STATUS_ABORTED, STATUS_SUCCEEDED, SERVER_WAIT, ActionServerCallbacks, BackendError, QoS, ServiceTimeout,
+    is_hidden,
 )
+from .actions import SimActionServer, SimClientGoal, SimServerGoal
+
+__all__ = ['Graph', 'Node', 'SimActionServer', 'SimClientGoal', 'SimServerGoal', 'resolve']
 
 log = logging.getLogger('rosgate.sim')
 Message = dict[str, Any]
-TERMINAL = (STATUS_SUCCEEDED, STATUS_CANCELED, STATUS_ABORTED)
 
 
 def resolve(name: str, namespace: str = '/') -> str:
@@ -123,74 +124,6 @@ class SimService:
         self.node._owned.discard(self)
 
 
-class SimServerGoal:
-    """A goal as the action server sees it."""
-
-    def __init__(self, server: SimActionServer, request: Message):
-        self.server, self.request = server, request
-        self.goal_id = str(uuid.uuid4())
-        self.status = STATUS_ACCEPTED
-        self.feedback_listeners: list[Callable[[Message], None]] = []
-        self.done: asyncio.Future = asyncio.get_running_loop().create_future()
-
-    @property
-    def cancel_requested(self) -> bool:
-        return self.status == STATUS_CANCELING
-
-    @property
-    def active(self) -> bool:
-        return self.status not in TERMINAL
-
-    def publish_feedback(self, feedback: Message) -> None:
-        if not self.active:
-            return
-        if self.status == STATUS_ACCEPTED:
-            self.status = STATUS_EXECUTING
-        for listener in tuple(self.feedback_listeners):
-            listener(feedback)
-
-    def finish(self, status: int, result: Message) -> None:
-        if not self.active:
-            return
-        self.status = status
-        self.server.goals.pop(self.goal_id, None)
-        if not self.done.done():
-            self.done.set_result(ActionResult(status, result))
-
-
-@dataclass(eq=False)
-class SimActionServer:
-    node: Node
-    name: str
-    type: str
-    callbacks: ActionServerCallbacks
-    goals: dict[str, SimServerGoal] = field(default_factory=dict)
-
-    def destroy(self) -> None:
-        for goal in list(self.goals.values()):
-            goal.finish(STATUS_ABORTED, self.node.graph.default_result(self.type))
-        if self.node.graph._actions.get(self.name) is self:
-            del self.node.graph._actions[self.name]
-        self.node._owned.discard(self)
-
-
-class SimClientGoal:
-    """A goal as the action client sees it."""
-
-    def __init__(self, goal: SimServerGoal):
-        self._goal = goal
-        self.goal_id = goal.goal_id
-
-    async def result(self) -> ActionResult:
-        return await asyncio.shield(self._goal.done)
-
-    async def cancel(self) -> None:
-        goal = self._goal
-        if goal.active and goal.status != STATUS_CANCELING:
-            goal.status = STATUS_CANCELING
-            goal.server.callbacks.on_cancel(goal)
-
-
 class Node:
     """A node of the sim graph. Robots, demo servers and the gateway itself are nodes."""
 
@@ -229,8 +162,7 @@ class Node:
     # services
     def create_service(self, name: str, type: str, handler: Callable[[Message], Any]) -> SimService:
         name = self.resolve(name)
-        type = normalize(type, 'srv')
-        self.graph.defs.srv(type)
+        type = self.graph.defs.srv(type).type   # also an action's X_SendGoal, X_GetResult
         old = self.graph._services.get(name)
         if old is not None and old.node is not self:
             raise BackendError(f'service {name} is already provided by {old.node.name}')
@@ -248,7 +180,7 @@ class Node:
         old = self.graph._actions.get(name)
         if old is not None:
             raise BackendError(f'action {name} is already served by {old.node.name}')
-        server = SimActionServer(self, name, type, callbacks)
+        server = SimActionServer(self, name, type, callbacks)   # with its hidden endpoints
         self.graph._actions[name] = server
         self._owned.add(server)
         self.graph._created('action', name)
@@ -419,8 +351,7 @@ class Graph:
     # --- endpoints ---------------------------------------------------------------------------
 
     def _topic(self, name: str, type: str) -> Topic:
-        type = normalize(type, 'msg')
-        self.defs.msg(type)
+        type = self.defs.msg(type).type   # also an action's X_FeedbackMessage
         topic = self._topics.get(name)
         if topic is None:
             topic = self._topics[name] = Topic(name, type)
@@ -483,29 +414,29 @@ class Graph:
             raise BackendError(f'service {name} failed: {e}') from e
         return result
 
-    async def send_goal(self, name: str, request: Message,
+    async def send_goal(self, name: str, type: str, request: Message,
                         on_feedback: Callable[[Message], None] | None) -> SimClientGoal:
+        """A goal of action type ``type``: refused when the server's type differs (on a ROS 2
+        graph no server of the goal's type would answer it)."""
+        type = normalize(type, 'action')
         server = await self._server('action', name, SERVER_WAIT)
         if server is None:
             raise BackendError(f'action server {name} is not available')
-        goal = SimServerGoal(server, request)
-        if on_feedback:
-            goal.feedback_listeners.append(on_feedback)
-        server.goals[goal.goal_id] = goal
-        server.callbacks.on_goal(goal)
-        return SimClientGoal(goal)
+        if server.type != type:
+            raise BackendError(f'action {name} has type {server.type}, not {type}')
+        return SimClientGoal(server.accept(request, on_feedback=on_feedback))
 
     # --- introspection -----------------------------------------------------------------------
 
-    def topics(self) -> list[tuple[str, str]]:
-        return sorted((t.name, t.type) for t in self._topics.values())
+    def topics(self, hidden: bool = False) -> list[tuple[str, str]]:
+        return sorted((t.name, t.type) for t in self._topics.values() if hidden or not is_hidden(t.name))
 
     def topic_entries(self) -> list[Topic]:
         """Every topic with its publishers and subscriptions (each has a .node)."""
         return list(self._topics.values())
 
-    def services(self) -> list[tuple[str, str]]:
-        return sorted((s.name, s.type) for s in self._services.values())
+    def services(self, hidden: bool = False) -> list[tuple[str, str]]:
+        return sorted((s.name, s.type) for s in self._services.values() if hidden or not is_hidden(s.name))
 
     def actions(self) -> list[tuple[str, str]]:
         return sorted((a.name, a.type) for a in self._actions.values())

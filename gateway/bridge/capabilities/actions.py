@@ -16,7 +16,7 @@ from protocol.ops import (
 
 from ...backends import blame
 from ...backends.base import (
-    STATUS_ABORTED, STATUS_CANCELED, STATUS_SUCCEEDED, STATUS_UNKNOWN, ActionServerCallbacks,
+    SERVER_WAIT, STATUS_ABORTED, STATUS_CANCELED, STATUS_SUCCEEDED, STATUS_UNKNOWN, ActionServerCallbacks,
 )
 from .topics import absolute
 
@@ -24,6 +24,36 @@ if TYPE_CHECKING:
     from ..session import ClientSession
 
 TERMINAL = (STATUS_SUCCEEDED, STATUS_CANCELED, STATUS_ABORTED)
+SEND_GOAL = '/_action/send_goal'   # an action server's hidden service (ROS 2's, the sim's too)
+HIDDEN_GOALS = 100                 # goals sent through it a client's disconnect cancels, at most
+
+
+class HiddenGoal:
+    """A goal a client sent through an action's hidden ``_action/send_goal`` service: canceled, as
+    its ``send_action_goal`` goals are, when the client disconnects (a robot under a program stops
+    when the program's connection drops), through the action's ``_action/cancel_goal``."""
+
+    def __init__(self, s: ClientSession, action: str, uuid: bytes):
+        self.backend, self.action, self.uuid = s.backend, action, bytes(uuid)
+        self.goal_id = f'{action}{SEND_GOAL}:{self.uuid.hex()}'
+
+    async def cancel(self) -> None:
+        request = {'goal_info': {'goal_id': {'uuid': self.uuid}, 'stamp': {'sec': 0, 'nanosec': 0}}}
+        await self.backend.call_service(f'{self.action}/_action/cancel_goal', 'action_msgs/srv/CancelGoal',
+                                        request, SERVER_WAIT)
+
+
+def sent_through_hidden_service(s: ClientSession, service: str, request: dict, response: dict) -> None:
+    """After a call of ``service``: an accepted goal of ``NAME/_action/send_goal`` is kept for the
+    client's disconnect (the newest ``HIDDEN_GOALS``; goals that ended need no cancel, and one of
+    them costs a cancel answered GOAL_TERMINATED)."""
+    if not service.endswith(SEND_GOAL) or response.get('accepted') is not True:
+        return
+    goal = HiddenGoal(s, service[:-len(SEND_GOAL)], request['goal_id']['uuid'])
+    s.client_goals[goal.goal_id] = goal
+    hidden = [k for k, g in s.client_goals.items() if isinstance(g, HiddenGoal)]
+    for key in hidden[:-HIDDEN_GOALS]:
+        del s.client_goals[key]
 
 
 def send_action_goal(s: ClientSession, op: SendActionGoal) -> None:

@@ -14,6 +14,7 @@ from protocol.ops import AdvertiseService, CallService, ServiceResponse, Unadver
 from ...backends import blame
 from .. import rosapi
 from ...backends.base import SERVER_WAIT, BackendError
+from .actions import sent_through_hidden_service
 from .topics import absolute
 
 if TYPE_CHECKING:
@@ -42,6 +43,7 @@ async def _call(s: ClientSession, op: CallService) -> None:
             request = from_args(s.backend.defs, srv.request, op.args)
             timeout = op.timeout if op.timeout is not None else s.gateway.settings.default_call_service_timeout
             values = await s.backend.call_service(name, type, request, timeout if timeout > 0 else None)
+            sent_through_hidden_service(s, name, request, values)
     except asyncio.CancelledError:
         raise
     except Exception as e:   # the caller always gets its reply; bugs are also logged

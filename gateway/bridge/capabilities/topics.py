@@ -47,10 +47,8 @@ def _qos_word(q: dict, key: str, default: str) -> str:
 
 
 def _resolve_type(s: ClientSession, topic: str, type: str | None, op: str, id: str | None) -> str:
-    if type:
-        full = normalize(type, 'msg')
-        s.backend.msg_def(full)   # unknown types fail here, naming the type
-        return full
+    if type:   # unknown types fail here, naming the type; also an action's X_FeedbackMessage
+        return s.backend.msg_def(type).type
     found = s.gateway.topic_type(topic)
     if found is None:
         raise ProtocolError(f'cannot infer the type of {topic}: it does not exist yet; give a type',
