@@ -105,9 +105,9 @@ def test_ide_runs_a_block_program_and_stop_stops_the_turtle(engine, lab, watcher
     engine.click("#stop")
     engine.wait("document.body.dataset.run === 'idle'", what="idle after Stop")
     zero = wait_for(lambda: next((t for t, m in cmd.since(t_stop) if m["linear"]["x"] == 0 and m["angular"]["z"] == 0),
-                                 None), timeout=5, what="zero velocity after Stop")
-    assert zero - t_stop < 3, f"the zero came {zero - t_stop:.1f} s after Stop"
-    wait_for(lambda: still(pose), timeout=5, what="the turtle still")
+                                 None), timeout=5, what=f"{engine.name}: zero velocity after Stop")
+    assert zero - t_stop < 5, f"{engine.name}: the zero came {zero - t_stop:.1f} s after Stop"   # (timed in test_ide_features)
+    wait_for(lambda: still(pose), timeout=10, what=f"{engine.name}: the turtle still")
     theta = pose.latest()["theta"]
     n = len(pose.messages)
     wait_for(lambda: len(pose.messages) >= n + 5, what="five more poses")
@@ -136,8 +136,8 @@ def test_teleop_keys_and_joystick_drive_and_release_stops(engine, lab, watcher):
         t_release = time.monotonic()
         release()
         zero = wait_for(lambda: next((t for t, m in cmd.since(t_release) if m["linear"]["x"] == 0
-                                      and m["angular"]["z"] == 0), None), timeout=3, what=f"zero on {what}'s release")
-        wait_for(lambda: abs(speed()) < 1e-3, timeout=5, what=f"{engine.name}: the rover still after {what}")
+                                      and m["angular"]["z"] == 0), None), timeout=5, what=f"{engine.name}: zero on {what}'s release")
+        wait_for(lambda: abs(speed()) < 1e-3, timeout=10, what=f"{engine.name}: the rover still after {what}")
         n = len(odom.messages)
         wait_for(lambda: len(odom.messages) >= n + 3, what="three more odometry messages")
         assert not [m for t, m in cmd.since(zero) if m["linear"]["x"] or m["angular"]["z"]], f"sent after {what}'s zero"
@@ -171,7 +171,7 @@ def test_class_tiles_and_stop_all(engine, fleet, watcher):
 
         engine.click("#stop-all")
         engine.wait(f"{tile}.hasAttribute('data-halted')", what=f"{ns} stopped")
-        wait_for(lambda: still(pose), timeout=5, what="bob's turtle still")
+        wait_for(lambda: still(pose), timeout=10, what=f"{engine.name}: bob's turtle still")
         # the stop holds: bob's next command moves nothing
         drive.publish(roslibpy.Message({"linear": {"x": 0.4}, "angular": {"z": 0.8}}))
         roslibpy.Service(bob, "/rosapi/get_time", "rosapi/srv/GetTime").call(roslibpy.ServiceRequest({}), timeout=10)

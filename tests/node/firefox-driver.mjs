@@ -57,3 +57,4 @@ for await (const line of createInterface({ input: process.stdin })) {
   }
 }
 await browser.close();
+process.exit(0);   // stdin's reader would keep the process
