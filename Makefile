@@ -34,7 +34,7 @@ $(VENV)/.installed-test: pyproject.toml $(VENV)/.installed
 	$(PY) -m pip install -q -e '.[test,bench]'
 	touch $@
 
-ide/vendor/.built: ide/package.json ide/package-lock.json | system
+ide/vendor/.built: ide/package.json ide/package-lock.json ide/build.mjs | system
 	cd ide && npm ci --no-audit --no-fund && npm run build
 	touch $@
 

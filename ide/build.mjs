@@ -1,6 +1,6 @@
 // Bundles the npm packages the pages import into vendor/ (generated, not committed).
 import { build } from 'esbuild';
-import { cpSync, mkdirSync, rmSync, writeFileSync } from 'node:fs';
+import { cpSync, mkdirSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
 import { join } from 'node:path';
 
 const here = new URL('.', import.meta.url).pathname;
@@ -23,8 +23,29 @@ const bundles = {
     + "export { OBJLoader } from 'three/examples/jsm/loaders/OBJLoader.js'; "
     + "export { MTLLoader } from 'three/examples/jsm/loaders/MTLLoader.js';",
 };
+// uPlot formats numbers with `new Intl.NumberFormat(navigator.language)` when its module is evaluated.
+// WebKitGTK under the POSIX locale (LANG=C.UTF-8, usual in containers and CI) reports navigator.language
+// 'C', which no Intl constructor accepts: the RangeError left uplot.mjs unevaluated, and with it the
+// teleop page (dashboard.js imports it). A tag Intl refuses falls back to uPlot's own 'en-US'.
+const UPLOT_LOCALE = "new Intl.NumberFormat(domEnv ? nav.language : 'en-US')";
+const validLocale = {
+  name: 'uplot-valid-locale',
+  setup(b) {
+    b.onLoad({ filter: /uplot[\\/]dist[\\/]uPlot\.esm\.js$/ }, ({ path }) => {
+      const src = readFileSync(path, 'utf8');
+      if (!src.includes(UPLOT_LOCALE)) throw new Error(`${path}: its number format line changed; see build.mjs`);
+      return {
+        contents: src.replace(UPLOT_LOCALE, "new Intl.NumberFormat(domEnv && (() => { try { "
+          + "return Intl.getCanonicalLocales(nav.language).length; } catch { return false; } })() ? nav.language : 'en-US')"),
+        loader: 'js',
+      };
+    });
+  },
+};
+
 for (const [out, contents] of Object.entries(bundles)) {
   await build({
+    plugins: [validLocale],
     stdin: { contents, resolveDir: here, loader: 'js' },
     bundle: true,
     format: 'esm',

@@ -257,9 +257,11 @@ export class Booking {
   }
 }
 
-const bar = document.querySelector('#bar');
-if (bar) {
+// The page's one module mounts it (main.js, teleop.js, class.js), as it does the recorder.
+export function mountBooking(bar = document.querySelector('#bar')) {
+  if (!bar) return null;
   const booking = new Booking(bar);
   window.rosgateBooking = booking;
   booking.attach();
+  return booking;
 }

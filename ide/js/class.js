@@ -8,6 +8,7 @@ import { isVelocityType, zeroVelocity, withNamespace } from '../runtime/util.js'
 import { showProgram } from './classprogram.js';
 import { STATIONS_TOPIC } from './robotns.js';
 import { Link } from './link.js';
+import { mountBooking } from './booking.js';
 
 const $ = (s) => document.querySelector(s);
 const REFRESH = 10000;   // ms between looks at the graph for new stations
@@ -200,4 +201,5 @@ function setup() {
 
 setup();
 connect();
+mountBooking();   // the page's one module mounts the bar's Booking too
 document.body.dataset.ready = 'true';

@@ -21,6 +21,8 @@ import { RobotRuns } from './robotruns.js';
 import { withNamespace } from '../runtime/util.js';
 import { NameScope } from '../generators/scope.js';
 import { markLooseBlocks } from './loose.js';
+import { mountRecorder } from './recorder.js';
+import { mountBooking } from './booking.js';
 
 const $ = (sel) => document.querySelector(sel);
 const getJson = async (url) => {
@@ -413,6 +415,9 @@ async function setupExamples() {
   };
 }
 
+// the page's one module: the bar's Rec and Booking first (as the page lays them out), then the IDE
+mountRecorder();
+mountBooking();
 start().catch((e) => {
   document.body.dataset.ready = 'error';
   console.error(e);

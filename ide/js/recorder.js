@@ -1,7 +1,7 @@
 // Recordings on the IDE and the teleop page: a record button that shows the elapsed time and
 // size while it records, and a dialog with the topics to record and the list of recordings
 // (download as .mcap, play back into the graph). HTTP only (/api/recordings), so the same
-// module serves both pages: it mounts itself into the page's #bar.
+// module serves both pages: the page's module mounts it into its #bar (mountRecorder).
 // On a page with a robot (a fleet's station, the #ns field) a name typed without it records the
 // station's topic too ('/turtle1/pose' also asks for /s07/turtle1/pose), as the blocks do; a
 // recording that matches no topic, or ends with no message, says so.
@@ -184,9 +184,12 @@ export class Recorder {
   }
 }
 
-const bar = document.querySelector('#bar');
-if (bar) {
+// The page's one module mounts it (the IDE's main.js, teleop.js): no module of the pages does work
+// when imported, so what a page shows does not hang on the order an engine evaluates modules in.
+export function mountRecorder(bar = document.querySelector('#bar')) {
+  if (!bar) return null;
   const recorder = new Recorder(bar);
   window.rosgateRecorder = recorder;
   recorder.attach();
+  return recorder;
 }

@@ -14,6 +14,8 @@ import { WorldView } from './worldview.js';
 import { bindSpan } from './history.js';
 import { HomeEstimate } from './gohome.js';
 import { Link } from './link.js';
+import { mountRecorder } from './recorder.js';
+import { mountBooking } from './booking.js';
 
 const $ = (s) => document.querySelector(s);
 const params = new URLSearchParams(location.search);
@@ -479,6 +481,9 @@ function showNotice(text) {
   state.notice = text;
 }
 
+// the page's one module: the bar complete (Rec, Booking) before the joystick measures the page
+mountRecorder();
+mountBooking();
 setupRobot();
 if (params.get('topic')) $('#topic').value = params.get('topic');
 setupKeys();

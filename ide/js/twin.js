@@ -40,6 +40,7 @@ function makeScene() {
     renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
   } catch (e) {
     view.textContent = `This browser cannot draw WebGL: ${e.message}`;
+    view.dataset.webgl = 'none';   // (the mark, whatever the words' language: for tests)
     state.error = String(e.message);
     return null;
   }
@@ -340,4 +341,6 @@ if (makeScene()) {
   twin.scan = new THREE.Points(new THREE.BufferGeometry(), new THREE.PointsMaterial({ color: COLOURS.scan, size: 0.04 }));
   requestAnimationFrame(animate);
   connect();
+} else {
+  document.body.dataset.ready = 'true';   // it said why it cannot draw: nothing more starts
 }

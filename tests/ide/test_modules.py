@@ -1,0 +1,75 @@
+"""The pages' modules, read as text: one module script per page, no top-level await, no import
+cycle. WebKit left the teleop page unstarted when a module of its graph failed to evaluate, and
+several module scripts sharing imports (or a cycle, or a top-level await) make what a page shows
+hang on the order an engine evaluates them in; one entry that imports and mounts the rest does not
+(ide/README.md, "One module per page"). The pages themselves run in three engines in
+test_engines.py."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+IDE = Path(__file__).resolve().parents[2] / "ide"
+MODULE_SCRIPT = re.compile(r'<script\s+type="module"\s+src="([^"]+)"')
+IMPORT = re.compile(r"""(?:^|\n)\s*(?:import|export)\s[^;]*?from\s+['"](\.{1,2}/[^'"]+)['"]"""
+                    r"""|(?:^|\n)\s*import\s+['"](\.{1,2}/[^'"]+)['"]""")
+SOURCES = sorted(p for d in ("js", "runtime", "generators") for p in (IDE / d).glob("*.js"))
+
+
+def imports(path: Path) -> list[Path]:
+    text = path.read_text()
+    return [(path.parent / (a or b)).resolve() for a, b in IMPORT.findall(text)]
+
+
+def test_each_page_has_one_module_entry():
+    pages = sorted(IDE.glob("*.html"))
+    assert {p.name for p in pages} >= {"index.html", "teleop.html", "class.html", "twin.html"}
+    entries = {p.name: MODULE_SCRIPT.findall(p.read_text()) for p in pages}
+    assert entries == {"class.html": ["js/class.js"], "index.html": ["js/main.js"],
+                       "teleop.html": ["js/teleop.js"], "twin.html": ["js/twin.js"]}
+    for p in pages:   # and no inline module either
+        assert len(re.findall(r'type="module"', p.read_text())) == 1, p.name
+
+
+def test_shared_pieces_are_mounted_by_the_entries():
+    """recorder.js and booking.js do nothing on import: the entry that uses them mounts them."""
+    for name, mount in (("recorder.js", "mountRecorder"), ("booking.js", "mountBooking")):
+        text = (IDE / "js" / name).read_text()
+        assert f"export function {mount}(" in text
+        assert not re.search(r"^(?:const|let)\s+\w+\s*=\s*document\.", text, re.M), name
+    for entry, mounts in (("main.js", ["mountRecorder", "mountBooking"]),
+                          ("teleop.js", ["mountRecorder", "mountBooking"]), ("class.js", ["mountBooking"])):
+        text = (IDE / "js" / entry).read_text()
+        for mount in mounts:
+            assert re.search(rf"^{mount}\(\);", text, re.M), (entry, mount)
+
+
+def test_no_top_level_await():
+    for path in SOURCES:
+        for n, line in enumerate(path.read_text().splitlines(), 1):
+            # the house style indents every body: an await at column 0 (or in a top-level
+            # declaration) is the module's own
+            assert not re.match(r"(?:(?:export\s+)?(?:const|let|var)\s[^=]*=\s*)?await\b", line), \
+                f"{path.relative_to(IDE)}:{n}: top-level await"
+
+
+def test_no_import_cycle():
+    graph = {p.resolve(): imports(p) for p in SOURCES}
+    assert any(graph.values()), "the import pattern found nothing: it no longer matches the sources"
+    assert (IDE / "js" / "dashboard.js").resolve() in graph[(IDE / "js" / "teleop.js").resolve()]
+    state: dict[Path, str] = {}
+
+    def visit(node: Path, path: list[Path]):
+        state[node] = "open"
+        for nxt in graph.get(node, []):
+            if state.get(nxt) == "open":
+                cycle = path[path.index(nxt):] + [nxt] if nxt in path else [node, nxt]
+                raise AssertionError("import cycle: " + " -> ".join(str(p.relative_to(IDE)) for p in cycle))
+            if nxt not in state:
+                visit(nxt, path + [nxt])
+        state[node] = "done"
+
+    for node in graph:
+        if node not in state:
+            visit(node, [node])
