@@ -17,6 +17,20 @@ const bundles = {
   // one copy of three for the twin, with the orbit controls and the URDF loader built on it
   'three.mjs': "export * from 'three'; export { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js'; "
     + "export { default as URDFLoader } from 'urdf-loader';",
+  // the text editor (js/texteditor.js): CodeMirror 6 with its Python and JavaScript modes, loaded
+  // only when a text program opens
+  'codemirror.mjs': [
+    "export { basicSetup } from 'codemirror';",
+    "export { EditorState, StateField, StateEffect, Compartment } from '@codemirror/state';",
+    "export { EditorView, Decoration, keymap, placeholder } from '@codemirror/view';",
+    "export { python, pythonLanguage } from '@codemirror/lang-python';",
+    "export { javascript, javascriptLanguage } from '@codemirror/lang-javascript';",
+    "export { autocompletion, startCompletion, snippetCompletion } from '@codemirror/autocomplete';",
+    "export { linter, lintGutter, forceLinting } from '@codemirror/lint';",
+    "export { openSearchPanel } from '@codemirror/search';",
+    "export { indentMore, indentLess, undo, redo, indentWithTab } from '@codemirror/commands';",
+    "export { syntaxTree, indentUnit } from '@codemirror/language';",
+  ].join('\n'),
 };
 for (const [out, contents] of Object.entries(bundles)) {
   await build({

@@ -1,0 +1,201 @@
+"""Text programs in Chromium, typed into the editor (CodeMirror's .cm-content) as a student types:
+a JavaScript program drives turtle1 (its pose moves, seen by an independent roslibpy client) and
+Stop zeroes it within 0.5 s of the click; an error is marked on its line (a syntax error before
+the run); completion offers the live graph's names and a name the graph lacks is underlined; an
+example made text ("Edit as text") runs the same square in the page, and its Python, downloaded,
+runs the same square with roslibpy against the gateway; the text program is kept by autosave and
+a share link. One gateway and one browser page for the module."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+
+import pytest
+
+from .conftest import ARTIFACTS, IdePage, RosClient, wait_for
+from .test_examples import check_square, reset_turtlesim
+
+TWIST = "geometry_msgs/msg/Twist"
+POSE = "turtlesim/msg/Pose"
+
+
+@pytest.fixture(scope="module")
+def turtle(turtle_gateway):
+    client = RosClient(turtle_gateway)
+    yield client
+    client.close()
+
+
+@pytest.fixture(scope="module")
+def ide(chromium, turtle_gateway):
+    ctx = chromium.new_context(viewport={"width": 1400, "height": 860}, accept_downloads=True)
+    page = IdePage(ctx.new_page(), turtle_gateway)
+    yield page
+    ctx.close()
+
+
+def open_text(ide: IdePage, lang: str):
+    ide.open(ide.gateway.http_url + f"?mode=text&lang={lang}")
+    ide.page.wait_for_selector(".cm-content")
+    ide.page.wait_for_function("rosgateIde.graph.loaded")
+    assert ide.js("document.body.dataset.mode") == "text"
+    assert ide.js("rosgateIde.textMode.lang") == lang
+
+
+def type_program(ide: IdePage, lines: list[str]):
+    """Types each line at the end of the text, as keys; the editor closes brackets and quotes
+    itself and steps over the ones typed after them."""
+    ide.page.click(".cm-content")
+    ide.page.keyboard.press("Control+End")
+    ide.page.keyboard.type("\n".join(lines), delay=2)
+    assert ide.js("rosgateIde.textMode.text") == "\n".join(lines)
+
+
+def error_line(ide: IdePage) -> int:
+    ide.page.wait_for_selector(".cm-error-line")
+    return int(ide.page.get_attribute(".cm-error-line", "data-line"))
+
+
+DRIVE = [
+    "const cmd = new ROSLIB.Topic({ ros, name: '/turtle1/cmd_vel', messageType: 'geometry_msgs/msg/Twist' });",
+    "console.log('driving', 1 + 1);",
+    "setInterval(() => cmd.publish({ linear: { x: 0.5 }, angular: { z: 0.4 } }), 50);",
+]
+
+
+def test_javascript_drives_and_stop_zeroes_it(ide, turtle):
+    open_text(ide, "javascript")
+    type_program(ide, DRIVE)
+    pose = turtle.watch("/turtle1/pose", POSE)
+    cmd = turtle.watch("/turtle1/cmd_vel", TWIST)
+    start = wait_for(pose.latest, what="a pose")
+    ide.page.click("#run")
+    ide.page.wait_for_function("document.body.dataset.run === 'running'")
+    wait_for(lambda: (p := pose.latest()) and abs(p["x"] - start["x"]) + abs(p["y"] - start["y"]) > 0.3,
+             what="turtle1 moving under the program")
+    assert "driving 2" in ide.logs()
+    # the running line: the publish in the interval's callback
+    ide.page.wait_for_selector(".cm-running-line[data-line='3']")
+    t0 = time.monotonic()
+    ide.page.click("#stop")
+    zero = wait_for(lambda: next((t for t, m in cmd.since(t0) if not m["linear"]["x"] and not m["angular"]["z"]), None),
+                    timeout=2, what="a zero Twist after Stop")
+    latency = zero - t0
+    print(f"Stop -> zero Twist: {latency * 1000:.0f} ms")
+    assert latency < 0.5, latency
+    ide.page.wait_for_function("document.body.dataset.run === 'idle'")
+    time.sleep(0.3)   # the interval would have published six times by now
+    assert all(not m["linear"]["x"] for _, m in cmd.since(zero + 0.01)), "the program went on after Stop"
+    assert not ide.page.query_selector(".cm-running-line")
+    assert not ide.errors, ide.errors
+
+
+def test_errors_are_marked_on_their_line(ide):
+    open_text(ide, "javascript")
+    type_program(ide, ["import { rt } from 'rosgate';", "rt.log('one');", "", "rt.field({ a: 1 }, 'b.c');", "rt.log('two');"])
+    ide.page.click("#run")
+    assert error_line(ide) == 4
+    ide.page.wait_for_function("document.body.dataset.run === 'idle'")
+    assert "line 4:" in ide.console_text()
+    assert ide.logs()[-1] == "one"
+    # a syntax error: marked before the program runs (nothing is logged)
+    ide.page.click(".cm-content")
+    ide.page.keyboard.press("Control+a")
+    ide.page.keyboard.press("Delete")
+    ide.page.keyboard.type("console.log('never');\nlet a = 1;\nlet b = (a + 2;\nconsole.log(b);")
+    logs = len(ide.logs())
+    ide.page.click("#run")
+    assert error_line(ide) == 3
+    assert len(ide.logs()) == logs
+    assert "line 3: SyntaxError" in ide.console_text()
+    ide.page.click(".cm-content")
+    ide.page.keyboard.press("Control+End")
+    ide.page.keyboard.type("\n")            # an edit clears the mark
+    ide.page.wait_for_selector(".cm-error-line", state="detached")
+
+
+def test_completion_offers_the_graph(ide):
+    open_text(ide, "python")
+    ide.page.click(".cm-content")
+    ide.page.keyboard.type("rt.publish('/turtle1/cm")
+    item = ide.page.wait_for_selector(".cm-tooltip-autocomplete li:has-text('/turtle1/cmd_vel')")
+    assert TWIST in item.inner_text()
+    ide.page.keyboard.press("Enter")
+    ide.page.keyboard.type("', 'geometry_msgs/msg/Twist', {'li")      # ' steps over the closing quote
+    ide.page.wait_for_selector(".cm-tooltip-autocomplete li:has-text('linear')")
+    ide.page.keyboard.press("Escape")
+    assert ide.js("rosgateIde.textMode.text").startswith("rt.publish('/turtle1/cmd_vel', 'geometry_msgs/msg/Twist', {'li")
+    # the runtime's functions with their arguments
+    ide.page.keyboard.press("Control+End")
+    ide.page.keyboard.type("\nrt.wait_for")
+    ide.page.wait_for_selector(".cm-tooltip-autocomplete li:has-text('wait_for_message')")
+    assert "timeout=0" in ide.page.inner_text(".cm-tooltip-autocomplete")
+    ide.page.keyboard.press("Escape")
+    # a name the graph lacks: underlined, not refused
+    ide.page.keyboard.type("_message('/turtle1/nothing_here', 'std_msgs/msg/String')")
+    ide.page.wait_for_selector(".cm-lintRange-warning")
+    assert "nothing_here" in ide.js("rosgateIde.textMode.text")
+
+
+def test_example_as_text_runs_the_same_square(ide, turtle, turtle_gateway):
+    ide.open()
+    ide.load_example("drive_square.json")
+    blocks = ide.workspace()
+    ide.page.click("[data-tab='code-js']")
+    ide.page.click("#edit-text")
+    ide.page.wait_for_function("rosgateIde.textMode.lang === 'javascript'")
+    text = ide.js("rosgateIde.textMode.text")
+    assert "import { rt } from 'rosgate';" in text and "rt.step" not in text
+    pose = reset_turtlesim(turtle)
+    cmd = turtle.watch("/turtle1/cmd_vel", TWIST)
+    ide.page.click("#run")
+    ide.page.wait_for_function("document.body.dataset.run === 'idle'", timeout=90000)
+    assert "finished" in ide.console_text(), ide.console_text()
+    check_square(turtle, pose, cmd)
+    # the block program stays as it was
+    ide.page.click("#to-blocks")
+    ide.page.wait_for_function("document.body.dataset.mode === 'blocks'")
+    assert ide.workspace() == blocks
+
+    # the same example as Python text, downloaded, runs with roslibpy against the gateway
+    ide.page.click("[data-tab='code-python']")
+    ide.page.click("#edit-text")
+    ide.page.wait_for_function("rosgateIde.textMode.lang === 'python'")
+    text = ide.js("rosgateIde.textMode.text")
+    assert "from rosgate_runtime import *" in text and "class Runtime" not in text
+    with ide.page.expect_download() as dl:
+        ide.page.click("#download-py")
+    path = ARTIFACTS / "drive_square_text.py"
+    dl.value.save_as(path)
+    downloaded = path.read_text()
+    # the student's lines are the file's lines (the runtime rides on the import line)
+    assert len(downloaded.splitlines()) == len(text.splitlines())
+    pose = reset_turtlesim(turtle)
+    cmd = turtle.watch("/turtle1/cmd_vel", TWIST)
+    proc = subprocess.run([sys.executable, str(path), "--url", turtle_gateway.ws_url],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    check_square(turtle, pose, cmd)
+
+
+def test_text_program_is_kept(ide):
+    open_text(ide, "javascript")
+    type_program(ide, ["console.log('kept');"])
+    ide.page.fill("#name", "kept one")
+    ide.page.press("#name", "Enter")
+    ide.page.wait_for_function("(s => s.text === \"console.log('kept');\" && s.name === 'kept one')"
+                               "(JSON.parse(localStorage.getItem('rosgate.autosave') || '{}'))")
+    ide.open()                                  # the autosave opens it again
+    ide.page.wait_for_selector(".cm-content")
+    assert ide.js("rosgateIde.program()")["kind"] == "text"
+    assert ide.js("rosgateIde.textMode.text") == "console.log('kept');"
+    ide.page.click("#share")
+    link = ide.page.wait_for_function("rosgateIde.lastShareLink").json_value()
+    ide.js("localStorage.clear()")
+    ide.open(link)
+    ide.page.wait_for_selector(".cm-content")
+    assert ide.js("rosgateIde.program()") == {"format": "rosgate-program", "version": 1, "kind": "text",
+                                              "lang": "javascript", "name": "kept one", "robot": "any",
+                                              "text": "console.log('kept');"}
