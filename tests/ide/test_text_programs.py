@@ -71,13 +71,25 @@ def test_javascript_drives_and_stop_zeroes_it(ide, turtle):
     pose = turtle.watch("/turtle1/pose", POSE)
     cmd = turtle.watch("/turtle1/cmd_vel", TWIST)
     start = wait_for(pose.latest, what="a pose")
+    ide.js("""(() => {
+      rosgateIde.sent = [];
+      const ros = rosgateIde.ros, send = ros.callOnConnection.bind(ros);
+      ros.callOnConnection = (m) => {
+        if (m.op === 'publish' && m.topic === '/rosgate/program') rosgateIde.sent.push(JSON.parse(m.msg.data));
+        send(m);
+      };
+    })()""")
     ide.page.click("#run")
     ide.page.wait_for_function("document.body.dataset.run === 'running'")
     wait_for(lambda: (p := pose.latest()) and abs(p["x"] - start["x"]) + abs(p["y"] - start["y"]) > 0.3,
              what="turtle1 moving under the program")
     assert "driving 2" in ide.logs()
-    # the running line: the publish in the interval's callback
+    # the running line: the publish in the interval's callback, in the editor and in the report
+    # the class view's tile shows (NS/rosgate/program; this gateway has no stations, so the
+    # report is read where the page sends it)
     ide.page.wait_for_selector(".cm-running-line[data-line='3']")
+    report = ide.page.wait_for_function("rosgateIde.sent.find((r) => r.line === 3 && r.state === 'running')").json_value()
+    assert report["program"]["kind"] == "text" and report["program"]["text"] == "\n".join(DRIVE)
     t0 = time.monotonic()
     ide.page.click("#stop")
     zero = wait_for(lambda: next((t for t, m in cmd.since(t0) if not m["linear"]["x"] and not m["angular"]["z"]), None),
