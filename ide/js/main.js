@@ -331,13 +331,13 @@ async function start() {
     if (lang && replacing()) await newText(lang);
   };
   // "Edit as text": the block program in the code panel's language, as a text program of its own
-  $('#edit-text').onclick = async () => {
-    const lang = $('[data-tab].on')?.dataset.tab === 'code-js' ? 'javascript' : 'python';
+  const editAsText = async (lang, name = `${ide.programName} ${lang}`) => {
     let text;
     try { text = blocksAsText(ide, lang); } catch (e) { consoleView.error(`Cannot write the program as text: ${e.message}`); return; }
-    await ide.loadProgram(storage.makeTextProgram({ name: `${ide.programName} ${lang}`, robot: ide.robot, lang, text }));
+    await ide.loadProgram(storage.makeTextProgram({ name, robot: ide.robot, lang, text }));
     consoleView.info(`"${ide.programName}" is the block program as ${LANGS[lang]}; the blocks are kept: "Blocks" goes back to them`);
   };
+  $('#edit-text').onclick = () => editAsText($('[data-tab].on')?.dataset.tab === 'code-js' ? 'javascript' : 'python');
   $('#to-blocks').onclick = async () => {
     const kept = storage.keptBlocks() ?? { format: storage.FORMAT, name: 'my program', workspace: {} };
     await ide.loadProgram(kept);
@@ -376,8 +376,11 @@ async function start() {
     const byName = query.get('program');
     const lang = query.get('lang') in LANGS ? query.get('lang') : 'python';
     if (shared_) await ide.loadProgram(shared_);
-    else if (byName) await ide.loadProgram(await programNamed(byName));
-    else if (query.get('mode') === 'text') await newText(lang);     // ?mode=text&lang=python|javascript
+    else if (byName) {
+      await ide.loadProgram(await programNamed(byName));
+      // a text exercise (the LMS's deep link): a block program written as text in `lang`
+      if (query.get('mode') === 'text' && !textMode.active) await editAsText(lang, ide.programName);
+    } else if (query.get('mode') === 'text') await newText(lang);     // ?mode=text&lang=python|javascript
     else { const saved = storage.loadAutosave(); if (saved) await ide.loadProgram(saved); }
   } catch (e) { consoleView.error(`cannot open the program: ${e.message}`); }
   updateCode();

@@ -63,7 +63,8 @@ export class TextEditor extends EventTarget {
         keymap.of([indentWithTab]),
         indentUnit.of(lang === 'python' ? '    ' : '  '),
         this.language.of(this._language(lang)),
-        autocompletion({ activateOnTyping: true }),
+        // nothing chosen until an arrow key or a tap: Enter at the end of a word is a new line
+        autocompletion({ activateOnTyping: true, selectOnOpen: false }),
         linter(lintSource(() => this.lang, this.env), { delay: 400 }),
         lintGutter(),
         marks,

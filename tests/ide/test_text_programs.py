@@ -14,7 +14,7 @@ import time
 
 import pytest
 
-from .conftest import ARTIFACTS, IdePage, RosClient, wait_for
+from .conftest import ARTIFACTS, PHONE, IdePage, RosClient, wait_for
 from .test_examples import check_square, reset_turtlesim
 
 TWIST = "geometry_msgs/msg/Twist"
@@ -134,6 +134,7 @@ def test_completion_offers_the_graph(ide):
     ide.page.keyboard.type("rt.publish('/turtle1/cm")
     item = ide.page.wait_for_selector(".cm-tooltip-autocomplete li:has-text('/turtle1/cmd_vel')")
     assert TWIST in item.inner_text()
+    ide.page.keyboard.press("ArrowDown")    # nothing is chosen until then: Enter alone is a new line
     ide.page.keyboard.press("Enter")
     ide.page.keyboard.type("', 'geometry_msgs/msg/Twist', {'li")      # ' steps over the closing quote
     ide.page.wait_for_selector(".cm-tooltip-autocomplete li:has-text('linear')")
@@ -211,3 +212,29 @@ def test_text_program_is_kept(ide):
     assert ide.js("rosgateIde.program()") == {"format": "rosgate-program", "version": 1, "kind": "text",
                                               "lang": "javascript", "name": "kept one", "robot": "any",
                                               "text": "console.log('kept');"}
+
+
+def test_a_phone_indents_with_buttons(chromium, turtle_gateway):
+    """On a phone (390x844, touch) the toolbar indents and outdents without a Tab key, and Run and
+    Stop stay in reach above the editor."""
+    ctx = chromium.new_context(viewport=PHONE, has_touch=True, is_mobile=True)
+    try:
+        ide = IdePage(ctx.new_page(), turtle_gateway)
+        open_text(ide, "python")
+        ide.page.tap(".cm-content")
+        ide.page.keyboard.type("def main():\nrt.log('hi')")       # the editor indents the body itself
+        ide.page.tap(".text-tools [data-cmd='outdent']")
+        ide.page.tap(".text-tools [data-cmd='indent']")
+        ide.page.tap(".text-tools [data-cmd='indent']")
+        assert ide.js("rosgateIde.textMode.text") == "def main():\n        rt.log('hi')"
+        ide.page.tap(".text-tools [data-cmd='undo']")
+        assert ide.js("rosgateIde.textMode.text") == "def main():\n    rt.log('hi')"
+        for sel in ("#run", "#stop", ".text-tools [data-cmd='indent']"):
+            box = ide.page.locator(sel).bounding_box()
+            assert box and box["x"] >= 0 and box["x"] + box["width"] <= PHONE["width"], (sel, box)
+        editor = ide.page.locator("#text-editor").bounding_box()
+        assert editor["width"] >= PHONE["width"] - 2 and editor["height"] > 300, editor
+        ide.screenshot("text-phone")
+        assert not ide.errors, ide.errors
+    finally:
+        ctx.close()
