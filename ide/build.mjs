@@ -26,7 +26,7 @@ const bundles = {
     "export { python, pythonLanguage } from '@codemirror/lang-python';",
     "export { javascript, javascriptLanguage } from '@codemirror/lang-javascript';",
     "export { autocompletion, startCompletion, snippetCompletion } from '@codemirror/autocomplete';",
-    "export { linter, lintGutter, forceLinting } from '@codemirror/lint';",
+    "export { linter, lintGutter, setDiagnostics } from '@codemirror/lint';",
     "export { openSearchPanel } from '@codemirror/search';",
     "export { indentMore, indentLess, undo, redo, indentWithTab } from '@codemirror/commands';",
     "export { syntaxTree, indentUnit } from '@codemirror/language';",

@@ -5,7 +5,7 @@
 // toolbar above the text indents, outdents, undoes and searches with a tap.
 import {
   basicSetup, EditorState, StateField, StateEffect, Compartment, EditorView, Decoration, keymap, placeholder,
-  python, pythonLanguage, javascript, javascriptLanguage, autocompletion, linter, lintGutter, forceLinting, openSearchPanel,
+  python, pythonLanguage, javascript, javascriptLanguage, autocompletion, linter, lintGutter, setDiagnostics, openSearchPanel,
   indentMore, indentLess, undo, redo, indentWithTab, indentUnit,
 } from '../vendor/codemirror.mjs';
 import { completionSource, lintSource } from './completion.js';
@@ -41,6 +41,7 @@ export class TextEditor extends EventTarget {
   constructor(parent, env) {
     super();
     this.env = env;
+    this.names = lintSource(() => this.lang, env);
     this.lang = 'python';
     this.language = new Compartment();
     this.tools = toolbar(this);
@@ -65,7 +66,7 @@ export class TextEditor extends EventTarget {
         this.language.of(this._language(lang)),
         // nothing chosen until an arrow key or a tap: Enter at the end of a word is a new line
         autocompletion({ activateOnTyping: true, selectOnOpen: false }),
-        linter(lintSource(() => this.lang, this.env), { delay: 400 }),
+        linter((view) => this._diagnostics(view), { delay: 400 }),
         lintGutter(),
         marks,
         EditorView.lineWrapping,
@@ -105,12 +106,24 @@ export class TextEditor extends EventTarget {
       effects.push(EditorView.scrollIntoView(this.view.state.doc.line(n).from, { y: 'center' }));
     }
     this.view.dispatch({ effects });
+    this.relint();
   }
 
   marks() { return this.view.state.field(marks); }
 
-  // The names on the graph changed: check the text's names again.
-  relint() { forceLinting(this.view); }
+  // The lint: names the robot lacks (warnings) and the error of the last run (in the gutter too).
+  _diagnostics(view) {
+    const out = this.names(view);
+    const { error } = view.state.field(marks);
+    if (error && error.line <= view.state.doc.lines) {
+      const line = view.state.doc.line(error.line);
+      out.push({ from: line.from, to: line.to, severity: 'error', source: 'run', message: error.message || 'error' });
+    }
+    return out;
+  }
+
+  // The names on the graph changed, or a run marked an error: the lint again, now.
+  relint() { this.view.dispatch(setDiagnostics(this.view.state, this._diagnostics(this.view))); }
 
   command(name) {
     const cmd = { indent: indentMore, outdent: indentLess, undo, redo, search: openSearchPanel }[name];
