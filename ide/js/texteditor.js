@@ -138,7 +138,7 @@ function toolbar(editor) {
   bar.className = 'text-tools';
   const buttons = [
     ['indent', '⇥', 'indent the line (Tab)'], ['outdent', '⇤', 'outdent the line (Shift-Tab)'],
-    ['undo', '↶', 'undo (Ctrl-Z)'], ['redo', '↷', 'redo (Ctrl-Y)'], ['search', '🔍', 'search and replace (Ctrl-F)'],
+    ['undo', '↶', 'undo (Ctrl-Z)'], ['redo', '↷', 'redo (Ctrl-Y)'], ['search', 'Find', 'search and replace (Ctrl-F)'],
   ];
   for (const [name, text, title] of buttons) {
     const b = document.createElement('button');

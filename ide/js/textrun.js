@@ -252,8 +252,10 @@ export class TextRunner extends EventTarget {
   // ---- Python (js/pyrun.js: Pyodide in a worker, loaded at the first Python run) ----
   async _python(run, text) {
     let py;
+    if (!this.pythonLoaded) this.ide.console.info('loading Python for its first run in this page…');
     try {
       py = await import('./pyrun.js');
+      this.pythonLoaded = true;
     } catch (e) {
       throw new Error(`Python cannot run in this page: its runner (js/pyrun.js) did not load (${e.message}); `
         + 'download the .py and run it with roslibpy instead');
