@@ -9,6 +9,7 @@ import {
   indentMore, indentLess, undo, redo, indentWithTab, indentUnit,
 } from '../vendor/codemirror.mjs';
 import { completionSource, lintSource } from './completion.js';
+import { compileJs, ProgramError } from './textrun.js';
 
 const setMarks = StateEffect.define();   // {running: line|null, error: {line, message}|null}
 
@@ -111,13 +112,21 @@ export class TextEditor extends EventTarget {
 
   marks() { return this.view.state.field(marks); }
 
-  // The lint: names the robot lacks (warnings) and the error of the last run (in the gutter too).
+  // The lint: names the robot lacks (warnings), the error of the last run (in the gutter too), and
+  // else a JavaScript syntax error.
   _diagnostics(view) {
     const out = this.names(view);
     const { error } = view.state.field(marks);
     if (error && error.line <= view.state.doc.lines) {
       const line = view.state.doc.line(error.line);
       out.push({ from: line.from, to: line.to, severity: 'error', source: 'run', message: error.message || 'error' });
+    } else if (this.lang === 'javascript') {     // JavaScript's own parse, as the student types
+      try { compileJs(view.state.doc.toString(), 'rosgate-lint.js'); } catch (e) {
+        if (e instanceof ProgramError && e.line <= view.state.doc.lines) {
+          const line = view.state.doc.line(e.line);
+          out.push({ from: line.from, to: line.to, severity: 'error', source: 'syntax', message: e.message });
+        }
+      }
     }
     return out;
   }

@@ -137,6 +137,8 @@ def test_errors_are_marked_on_their_line(ide):
     ide.page.keyboard.press("Control+a")
     ide.page.keyboard.press("Delete")
     ide.page.keyboard.type("console.log('never');\nlet a = 1;\nlet b = (a + 2;\nconsole.log(b);")
+    # marked as it is typed (JavaScript's own parse, once the typing pauses)
+    assert ide.page.wait_for_selector(".cm-lintRange-error").inner_text() == "let b = (a + 2;"
     logs = len(ide.logs())
     ide.page.click("#run")
     assert error_line(ide) == 3
