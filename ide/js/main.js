@@ -259,8 +259,10 @@ async function start() {
   };
   // the block program as a Python text program that imports the runtime
   ide.generatePythonText = () => {
+    const indent = pyGen.INDENT;
     pyGen.importRuntime = true;
-    try { return blocksPython(); } finally { pyGen.importRuntime = false; }
+    pyGen.INDENT = '    ';          // the editor's indentation (PEP 8), not the code panel's two spaces
+    try { return blocksPython(); } finally { pyGen.importRuntime = false; pyGen.INDENT = indent; }
   };
   ide.generateJs = (instrument = false) => jsGen.generate(workspace, { instrument });
   for (const btn of document.querySelectorAll('[data-tab]')) {
