@@ -22,6 +22,20 @@ const bundles = {
     + "export { ColladaLoader } from 'three/examples/jsm/loaders/ColladaLoader.js'; "
     + "export { OBJLoader } from 'three/examples/jsm/loaders/OBJLoader.js'; "
     + "export { MTLLoader } from 'three/examples/jsm/loaders/MTLLoader.js';",
+  // the text editor (js/texteditor.js): CodeMirror 6 with its Python and JavaScript modes, loaded
+  // only when a text program opens
+  'codemirror.mjs': [
+    "export { basicSetup } from 'codemirror';",
+    "export { EditorState, StateField, StateEffect, Compartment } from '@codemirror/state';",
+    "export { EditorView, Decoration, keymap, placeholder } from '@codemirror/view';",
+    "export { python, pythonLanguage } from '@codemirror/lang-python';",
+    "export { javascript, javascriptLanguage } from '@codemirror/lang-javascript';",
+    "export { autocompletion, startCompletion, snippetCompletion } from '@codemirror/autocomplete';",
+    "export { linter, lintGutter, setDiagnostics } from '@codemirror/lint';",
+    "export { openSearchPanel } from '@codemirror/search';",
+    "export { indentMore, indentLess, undo, redo, indentWithTab } from '@codemirror/commands';",
+    "export { syntaxTree, indentUnit } from '@codemirror/language';",
+  ].join('\n'),
 };
 // uPlot formats numbers with `new Intl.NumberFormat(navigator.language)` when its module is evaluated.
 // WebKitGTK under the POSIX locale (LANG=C.UTF-8, usual in containers and CI) reports navigator.language

@@ -45,6 +45,7 @@ MAX_PENDING = 10000      # logins in flight kept at most (the oldest are forgott
 JWKS_REFRESH = 60.0      # s before a key id missing from a platform's JWKS makes it fetched again
 JWKS_FETCHES = 10        # fetches of one platform's JWKS a minute at most
 STATE_COOKIE = 'rosgate_lti_'
+TEXT_LANGS = ('python', 'javascript')   # the IDE's text programs
 PAGES = {'ide': '/', '/': '/', 'teleop': '/teleop', '/teleop': '/teleop', 'class': '/class', '/class': '/class'}
 
 
@@ -273,6 +274,9 @@ class LaunchHandler(_Base):
         self.page('rosgate: choose an activity',
                   f'<h1>Add rosgate to the course</h1><form method="post" action="/lti/deeplink">'
                   f'<input type="hidden" name="ticket" value="{ticket}">{radios}'
+                  '<p><label>The IDE\'s program as <select name="as"><option value="blocks">blocks</option>'
+                  '<option value="python">Python text</option><option value="javascript">JavaScript text</option>'
+                  '</select></label> (a text exercise: a new text program, or the example written as text)</p>'
                   '<p><label>Station (optional, e.g. s03) <input name="station"></label></p>'
                   '<p><label>Title <input name="title" value="Robot lab"></label></p>'
                   '<button type="submit" id="add">Add to the course</button></form>')
@@ -293,6 +297,9 @@ def landing_of(claims: dict) -> str:
     program = str(custom.get('program', '')).strip()
     if program and page == '/':
         query['program'] = program[:64]
+    lang = str(custom.get('lang', '')).strip().lower()
+    if page == '/' and str(custom.get('mode', '')).strip().lower() == 'text' and lang in TEXT_LANGS:
+        query['mode'], query['lang'] = 'text', lang     # a text exercise (ide/js/textmode.js)
     return page + ('?' + urlencode(query, safe='/:') if query else '')
 
 
@@ -335,6 +342,9 @@ class DeepLinkHandler(_Base):
             page, custom['program'] = '/', 'example:' + pick.split(':', 1)[1][:64]
         else:
             page = PAGES.get(pick, '/')
+        as_text = self.get_argument('as', 'blocks')
+        if page == '/' and as_text in TEXT_LANGS:
+            custom['mode'], custom['lang'] = 'text', as_text
         station = self.get_argument('station', '').strip().strip('/')
         if station:
             if not station.replace('_', '').isalnum():

@@ -50,6 +50,7 @@ class RosPythonGenerator extends python.PythonGenerator {
       'norm_namespace,with_namespace,re');
     this.programName = 'program';
     this.namespace = '';      // the robot namespace the file runs in unless --ns says otherwise
+    this.importRuntime = false;   // true: the text program imports the runtime (js/textmode.js)
     this.scope = new NameScope();
   }
 
@@ -83,14 +84,18 @@ class RosPythonGenerator extends python.PythonGenerator {
     Blockly.CodeGenerator.prototype.finish.call(this, code);
     this.isInitialized = false;
     this.nameDB_.reset();
-    const own = imports.filter((i) => !/^import (math|random|time|json|sys|os)$/.test(i.trim()));
-    const doc = `"""${this.programName.replace(/"""/g, "'''")}: a rosgate block program.\n\n` +
+    const own = this.importRuntime ? imports : imports.filter((i) => !/^import (math|random|time|json|sys|os)$/.test(i.trim()));
+    const doc = this.importRuntime ? `"""${this.programName.replace(/"""/g, "'''")}: a rosgate program in Python, made from its blocks.\n\n` +
+      '▶ Run runs it in the rosgate IDE. Downloaded (the .py button bundles the runtime on its\n' +
+      'import line), it needs only roslibpy:\n' +
+      '    python3 this_file.py --url ws://localhost:9090/ [--ns /s07]\n"""\n'
+      : `"""${this.programName.replace(/"""/g, "'''")}: a rosgate block program.\n\n` +
       'Needs only roslibpy (pip install roslibpy). Run it against any rosbridge server:\n' +
       '    python3 this_file.py --url ws://localhost:9090/ [--ns /s07]\n' +
       '(or set ROSBRIDGE_URL and ROSGATE_NS). --ns puts the robot blocks\' topics, services\n' +
       'and actions in that robot namespace. Ctrl-C stops the program and the robot.\n"""\n';
     const parts = [
-      runtimeSource.trimEnd(),
+      this.importRuntime ? 'from rosgate_runtime import *' : runtimeSource.trimEnd(),
       own.join('\n'),
       defs.join('\n\n').trim(),
       `def main():\n${this.globalLine()}${handlers}${body.trim() ? body : this.PASS}`.trimEnd(),

@@ -146,7 +146,10 @@ class Tile {
     const state = r?.state ?? 'none';
     this.el.dataset.state = state;
     this.el.querySelector('.state').textContent = { none: 'no program', idle: 'idle', running: 'running', paused: 'paused' }[state] ?? state;
-    this.el.querySelector('.program').textContent = r?.name ? `program: ${r.name}` : '';
+    // a text program's running line (its Python or JavaScript), as its IDE reports it
+    const at = r?.line && state !== 'idle' && state !== 'none' ? ` · line ${r.line}` : '';
+    this.el.querySelector('.program').textContent = r?.name ? `program: ${r.name}${at}` : '';
+    this.el.dataset.line = at ? String(r.line) : '';
     const err = this.el.querySelector('.error');
     err.textContent = r?.error ? `last error: ${r.error}` : '';
     err.hidden = !r?.error;

@@ -1,5 +1,6 @@
 // The teacher's read-only look at a student's program: the blocks as the student's IDE last
-// reported them (NS/rosgate/program), in a Blockly workspace that cannot be edited.
+// reported them (NS/rosgate/program), in a Blockly workspace that cannot be edited; a text
+// program as numbered lines, the running one marked.
 /* global Blockly */
 import './fields.js';
 import './msgblock.js';
@@ -27,6 +28,10 @@ export async function showProgram(report, ns) {
   document.querySelector('#program-title').textContent = `${ns} · ${report?.user || 'student'} · ${report?.name ?? ''}`;
   document.querySelector('#program-close').onclick = () => dlg.close();
   dlg.showModal();
+  const view = document.querySelector('#program-view');
+  if (report?.program?.kind === 'text') { showText(report, view); return; }
+  view.hidden = false;
+  document.querySelector('#program-text')?.remove();
   await defineBlocks();
   for (const custom of report?.program?.blocks ?? []) if (custom.json) define(custom.json, 330);
   if (!workspace) {
@@ -45,4 +50,26 @@ export async function showProgram(report, ns) {
   }
   workspace.zoomToFit?.();
   window.classView.programShown = workspace.getAllBlocks(false).length;
+}
+
+// A text program: its lines, numbered, the line it ran at when reported marked.
+function showText(report, view) {
+  view.hidden = true;
+  let pre = document.querySelector('#program-text');
+  if (!pre) {
+    pre = document.createElement('pre');
+    pre.id = 'program-text';
+    view.after(pre);
+  }
+  const lines = String(report.program.text ?? '').split('\n');
+  const width = String(lines.length).length;
+  pre.replaceChildren(...lines.map((text, i) => {
+    const div = document.createElement('div');
+    div.textContent = `${String(i + 1).padStart(width)}  ${text}`;
+    if (report.line === i + 1 && report.state !== 'idle') div.className = 'running';
+    return div;
+  }));
+  const lang = { python: 'Python', javascript: 'JavaScript' }[report.program.lang] ?? 'text';
+  document.querySelector('#program-note').textContent = `Read-only: the student's ${lang} program as last reported.`;
+  window.classView.programShown = lines.length;
 }

@@ -23,6 +23,8 @@ import { NameScope } from '../generators/scope.js';
 import { markLooseBlocks } from './loose.js';
 import { mountRecorder } from './recorder.js';
 import { mountBooking } from './booking.js';
+import { TextMode, blocksAsText, bundlePython, LANGS } from './textmode.js';
+import { TextRunner } from './textrun.js';
 
 const $ = (sel) => document.querySelector(sel);
 const getJson = async (url) => {
@@ -193,6 +195,7 @@ async function start() {
   link.addEventListener('lost', () => {
     setStatus('lost', 'connection lost');
     runner.stop();
+    textRunner.stop();
   });
   link.addEventListener('state', (e) => { if (e.detail === 'connecting') setStatus('connecting', 'connecting…'); });
   setInterval(() => { $('#link').textContent = link.describe(); }, 500);
@@ -204,23 +207,36 @@ async function start() {
   const runner = new Runner(workspace, () => ide.ros, consoleView, () => ide.ns,
     { ready: () => graph.ready(), loose: looseBlocks });
   ide.runner = runner;
+  // text programs (js/textmode.js): the editor, and their runs in the page (js/textrun.js)
+  const textRunner = new TextRunner(ide, { ready: () => graph.ready() });
+  ide.textRunner = textRunner;
+  const textMode = new TextMode(ide, { changed: () => { changed(); ide.report?.edited(); } });
+  ide.textMode = textMode;
   ide.robotRuns = new RobotRuns(ide);
   ide.robotRuns.init();
-  runner.addEventListener('state', (e) => { document.body.dataset.run = e.detail; });
+  const runState = () => { document.body.dataset.run = textRunner.state !== 'idle' ? textRunner.state : runner.state; };
+  runner.addEventListener('state', runState);
+  textRunner.addEventListener('state', runState);
   lease.addEventListener('stop', () => {
     runner.stop();
+    textRunner.stop();
     consoleView.warn(`Stopped by the teacher: ${ide.ns || 'this robot'} stays still until you press Take.`);
   });
-  ide.report = reportProgram(ide, { workspace, runner, consoleEl: $('#console-lines') });
+  ide.report = reportProgram(ide, { workspace, runners: [runner, textRunner], consoleEl: $('#console-lines') });
   $('#take').addEventListener('click', () => ide.report.clear());   // her Take: the tile's error is behind her
   document.body.dataset.run = 'idle';
   // a program drives only this person's robot, and not while the teacher's stop holds: said here
   // once per press, not as an error of the program's blocks
   const mayDrive = () => { const why = robotNs.whyNot(); if (why) consoleView.warn(why); return !why; };
-  $('#run').onclick = () => mayDrive() && (runner.state === 'paused' ? runner.resume() : runner.run());
+  $('#run').onclick = () => {
+    if (!mayDrive()) return;
+    if (textMode.active) textRunner.run(textMode.text, textMode.lang);
+    else if (runner.state === 'paused') runner.resume();
+    else runner.run();
+  };
   $('#pause').onclick = () => runner.pause();
   $('#step').onclick = () => mayDrive() && runner.step();
-  $('#stop').onclick = () => runner.stop();
+  $('#stop').onclick = () => { runner.stop(); textRunner.stop(); };
 
   // code panel, live
   let codeTimer = null;
@@ -231,10 +247,24 @@ async function start() {
     try { $('#code-python').textContent = foldRuntime(pyGen.workspaceToCode(workspace)); } catch (e) { $('#code-python').textContent = `# ${e.message}`; }
     try { $('#code-js').textContent = jsGen.generate(workspace); } catch (e) { $('#code-js').textContent = `// ${e.message}`; }
   };
-  ide.generatePython = () => {
+  const blocksPython = () => {
     pyGen.programName = ide.programName;
     pyGen.namespace = ide.ns;
     return pyGen.workspaceToCode(workspace);
+  };
+  // the program's Python that runs by itself (Run on robot, the library): a Python text program
+  // with the runtime bundled on its import line
+  ide.generatePython = () => {
+    if (!textMode.active) return blocksPython();
+    if (textMode.lang !== 'python') throw new Error(`this is a ${LANGS[textMode.lang]} program; only Python runs on the robot`);
+    return bundlePython(textMode.text, runtimePy);
+  };
+  // the block program as a Python text program that imports the runtime
+  ide.generatePythonText = () => {
+    const indent = pyGen.INDENT;
+    pyGen.importRuntime = true;
+    pyGen.INDENT = '    ';          // the editor's indentation (PEP 8), not the code panel's two spaces
+    try { return blocksPython(); } finally { pyGen.importRuntime = false; pyGen.INDENT = indent; }
   };
   ide.generateJs = (instrument = false) => jsGen.generate(workspace, { instrument });
   for (const btn of document.querySelectorAll('[data-tab]')) {
@@ -245,20 +275,35 @@ async function start() {
   }
 
   // programs
-  const program = () => storage.makeProgram(workspace, { name: ide.programName, robot: ide.robot, blocks: ide.custom });
+  const blockProgram = () => storage.makeProgram(workspace, { name: ide.programName, robot: ide.robot, blocks: ide.custom });
+  const program = () => (textMode.active ? textMode.program(ide.programName, ide.robot) : blockProgram());
   ide.program = program;
-  ide.loadProgram = (p) => {
+  const named = (p) => {
+    ide.programName = p.name || 'program';
+    ide.robot = p.robot || 'any';
+    $('#name').value = ide.programName;
+  };
+  // resolves once the program shows (a text program's editor loads at the first one)
+  ide.loadProgram = async (p) => {
     storage.checkProgram(p);
     runner.stop();
+    textRunner.stop();
+    if (storage.isText(p)) {
+      if (!textMode.active) storage.keepBlocks(blockProgram());   // the block program stays as it was
+      await textMode.open(p.text, p.lang);
+      named(p);
+      ide.report?.clear();
+      storage.autosave(program());
+      return;
+    }
+    if (textMode.active) textMode.blocks();
     ide.custom = [];
     for (const def of p.blocks ?? []) addCustomBlock(def);
     workspace.updateToolbox(buildToolbox(ide.baseToolbox));
     workspace.clear();
     Blockly.serialization.workspaces.load(p.workspace, workspace);
     fitProgram(workspace);
-    ide.programName = p.name || 'program';
-    ide.robot = p.robot || 'any';
-    $('#name').value = ide.programName;
+    named(p);
     runner.clearErrors();
     ide.report?.clear();
     updateCode();
@@ -274,22 +319,44 @@ async function start() {
   };
   workspace.addChangeListener((e) => { if (!e.isUiEvent) changed(); });
 
-  $('#new').onclick = () => {
-    if (workspace.getAllBlocks(false).length && !confirm('Start a new program? The current one is replaced.')) return;
+  const replacing = () => !(textMode.active ? textMode.text.trim() : workspace.getAllBlocks(false).length)
+    || confirm('Start a new program? The current one is replaced.');
+  $('#new').onclick = async () => {
+    if (!replacing()) return;
     ide.custom = [];
-    ide.loadProgram({ format: storage.FORMAT, name: 'my program', workspace: {} });
+    await ide.loadProgram({ format: storage.FORMAT, name: 'my program', workspace: {} });
     workspace.updateToolbox(buildToolbox(base));
+  };
+  // a new text program (empty: the editor shows an example until the first key)
+  const newText = (lang) => ide.loadProgram(storage.makeTextProgram({ name: 'my program', lang, text: '' }));
+  $('#new-text').onchange = async () => {
+    const lang = $('#new-text').value;
+    $('#new-text').value = '';
+    if (lang && replacing()) await newText(lang);
+  };
+  // "Edit as text": the block program in the code panel's language, as a text program of its own
+  const editAsText = async (lang, name = `${ide.programName} ${lang}`) => {
+    let text;
+    try { text = blocksAsText(ide, lang); } catch (e) { consoleView.error(`Cannot write the program as text: ${e.message}`); return; }
+    await ide.loadProgram(storage.makeTextProgram({ name, robot: ide.robot, lang, text }));
+    consoleView.info(`"${ide.programName}" is the block program as ${LANGS[lang]}; the blocks are kept: "Blocks" goes back to them`);
+  };
+  $('#edit-text').onclick = () => editAsText($('[data-tab].on')?.dataset.tab === 'code-js' ? 'javascript' : 'python');
+  $('#to-blocks').onclick = async () => {
+    const kept = storage.keptBlocks() ?? { format: storage.FORMAT, name: 'my program', workspace: {} };
+    await ide.loadProgram(kept);
   };
   $('#download').onclick = () => {
     storage.download(`${storage.safeName(ide.programName)}.json`, JSON.stringify(program(), null, 1));
   };
   $('#download-py').onclick = () => {
+    if (textMode.active) { textMode.download(ide.programName, runtimePy); return; }
     storage.download(`${storage.safeName(ide.programName).replace(/\W+/g, '_')}.py`, ide.generatePython(), 'text/x-python');
   };
   $('#upload').onclick = async () => {
     const text = await storage.pickFile();
     if (!text) return;
-    try { ide.loadProgram(JSON.parse(text)); consoleView.info(`opened ${ide.programName}`); } catch (e) { consoleView.error(`cannot open: ${e.message}`); }
+    try { await ide.loadProgram(JSON.parse(text)); consoleView.info(`opened ${ide.programName}`); } catch (e) { consoleView.error(`cannot open: ${e.message}`); }
   };
   $('#share').onclick = async () => {
     const link = await storage.shareLink(program());
@@ -309,10 +376,16 @@ async function start() {
   // example:NAME of the examples), else the autosave, else empty
   try {
     const shared_ = await storage.programFromHash();
-    const named = new URLSearchParams(location.search).get('program');
-    if (shared_) ide.loadProgram(shared_);
-    else if (named) ide.loadProgram(await programNamed(named));
-    else { const saved = storage.loadAutosave(); if (saved) ide.loadProgram(saved); }
+    const query = new URLSearchParams(location.search);
+    const byName = query.get('program');
+    const lang = query.get('lang') in LANGS ? query.get('lang') : 'python';
+    if (shared_) await ide.loadProgram(shared_);
+    else if (byName) {
+      await ide.loadProgram(await programNamed(byName));
+      // a text exercise (the LMS's deep link): a block program written as text in `lang`
+      if (query.get('mode') === 'text' && !textMode.active) await editAsText(lang, ide.programName);
+    } else if (query.get('mode') === 'text') await newText(lang);     // ?mode=text&lang=python|javascript
+    else { const saved = storage.loadAutosave(); if (saved) await ide.loadProgram(saved); }
   } catch (e) { consoleView.error(`cannot open the program: ${e.message}`); }
   updateCode();
   // with --auth: who is signed in decides whether the page connects and what it offers
@@ -361,7 +434,7 @@ function setupLibrary(program) {
       open.className = 'lib-open';
       open.dataset.owner = item.owner ?? '';
       open.onclick = async () => {
-        try { ide.loadProgram(await storage.library.load(item.name, item.owner)); dlg.close(); } catch (e) { ide.console.error(e.message); }
+        try { await ide.loadProgram(await storage.library.load(item.name, item.owner)); dlg.close(); } catch (e) { ide.console.error(e.message); }
       };
       const del = document.createElement('button');
       del.textContent = '🗑';
@@ -381,7 +454,8 @@ function setupLibrary(program) {
   $('#library-save').onclick = async () => {
     const name = storage.safeName($('#name').value);
     let python = null;
-    try { python = ide.generatePython(); } catch (e) {
+    const js = ide.textMode.active && ide.textMode.lang === 'javascript';   // runs in the page only
+    if (!js) try { python = ide.generatePython(); } catch (e) {
       ide.console.error(`saving without its Python (it cannot run on the robot by name): ${e.message}`);
     }
     try {
@@ -409,7 +483,7 @@ async function setupExamples() {
     menu.value = '';
     if (!file) return;
     try {
-      ide.loadProgram(await getJson(`examples/${file}`));
+      await ide.loadProgram(await getJson(`examples/${file}`));
       ide.console.info(`example "${ide.programName}" loaded`);
     } catch (e) { ide.console.error(`cannot load example: ${e.message}`); }
   };

@@ -1,7 +1,7 @@
 // Tells the teacher's view (/class) what this IDE is doing on its robot: a latched
-// std_msgs/String on NS/rosgate/program carrying JSON {user, name, state, error, program, at}
-// (state: idle | running | paused; error: the last error line; program: the workspace, so the
-// teacher can open it read-only). Sent on every run state change and, debounced, on edits.
+// std_msgs/String on NS/rosgate/program carrying JSON {user, name, state, error, program, line, at}
+// (state: idle | running | paused; error: the last error line; program: the program (blocks or
+// text), so the teacher can open it read-only; line: the line a text program runs at, or null). Sent on every run state change and, debounced, on edits.
 // The error is the present one: cleared by a run, a Take (the page drives again), a new program
 // and a change of station (an error about /s01 is never reported on /s02); the teacher's stop and
 // the page's own notes (console warnings) are not errors.
@@ -10,7 +10,11 @@ import { withNamespace } from '../runtime/util.js';
 const TYPE = 'std_msgs/msg/String';
 const DEBOUNCE = 1500;   // ms after the last edit
 
-export function reportProgram(ide, { workspace, runner, consoleEl }) {
+const LINE_EVERY = 500;  // ms between reports of a text program's running line
+
+export function reportProgram(ide, { workspace, runners, consoleEl }) {
+  const state = () => runners.find((r) => r.state !== 'idle')?.state ?? 'idle';
+  let line = null;
   let ros = null;
   let topic = '';
   let timer = null;
@@ -39,15 +43,23 @@ export function reportProgram(ide, { workspace, runner, consoleEl }) {
     }
     let program = null;
     try { program = ide.program(); } catch { /* workspace not ready */ }
-    const report = { user, name: ide.programName, state: runner.state, error: lastError, program, at: Date.now() / 1000 };
+    const report = { user, name: ide.programName, state: state(), error: lastError, program, line, at: Date.now() / 1000 };
     r.callOnConnection({ op: 'publish', topic, msg: { data: JSON.stringify(report) } });
   };
   const soon = () => { clearTimeout(timer); timer = setTimeout(send, DEBOUNCE); };
 
-  runner.addEventListener('state', (e) => {
-    if (e.detail === 'running') lastError = '';
-    send();
-  });
+  let lineTimer = null;
+  for (const runner of runners) {
+    runner.addEventListener('state', (e) => {
+      if (e.detail === 'running') lastError = '';
+      if (e.detail === 'idle') line = null;
+      send();
+    });
+    runner.addEventListener('line', (e) => {      // a text program's running line, twice a second
+      line = e.detail;
+      lineTimer ??= setTimeout(() => { lineTimer = null; if (state() !== 'idle') send(); }, LINE_EVERY);
+    });
+  }
   workspace.addChangeListener((e) => { if (!e.isUiEvent) soon(); });
   let driving = false;      // the page (or another of this person's) drives: a Take clears the error
   ide.lease?.addEventListener('change', () => {
@@ -70,5 +82,5 @@ export function reportProgram(ide, { workspace, runner, consoleEl }) {
   }, 1000);
   // A new program: what went wrong with the last one is behind.
   const clear = () => { lastError = ''; send(); };
-  return { send, clear };
+  return { send, clear, edited: soon };
 }

@@ -16,8 +16,19 @@ export function makeProgram(workspace, { name, robot, blocks }) {
   };
 }
 
+// A text program: {format, version, kind: 'text', lang: 'python' | 'javascript', name, robot, text}
+export const TEXT_LANGS = ['python', 'javascript'];
+export function makeTextProgram({ name, robot, lang, text }) {
+  return { format: FORMAT, version: 1, kind: 'text', lang, name: name || 'program', robot: robot || 'any', text };
+}
+
+export const isText = (p) => p?.kind === 'text';
+
 export function checkProgram(p) {
-  if (!p || typeof p !== 'object' || p.format !== FORMAT || !p.workspace) {
+  if (!p || typeof p !== 'object' || p.format !== FORMAT) throw new Error('not a rosgate program');
+  if (isText(p)) {
+    if (typeof p.text !== 'string' || !TEXT_LANGS.includes(p.lang)) throw new Error('not a rosgate text program');
+  } else if (!p.workspace) {
     throw new Error('not a rosgate program');
   }
   return p;
@@ -25,6 +36,15 @@ export function checkProgram(p) {
 
 export function autosave(program) {
   try { localStorage.setItem(AUTOSAVE_KEY, JSON.stringify(program)); } catch { /* quota */ }
+}
+
+// The last block program, kept while a text program is open ("Edit as text" leaves it as it was).
+const BLOCKS_KEY = 'rosgate.autosave.blocks';
+export function keepBlocks(program) {
+  try { localStorage.setItem(BLOCKS_KEY, JSON.stringify(program)); } catch { /* quota */ }
+}
+export function keptBlocks() {
+  try { const text = localStorage.getItem(BLOCKS_KEY); return text ? checkProgram(JSON.parse(text)) : null; } catch { return null; }
 }
 
 export function loadAutosave() {

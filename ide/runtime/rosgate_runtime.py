@@ -548,6 +548,9 @@ def run(main, namespace=""):
     signal.signal(signal.SIGINT, signal.default_int_handler)
     signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
     rt = Runtime(args.url, args.ns)
+    # a program that imports the runtime (from rosgate_runtime import *) bound rt when it was
+    # still None: its main() sees this one
+    main.__globals__["rt"] = rt
     code = 0
     try:
         main()

@@ -142,6 +142,15 @@ def test_custom_page_and_station_are_honoured(lab, browser):
     ide.wait_for_function("document.body?.dataset.ready === 'true'", timeout=20000)
     assert ide.evaluate('rosgateIde.programName') == 'spiral with the pen'
     ide.wait_for_function("document.body?.dataset.connection === 'connected'", timeout=10000)
+    # a text exercise: the example written as Python text (the picker's "program as")
+    text = browser()
+    launch(text, platform.add('student-dee', [LEARNER], target='/',
+                              custom={'program': 'example:spiral', 'mode': 'text', 'lang': 'python'}),
+           '/?program=example:spiral&mode=text&lang=python')
+    text.wait_for_function("document.body?.dataset.ready === 'true'", timeout=20000)
+    text.wait_for_selector('.cm-content')
+    assert text.evaluate('rosgateIde.textMode.lang') == 'python'
+    assert 'from rosgate_runtime import *' in text.evaluate('rosgateIde.textMode.text')
 
 
 def test_two_learners_get_two_stations_and_a_relaunch_the_same(lab, browser):
@@ -228,6 +237,18 @@ def test_deep_linking_round_trip(lab, browser):
     item, = claims[DL + 'content_items']
     assert item == {'type': 'ltiResourceLink', 'title': 'Drive the robot', 'url': f'{platform.tool}/teleop',
                     'custom': {'station': 's02'}}
+    # a text exercise: the IDE with a new JavaScript program
+    page = browser()
+    page.goto(platform.add('prof-hal', [INSTRUCTOR], kind='LtiDeepLinkingRequest', target='/'))
+    page.wait_for_selector('#add', timeout=20000)
+    page.check("input[value='ide']")
+    page.select_option("select[name=as]", 'javascript')
+    page.click('#add')
+    page.wait_for_selector('#done', timeout=20000)
+    token = platform.returned[1]
+    item, = jwt.decode(token, keys.get_signing_key_from_jwt(token).key, algorithms=['RS256'], audience=platform.issuer,
+                       issuer=platform.client_id)[DL + 'content_items']
+    assert item['url'] == f'{platform.tool}/' and item['custom'] == {'mode': 'text', 'lang': 'javascript'}
     # a student may not add activities
     reason = refused(browser(), platform.add('student-ivy', [LEARNER], kind='LtiDeepLinkingRequest'))
     assert 'teachers' in reason

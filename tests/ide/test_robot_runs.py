@@ -73,6 +73,34 @@ def test_run_on_robot_streams_output_and_stop_stops_it(runs_gateway, runs_ros, i
     assert not ide.errors and not other.errors, ide.errors + other.errors
 
 
+PY_TEXT = """from rosgate_runtime import *
+
+
+def main():
+    rt.log('text on the robot')
+    rt.drive('/turtle1/cmd_vel', 'geometry_msgs/msg/Twist', {'linear': {'x': 0.5}}, 0.5)
+
+
+if __name__ == '__main__':
+    run(main)
+"""
+
+
+def test_a_python_text_program_runs_on_the_robot(runs_gateway, runs_ros, ide_factory):
+    """"Run on robot" runs a Python text program as it is (the runtime carried on its import line)."""
+    ide = ide_factory(runs_gateway)
+    ide.page.wait_for_selector("#run-robot:not([hidden])", timeout=10000)
+    cmd = runs_ros.watch("/turtle1/cmd_vel", "geometry_msgs/msg/Twist")
+    ide.js("(p) => rosgateIde.loadProgram(p)", {"format": "rosgate-program", "version": 1, "kind": "text",
+                                                "lang": "python", "name": "typed", "text": PY_TEXT})
+    ide.page.wait_for_selector(".cm-content")
+    ide.page.click("#run-robot")
+    wait_for(lambda: console_has(ide, "finished"), 60, what="the text run to finish")
+    text = ide.console_text()
+    assert "text on the robot" in text and "failed" not in text, text
+    assert moving(cmd)
+
+
 def test_a_program_saved_from_the_library_dialog_runs_on_the_robot_by_name(runs_gateway, runs_ros, ide_factory):
     ide = ide_factory(runs_gateway)
     cmd = runs_ros.watch("/turtle1/cmd_vel", "geometry_msgs/msg/Twist")
