@@ -81,7 +81,7 @@ def make_app(gateway: Gateway) -> tornado.web.Application:
         (r'/class/?', ClassHandler, {'gateway': gateway, 'page': settings.ide_dir / 'class.html'}),
         (r'/examples/(.*)', IdeFileHandler, {'path': str(settings.examples_dir)}),
     ]
-    routes += login_routes(policy)
+    routes += login_routes(policy, settings.ide_dir)
     if settings.extra.get('lti') is not None:
         routes += lti_routes(settings.extra['lti'], policy, settings.examples_dir)
     if settings.programs_dir is not None:

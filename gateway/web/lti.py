@@ -23,6 +23,7 @@ from __future__ import annotations
 import html
 import json
 import logging
+import re
 import secrets
 import time
 from collections import OrderedDict
@@ -45,6 +46,7 @@ MAX_PENDING = 10000      # logins in flight kept at most (the oldest are forgott
 JWKS_REFRESH = 60.0      # s before a key id missing from a platform's JWKS makes it fetched again
 JWKS_FETCHES = 10        # fetches of one platform's JWKS a minute at most
 STATE_COOKIE = 'rosgate_lti_'
+LOCALE = re.compile(r'[A-Za-z]{2,3}([-_][A-Za-z0-9]{1,8}){0,3}')   # a BCP 47 tag, as LMSs send it
 PAGES = {'ide': '/', '/': '/', 'teleop': '/teleop', '/teleop': '/teleop', 'class': '/class', '/class': '/class'}
 
 
@@ -280,7 +282,8 @@ class LaunchHandler(_Base):
 
 def landing_of(claims: dict) -> str:
     """Where a launch lands: custom parameters page, station, program; else the path of
-    target_link_uri when it is one of the pages; else the IDE."""
+    target_link_uri when it is one of the pages; else the IDE. The course's language
+    (launch_presentation.locale) comes along as ?lang=, which the page's words follow."""
     custom = claims.get(lti.CLAIM + 'custom') or {}
     page = PAGES.get(str(custom.get('page', '')).strip().lower())
     if page is None:
@@ -293,6 +296,10 @@ def landing_of(claims: dict) -> str:
     program = str(custom.get('program', '')).strip()
     if program and page == '/':
         query['program'] = program[:64]
+    presentation = claims.get(lti.CLAIM + 'launch_presentation')
+    locale = str(presentation.get('locale', '')) if isinstance(presentation, dict) else ''
+    if LOCALE.fullmatch(locale):
+        query['lang'] = locale
     return page + ('?' + urlencode(query, safe='/:') if query else '')
 
 

@@ -3,6 +3,7 @@
 /* global Blockly */
 import { Runtime, StopSignal } from '../runtime/runtime.js';
 import { gen as jsGen } from '../generators/javascript.js';
+import { t } from './i18n.js';
 
 const AsyncFunction = Object.getPrototypeOf(async () => {}).constructor;
 
@@ -37,7 +38,7 @@ export class Runner extends EventTarget {
     if (this.rt) this.stop();
     const ros = this.getRos();
     if (!ros?.isConnected) {
-      this.console.error('Not connected to the gateway: press Reconnect.');
+      this.console.error(t('run.not.connected'));
       return;
     }
     this.clearErrors();
