@@ -11,7 +11,8 @@
 //
 // This module loads its texts with a top-level await: every module that imports it runs once
 // they are here, so t() is synchronous everywhere. Before that it translates the page's static
-// words (data-i18n, data-i18n-title, -placeholder, -aria-label), sets <html lang dir>, and on
+// words (data-i18n, data-i18n-title, -placeholder, -aria-label; data-i18n-js marks words a
+// script writes), sets <html lang dir>, and on
 // pages with Blockly loads Blockly's own messages for the language (vendor/blockly/msg/<lang>.js)
 // and puts this project's ROSGATE_* strings into Blockly.Msg, which the toolbox and the block
 // definitions name as %{BKY_ROSGATE_...}.

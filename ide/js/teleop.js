@@ -285,6 +285,7 @@ function setupKeys() {
   const out = () => { $('#maxspeed-out').textContent = t('teleop.speed', { v: num(maxSpeed(), 2) }); };
   $('#maxspeed').addEventListener('input', out);
   out();
+  $('#cmd').textContent = t('teleop.cmd', { v: num(0, 2), w: num(0, 2) });
   $('#rate').addEventListener('change', () => { if (state.timer) { clearInterval(state.timer); state.timer = null; update(); } });
   $('#topic').addEventListener('change', () => { stopAll(); state.advertised = ''; });
 }
