@@ -90,8 +90,10 @@ export const time = (date, options = { hour: '2-digit', minute: '2-digit', secon
 export const day = (date, options = { weekday: 'short', day: 'numeric', month: 'short' }) => new Date(date).toLocaleDateString(lang, options);
 
 const ATTRS = ['title', 'placeholder', 'aria-label'];
-// The static words under `root`: an element's text by data-i18n, its attributes by data-i18n-<attr>.
+// The static words under `root`: an element's text by data-i18n, its attributes by data-i18n-<attr>
+// (and inside <template>s, whose copies the scripts make later).
 export function translate(root = document) {
+  for (const tpl of root.querySelectorAll('template')) translate(tpl.content);
   for (const el of root.querySelectorAll('[data-i18n]')) el.textContent = t(el.dataset.i18n);
   for (const attr of ATTRS) {
     for (const el of root.querySelectorAll(`[data-i18n-${attr}]`)) el.setAttribute(attr, t(el.getAttribute(`data-i18n-${attr}`)));
