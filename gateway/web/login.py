@@ -4,7 +4,6 @@ the token: ``rules.sessions``), sign-out that ends it on the server, and /whoami
 from __future__ import annotations
 
 import html
-from pathlib import Path
 
 import tornado.web
 
@@ -115,7 +114,7 @@ def begin_session(handler: tornado.web.RequestHandler, policy, identity, kind: s
         set_cookie(handler, SESSION_COOKIE, value, max_age=max_age, samesite='Lax', secure=is_https(handler))
 
 
-def login_routes(policy, ide_dir: Path) -> list:
-    kw = {'policy': policy, 'texts': Texts(ide_dir / 'i18n')}
+def login_routes(policy, texts: Texts) -> list:
+    kw = {'policy': policy, 'texts': texts}
     return [(r'/login/?', LoginHandler, kw), (r'/logout/?', LogoutHandler, {'policy': policy}),
             (r'/whoami', WhoAmIHandler, {'policy': policy})]
