@@ -113,8 +113,8 @@ async function onConnected() {
       const preferred = withNamespace(ns, '/cmd_vel');
       topicEl.value = vel.includes(preferred) ? preferred : vel[0];
     }
-    const t = types[topics.indexOf(topicEl.value)];
-    if (t) $('#msgtype').value = /Stamped$/.test(t) ? 'geometry_msgs/msg/TwistStamped' : 'geometry_msgs/msg/Twist';
+    const type = types[topics.indexOf(topicEl.value)];
+    if (type) $('#msgtype').value = /Stamped$/.test(type) ? 'geometry_msgs/msg/TwistStamped' : 'geometry_msgs/msg/Twist';
     block('');
     await applyLimits();
   } catch { /* rosapi unavailable: keep the defaults */ }

@@ -11,6 +11,7 @@ import urllib.request
 import pytest
 
 from .conftest import ROOT, IdePage
+from .test_class_lesson import open_ide
 
 ES = json.loads((ROOT / 'ide/i18n/es.json').read_text())
 DE = json.loads((ROOT / 'ide/i18n/de.json').read_text())
@@ -34,10 +35,6 @@ def context(chromium):
     yield make
     for ctx in made:
         ctx.close()
-
-
-def open_ide(ctx, gw, query: str = '') -> IdePage:
-    return IdePage(ctx.new_page(), gw).open(gw.http_url + query)
 
 
 def categories(ide: IdePage) -> list[str]:
