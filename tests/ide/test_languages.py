@@ -63,6 +63,7 @@ def test_ide_in_spanish_by_lang_parameter(gw, context):
     assert ide.js('Blockly.Msg.CONTROLS_IF_MSG_IF') == 'si'
     assert 'mover' in block_text(ide, 'turtle_move') and 'move' not in block_text(ide, 'turtle_move').replace('mover', '')
     assert 'detener el robot' in block_text(ide, 'ros_stop')
+    assert block_text(ide, 'ros_message').startswith('mensaje')
     assert 'Lógica' in ide.page.inner_text('.blocklyToolbox')
     # the language menu says which language this is
     assert ide.page.input_value('#lang') == 'es'
@@ -117,6 +118,13 @@ def test_teleop_in_spanish_with_numbers_in_the_spanish_way(gw, context):
     assert page.inner_text('#maxspeed-out') == '0,50 m/s'                     # a decimal comma
     assert page.inner_text('#cmd') == 'lineal 0,00 m/s · angular 0,00 rad/s'
     assert page.inner_text('#plot-span option[value="3600"]') == 'última hora'
+    # the 3D panel (the twin page in a frame, without ?lang=: the tab's language holds)
+    page.click('#twin-show')
+    assert page.inner_text('#twin-show') == 'ocultar'
+    twin = page.frame_locator('#twin-frame')
+    twin.locator('html[lang=es]').wait_for(state='attached')
+    assert twin.locator('#battery').inner_text() == 'batería –'
+    assert twin.locator('#view').get_attribute('aria-label') == ES['twin.view']
 
 
 def test_class_view_in_spanish(gw, context):
