@@ -147,7 +147,7 @@ def test_custom_page_and_station_are_honoured(lab, browser):
 def test_the_course_language_comes_with_the_launch(lab, browser):
     gw, platform = lab
     page = browser()
-    where = launch(page, platform.add('student-eve', [LEARNER], target='/teleop', locale='es-ES'), '/teleop?lang=es-ES')
+    where = launch(page, platform.add('student-ivo', [LEARNER], target='/teleop', locale='es-ES'), '/teleop?lang=es-ES')
     assert where.path == '/teleop'
     teleop_ready(page)
     assert page.evaluate('document.documentElement.lang') == 'es'
@@ -159,7 +159,7 @@ def test_the_course_language_comes_with_the_launch(lab, browser):
     assert page.inner_text('#run') == '▶ Ejecutar'
     # a locale that is no language tag is left out of the landing
     other = browser()
-    launch(other, platform.add('student-fay', [LEARNER], target='/teleop', locale='"><script>'), '/teleop')
+    launch(other, platform.add('student-hal', [LEARNER], target='/teleop', locale='"><script>'), '/teleop')
     assert 'lang=' not in other.url
     assert not page.errors, page.errors
 
