@@ -23,6 +23,7 @@ from .history import start_history
 from .history_api import history_routes
 from .opcua import start_twin
 from .packages import package_routes
+from .language import Texts
 from .login import login_routes
 from .lti import lti_routes
 from .pages import Application, PublicFileHandler, write_page
@@ -83,9 +84,10 @@ def make_app(gateway: Gateway) -> tornado.web.Application:
         (r'/class/?', ClassHandler, {'gateway': gateway, 'page': settings.ide_dir / 'class.html'}),
         (r'/examples/(.*)', IdeFileHandler, {'path': str(settings.examples_dir)}),
     ]
-    routes += login_routes(policy)
+    texts = Texts(settings.ide_dir / 'i18n')    # the login and LTI pages' words, in the reader's language
+    routes += login_routes(policy, texts)
     if settings.extra.get('lti') is not None:
-        routes += lti_routes(settings.extra['lti'], policy, settings.examples_dir)
+        routes += lti_routes(settings.extra['lti'], policy, settings.examples_dir, texts)
     if settings.programs_dir is not None:
         routes += program_routes(settings.programs_dir, policy)
     # runs reach the websocket alone, on a unix socket bound into their box (runs.py)

@@ -12,17 +12,18 @@ from ..rules.sessions import SESSION_COOKIE
 from ..rules.tokens import AuthError
 from .api import JsonHandler, check_origin, require
 from .cookies import clear_cookie, is_https, set_cookie
+from .language import Texts
 
 PAGE = """<!doctype html>
-<html lang="en"><head><meta charset="utf-8"><meta name="viewport" content="width=device-width">
-<title>rosgate sign in</title>
+<html lang="{lang}" dir="{dir}"><head><meta charset="utf-8"><meta name="viewport" content="width=device-width">
+<title>{title}</title>
 <style>body{{font:16px system-ui,sans-serif;max-width:22rem;margin:4rem auto;padding:0 1rem}}
 input,button{{font:inherit;width:100%;box-sizing:border-box;padding:.5rem;margin:.3rem 0}}
 .msg{{color:#a00}}</style></head>
 <body><h1>rosgate</h1><p>{intro}</p><p class="msg">{message}</p>
 <form method="post" action="/login"><input type="hidden" name="next" value="{next}">
-<label>Token <input name="token" type="password" autocomplete="current-password" autofocus></label>
-<button type="submit">Sign in</button></form></body></html>
+<label>{token} <input name="token" type="password" autocomplete="current-password" autofocus></label>
+<button type="submit">{submit}</button></form></body></html>
 """
 
 
@@ -32,8 +33,9 @@ def _safe_next(value: str) -> str:
 
 
 class LoginHandler(tornado.web.RequestHandler):
-    def initialize(self, policy) -> None:
+    def initialize(self, policy, texts: Texts) -> None:
         self.policy = policy
+        self.texts = texts
 
     def set_default_headers(self) -> None:
         self.set_header('Cache-Control', 'no-store')
@@ -41,10 +43,15 @@ class LoginHandler(tornado.web.RequestHandler):
 
     def _page(self, message: str = '', status: int = 200) -> None:
         self.set_status(status)
-        intro = ('Sign in with your token.' if self.policy.auth is not None
-                 else 'This gateway does not require a token.')
+        lang = self.texts.pick(self)
+
+        def say(key: str) -> str:
+            return html.escape(self.texts.get(lang, key))
+        intro = say('login.intro' if self.policy.auth is not None else 'login.intro.open')
         nxt = _safe_next(self.get_argument('next', '/'))
-        self.finish(PAGE.format(intro=intro, message=html.escape(message), next=html.escape(nxt)))
+        self.finish(PAGE.format(lang=lang, dir=self.texts.direction(lang), title=say('login.title'), intro=intro,
+                                token=say('login.token'), submit=say('login.submit'),
+                                message=html.escape(message), next=html.escape(nxt)))
 
     def get(self) -> None:
         self._page()
@@ -107,7 +114,7 @@ def begin_session(handler: tornado.web.RequestHandler, policy, identity, kind: s
         set_cookie(handler, SESSION_COOKIE, value, max_age=max_age, samesite='Lax', secure=is_https(handler))
 
 
-def login_routes(policy) -> list:
-    kw = {'policy': policy}
+def login_routes(policy, texts: Texts) -> list:
+    kw = {'policy': policy, 'texts': texts}
     return [(r'/login/?', LoginHandler, kw), (r'/logout/?', LogoutHandler, {'policy': policy}),
             (r'/whoami', WhoAmIHandler, {'policy': policy})]

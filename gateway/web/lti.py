@@ -23,9 +23,11 @@ from __future__ import annotations
 import html
 import json
 import logging
+import re
 import secrets
 import time
 from collections import OrderedDict
+import urllib.parse
 from urllib.parse import urlencode, urlsplit
 
 import jwt
@@ -36,6 +38,7 @@ from ..rules import lti
 from ..rules.lti import LaunchError
 from .api import check_origin
 from .cookies import clear_cookie, set_cookie
+from .language import Texts, best
 from .login import begin_session
 
 log = logging.getLogger('rosgate.lti')
@@ -46,6 +49,7 @@ JWKS_REFRESH = 60.0      # s before a key id missing from a platform's JWKS make
 JWKS_FETCHES = 10        # fetches of one platform's JWKS a minute at most
 STATE_COOKIE = 'rosgate_lti_'
 TEXT_LANGS = ('python', 'javascript')   # the IDE's text programs
+LOCALE = re.compile(r'[A-Za-z]{2,3}([-_][A-Za-z0-9]{1,8}){0,3}')   # a BCP 47 tag, as LMSs send it
 PAGES = {'ide': '/', '/': '/', 'teleop': '/teleop', '/teleop': '/teleop', 'class': '/class', '/class': '/class'}
 
 
@@ -123,8 +127,9 @@ class KeySets:
 class Lti:
     """What the routes share: the configuration, logins in flight, used states, keys."""
 
-    def __init__(self, config: lti.LtiConfig, policy, examples_dir):
+    def __init__(self, config: lti.LtiConfig, policy, examples_dir, texts: Texts):
         self.config, self.policy, self.examples_dir = config, policy, examples_dir
+        self.texts = texts                         # the pages' words, in the reader's language
         self.pending = Expiring(PENDING_TTL)
         self.used = Expiring(PENDING_TTL)          # states already launched: a replay is told so
         self.resume = Expiring(RESUME_TTL)
@@ -152,6 +157,10 @@ class _Base(tornado.web.RequestHandler):
         self.set_header('Cache-Control', 'no-store')
         self.set_header('Referrer-Policy', 'no-referrer')
 
+    def say(self, key: str, lang: str | None = None, **values) -> str:
+        """A text of these pages, HTML-escaped, in `lang` or the browser's language."""
+        return html.escape(self.lti.texts.get(lang or self.lti.texts.pick(self), key, **values))
+
     def page(self, title: str, body: str, status: int = 200) -> None:
         self.set_status(status)
         self.set_header('Content-Type', 'text/html; charset=UTF-8')
@@ -162,10 +171,9 @@ class _Base(tornado.web.RequestHandler):
 
     def refuse(self, reason: str, status: int = 400) -> None:
         log.info('lti: launch refused from %s: %s', self.request.remote_ip, reason)
-        self.page('rosgate: launch refused',
-                  f'<h1>This launch was refused</h1><p class="msg" id="reason">{html.escape(reason)}</p>'
-                  '<p>Nobody was signed in. Go back to your course and open the activity again; if this '
-                  'keeps happening, show this page to your teacher.</p>', status)
+        self.page('rosgate: ' + self.say('lti.refused.title'),
+                  f'<h1>{self.say("lti.refused")}</h1><p class="msg" id="reason">{html.escape(reason)}</p>'
+                  f'<p>{self.say("lti.refused.text")}</p>', status)
 
     def write_error(self, status_code: int, **kwargs) -> None:
         exc = kwargs.get('exc_info')
@@ -176,7 +184,7 @@ class _Base(tornado.web.RequestHandler):
         inputs = ''.join(f'<input type="hidden" name="{html.escape(k)}" value="{html.escape(v)}">'
                          for k, v in fields.items())
         self.page('rosgate', f'<form id="f" method="post" action="{html.escape(action)}">{inputs}'
-                             f'<p>{html.escape(note)}</p><button type="submit">Continue</button></form>'
+                             f'<p>{html.escape(note)}</p><button type="submit">{self.say("lti.continue")}</button></form>'
                              f'<script nonce="{self.script_nonce}">document.getElementById("f").submit()</script>')
 
 
@@ -258,7 +266,9 @@ class LaunchHandler(_Base):
         landing = landing_of(claims)
         ticket = secrets.token_urlsafe(24)
         self.lti.resume.put(ticket, (identity, landing))
-        self.page('rosgate', landed_page(landing, ticket, identity, self.script_nonce))
+        lang = best([urllib.parse.parse_qs(urlsplit(landing).query).get('lang', [''])[0]], self.lti.texts.offered())
+        self.page('rosgate', landed_page(landing, ticket, identity, self.script_nonce,
+                                         lambda key, **v: self.say(key, lang, **v)))
 
     def _picker(self, identity, reg, claims) -> None:
         if identity.role != 'admin':
@@ -284,7 +294,9 @@ class LaunchHandler(_Base):
 
 def landing_of(claims: dict) -> str:
     """Where a launch lands: custom parameters page, station, program; else the path of
-    target_link_uri when it is one of the pages; else the IDE."""
+    target_link_uri when it is one of the pages; else the IDE. The course's language
+    (launch_presentation.locale) comes along as ?lang= (as ?locale= for a text exercise, whose ?lang= is the program's),
+    which the page's words follow."""
     custom = claims.get(lti.CLAIM + 'custom') or {}
     page = PAGES.get(str(custom.get('page', '')).strip().lower())
     if page is None:
@@ -297,21 +309,29 @@ def landing_of(claims: dict) -> str:
     program = str(custom.get('program', '')).strip()
     if program and page == '/':
         query['program'] = program[:64]
+    presentation = claims.get(lti.CLAIM + 'launch_presentation')
+    locale = str(presentation.get('locale', '')) if isinstance(presentation, dict) else ''
     lang = str(custom.get('lang', '')).strip().lower()
     if page == '/' and str(custom.get('mode', '')).strip().lower() == 'text' and lang in TEXT_LANGS:
         query['mode'], query['lang'] = 'text', lang     # a text exercise (ide/js/textmode.js)
+        if LOCALE.fullmatch(locale):
+            query['locale'] = locale                    # ?lang= is the program's language here
+    elif LOCALE.fullmatch(locale):
+        query['lang'] = locale
     return page + ('?' + urlencode(query, safe='/:') if query else '')
 
 
-def landed_page(landing: str, ticket: str, identity, nonce: str) -> str:
+def landed_page(landing: str, ticket: str, identity, nonce: str, say) -> str:
     """Signed in: on to the landing page once the browser shows it kept the session cookie; a
-    browser that refused it (Safari inside an iframe) is offered the same launch in a new window."""
+    browser that refused it (Safari inside an iframe) is offered the same launch in a new window.
+    `say(key, **values)`: the page's words (escaped) in the launch's language."""
     target = html.escape(landing)
-    return (f'<p id="state">Signed in as {html.escape(identity.name)} ({identity.role}); opening '
-            f'<a href="{target}">{target}</a>…</p>'
-            f'<p id="blocked" hidden>This browser keeps no cookies inside the course page. '
+    link = f'<a href="{target}">{target}</a>'
+    state = say('lti.signed.in', name=identity.name, role=say(f'role.{identity.role}')).replace('{page}', link, 1)
+    return (f'<p id="state">{state}</p>'
+            f'<p id="blocked" hidden>{say("lti.blocked")} '
             f'<a id="newwin" href="/lti/resume?ticket={ticket}" target="_blank" rel="opener">'
-            'Continue in a new window</a></p>'
+            f'{say("lti.newwin")}</a></p>'
             f'<script nonce="{nonce}">fetch("/whoami",{{credentials:"same-origin",cache:"no-store"}})'
             f'.then(r=>r.ok?location.replace({json.dumps(landing)}):Promise.reject())'
             '.catch(()=>{document.getElementById("blocked").hidden=false})</script>')
@@ -394,8 +414,8 @@ class ConfigHandler(_Base):
                   f'<h2>Platforms registered (--lti {html.escape(self.lti.config.path)})</h2><ul>{regs}</ul>')
 
 
-def lti_routes(config, policy, examples_dir) -> list:
-    shared = {'lti_': Lti(config, policy, examples_dir)}
+def lti_routes(config, policy, examples_dir, texts: Texts) -> list:
+    shared = {'lti_': Lti(config, policy, examples_dir, texts)}
     return [(r'/lti/login', LoginInitHandler, shared), (r'/lti/launch', LaunchHandler, shared),
             (r'/lti/deeplink', DeepLinkHandler, shared), (r'/lti/resume', ResumeHandler, shared),
             (r'/lti/jwks', JwksHandler, shared), (r'/lti/config', ConfigHandler, shared)]

@@ -26,7 +26,7 @@ from ..rules.names import forwarded
 # Top-level entries of ide/ that anyone may load; everything else there (node_modules/, package
 # files, the build script) is for building them, and class.html only goes out through /class,
 # which checks who asks.
-PUBLIC_DIRS = frozenset({'blocks', 'css', 'generators', 'js', 'runtime', 'vendor'})
+PUBLIC_DIRS = frozenset({'blocks', 'css', 'generators', 'i18n', 'js', 'runtime', 'vendor'})
 PUBLIC_FILES = frozenset({'index.html', 'teleop.html', 'twin.html', 'toolbox.json'})
 MAX_HTTP_BODY = 4 * 2**20   # the largest request body any route takes (a program is at most 2 MiB)
 # What the pages cannot work without (the bundles come from `npm run build` in ide/).

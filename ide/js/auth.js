@@ -1,6 +1,7 @@
 // Who is signed in, from the gateway's /whoami: {auth, name, role}. Without --auth everyone is
 // an admin; with it, no token means "not signed in" (the page links to /login and does not
 // connect) and the role decides what the page offers.
+import { t } from './i18n.js';
 
 // What each role may do in the IDE (the gateway enforces the same; this only hides what would fail).
 export const ABILITIES = {
@@ -43,9 +44,9 @@ export function showIdentity(me, { signin, who, whoName, whoRole }, controls) {
   signin.href = loginHref();
   who.hidden = !(me.auth && me.signedIn);
   whoName.textContent = me.name ?? '';
-  whoRole.textContent = me.role ? `(${me.role})` : '';
+  whoRole.textContent = me.role ? `(${t(`role.${me.role}`)})` : '';
   const can = abilities(me);
-  const why = me.signedIn ? `a ${me.role} may not do this` : 'sign in first';
+  const why = me.signedIn ? t('auth.role.may.not', { role: t(`role.${me.role}`) }) : t('auth.signin.first');
   for (const [what, elements] of Object.entries(controls)) {
     for (const el of elements) {
       if (!el) continue;

@@ -10,6 +10,7 @@
 // walk-ins' line (/api/queue): the dialog shows the place and the estimated wait, and once the
 // gateway seats them the page presses its own "Claim a robot". A gateway without --booking
 // answers {"enabled": false}: the button then stays hidden.
+import { t, tn, time, day as dayOf } from './i18n.js';
 
 const REFRESH = 10000;          // ms between looks at the timetable
 const WARN = [300, 60];         // s left at which the page warns
@@ -40,9 +41,9 @@ async function queueApi(method) {
   return body;
 }
 
-export const clock = (s) => new Date(s * 1000).toLocaleTimeString([], { hour: '2-digit', minute: '2-digit', second: '2-digit', hourCycle: 'h23' });
-const day = (s) => new Date(s * 1000).toLocaleDateString([], { weekday: 'short', day: 'numeric', month: 'short' });
-export const left = (s) => (s >= 3600 ? `${Math.floor(s / 3600)} h ${Math.floor((s % 3600) / 60)} min`
+export const clock = (s) => time(s * 1000, { hour: '2-digit', minute: '2-digit', second: '2-digit', hourCycle: 'h23' });
+const day = (s) => dayOf(s * 1000);
+export const left = (s) => (s >= 3600 ? t('booking.hours', { h: Math.floor(s / 3600), min: Math.floor((s % 3600) / 60) })
   : `${Math.floor(s / 60)}:${String(Math.floor(s % 60)).padStart(2, '0')}`);
 const localInput = (s) => {   // a datetime-local value for epoch seconds, in the browser's zone
   const d = new Date(s * 1000);
@@ -56,7 +57,7 @@ export class Booking {
     this.warned = new Set();
     this.queue = null;            // the last GET /api/queue
     this.inLine = false;          // this page put its person in the walk-ins' line
-    this.button = el('button', { id: 'booking', hidden: true, title: 'booked slots on the robots', textContent: 'Booking' });
+    this.button = el('button', { id: 'booking', hidden: true, title: t('booking.title'), textContent: t('booking') });
     this.warning = el('span', { id: 'booking-warning', className: 'booking-warning', hidden: true, role: 'alert' });
     bar.append(el('span', { className: 'group booking' }, this.button, this.warning));
     this.station = el('select', { id: 'booking-station' });
@@ -64,21 +65,21 @@ export class Booking {
     this.minutes = el('input', { id: 'booking-minutes', type: 'number', min: 0.05, step: 'any', size: 5 });
     // an admin books for a student: by name, offered from everyone who signed in (LMS launches too)
     this.people = el('datalist', { id: 'booking-people' });
-    this.behalf = el('input', { id: 'booking-for', size: 10, placeholder: 'me' });
+    this.behalf = el('input', { id: 'booking-for', size: 10, placeholder: t('booking.me') });
     this.behalf.setAttribute('list', 'booking-people');
-    this.behalfLabel = el('label', { hidden: true }, 'for ', this.behalf, this.people);
+    this.behalfLabel = el('label', { hidden: true }, t('booking.for'), ' ', this.behalf, this.people);
     this.message = el('p', { id: 'booking-msg', className: 'booking-msg' });
     this.status = el('p', { id: 'booking-status' });
     this.table = el('div', { id: 'booking-table' });
-    const book = el('button', { id: 'booking-book', textContent: 'Book', onclick: () => this.book() });
-    this.queueButton = el('button', { id: 'booking-queue', textContent: 'Queue for a free robot', onclick: () => this.toggleQueue() });
+    const book = el('button', { id: 'booking-book', textContent: t('booking.book'), onclick: () => this.book() });
+    this.queueButton = el('button', { id: 'booking-queue', textContent: t('booking.queue'), onclick: () => this.toggleQueue() });
     this.queueText = el('span', { id: 'booking-queue-text' });
-    const close = el('button', { textContent: 'Close', onclick: () => this.dialog.close() });
-    this.zone = el('small', { textContent: `Times in ${Intl.DateTimeFormat().resolvedOptions().timeZone}` });
+    const close = el('button', { textContent: t('page.close'), onclick: () => this.dialog.close() });
+    this.zone = el('small', { textContent: t('booking.zone', { zone: Intl.DateTimeFormat().resolvedOptions().timeZone }) });
     this.dialog = el('dialog', { id: 'dlg-booking' },
-      el('h3', { textContent: 'Robot timetable' }), this.status, this.zone, this.table,
-      el('p', { className: 'booking-form' }, el('label', {}, 'Station ', this.station), ' ',
-        el('label', {}, 'from ', this.start), ' ', el('label', {}, 'minutes ', this.minutes), ' ', this.behalfLabel, ' ', book),
+      el('h3', { textContent: t('booking.heading') }), this.status, this.zone, this.table,
+      el('p', { className: 'booking-form' }, el('label', {}, t('booking.station'), ' ', this.station), ' ',
+        el('label', {}, t('booking.from'), ' ', this.start), ' ', el('label', {}, t('booking.minutes'), ' ', this.minutes), ' ', this.behalfLabel, ' ', book),
       this.message, el('p', { className: 'booking-queue' }, this.queueButton, ' ', this.queueText), el('p', {}, close));
     document.body.append(this.dialog);
     this.button.onclick = () => { this.dialog.showModal(); this.refresh(); };
@@ -106,7 +107,7 @@ export class Booking {
       await this.pollQueue();
     } catch (e) {
       if (e.status === 404) { this.button.hidden = true; return false; }
-      this.say(`cannot read the timetable: ${e.message}`, true);
+      this.say(t('booking.read.failed', { error: e.message }), true);
     }
     return true;
   }
@@ -118,7 +119,7 @@ export class Booking {
       const q = await queueApi(joining ? 'POST' : 'DELETE');
       this.inLine = joining;
       this.showQueue(q);
-    } catch (e) { this.say(`queue: ${e.message}`, true); }
+    } catch (e) { this.say(t('booking.queue.failed', { error: e.message }), true); }
   }
 
   async pollQueue() {
@@ -128,14 +129,14 @@ export class Booking {
   showQueue(q) {
     this.queue = q;
     if (q.place) this.inLine = true;
-    this.queueButton.textContent = this.inLine && !q.seated ? 'Leave the queue' : 'Queue for a free robot';
+    this.queueButton.textContent = t(this.inLine && !q.seated ? 'booking.leave' : 'booking.queue');
     this.queueButton.hidden = Boolean(q.station) && !q.place;
-    const wait = q.wait === null || q.wait === undefined ? 'unknown' : left(q.wait);
-    this.queueText.textContent = q.place ? `You are number ${q.place} of ${q.queued} in line; estimated wait ${wait}.`
-      : q.seated ? `Your turn: ${q.seated} is yours.` : q.queued ? `${q.queued} waiting.` : '';
+    const wait = q.wait === null || q.wait === undefined ? t('booking.unknown') : left(q.wait);
+    this.queueText.textContent = q.place ? t('booking.place', { place: q.place, queued: q.queued, wait })
+      : q.seated ? t('booking.seated', { ns: q.seated }) : q.queued ? t('booking.waiting', { n: q.queued }) : '';
     if (q.seated && this.inLine && !q.place) {     // seated from the line: this page takes its robot
       this.inLine = false;
-      this.say(`Your turn in the queue: ${q.seated} is yours.`);
+      this.say(t('booking.turn', { ns: q.seated }));
       document.querySelector('#claim')?.click();
     }
   }
@@ -168,11 +169,11 @@ export class Booking {
     this.table.replaceChildren(...shown.map((station) => {
       const rows = d.bookings.filter((b) => b.station === station && b.end > now - 60);
       const items = rows.map((b) => el('li', { className: `${b.mine ? 'mine' : ''}${b.start <= now && now < b.end ? ' on' : ''}`, dataset: { id: b.id } },
-        `${day(b.start)} ${clock(b.start)}–${clock(b.end)} ${b.name}${b.start <= now && now < b.end ? ' (now)' : ''} `,
-        ...(b.mine || admin ? [el('button', { className: 'booking-cancel', textContent: 'Cancel', onclick: () => this.cancel(b) })] : [])));
+        `${day(b.start)} ${clock(b.start)}–${clock(b.end)} ${b.name}${b.start <= now && now < b.end ? ` ${t('booking.now')}` : ''} `,
+        ...(b.mine || admin ? [el('button', { className: 'booking-cancel', textContent: t('page.cancel'), onclick: () => this.cancel(b) })] : [])));
       return el('section', { className: 'booking-station', dataset: { station } },
         el('h4', { textContent: `${station}: ${this.free(station)}` }),
-        items.length ? el('ul', {}, ...items) : el('p', { textContent: 'No bookings.' }));
+        items.length ? el('ul', {}, ...items) : el('p', { textContent: t('booking.none') }));
     }));
     this.tick();
   }
@@ -182,9 +183,9 @@ export class Booking {
     const now = this.now();
     const rows = (this.data?.bookings || []).filter((b) => b.station === station && b.end > now);
     const on = rows.find((b) => b.start <= now);
-    if (on) return `${on.mine ? 'your' : `${on.name}'s`} slot until ${clock(on.end)}`;
+    if (on) return on.mine ? t('booking.yours.until', { at: clock(on.end) }) : t('booking.theirs.until', { who: on.name, at: clock(on.end) });
     const next = rows.sort((a, b) => a.start - b.start)[0];
-    return next ? `free until ${clock(next.start)} (then ${next.mine ? 'you' : next.name})` : 'free';
+    return next ? t('booking.free.until', { at: clock(next.start), who: next.mine ? t('driver.you') : next.name }) : t('station.free');
   }
 
   // Once a second: the time left in this person's slot, the warnings, the end.
@@ -192,21 +193,21 @@ export class Booking {
     const slot = this.current();
     const ns = this.namespace();
     if (!slot) {
-      const free = ns ? this.free(ns) : 'free';   // a walk-in's station: until when it is theirs
-      this.button.textContent = free === 'free' ? 'Booking' : `Booking · ${ns} ${free}`;
+      const free = ns ? this.free(ns) : t('station.free');   // a walk-in's station: until when it is theirs
+      this.button.textContent = free === t('station.free') ? t('booking') : `${t('booking')} · ${ns} ${free}`;
       this.button.classList.remove('on');
       this.warning.hidden = true;
       this.status.textContent = ns ? `${ns}: ${this.free(ns)}` : '';
       return;
     }
     const rest = Math.max(0, slot.end - this.now());
-    this.button.textContent = `Slot ${slot.station} · ${left(rest)} left`;
+    this.button.textContent = t('booking.slot.left', { ns: slot.station, left: left(rest) });
     this.button.classList.add('on');
-    this.status.textContent = `Your slot on ${slot.station} ends at ${clock(slot.end)} (${left(rest)} left).`;
+    this.status.textContent = t('booking.slot.ends', { ns: slot.station, at: clock(slot.end), left: left(rest) });
     const at = WARN.filter((w) => rest <= w).pop();
     if (at !== undefined) {
       this.warning.hidden = false;
-      this.warning.textContent = `${at >= 60 ? `${at / 60} minute${at > 60 ? 's' : ''}` : `${at} s`} left in your slot on ${slot.station}: it ends at ${clock(slot.end)}`;
+      this.warning.textContent = t('booking.warning', { left: at >= 60 ? tn('booking.minutes.n', at / 60) : t('booking.seconds', { s: at }), ns: slot.station, at: clock(slot.end) });
       this.warning.dataset.at = String(at);
       this.warned.add(`${slot.id}:${at}`);
     } else {
@@ -217,13 +218,13 @@ export class Booking {
   async book() {
     const minutes = Number(this.minutes.value);
     const start = new Date(this.start.value).getTime() / 1000;
-    if (!Number.isFinite(start) || !(minutes > 0)) { this.say('give a start time and a number of minutes', true); return; }
+    if (!Number.isFinite(start) || !(minutes > 0)) { this.say(t('booking.give'), true); return; }
     try {
       const slot = { station: this.station.value, start, end: start + minutes * 60 };
       if (this.behalf.value.trim() && this.data?.role === 'admin') slot.for = this.behalf.value.trim();
       const b = await api('', { method: 'POST', body: JSON.stringify(slot) });
-      this.say(`Booked ${b.station} from ${clock(b.start)} to ${clock(b.end)}${b.mine ? '' : ` for ${b.name}`}.`);
-    } catch (e) { this.say(`cannot book: ${e.message}`, true); }
+      this.say(t(b.mine ? 'booking.booked' : 'booking.booked.for', { ns: b.station, from: clock(b.start), to: clock(b.end), who: b.name }));
+    } catch (e) { this.say(t('booking.book.failed', { error: e.message }), true); }
     await this.refresh();
   }
 
@@ -237,15 +238,15 @@ export class Booking {
     } catch { /* offered nothing: a name can still be typed */ }
     const count = new Map();
     for (const p of people) count.set(p.name, (count.get(p.name) ?? 0) + 1);
-    this.people.replaceChildren(...people.map((p) => new Option(`${p.role} · ${p.kind === 'lti' ? 'from the LMS' : p.kind}${count.get(p.name) > 1 ? ` · ${p.name}` : ''}`,
+    this.people.replaceChildren(...people.map((p) => new Option(`${t(`role.${p.role}`)} · ${p.kind === 'lti' ? t('booking.from.lms') : p.kind}${count.get(p.name) > 1 ? ` · ${p.name}` : ''}`,
       count.get(p.name) > 1 ? p.id : p.name)));
   }
 
   async cancel(b) {
     try {
       await api(`/${b.id}`, { method: 'DELETE' });
-      this.say(`Cancelled ${b.station} at ${clock(b.start)}.`);
-    } catch (e) { this.say(`cannot cancel: ${e.message}`, true); }
+      this.say(t('booking.cancelled', { ns: b.station, at: clock(b.start) }));
+    } catch (e) { this.say(t('booking.cancel.failed', { error: e.message }), true); }
     await this.refresh();
   }
 

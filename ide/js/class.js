@@ -9,6 +9,7 @@ import { showProgram } from './classprogram.js';
 import { STATIONS_TOPIC } from './robotns.js';
 import { Link } from './link.js';
 import { mountBooking } from './booking.js';
+import { t, tn } from './i18n.js';
 
 const $ = (s) => document.querySelector(s);
 const REFRESH = 10000;   // ms between looks at the graph for new stations
@@ -28,17 +29,17 @@ function connect() {
   const url = params.get('url') || `${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/?name=teacher&compression=deflate`;
   const link = new Link(url);
   view.link = link;
-  setStatus('connecting', 'connecting…');
+  setStatus('connecting', t('status.connecting'));
   link.addEventListener('open', (e) => {
     const ros = e.detail;
     view.ros = ros;
-    setStatus('connected', 'connected');
+    setStatus('connected', t('status.connected'));
     view.lease.attach(ros);
     watchOwners(ros);
     for (const t of view.tiles.values()) t.attach(ros);
     refresh();
   });
-  link.addEventListener('lost', () => { view.ros = null; setStatus('lost', 'connection lost'); });
+  link.addEventListener('lost', () => { view.ros = null; setStatus('lost', t('status.lost')); });
   setInterval(() => { $('#link').textContent = link.describe(); }, 500);
   link.start();
 }
@@ -85,16 +86,15 @@ async function refresh() {
     if (view.topics.includes(DRIVER_TOPIC)) view.lease.watch();
     await show(await stations());
     for (const t of view.tiles.values()) t.show();
-  } catch (e) { notice(`cannot read the graph: ${e.message}`); }
+  } catch (e) { notice(t('class.graph.failed', { error: e.message })); }
 }
 
 async function show(list) {
   for (const ns of list) if (!view.tiles.has(ns)) view.tiles.set(ns, new Tile(ns));
   const tiles = [...view.tiles.values()].sort((a, b) => a.ns.localeCompare(b.ns));
   $('#tiles').replaceChildren(...tiles.map((t) => t.el));
-  $('#count').textContent = `${tiles.length} station${tiles.length === 1 ? '' : 's'}`
-    + (view.lease.available ? '' : ' · start the gateway with --exclusive-control to see who drives and stop programs');
-  if (!tiles.length) notice('No stations yet: run the gateway with --fleet N, or robots in their own namespaces.');
+  $('#count').textContent = tn('class.count', tiles.length) + (view.lease.available ? '' : t('class.no.lease'));
+  if (!tiles.length) notice(t('class.no.stations'));
   else notice('');
   document.body.dataset.tiles = String(tiles.length);
 }
@@ -135,23 +135,24 @@ class Tile {
     // is shown only when it is the owner's (not what another student's page left on this station)
     const r = (owner || d) && (!owner || !this.report?.user || this.report.user === owner) ? this.report : null;
     let text;
-    if (d && (!owner || d.owner)) text = `${d.run && owner ? `${owner}'s run` : d.name} drives`;
-    else if (d) text = `${owner}'s station · ${d.name} drives`;
-    else if (owner) text = `${owner}'s station (${halted ? 'stopped' : 'not driving'})`;
-    else text = halted ? 'free (stopped)' : 'free';
+    if (d && (!owner || d.owner)) text = t('class.drives', { who: d.run && owner ? t('class.run.of', { owner }) : d.name });
+    else if (d) text = t('class.station.driven', { owner, who: d.name });
+    else if (owner) text = t(halted ? 'class.station.stopped' : 'class.station.idle', { owner });
+    else text = t(halted ? 'class.free.stopped' : 'station.free');
     this.el.querySelector('.holder').textContent = text;
     this.el.toggleAttribute('data-held', Boolean(d));
     this.el.toggleAttribute('data-halted', Boolean(halted));
     this.el.dataset.owner = owner ?? '';
     const state = r?.state ?? 'none';
     this.el.dataset.state = state;
-    this.el.querySelector('.state').textContent = { none: 'no program', idle: 'idle', running: 'running', paused: 'paused' }[state] ?? state;
+    this.el.querySelector('.state').textContent = (['none', 'idle', 'running', 'paused'].includes(state) ? t(`class.state.${state}`) : state);
     // a text program's running line (its Python or JavaScript), as its IDE reports it
-    const at = r?.line && state !== 'idle' && state !== 'none' ? ` · line ${r.line}` : '';
-    this.el.querySelector('.program').textContent = r?.name ? `program: ${r.name}${at}` : '';
-    this.el.dataset.line = at ? String(r.line) : '';
+    const at = r?.line && state !== 'idle' && state !== 'none' ? r.line : 0;
+    this.el.querySelector('.program').textContent = !r?.name ? ''
+      : at ? t('class.program.line', { name: r.name, line: at }) : t('class.program', { name: r.name });
+    this.el.dataset.line = at ? String(at) : '';
     const err = this.el.querySelector('.error');
-    err.textContent = r?.error ? `last error: ${r.error}` : '';
+    err.textContent = r?.error ? t('class.last.error', { error: r.error }) : '';
     err.hidden = !r?.error;
     this.el.toggleAttribute('data-error', Boolean(r?.error));
     this.el.querySelector('.open').disabled = !r?.program;
@@ -176,7 +177,7 @@ function stop(ns) {
 // Release: on a fleet the gateway frees the claim, the lease and a stop in one step, and the
 // student's pages keep off it until she claims again; elsewhere the lease alone is freed.
 function release(ns) {
-  if (view.services.includes(`${ns}/fleet/release`)) call(`${ns}/fleet/release`).catch((e) => notice(`Release ${ns}: ${e.message}`));
+  if (view.services.includes(`${ns}/fleet/release`)) call(`${ns}/fleet/release`).catch((e) => notice(t('class.release.failed', { ns, error: e.message })));
   else if (view.lease.available) view.lease.command(`release ${ns}`);
 }
 
@@ -195,8 +196,8 @@ function setup() {
   });
   $('#stop-all').onclick = () => { for (const t of view.tiles.values()) if (inUse(t)) stop(t.ns); };
   $('#release-all').onclick = () => {
-    if (!confirm('Release every station? Each student loses her robot until she claims one again.')) return;
-    if (view.services.includes('/fleet/release_all')) call('/fleet/release_all').catch((e) => notice(`Release all: ${e.message}`));
+    if (!confirm(t('class.releaseall.confirm'))) return;
+    if (view.services.includes('/fleet/release_all')) call('/fleet/release_all').catch((e) => notice(t('class.releaseall.failed', { error: e.message })));
     else if (view.lease.available) for (const ns of view.tiles.keys()) view.lease.command(`release ${ns}`);
   };
   setInterval(() => { if (view.ros?.isConnected) refresh(); }, REFRESH);

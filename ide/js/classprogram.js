@@ -4,6 +4,7 @@
 /* global Blockly */
 import './fields.js';
 import './msgblock.js';
+import { t } from './i18n.js';
 
 let workspace = null;
 let defined = null;
@@ -25,7 +26,7 @@ function define(def, colour) {
 
 export async function showProgram(report, ns) {
   const dlg = document.querySelector('#dlg-program');
-  document.querySelector('#program-title').textContent = `${ns} · ${report?.user || 'student'} · ${report?.name ?? ''}`;
+  document.querySelector('#program-title').textContent = `${ns} · ${report?.user || t('class.student')} · ${report?.name ?? ''}`;
   document.querySelector('#program-close').onclick = () => dlg.close();
   dlg.showModal();
   const view = document.querySelector('#program-view');
@@ -44,9 +45,9 @@ export async function showProgram(report, ns) {
   workspace.clear();
   try {
     Blockly.serialization.workspaces.load(report?.program?.workspace ?? {}, workspace);
-    document.querySelector('#program-note').textContent = 'Read-only: the student\'s program as last reported.';
+    document.querySelector('#program-note').textContent = t('class.program.note');
   } catch (e) {
-    document.querySelector('#program-note').textContent = `This program cannot be shown: ${e.message}`;
+    document.querySelector('#program-note').textContent = t('class.program.failed', { error: e.message });
   }
   workspace.zoomToFit?.();
   window.classView.programShown = workspace.getAllBlocks(false).length;

@@ -1,4 +1,5 @@
 // The console under the code panel: log output, run markers and errors that point at blocks.
+import { t } from './i18n.js';
 export class Console {
   constructor(el, onBlock) {
     this.el = el;
@@ -13,7 +14,7 @@ export class Console {
     if (blockId) {
       const a = document.createElement('button');
       a.className = 'goto';
-      a.textContent = 'show block';
+      a.textContent = t('console.show.block');
       a.onclick = () => this.onBlock(blockId);
       div.append(' ', a);
       div.dataset.block = blockId;

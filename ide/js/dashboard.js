@@ -3,6 +3,7 @@
 // the plotted fields is kept for ten minutes in this browser, per robot namespace, so a reload
 // keeps it; longer spans come from the gateway's history (history.js) through replace().
 import uPlot from 'uplot';
+import { num } from './i18n.js';
 
 export const WINDOW = 600;         // s of history kept
 export const SAMPLE_EVERY = 1000;  // ms between history rows
@@ -38,7 +39,7 @@ export function gauge(el, { label, unit, min, max, warn, danger, low = false, di
       if (!Number.isFinite(v)) { text.textContent = '?'; el.dataset.level = ''; return; }
       const f = Math.max(0, Math.min(1, (v - min) / (max - min)));
       fill.setAttribute('stroke-dasharray', `${f * ARC} ${ARC}`);
-      text.textContent = `${v.toFixed(digits)}${unit}`;
+      text.textContent = `${num(v, digits)}${unit}`;
       el.dataset.level = (low ? v <= danger : v >= danger) ? 'danger' : (low ? v <= warn : v >= warn) ? 'warn' : 'ok';
       el.dataset.value = String(v);
       box.setAttribute('aria-label', `${label} ${text.textContent}`);
@@ -155,7 +156,7 @@ export class History {
       span.style.setProperty('--c', this.colour(s));
       span.dataset.id = s.id;
       const v = s.last ?? this.rows[s.id].findLast((x) => x !== null);
-      span.textContent = `${s.label} ${Number.isFinite(v) ? v.toFixed(2) : '–'}${c.div.dataset.unit ? ` ${c.div.dataset.unit}` : ''}`;
+      span.textContent = `${s.label} ${num(v, 2)}${c.div.dataset.unit ? ` ${c.div.dataset.unit}` : ''}`;
       return span;
     }));
   }

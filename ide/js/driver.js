@@ -6,6 +6,7 @@
 // announcement's "halted") until the station's owner presses Take. A holder that is the station's
 // owner's other client (her robot-side run) is 'yours' to a page on its own station.
 import { normNamespace } from '../runtime/util.js';
+import { t, time } from './i18n.js';
 
 export const DRIVER_TOPIC = '/rosgate/driver';
 const CONTROL_TOPIC = '/rosgate/control';
@@ -92,8 +93,8 @@ export class DriverLease extends EventTarget {
 
   get label() {
     const state = this.state;
-    if (state === 'yours') return this.driver.run ? `your run ${this.driver.run}` : 'you (another page)';
-    return { off: '', nobody: 'nobody', you: 'you' }[state] ?? this.driver.name ?? `client ${this.driver.client}`;
+    if (state === 'yours') return this.driver.run ? t('driver.your.run', { run: this.driver.run }) : t('driver.you.other.page');
+    return { off: '', nobody: t('page.nobody'), you: t('driver.you') }[state] ?? this.driver.name ?? t('driver.client', { n: this.driver.client });
   }
 
   // Whether the teacher's stop of this page's robot still holds (until Take).
@@ -141,7 +142,7 @@ export function bindDriverBadge(lease, $ = (s) => document.querySelector(s)) {
     $('#driver-name').textContent = lease.label;
     const d = lease.driver;
     const where = lease.group === '/' ? '' : ` ${lease.group}`;
-    $('#driver').title = d ? `client ${d.client}${d.role ? ` (${d.role})` : ''} from ${d.remote}, since ${new Date(d.since * 1000).toLocaleTimeString()}${where}` : where.trim();
+    $('#driver').title = d ? t('driver.title', { n: d.client, role: d.role ? ` (${d.role})` : '', remote: d.remote, since: time(d.since * 1000) }) + where : where.trim();
     $('#take').hidden = state === 'you';
     $('#release').hidden = state !== 'you';
   };

@@ -1,6 +1,7 @@
 import { messageState } from './msgblock.js';
 import { shared } from './graph.js';
 import { withNamespace } from '../runtime/util.js';
+import { t } from './i18n.js';
 
 // A dropdown of live ROS names (topics, services, actions, types, fields) that also
 // takes free text, and the block extensions that fill a block's TYPE from its name.
@@ -46,7 +47,7 @@ export class FieldRosName extends Blockly.FieldDropdown {
     add(this.value_);
     for (const n of this.names()) add(n);
     for (const n of typed.get(this.kind) ?? []) add(n);
-    opts.push([this.kind === 'field' ? '✎ type a field…' : '✎ type a name…', OTHER]);
+    opts.push([t(this.kind === 'field' ? 'field.type.field' : 'field.type.name'), OTHER]);
     if (g()?.connected && !g()._refreshing && this.kind !== 'field') g().refresh().catch(() => {});
     return opts;
   }
@@ -64,7 +65,7 @@ export class FieldRosName extends Blockly.FieldDropdown {
 
   onItemSelected_(menu, item) {
     if (item.getValue() !== OTHER) { this.setValue(item.getValue()); return; }
-    const label = { topic: 'Topic name', service: 'Service name', action: 'Action name', field: 'Field path' }[this.kind] ?? 'Name';
+    const label = t(['topic', 'service', 'action', 'field'].includes(this.kind) ? `field.ask.${this.kind}` : 'field.ask.name');
     Blockly.dialog.prompt(`${label}:`, this.value_ ?? '', (text) => {
       if (text === null || text === undefined) return;
       text = text.trim();

@@ -2,6 +2,7 @@
 // back to where the page first saw it, along the path it drove (a loop it closed is not driven
 // twice), at the consumption it measured so far (percentage points per metre, idle drain
 // included), with a 25 % margin. Warns while there is still charge to turn back.
+import { t, num } from './i18n.js';
 export const MARGIN = 1.25;        // needed x this
 export const RESERVE = 10;         // % left over below which it warns
 const STEP = 0.1;                  // m between kept path points
@@ -62,10 +63,9 @@ export class HomeEstimate {
     const e = this.estimate();
     this.el.dataset.level = e.level;
     if (e.need === null) {
-      this.el.textContent = this.path.length ? `home ${e.back.toFixed(1)} m back · measuring the consumption…` : '';
+      this.el.textContent = this.path.length ? t('home.measuring', { m: num(e.back, 1) }) : '';
       return;
     }
-    const say = { ok: 'enough to get home', warn: 'turn back soon', danger: 'turn back now' }[e.level];
-    this.el.textContent = `home ${e.back.toFixed(1)} m back · needs ≈ ${e.need.toFixed(1)} % · has ${e.have.toFixed(0)} % · ${say}`;
+    this.el.textContent = t('home.estimate', { m: num(e.back, 1), need: num(e.need, 1), have: num(e.have, 0), say: t(`home.${e.level}`) });
   }
 }

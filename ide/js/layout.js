@@ -1,6 +1,7 @@
 // Tablet-first layout: a code panel that folds away, a workspace that follows its box, and
 // programs that open zoomed to fit (never smaller than blocks a finger can still drag).
 /* global Blockly */
+import { t } from './i18n.js';
 
 const CODE_KEY = 'rosgate.code';
 export const PHONE = '(max-width: 820px)';
@@ -9,7 +10,7 @@ export const PHONE = '(max-width: 820px)';
 export function bindLayout(workspace, toggle) {
   const setCode = (shown, remember = false) => {
     document.body.dataset.code = shown ? 'shown' : 'hidden';
-    toggle.textContent = shown ? 'hide code' : 'show code';
+    toggle.textContent = t(shown ? 'ide.code.hide' : 'ide.code.show');
     toggle.setAttribute('aria-expanded', String(shown));
     if (remember) try { localStorage.setItem(CODE_KEY, shown ? 'shown' : 'hidden'); } catch { /* private mode */ }
   };

@@ -14,6 +14,7 @@
 // seconds later) is dropped after attemptTimeout() and a fresh one sent at once, so the link's
 // return is met within about 1.5 s. The page's station is the person's (robotns.js), so it is kept.
 import { Ros } from 'roslib';
+import { t, num } from './i18n.js';
 
 export const PING_EVERY = 250;          // ms between pings
 export const SILENCE = 800;             // ms without a frame from the gateway: the link is lost
@@ -68,8 +69,8 @@ export class Link extends EventTarget {
   describe(now = performance.now()) {
     if (this.state !== 'connected') return '';
     const parts = [];
-    if (this.rtt !== null) parts.push(`RTT ${Math.round(this.rtt)} ms`);
-    if (this.dataAt !== null) parts.push(`data ${((now - this.dataAt) / 1000).toFixed(1)} s old`);
+    if (this.rtt !== null) parts.push(t('link.rtt', { ms: Math.round(this.rtt) }));
+    if (this.dataAt !== null) parts.push(t('link.age', { s: num((now - this.dataAt) / 1000, 1) }));
     return parts.join(' · ');
   }
 

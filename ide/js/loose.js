@@ -2,9 +2,9 @@
 // Run and by the generated code; here it is greyed and says why, until it is plugged in again.
 /* global Blockly */
 import { isLoose } from '../generators/scope.js';
+import { t } from './i18n.js';
 
-export const LOOSE_TEXT = 'Not plugged into anything: the program skips this block. '
-  + 'Plug it into a block, or delete it.';
+export const LOOSE_TEXT = t('loose.warning');
 const WARNING_ID = 'loose';
 const CLASS = 'rosgate-loose';
 

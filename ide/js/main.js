@@ -25,6 +25,7 @@ import { mountRecorder } from './recorder.js';
 import { mountBooking } from './booking.js';
 import { TextMode, blocksAsText, bundlePython, LANGS } from './textmode.js';
 import { TextRunner } from './textrun.js';
+import { t } from './i18n.js';
 
 const $ = (sel) => document.querySelector(sel);
 const getJson = async (url) => {
@@ -69,8 +70,8 @@ function buildToolbox(base) {
   }
   const mine = ide.custom.map((c) => ({ kind: 'block', type: c.json.type, inputs: c.toolboxInputs ?? {} }));
   contents.push({
-    kind: 'category', name: 'My blocks', colour: '330',
-    contents: [{ kind: 'button', text: '＋ Make a block…', callbackKey: 'makeBlock' }, ...mine],
+    kind: 'category', name: t('ide.myblocks'), colour: '330',
+    contents: [{ kind: 'button', text: t('ide.makeblock'), callbackKey: 'makeBlock' }, ...mine],
   });
   return { kind: 'categoryToolbox', contents };
 }
@@ -141,7 +142,7 @@ async function start() {
       ide.ns = ns;
       world.setTopic(withNamespace(ns, '/world/markers'));
       updateCode();
-      consoleView.info(`robot namespace: ${ns || 'none'}`);
+      consoleView.info(t('ide.ns.changed', { ns: ns || t('ide.ns.none') }));
     },
   });
   ide.ns = robotNs.get();
@@ -184,7 +185,7 @@ async function start() {
   link.addEventListener('open', (e) => {
     const ros = e.detail;
     ide.ros = ros;
-    setStatus('connected', 'connected');
+    setStatus('connected', t('status.connected'));
     graph.setRos(ros);
     ide.robotRuns?.connected(ros);
     lease.attach(ros);
@@ -193,11 +194,11 @@ async function start() {
     graph.refresh().catch((err) => consoleView.error(`rosapi: ${err.message}`));
   });
   link.addEventListener('lost', () => {
-    setStatus('lost', 'connection lost');
+    setStatus('lost', t('status.lost'));
     runner.stop();
     textRunner.stop();
   });
-  link.addEventListener('state', (e) => { if (e.detail === 'connecting') setStatus('connecting', 'connecting…'); });
+  link.addEventListener('state', (e) => { if (e.detail === 'connecting') setStatus('connecting', t('status.connecting')); });
   setInterval(() => { $('#link').textContent = link.describe(); }, 500);
   const connect = () => link.restart();
   $('#reconnect').onclick = connect;
@@ -220,7 +221,7 @@ async function start() {
   lease.addEventListener('stop', () => {
     runner.stop();
     textRunner.stop();
-    consoleView.warn(`Stopped by the teacher: ${ide.ns || 'this robot'} stays still until you press Take.`);
+    consoleView.warn(t('ide.stopped.teacher', { robot: ide.ns || t('ide.this.robot') }));
   });
   ide.report = reportProgram(ide, { workspace, runners: [runner, textRunner], consoleEl: $('#console-lines') });
   $('#take').addEventListener('click', () => ide.report.clear());   // her Take: the tile's error is behind her
@@ -320,7 +321,7 @@ async function start() {
   workspace.addChangeListener((e) => { if (!e.isUiEvent) changed(); });
 
   const replacing = () => !(textMode.active ? textMode.text.trim() : workspace.getAllBlocks(false).length)
-    || confirm('Start a new program? The current one is replaced.');
+    || confirm(t('ide.new.confirm'));
   $('#new').onclick = async () => {
     if (!replacing()) return;
     ide.custom = [];
@@ -356,14 +357,14 @@ async function start() {
   $('#upload').onclick = async () => {
     const text = await storage.pickFile();
     if (!text) return;
-    try { await ide.loadProgram(JSON.parse(text)); consoleView.info(`opened ${ide.programName}`); } catch (e) { consoleView.error(`cannot open: ${e.message}`); }
+    try { await ide.loadProgram(JSON.parse(text)); consoleView.info(t('ide.opened', { name: ide.programName })); } catch (e) { consoleView.error(t('ide.open.failed', { error: e.message })); }
   };
   $('#share').onclick = async () => {
     const link = await storage.shareLink(program());
     ide.lastShareLink = link;
     history.replaceState(null, '', link);
-    try { await navigator.clipboard.writeText(link); consoleView.info('share link copied to the clipboard'); } catch {
-      consoleView.info('share link is in the address bar');
+    try { await navigator.clipboard.writeText(link); consoleView.info(t('ide.share.copied')); } catch {
+      consoleView.info(t('ide.share.bar'));
     }
   };
   setupLibrary(program);
@@ -386,7 +387,7 @@ async function start() {
       if (query.get('mode') === 'text' && !textMode.active) await editAsText(lang, ide.programName);
     } else if (query.get('mode') === 'text') await newText(lang);     // ?mode=text&lang=python|javascript
     else { const saved = storage.loadAutosave(); if (saved) await ide.loadProgram(saved); }
-  } catch (e) { consoleView.error(`cannot open the program: ${e.message}`); }
+  } catch (e) { consoleView.error(t('ide.program.failed', { error: e.message })); }
   updateCode();
   // with --auth: who is signed in decides whether the page connects and what it offers
   const me = await whoami();
@@ -395,8 +396,8 @@ async function start() {
     { run: [$('#run'), $('#step'), $('#pause'), $('#run-robot')], save: [$('#library-save')] });
   if (me.signedIn) connect();
   else {
-    setStatus('signin', 'not signed in');
-    consoleView.error('This gateway needs a token: use "Sign in" at the top to open /login.');
+    setStatus('signin', t('status.signin'));
+    consoleView.error(t('ide.needs.token'));
   }
   ide.ready = true;
   document.body.dataset.ready = 'true';
@@ -422,10 +423,10 @@ function setupLibrary(program) {
     const me = ide.me ?? { auth: false, signedIn: true };
     const space = $('#library-space');
     space.hidden = !me.auth;
-    space.textContent = !me.signedIn ? 'Sign in to use the library.'
-      : abilities(me).everyone ? 'Every student\'s programs; yours are saved in the shared space.'
-        : `Your programs, ${me.name}${abilities(me).save ? '' : ' (a viewer may open but not save)'}.`;
-    try { items = await storage.library.list(); } catch (e) { list.textContent = `library unavailable: ${e.message}`; return; }
+    space.textContent = !me.signedIn ? t('lib.signin')
+      : abilities(me).everyone ? t('lib.everyone')
+        : t(abilities(me).save ? 'lib.yours' : 'lib.yours.viewer', { name: me.name });
+    try { items = await storage.library.list(); } catch (e) { list.textContent = t('lib.unavailable', { error: e.message }); return; }
     for (const item of items) {
       const li = document.createElement('li');
       const open = document.createElement('button');
@@ -438,17 +439,17 @@ function setupLibrary(program) {
       };
       const del = document.createElement('button');
       del.textContent = '🗑';
-      del.title = `delete ${who}${item.name}`;
+      del.title = t('lib.delete.title', { name: `${who}${item.name}` });
       del.disabled = !abilities(me).save;
       del.onclick = async () => {
-        if (!confirm(`Delete ${who}${item.name}?`)) return;
-        try { await storage.library.remove(item.name, item.owner); } catch (e) { ide.console.error(`delete failed: ${e.message}`); }
+        if (!confirm(t('lib.delete.confirm', { name: `${who}${item.name}` }))) return;
+        try { await storage.library.remove(item.name, item.owner); } catch (e) { ide.console.error(t('lib.delete.failed', { error: e.message })); }
         refresh();
       };
       li.append(open, del);
       list.append(li);
     }
-    if (!items.length) list.textContent = 'No programs saved on the gateway yet.';
+    if (!items.length) list.textContent = t('lib.empty');
   };
   $('#library').onclick = () => { dlg.showModal(); refresh(); };
   $('#library-save').onclick = async () => {
@@ -456,13 +457,13 @@ function setupLibrary(program) {
     let python = null;
     const js = ide.textMode.active && ide.textMode.lang === 'javascript';   // runs in the page only
     if (!js) try { python = ide.generatePython(); } catch (e) {
-      ide.console.error(`saving without its Python (it cannot run on the robot by name): ${e.message}`);
+      ide.console.error(t('lib.nopython', { error: e.message }));
     }
     try {
       await storage.library.save(name, program(), python);
-      ide.console.info(`saved "${name}" on the gateway`);
+      ide.console.info(t('lib.saved', { name }));
       refresh();
-    } catch (e) { ide.console.error(`save failed: ${e.message}`); }
+    } catch (e) { ide.console.error(t('lib.save.failed', { error: e.message })); }
   };
   $('#library-close').onclick = () => dlg.close();
 }
@@ -484,8 +485,8 @@ async function setupExamples() {
     if (!file) return;
     try {
       await ide.loadProgram(await getJson(`examples/${file}`));
-      ide.console.info(`example "${ide.programName}" loaded`);
-    } catch (e) { ide.console.error(`cannot load example: ${e.message}`); }
+      ide.console.info(t('ide.example.loaded', { name: ide.programName }));
+    } catch (e) { ide.console.error(t('ide.example.failed', { error: e.message })); }
   };
 }
 
@@ -496,5 +497,5 @@ start().catch((e) => {
   document.body.dataset.ready = 'error';
   console.error(e);
   const el = document.querySelector('#console-lines');
-  if (el) el.textContent = `The IDE failed to start: ${e.message}`;
+  if (el) el.textContent = t('ide.failed', { error: e.message });
 });

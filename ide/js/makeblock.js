@@ -2,6 +2,7 @@
 // The definition (block JSON + rosgate spec) is saved with the program.
 /* global Blockly */
 import { normType } from './graph.js';
+import { t } from './i18n.js';
 
 const NUMERIC = /^(u?int(8|16|32|64)|float(32|64)|double|byte|char)$/;
 const MAX_INPUTS = 8;
@@ -183,10 +184,10 @@ export class MakeBlockDialog {
 
   async create() {
     const name = this.name.value.trim();
-    if (!name) { this.msg.textContent = 'Choose or type a name.'; return; }
+    if (!name) { this.msg.textContent = t('make.choose'); return; }
     try {
       const def = await this.make(this.kind.value, name, this.label.value.trim() || this.defaultLabel());
-      this.msg.textContent = `Made "${def.json.type}" — find it under My blocks.`;
+      this.msg.textContent = t('make.made', { type: def.json.type });
       this.dlg.close();
     } catch (e) {
       this.msg.textContent = e.message;

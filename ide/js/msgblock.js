@@ -2,9 +2,10 @@
 // The field list is saved with the block, so a program loads and generates offline.
 /* global Blockly */
 import { normType, shared } from './graph.js';
+import { t } from './i18n.js';
 
 const NUMERIC = /^(u?int(8|16|32|64)|float(32|64)|double|float|byte|char|octet)$/;
-const LABEL = { msg: 'message', request: 'request', goal: 'goal' };
+const LABEL = { msg: t('msg.message'), request: t('msg.request'), goal: t('msg.goal') };
 const TYPE_KIND = { msg: 'msgtype', request: 'srvtype', goal: 'actiontype' };
 
 function fieldsOf(def) {
@@ -82,7 +83,7 @@ export const MESSAGE_MIXIN = {
     for (const input of [...this.inputList]) {
       if (input.name.startsWith('F_') && !keep.has(input.name)) this.removeInput(input.name);
     }
-    this.getField('KIND')?.setValue(LABEL[this.msgKind] ?? 'message');
+    this.getField('KIND')?.setValue(LABEL[this.msgKind] ?? LABEL.msg);
     const typeField = this.getField('TYPE');
     if (typeField) typeField.kind = TYPE_KIND[this.msgKind] ?? 'msgtype';
     for (const f of this.msgFields) {
@@ -116,7 +117,7 @@ Blockly.Extensions.registerMutator('ros_message_mutator', MESSAGE_MIXIN, functio
     this.getField('TYPE').setVisible(!nested);
     this.queueRender?.();
   });
-  this.setTooltip(() => `${LABEL[block.msgKind] ?? 'message'} ${block.msgType}: one input per field`);
+  this.setTooltip(() => t('msg.tooltip', { kind: LABEL[block.msgKind] ?? LABEL.msg, type: block.msgType }));
   this.getField('TYPE').setValidator(function (v) {
     if (typeof v === 'string' && !v.startsWith('\u0000')) setTimeout(() => block.onTypeChosen_(v), 0);
     return undefined;

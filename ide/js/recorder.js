@@ -5,6 +5,7 @@
 // On a page with a robot (a fleet's station, the #ns field) a name typed without it records the
 // station's topic too ('/turtle1/pose' also asks for /s07/turtle1/pose), as the blocks do; a
 // recording that matches no topic, or ends with no message, says so.
+import { t, num } from './i18n.js';
 
 export const formatBytes = (n) => (n < 1024 ? `${n} B` : n < 2 ** 20 ? `${(n / 1024).toFixed(1)} KB`
   : `${(n / 2 ** 20).toFixed(1)} MB`);
@@ -38,16 +39,16 @@ export class Recorder {
     this.current = null;      // id of the recording this page shows in its button
     this.timer = null;
     this.me = null;
-    this.button = el('button', { id: 'rec', className: 'rec', title: 'record topics to a bag file (MCAP)', textContent: '● Rec' });
-    this.listButton = el('button', { id: 'recordings', title: 'recordings on the gateway', textContent: 'Recordings' });
+    this.button = el('button', { id: 'rec', className: 'rec', title: t('rec.title'), textContent: t('rec.button') });
+    this.listButton = el('button', { id: 'recordings', title: t('rec.list.title'), textContent: t('rec.list') });
     bar.append(el('span', { className: 'group recorder' }, this.button, this.listButton));
     this.topics = el('input', { id: 'rec-topics', size: 28, value: localStorage.getItem('rosgate.recTopics') || '' });
     this.message = el('p', { className: 'rec-msg' });
     this.list = el('ul', { id: 'rec-list' });
-    const close = el('button', { textContent: 'Close', onclick: () => this.dialog.close() });
+    const close = el('button', { textContent: t('page.close'), onclick: () => this.dialog.close() });
     this.dialog = el('dialog', { id: 'dlg-recordings' },
-      el('h3', { textContent: 'Recordings' }),
-      el('label', {}, 'Topics to record (globs, space separated) ', this.topics),
+      el('h3', { textContent: t('rec.list') }),
+      el('label', {}, t('rec.topics'), ' ', this.topics),
       this.message, this.list, el('p', {}, close));
     document.body.append(this.dialog);
     this.button.onclick = () => (this.current ? this.stop() : this.start());
@@ -81,8 +82,8 @@ export class Recorder {
   // Why a recording records nothing: no topic matches, and (on a fleet) no robot chosen.
   nothingText(rec) {
     const fleet = document.querySelector('#claim')?.hidden === false;
-    const station = !this.namespace() && fleet ? ' This page has no robot: choose one ("robot") or press "Claim a robot".' : '';
-    return `No topic matches ${rec.requested.join(' ')}, so nothing is recorded.${station}`;
+    const station = !this.namespace() && fleet ? ` ${t('rec.no.robot')}` : '';
+    return t('rec.no.match', { topics: rec.requested.join(' ') }) + station;
   }
 
   mine(rec) {
@@ -106,7 +107,7 @@ export class Recorder {
         this.refresh();
       }
     } catch (e) {
-      this.say(`cannot record: ${e.message}`, true);
+      this.say(t('rec.failed', { error: e.message }), true);
       this.dialog.showModal();
     }
   }
@@ -133,45 +134,45 @@ export class Recorder {
     this.button.classList.toggle('empty', recording && !rec.topics.length);
     if (recording) {
       const none = !rec.topics.length;
-      this.button.textContent = `■ ${formatElapsed(Date.now() / 1000 - rec.started)} · ${none ? 'no topics' : formatBytes(rec.bytes)}`;
-      this.button.title = none ? `${this.nothingText(rec)} Press to stop.`
-        : `recording ${rec.topics.join(', ')}: press to stop`;
+      this.button.textContent = `■ ${formatElapsed(Date.now() / 1000 - rec.started)} · ${none ? t('rec.no.topics') : formatBytes(rec.bytes)}`;
+      this.button.title = none ? `${this.nothingText(rec)} ${t('rec.press.stop')}`
+        : t('rec.recording', { topics: rec.topics.join(', ') });
       return;
     }
     clearInterval(this.timer);
     this.current = null;
-    this.button.textContent = '● Rec';
-    this.button.title = 'record topics to a bag file (MCAP)';
+    this.button.textContent = t('rec.button');
+    this.button.title = t('rec.title');
     const empty = rec.messages === 0;
-    this.say(`${rec.id}: ${rec.messages ?? '?'} messages, ${formatBytes(rec.bytes)}${rec.reason ? ` (${rec.reason})` : ''}`
-      + (!empty ? '' : rec.topics?.length ? `: nothing came on ${rec.topics.join(', ')}` : `. ${this.nothingText(rec)}`), empty);
+    this.say(t('rec.done', { id: rec.id, n: rec.messages ?? '?', size: formatBytes(rec.bytes) }) + (rec.reason ? ` (${rec.reason})` : '')
+      + (!empty ? '' : rec.topics?.length ? t('rec.nothing.came', { topics: rec.topics.join(', ') }) : `. ${this.nothingText(rec)}`), empty);
     if (this.dialog.open) this.refresh();
   }
 
   async refresh() {
     if (!this.topics.value) this.topics.placeholder = this.defaultTopics();
     let items;
-    try { items = (await api('')).recordings; } catch (e) { this.list.textContent = `recordings unavailable: ${e.message}`; return; }
+    try { items = (await api('')).recordings; } catch (e) { this.list.textContent = t('rec.unavailable', { error: e.message }); return; }
     this.list.replaceChildren(...items.slice().reverse().map((rec) => {
       const li = el('li', { id: `rec-${rec.id}` }, `${rec.id} · ${formatBytes(rec.bytes)}${rec.owner ? ` · ${rec.owner}` : ''} `);
       if (rec.state === 'recording') {
-        li.append(el('b', { textContent: 'recording…' }));
+        li.append(el('b', { textContent: t('rec.running') }));
         return li;
       }
       if (!this.mine(rec)) return li;
-      li.append(el('a', { href: `api/recordings/${rec.id}.mcap`, download: `${rec.id}.mcap`, textContent: 'download' }), ' ');
+      li.append(el('a', { href: `api/recordings/${rec.id}.mcap`, download: `${rec.id}.mcap`, textContent: t('rec.download') }), ' ');
       li.append(el('button', {
-        textContent: 'play', title: 'publish it again on its topics, with the recorded timing',
+        textContent: t('rec.play'), title: t('rec.play.title'),
         onclick: async () => {
           try {
             const p = await api(`/${rec.id}/play`, { method: 'POST', body: JSON.stringify({ rate: 1 }) });
-            this.say(`playing ${p.messages} messages over ${p.duration.toFixed(1)} s`);
+            this.say(t('rec.playing', { n: p.messages, s: num(p.duration, 1) }));
           } catch (e) { this.say(e.message, true); }
         },
       }));
       return li;
     }));
-    if (!items.length) this.list.textContent = 'No recordings yet.';
+    if (!items.length) this.list.textContent = t('rec.none');
   }
 
   async attach() {

@@ -11,6 +11,7 @@
 // nothing and says so (its banner) until this person claims a station again: her other pages
 // left open had taken the released station back on their next command.
 import { normNamespace } from '../runtime/util.js';
+import { t } from './i18n.js';
 
 export const CLAIM_SERVICE = '/fleet/claim';
 export const STATIONS_TOPIC = '/rosgate/stations';
@@ -18,7 +19,7 @@ const KEY = 'rosgate.ns';
 const BROWSER_KEY = 'rosgate.browser';
 const BROWSER_COOKIE = 'rosgate_browser';
 const BROWSER_ID = /^[A-Za-z0-9_-]{8,64}$/;
-export const STOPPED = 'Stopped by the teacher: this robot stays still until you press Take.';
+export const STOPPED = t('page.stopped');
 
 export function loadNamespace(search = location.search) {
   const fromUrl = new URLSearchParams(search).get('ns');
@@ -89,7 +90,7 @@ export function bindNamespace({ call, onChange, onError = () => {}, onState = ()
     let r;
     try {
       r = await call(target ? `${target}/fleet/claim` : CLAIM_SERVICE, {});
-    } catch (e) { onError(`cannot claim a robot: ${e.message}`); return; }
+    } catch (e) { onError(t('claim.failed', { error: e.message })); return; }
     if (r.success) {
       mine = normNamespace(r.message);
       none = '';
@@ -101,13 +102,13 @@ export function bindNamespace({ call, onChange, onError = () => {}, onState = ()
     }
     if (target) {             // another person's: this page may watch it, not drive it
       set(target);
-      onError(`${r.message || `${target} is not free`}. You can watch it here; "Claim a robot" gives you one of your own.`);
+      onError(t('claim.watch', { why: r.message || t('claim.not.free', { ns: target }) }));
       return;
     }
     mine = '';
-    none = r.message || 'no robot is free';
+    none = r.message || t('claim.none.free');
     set('');
-    onError(`No robot for you: ${none}. This page drives nothing until you have one ("Claim a robot").`);
+    onError(t('claim.no.robot.long', { why: none }));
     onState();
   };
   input.addEventListener('change', () => (fleet ? claim(normNamespace(input.value)) : set(input.value)));
@@ -117,8 +118,7 @@ export function bindNamespace({ call, onChange, onError = () => {}, onState = ()
   const onStations = (info) => {
     if (!mine || info.owners?.[mine]) return;
     const by = info.released?.[mine]?.by;
-    released = `${by ? `${by} released ${mine}` : `${mine} is no longer kept for you`}: it is not your robot any more. `
-      + 'Press "Claim a robot" for one.';
+    released = t(by ? 'claim.released.by' : 'claim.released', { by, ns: mine });
     onError(released);
     mine = '';
     for (const f of followers) f(ns);
@@ -131,7 +131,7 @@ export function bindNamespace({ call, onChange, onError = () => {}, onState = ()
     get fleet() { return fleet; },
     get mine() { return mine; },
     // Why this page drives nothing at all until a claim ('' : it may): released, or no robot.
-    get lost() { return fleet && !mine ? (released || (none ? `No robot for you: ${none}.` : '')) : ''; },
+    get lost() { return fleet && !mine ? (released || (none ? t('claim.no.robot', { why: none }) : '')) : ''; },
     // The gateway hands out stations: show Claim, and ask for this person's station once
     // (returns that claim, for a page that waits for its answer).
     claimable: (yes) => {
@@ -156,11 +156,11 @@ export function bindNamespace({ call, onChange, onError = () => {}, onState = ()
     // Why this page may not drive now ('' : it may): no robot of its own, another's, stopped.
     whyNot: () => {
       if (fleet && released && !mine) return released;
-      if (fleet && !ns) return none ? `No robot for you: ${none}.` : 'No robot yet: press "Claim a robot".';
+      if (fleet && !ns) return none ? t('claim.no.robot', { why: none }) : t('claim.not.yet');
       if (lease?.halted && lease.state !== 'you') {
-        return `The teacher stopped ${ns || 'this robot'}: press Take to drive it again.`;
+        return t('claim.teacher.stopped', { ns: ns || t('ide.this.robot') });
       }
-      if (fleet && ns !== mine && lease?.state === 'other') return `${ns} is driven by ${lease.label}: it is not your robot.`;
+      if (fleet && ns !== mine && lease?.state === 'other') return t('claim.driven.by', { ns, who: lease.label });
       return '';
     },
     // Follows the driver lease: its namespace, its own free station taken, another's named.
@@ -186,7 +186,7 @@ function followLease(robotNs, lease, { onError, $, ready }) {
     const stations = lease.info?.stations ?? [];
     const labels = stations.map((st) => {
       const d = lease.holderOf(st);
-      return `${st}|${d ? (d.client === lease.me ? 'you' : `held by ${d.name}`) : 'free'}`;
+      return `${st}|${d ? (d.client === lease.me ? t('driver.you') : t('station.held.by', { who: d.name })) : t('station.free')}`;
     }).join(',');
     if (list.dataset.labels !== labels) {
       list.dataset.labels = labels;
@@ -206,7 +206,7 @@ function followLease(robotNs, lease, { onError, $, ready }) {
     }
     const warn = lease.state === 'other' ? `${ns} ${lease.driver.client}` : '';
     if (warn && warn !== warned) {
-      onError(`${ns} is driven by ${lease.label}: pick a free robot${robotNs.fleet ? ' or press "Claim a robot"' : ''}`);
+      onError(t(robotNs.fleet ? 'claim.driven.pick.claim' : 'claim.driven.pick', { ns, who: lease.label }));
     }
     warned = warn;
   });

@@ -4,6 +4,7 @@
 // The button only appears when the gateway allows runs (--allow-runs). Reopening the page
 // re-attaches to the runs in progress.
 import { Topic } from 'roslib';
+import { t } from './i18n.js';
 
 const STRING = 'std_msgs/msg/String';
 const ACTIVE = new Set(['starting', 'running']);
@@ -24,8 +25,8 @@ export class RobotRuns extends EventTarget {
     this.followed = new Map();   // run id -> { topics, run }
     this.ros = null;
     this.button = Object.assign(document.createElement('button'), {
-      id: 'run-robot', className: 'go', hidden: true, textContent: '▶ Run on robot',
-      title: 'run the Python program on the gateway machine, next to the robot',
+      id: 'run-robot', className: 'go', hidden: true, textContent: t('robot.run'),
+      title: t('robot.run.title'),
     });
     document.querySelector('#run')?.after(this.button);
     this.button.onclick = () => this.start();
@@ -41,7 +42,7 @@ export class RobotRuns extends EventTarget {
     this.button.hidden = !this.allowed;
     document.body.dataset.robotRuns = this.allowed ? 'allowed' : 'off';
     const active = listing.runs.filter((r) => ACTIVE.has(r.state));
-    for (const run of active) this.ide.console.info(`run ${run.id} (${run.name}) is running on the robot${run.ns ? ` in ${run.ns}` : ''}`);
+    for (const run of active) this.ide.console.info(t(run.ns ? 'robot.running.in' : 'robot.running', { id: run.id, name: run.name, ns: run.ns }));
     const mine = active.filter((r) => r.ns === (this.ide.ns || ''));
     for (const run of mine) await this.attach(run, { replay: true });
   }
@@ -54,21 +55,21 @@ export class RobotRuns extends EventTarget {
 
   async start() {
     const why = this.ide.robotNs?.whyNot();
-    if (why) { this.ide.console.error(`Run on robot: ${why}`); return; }
+    if (why) { this.ide.console.error(t('robot.run.failed', { why })); return; }
     let source;
-    try { source = this.ide.generatePython(); } catch (e) { this.ide.console.error(`Cannot generate Python: ${e.message}`); return; }
+    try { source = this.ide.generatePython(); } catch (e) { this.ide.console.error(t('robot.codegen.failed', { error: e.message })); return; }
     try {
       const run = await api('', {
         method: 'POST',
         body: JSON.stringify({ source, name: this.ide.programName, ns: this.ide.ns || '', timeout: 600 }),
       });
       await this.attach(run, { replay: false });
-    } catch (e) { this.ide.console.error(`Run on robot: ${e.message}`); }
+    } catch (e) { this.ide.console.error(t('robot.run.failed', { why: e.message })); }
   }
 
   async stop() {
     for (const id of this.followed.keys()) {
-      try { await api(`/${id}`, { method: 'DELETE' }); } catch (e) { this.ide.console.error(`stop ${id}: ${e.message}`); }
+      try { await api(`/${id}`, { method: 'DELETE' }); } catch (e) { this.ide.console.error(t('robot.stop.failed', { id, error: e.message })); }
     }
   }
 
@@ -76,8 +77,7 @@ export class RobotRuns extends EventTarget {
     if (this.followed.has(run.id)) return;
     const f = { run, topics: [], pending: [], ready: !replay };
     this.followed.set(run.id, f);
-    this.ide.console.info(`▶ run ${run.id} on the robot: its output appears here; no blocks are highlighted `
-      + '(the program runs on the gateway machine, not in this page)');
+    this.ide.console.info(t('robot.attached', { id: run.id }));
     this._subscribe(run.id, f);
     if (replay) {   // what it printed before this page opened, then what arrived meanwhile
       try {
@@ -116,8 +116,9 @@ export class RobotRuns extends EventTarget {
     if (ACTIVE.has(run.state)) { this._setState(); return; }
     this._unsubscribe(f);
     this.followed.delete(id);
-    const text = `■ run ${id} ${run.state.replace('_', ' ')}${run.reason ? `: ${run.reason}` : ''}`
-      + `${run.exit_code !== null && run.exit_code !== undefined ? ` (exit code ${run.exit_code})` : ''}`;
+    const known = ['finished', 'failed', 'stopped', 'timed_out'].includes(run.state);
+    const text = t('robot.ended', { id, state: known ? t(`robot.state.${run.state}`) : run.state }) + (run.reason ? `: ${run.reason}` : '')
+      + (run.exit_code !== null && run.exit_code !== undefined ? t('robot.exit', { code: run.exit_code }) : '');
     if (run.state === 'failed') this.ide.console.error(text); else this.ide.console.info(text);
     this._setState();
   }

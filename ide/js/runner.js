@@ -3,6 +3,7 @@
 /* global Blockly */
 import { Runtime, StopSignal } from '../runtime/runtime.js';
 import { gen as jsGen } from '../generators/javascript.js';
+import { t, tn } from './i18n.js';
 
 const AsyncFunction = Object.getPrototypeOf(async () => {}).constructor;
 
@@ -37,7 +38,7 @@ export class Runner extends EventTarget {
     if (this.rt) this.stop();
     const ros = this.getRos();
     if (!ros?.isConnected) {
-      this.console.error('Not connected to the gateway: press Reconnect.');
+      this.console.error(t('run.not.connected'));
       return;
     }
     this.clearErrors();
@@ -48,7 +49,7 @@ export class Runner extends EventTarget {
     try {
       code = jsGen.generate(this.workspace, { instrument: true });
     } catch (e) {
-      this.console.error(`Cannot generate code: ${e.message}`);
+      this.console.error(t('run.codegen.failed', { error: e.message }));
       return;
     }
     const rt = new Runtime(ros, {
@@ -62,10 +63,9 @@ export class Runner extends EventTarget {
     this.pendingStep = step;                 // the first Step runs the first block too
     if (step) rt.stepOnce();
     this._setState(paused || step ? 'paused' : 'running');
-    this.console.info(paused || step ? `▷ run ${run}, step by step: Step runs the highlighted block, ▶ Run goes on`
-      : `▶ run ${run}`);
+    this.console.info(t(paused || step ? 'run.started.step' : 'run.started', { run }));
     const loose = this.loose().length;
-    if (loose) this.console.info(`${loose} loose block${loose > 1 ? 's' : ''} skipped (grey: not plugged into anything)`);
+    if (loose) this.console.info(tn('run.loose', loose));
     let fn;
     try {
       fn = new AsyncFunction('rt', code);
@@ -77,12 +77,12 @@ export class Runner extends EventTarget {
       await fn(rt);
       if (this.rt !== rt || rt.stopped) return;
       if (rt.subs.size && [...rt.subs.values()].some((s) => s.handlers.length)) {
-        this.console.info('main blocks done; message handlers keep running until Stop');
+        this.console.info(t('run.handlers'));
         return;
       }
       await rt.settle();           // an error about the last block's publish still ends on its block
       if (this.rt !== rt || rt.stopped) return;
-      this._finish(rt, `■ run ${run} finished`);
+      this._finish(rt, t('run.finished', { run }));
     } catch (e) {
       if (e instanceof StopSignal) return;
       this._error(rt, e, rt.current);
@@ -121,7 +121,7 @@ export class Runner extends EventTarget {
       this.workspace.centerOnBlock?.(blockId);
       Blockly.common.setSelected(block);
     }
-    this._finish(rt, '■ stopped after an error (robot stopped)');
+    this._finish(rt, t('run.error.stopped'));
   }
 
   _finish(rt, text) {
@@ -139,7 +139,7 @@ export class Runner extends EventTarget {
   stop() {
     const rt = this.rt;
     if (!rt) return;
-    this._finish(rt, '■ stopped (robot stopped)');
+    this._finish(rt, t('run.stopped'));
   }
 
   pause() {
@@ -147,7 +147,7 @@ export class Runner extends EventTarget {
     const already = this.rt.paused && !this.rt.stepping;
     this.rt.pause();
     this._setState('paused');
-    if (!already) this.console.info('‖ paused (robot stopped): Step runs the highlighted block, ▶ Run goes on');
+    if (!already) this.console.info(t('run.paused'));
   }
 
   resume() {
@@ -155,7 +155,7 @@ export class Runner extends EventTarget {
     this.heldAt = null;
     this.rt.resume();
     this._setState('running');
-    this.console.info(`▶ run ${this.runs} goes on`);
+    this.console.info(t('run.resumed', { run: this.runs }));
   }
 
   // Runs the highlighted block to its end (a move, a wait), then holds before the next one

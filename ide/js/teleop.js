@@ -16,6 +16,7 @@ import { HomeEstimate } from './gohome.js';
 import { Link } from './link.js';
 import { mountRecorder } from './recorder.js';
 import { mountBooking } from './booking.js';
+import { t, num } from './i18n.js';
 
 const $ = (s) => document.querySelector(s);
 const params = new URLSearchParams(location.search);
@@ -49,12 +50,12 @@ function connect() {
     + (params.get('name') ? `?name=${encodeURIComponent(params.get('name'))}` : '');
   const link = new Link(url);
   state.link = link;
-  setStatus('connecting', 'connecting…');
+  setStatus('connecting', t('status.connecting'));
   link.addEventListener('open', (e) => {
     const ros = e.detail;
     state.ros = ros;
     state.advertised = '';
-    setStatus('connected', 'connected');
+    setStatus('connected', t('status.connected'));
     lease.attach(ros);
     state.robotNs.attach(ros);
     onConnected();
@@ -64,7 +65,7 @@ function connect() {
     state.joy = { x: 0, y: 0, active: false };
     if (state.timer) { clearInterval(state.timer); state.timer = null; }
     state.ros = null;
-    setStatus('lost', 'connection lost — robot stopped');
+    setStatus('lost', t('status.lost.stopped'));
   });
   setInterval(() => { $('#link').textContent = link.describe(); }, 250);
   link.start();
@@ -96,7 +97,7 @@ async function onConnected() {
     const { services } = await callRosapi('/rosapi/services');
     const fleet = services.includes(CLAIM_SERVICE);
     const claiming = state.robotNs.claimable(fleet);   // on a fleet with no robot chosen this claims one
-    if (fleet && !state.robotNs.get()) block('Claiming a robot of this fleet… (or type a station such as /s01 under "robot")');
+    if (fleet && !state.robotNs.get()) block(t('teleop.claiming'));
     const { topics, types } = await callRosapi('/rosapi/topics');
     if (topics.includes(DRIVER_TOPIC)) lease.watch();
     await claiming;                          // its answer, not this notice, has the last word
@@ -116,8 +117,8 @@ async function onConnected() {
       const preferred = withNamespace(ns, '/cmd_vel');
       topicEl.value = vel.includes(preferred) ? preferred : vel[0];
     }
-    const t = types[topics.indexOf(topicEl.value)];
-    if (t) $('#msgtype').value = /Stamped$/.test(t) ? 'geometry_msgs/msg/TwistStamped' : 'geometry_msgs/msg/Twist';
+    const type = types[topics.indexOf(topicEl.value)];
+    if (type) $('#msgtype').value = /Stamped$/.test(type) ? 'geometry_msgs/msg/TwistStamped' : 'geometry_msgs/msg/Twist';
     block('');
     await applyLimits();
   } catch { /* rosapi unavailable: keep the defaults */ }
@@ -174,9 +175,10 @@ async function applyLimits() {
   const max = state.limits.linear ?? 1.0;
   slider.max = String(max);
   if (Number(slider.value) > max) slider.value = String(max);
-  $('#maxspeed-out').textContent = `${maxSpeed().toFixed(2)} m/s`;
-  $('#limits').textContent = state.limits.linear
-    ? `robot limits ${state.limits.linear} m/s${state.limits.angular ? `, ${state.limits.angular} rad/s` : ''}` : '';
+  $('#maxspeed-out').textContent = t('teleop.speed', { v: num(maxSpeed(), 2) });
+  $('#limits').textContent = !state.limits.linear ? ''
+    : state.limits.angular ? t('teleop.limits.both', { v: num(state.limits.linear), w: num(state.limits.angular) })
+      : t('teleop.limits', { v: num(state.limits.linear) });
 }
 
 // Stops and disables driving while this page has no robot of its own ('' enables it again).
@@ -226,7 +228,7 @@ function publish(lin, ang) {
   }
   ros.callOnConnection({ op: 'publish', topic, msg: twist(lin, ang), t: state.link.now() });   // stamped: docs/protocol.md
   state.published += 1;
-  $('#cmd').textContent = `linear ${lin.toFixed(2)} m/s · angular ${ang.toFixed(2)} rad/s`;
+  $('#cmd').textContent = t('teleop.cmd', { v: num(lin, 2), w: num(ang, 2) });
 }
 
 function active() { return state.joy.active || state.keys.size > 0; }
@@ -285,9 +287,10 @@ function setupKeys() {
     btn.addEventListener('pointerup', up);
     btn.addEventListener('pointercancel', up);
   }
-  const out = () => { $('#maxspeed-out').textContent = `${maxSpeed().toFixed(2)} m/s`; };
+  const out = () => { $('#maxspeed-out').textContent = t('teleop.speed', { v: num(maxSpeed(), 2) }); };
   $('#maxspeed').addEventListener('input', out);
   out();
+  $('#cmd').textContent = t('teleop.cmd', { v: num(0, 2), w: num(0, 2) });
   $('#rate').addEventListener('change', () => { if (state.timer) { clearInterval(state.timer); state.timer = null; update(); } });
   $('#topic').addEventListener('change', () => { stopAll(); state.advertised = ''; });
 }
@@ -358,9 +361,9 @@ function showBattery(msg) {
   const pct = Number.isFinite(msg.percentage) ? msg.percentage * 100 : null;
   dash.gauges.battery.set(pct ?? NaN);
   dash.series.battery.last = pct;
-  $('#battery-text').textContent = pct === null ? '?' : `${pct.toFixed(0)} %`;
-  const v = Number.isFinite(msg.voltage) ? `${msg.voltage.toFixed(2)} V` : '';
-  const a = Number.isFinite(msg.current) ? ` · ${msg.current.toFixed(2)} A` : '';
+  $('#battery-text').textContent = pct === null ? '?' : `${num(pct, 0)} %`;
+  const v = Number.isFinite(msg.voltage) ? `${num(msg.voltage, 2)} V` : '';
+  const a = Number.isFinite(msg.current) ? ` · ${num(msg.current, 2)} A` : '';
   $('#battery-info').textContent = v + a;
 }
 
@@ -371,8 +374,8 @@ function showImage(msg) {
   state.frames += 1;
   const age = frameAge(msg);
   const size = CAMERA_SIZES[cam.size];
-  $('#camera-info').textContent = `${state.frames} frames · ${msg.format} · ≤${size.width} px`
-    + (age === null ? '' : ` · age ${Math.max(0, Math.round(age * 1000))} ms`);
+  $('#camera-info').textContent = t('teleop.camera.info', { n: state.frames, format: msg.format, px: size.width })
+    + (age === null ? '' : t('teleop.camera.age', { ms: Math.max(0, Math.round(age * 1000)) }));
 }
 
 // A plotted field: {id, label, unit, topic, path, type, last}; also drives a gauge when named.
@@ -400,16 +403,16 @@ async function subscribePlot(s) {
 
 function setupDashboard() {
   const ns = (name) => withNamespace(state.robotNs.get(), name);
-  dash.gauges.battery = gauge($('#g-battery'), { label: 'battery', unit: '%', min: 0, max: 100, warn: 50, danger: 20, low: true });
+  dash.gauges.battery = gauge($('#g-battery'), { label: t('teleop.battery'), unit: '%', min: 0, max: 100, warn: 50, danger: 20, low: true });
   const temp = { unit: '°C', min: 20, max: 90, warn: 50, danger: 65, digits: 1 };
-  dash.gauges.left = gauge($('#g-left'), { label: 'left motor', ...temp });
-  dash.gauges.right = gauge($('#g-right'), { label: 'right motor', ...temp });
+  dash.gauges.left = gauge($('#g-left'), { label: t('teleop.motor.left'), ...temp });
+  dash.gauges.right = gauge($('#g-right'), { label: t('teleop.motor.right'), ...temp });
   dash.history = new History($('#plot'), `rosgate.history:${state.robotNs.get() || '/'}`);
   state.history = dash.history;
-  addSeries({ id: 'left', label: 'left motor', unit: '°C', topic: ns('/motor/left/temperature'), path: 'temperature', type: 'sensor_msgs/msg/Temperature' });
-  addSeries({ id: 'right', label: 'right motor', unit: '°C', topic: ns('/motor/right/temperature'), path: 'temperature', type: 'sensor_msgs/msg/Temperature' });
-  addSeries({ id: 'speed', label: 'speed', unit: 'm/s', topic: ns('/odom'), path: 'twist.twist.linear.x', type: 'nav_msgs/msg/Odometry' });
-  addSeries({ id: 'battery', label: 'battery', unit: '%' });
+  addSeries({ id: 'left', label: t('teleop.motor.left'), unit: '°C', topic: ns('/motor/left/temperature'), path: 'temperature', type: 'sensor_msgs/msg/Temperature' });
+  addSeries({ id: 'right', label: t('teleop.motor.right'), unit: '°C', topic: ns('/motor/right/temperature'), path: 'temperature', type: 'sensor_msgs/msg/Temperature' });
+  addSeries({ id: 'speed', label: t('teleop.speed.label'), unit: 'm/s', topic: ns('/odom'), path: 'twist.twist.linear.x', type: 'nav_msgs/msg/Odometry' });
+  addSeries({ id: 'battery', label: t('teleop.battery'), unit: '%' });
   const loadSpan = bindSpan($('#plot-span'), dash.history, () => [
     ...dash.history.series.filter((s) => s.topic && s.path).map((s) => ({ id: s.id, topic: s.topic, field: s.path })),
     { id: 'battery', topic: $('#battery-topic').value, field: 'percentage', scale: 100 }]);
@@ -442,7 +445,7 @@ function setupRobot() {
   setupTwinPanel(state.robotNs.get());
   bindDriverBadge(lease);
   state.robotNs.follow(lease);
-  lease.addEventListener('refused', (e) => showNotice(`Your commands are refused: ${e.detail}`));
+  lease.addEventListener('refused', (e) => showNotice(t('page.refused', { why: e.detail })));
   lease.addEventListener('change', () => { if (!banner() && lease.state !== 'other' && !state.blocked) showNotice(''); });
   lease.addEventListener('stop', () => { stopAll(); showNotice(STOPPED); });
 }
@@ -454,7 +457,7 @@ function setupTwinPanel(ns) {
   button.addEventListener('click', () => {
     const show = frame.hidden;
     frame.hidden = !show;
-    button.textContent = show ? 'hide' : 'show';
+    button.textContent = t(show ? 'teleop.hide' : 'teleop.show');
     button.setAttribute('aria-expanded', String(show));
     const q = new URLSearchParams({ embed: '1' });
     if (ns) q.set('ns', ns);

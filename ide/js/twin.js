@@ -16,6 +16,7 @@ import { Frames } from './frames.js';
 import { MapLayer } from './map3d.js';
 import { mapSubscribe } from './grid.js';
 import { offerGoals } from './goal.js';
+import { t, num } from './i18n.js';
 
 const params = new URLSearchParams(location.search);
 const ns = (params.get('ns') || '').replace(/\/+$/, '');
@@ -39,7 +40,7 @@ function makeScene() {
   try {
     renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
   } catch (e) {
-    view.textContent = `This browser cannot draw WebGL: ${e.message}`;
+    view.textContent = t('twin.no.webgl', { error: e.message });
     view.dataset.webgl = 'none';   // (the mark, whatever the words' language: for tests)
     state.error = String(e.message);
     return null;
@@ -110,7 +111,7 @@ function useModel(kind, model) {
   twin.robot = model.group;
   twin.scene.add(model.group);
   state.model = kind;
-  $('#model').textContent = `model: ${kind}`;
+  $('#model').textContent = t('twin.model', { kind });
   model.group.add(twin.scan);
   twin.scan.position.z = model.scanHeight;
 }
@@ -193,7 +194,7 @@ function onBattery(msg) {
   const pct = msg.percentage;
   state.battery = pct;
   const el = $('#battery');
-  el.textContent = Number.isFinite(pct) ? `battery ${(pct * 100).toFixed(0)} %` : 'battery ?';
+  el.textContent = Number.isFinite(pct) ? t('twin.battery', { pct: num(pct * 100, 0) }) : t('twin.battery.unknown');
   el.dataset.level = pct <= LOW_BATTERY ? 'danger' : pct <= 0.5 ? 'warn' : 'ok';
 }
 
@@ -202,7 +203,7 @@ function tempColour(t) { return t >= TEMP.danger ? COLOURS.danger : t >= TEMP.wa
 function onTemperature(side, msg) {
   state.temps[side] = msg.temperature;
   twin.model?.wheels[side]?.material.color.setHex(tempColour(msg.temperature));
-  $('#motors').textContent = `motors ${['left', 'right'].map((s) => state.temps[s]?.toFixed(1) ?? '–').join(' / ')} °C`;
+  $('#motors').textContent = t('twin.motors', { temps: ['left', 'right'].map((s) => num(state.temps[s] ?? NaN, 1)).join(' / ') });
 }
 
 // world/markers: the walls and the bounds (the robots and the scan are drawn from their own topics)
@@ -309,7 +310,7 @@ async function start(ros) {
     if (!twin.model && !described) useModel('turtle', turtle());
     listen(ros, name('/turtle1/pose'), 'turtlesim/msg/Pose', (p) => setPose(p.x, p.y, p.theta), 40);
   } else if (!described) {
-    state.error = `no robot under ${ns || '/'}: no robot_description, odom, battery_state or turtle1/pose`;
+    state.error = t('twin.no.robot', { ns: ns || '/' });
     $('#model').textContent = state.error;
   }
   listen(ros, name('/world/markers'), 'visualization_msgs/msg/MarkerArray', onMarkers);
@@ -322,9 +323,9 @@ async function start(ros) {
 function connect() {
   const url = params.get('url') || `${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/`;
   const ros = new Ros({});
-  ros.on('connection', () => { setStatus('connected', 'connected'); start(ros); });
-  ros.on('close', () => setStatus('closed', 'disconnected'));
-  ros.on('error', () => setStatus('error', 'cannot connect'));
+  ros.on('connection', () => { setStatus('connected', t('status.connected')); start(ros); });
+  ros.on('close', () => setStatus('closed', t('status.disconnected')));
+  ros.on('error', () => setStatus('error', t('status.error')));
   ros.connect(url);
 }
 

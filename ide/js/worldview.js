@@ -7,6 +7,7 @@
 // the markers of its frame, or alone when there are none.
 import { yaw } from '../runtime/util.js';
 import { gridImage, mapSubscribe } from './grid.js';
+import { t } from './i18n.js';
 
 const ARROW = 0, CUBE = 1, SPHERE = 2, CYLINDER = 3, LINE_STRIP = 4, LINE_LIST = 5,
   CUBE_LIST = 6, SPHERE_LIST = 7, POINTS = 8, TEXT = 9;
@@ -156,7 +157,7 @@ export class WorldView {
     const over = document.createElement('div');
     over.className = 'world-big';
     over.setAttribute('role', 'dialog');
-    over.setAttribute('aria-label', 'world view, enlarged: tap to close');
+    over.setAttribute('aria-label', t('world.enlarged'));
     over.style.cssText = 'position:fixed;inset:0;z-index:1000;background:#000c;display:grid;place-items:center;cursor:zoom-out';
     const big = document.createElement('canvas');
     big.style.cssText = 'width:98vw;height:94vh;background:#1d2230;border-radius:8px';

@@ -91,11 +91,11 @@ class Platform:
         }
 
     def add(self, sub: str, roles: list[str], *, name: str = '', target: str = '/', custom: dict | None = None,
-            kind: str = 'LtiResourceLinkRequest', forge: str = '') -> str:
+            kind: str = 'LtiResourceLinkRequest', forge: str = '', locale: str = '') -> str:
         """A launch; returns the URL that starts it in a browser."""
         lid = f'launch-{next(self.ids)}'
         self.launches[lid] = dict(sub=sub, roles=roles, name=name or sub, target=self.tool + target,
-                                  custom=custom or {}, kind=kind, forge=forge)
+                                  custom=custom or {}, kind=kind, forge=forge, locale=locale)
         return f'{self.issuer}/start?launch={lid}'
 
     def id_token(self, launch: dict, nonce: str) -> str:
@@ -113,6 +113,8 @@ class Platform:
         }
         if launch['custom']:
             claims[CLAIM + 'custom'] = launch['custom']
+        if launch['locale']:     # the course's language
+            claims[CLAIM + 'launch_presentation'] = {'locale': launch['locale'], 'document_target': 'window'}
         if launch['kind'] == 'LtiResourceLinkRequest':
             claims[CLAIM + 'resource_link'] = {'id': 'link-1', 'title': 'Robot lab'}
         else:

@@ -153,6 +153,26 @@ def test_custom_page_and_station_are_honoured(lab, browser):
     assert 'from rosgate_runtime import *' in text.evaluate('rosgateIde.textMode.text')
 
 
+def test_the_course_language_comes_with_the_launch(lab, browser):
+    gw, platform = lab
+    page = browser()
+    where = launch(page, platform.add('student-ivo', [LEARNER], target='/teleop', locale='es-ES'), '/teleop?lang=es-ES')
+    assert where.path == '/teleop'
+    teleop_ready(page)
+    assert page.evaluate('document.documentElement.lang') == 'es'
+    assert page.inner_text('#status') == 'conectado'
+    assert page.evaluate("document.querySelector('#claim').textContent") == 'Pedir un robot'
+    # the tab's other pages keep the course's language
+    page.goto(f'http://localhost:{gw.port}/')
+    page.wait_for_function("document.body?.dataset.ready === 'true'", timeout=20000)
+    assert page.inner_text('#run') == '▶ Ejecutar'
+    # a locale that is no language tag is left out of the landing
+    other = browser()
+    launch(other, platform.add('student-hal', [LEARNER], target='/teleop', locale='"><script>'), '/teleop')
+    assert 'lang=' not in other.url
+    assert not page.errors, page.errors
+
+
 def test_two_learners_get_two_stations_and_a_relaunch_the_same(lab, browser):
     gw, platform = lab
     with Client(gw.ws_url, ADMIN_TOKEN) as teacher:     # earlier tests' students keep theirs otherwise
