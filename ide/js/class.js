@@ -149,7 +149,7 @@ class Tile {
     // a text program's running line (its Python or JavaScript), as its IDE reports it
     const at = r?.line && state !== 'idle' && state !== 'none' ? r.line : 0;
     this.el.querySelector('.program').textContent = !r?.name ? ''
-      : at ? t('class.program.line', { name: r.name, line: at }) : t('class.program', { name: r.name });
+      : at ? t('class.tile.program.line', { name: r.name, line: at }) : t('class.tile.program', { name: r.name });
     this.el.dataset.line = at ? String(at) : '';
     const err = this.el.querySelector('.error');
     err.textContent = r?.error ? t('class.last.error', { error: r.error }) : '';
