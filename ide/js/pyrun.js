@@ -9,7 +9,8 @@
 // Stop terminates the worker (a `while True: pass` ends too, at once) and this side zeroes the
 // robot as a block program's Stop does: a zero command on every velocity topic the program drove,
 // its goals cancelled, its subscriptions and advertisements ended. A fresh worker is made for
-// the next run; Pyodide's files come from the browser's cache then.
+// the next run as soon as one ends (Pyodide's files come from the browser's cache then), so Run
+// after Stop does not wait for Pyodide to start.
 import { isVelocityType, zeroVelocity } from '../runtime/util.js';
 
 const MAILBOX = 4 * 2 ** 20;     // bytes of gateway messages waiting for the worker
@@ -22,6 +23,8 @@ let current = null;              // the running program
 let runs = 0;
 let checks = 0;
 const driven = new Map();        // velocity topic -> type, of every Python run of this page
+
+addEventListener('pagehide', () => stopPython());   // a closed page stops its robot, as block programs do
 
 // Control words of the shared buffer (Int32): 0 a counter bumped on every write (the worker waits
 // on it), 1 the lock, 2 bytes used, 3 the running line. The bytes follow, newline-separated JSON.
@@ -136,7 +139,11 @@ class Program {
     this.ended = new Promise((resolve) => { this._resolve = resolve; });
     this.done = false;
     this.onRaw = (m) => this.heard(m);
-    this.onClose = () => { if (current === this) { this.hooks.log('the connection to the gateway closed: program stopped', 'error'); stopPython(); } };
+    this.onClose = () => {
+      if (current !== this) return;
+      this.hooks.log('the connection to the gateway closed: program stopped', 'error');
+      stopPython();
+    };
   }
 
   start(source, namespace) {
@@ -178,7 +185,8 @@ class Program {
   deliver(m) {
     const data = this.encoder.encode(`${JSON.stringify(m)}\n`);
     if (data.length > MAILBOX) {
-      this.deliver({ op: 'status', level: 'error', id: m.id, msg: `a ${m.op} of ${data.length} bytes is larger than the program's mailbox (${MAILBOX})` });
+      const msg = `a ${m.op} of ${data.length} bytes is larger than the program's mailbox (${MAILBOX})`;
+      this.deliver({ op: 'status', level: 'error', id: m.id, msg });
       return;
     }
     if (m.op === 'publish') {
@@ -216,7 +224,9 @@ class Program {
     else if (d.kind === 'log') this.hooks.log(d.text, d.level);
     else if (d.kind === 'error') {
       if (d.traceback) this.hooks.log(d.traceback, 'error');
-      try { this.hooks.onError({ line: d.line, message: d.message, traceback: d.traceback }); } catch { /* the page's */ }
+      try {
+        this.hooks.onError({ line: d.line ?? null, message: d.message, traceback: d.traceback });
+      } catch { /* the page's problem */ }
     } else if (d.kind === 'close') this.cleanup();
     else if (d.kind === 'done') {
       if (current === this) current = null;
@@ -273,5 +283,7 @@ class Program {
     this.ros.off('close', this.onClose);
     this.queue = [];
     this._resolve();
+    // the next run starts at once, without Pyodide's start in its way (its files are in the cache)
+    if (!spare) spare = startWorker();
   }
 }

@@ -40,6 +40,10 @@ const bridge = {
   },
 };
 
+// The worker's memory (tests/bench/pyodide.py): Python's wasm heap and the worker's JavaScript heap, bytes.
+globalThis.rosgateMemory = () => JSON.stringify({
+  wasm: pyodide?._module?.HEAPU8?.byteLength ?? null, js: performance.memory?.usedJSHeapSize ?? null });
+
 async function start() {
   const base = new URL('../vendor/pyodide/', import.meta.url).href;
   pyodide = await loadPyodide({ indexURL: base, stdout: () => {}, stderr: () => {} });
