@@ -219,7 +219,7 @@ class Program {
 
   fromWorker(d) {
     if (this.done || !d) return;
-    if (d.kind === 'op') this.send(d.msg);
+    if (d.kind === 'op') this.send(JSON.parse(d.json));
     else if (d.kind === 'taken') this.flush();
     else if (d.kind === 'log') this.hooks.log(d.text, d.level);
     else if (d.kind === 'error') {

@@ -19,7 +19,7 @@ const post = (m) => postMessage(m);
 
 // What Python calls (rosgate_browser._js): ops out, the mailbox in, the running line.
 const bridge = {
-  send(json) { post({ kind: 'op', msg: JSON.parse(json) }); },
+  send(json) { post({ kind: 'op', json }); },   // the page parses it: one parse, not two
   log(text, level) { post({ kind: 'log', text, level }); },
   close() { post({ kind: 'close' }); },
   line(n) { Atomics.store(ctrl, LINE, n); },
