@@ -200,7 +200,12 @@ class Program {
   // Moves what fits into the mailbox; the rest waits for the worker to take what is there.
   flush() {
     if (!this.queue.length || this.done) return;
-    while (Atomics.compareExchange(this.ctrl, LOCK, 0, 1) !== 0) { /* the worker copies out: microseconds */ }
+    // the worker holds the lock while it copies out (microseconds); a worker that died holding it
+    // must not hang the page: look again a little later
+    let tries = 0;
+    while (Atomics.compareExchange(this.ctrl, LOCK, 0, 1) !== 0) {
+      if (++tries > 100000) { setTimeout(() => this.flush(), 5); return; }
+    }
     let used = Atomics.load(this.ctrl, USED);
     let n = 0;
     while (n < this.queue.length && used + this.queue[n].data.length <= MAILBOX) {
