@@ -112,8 +112,19 @@ class PublicFileHandler(tornado.web.StaticFileHandler):
         for name, value in ISOLATION.items():
             self.set_header(name, value)
 
+    async def get(self, path: str, include_body: bool = True) -> None:
+        # Pyodide's 9.6 MB wasm goes out as the build's gzip of it (3.5 MB) to browsers that take
+        # gzip: tornado compresses text types only, and would do it again on every request
+        if path.endswith('.wasm'):
+            self.set_header('Vary', 'Accept-Encoding')
+            if ('gzip' in self.request.headers.get('Accept-Encoding', '')
+                    and os.path.isfile(os.path.join(self.root, path + '.gz'))):
+                self.set_header('Content-Encoding', 'gzip')
+                path += '.gz'
+        await super().get(path, include_body)
+
     def get_content_type(self) -> str:
-        if self.absolute_path.endswith('.wasm'):   # streaming compilation needs it; not every mime table has it
+        if self.absolute_path.endswith(('.wasm', '.wasm.gz')):   # streaming compilation needs it
             return 'application/wasm'
         return super().get_content_type()
 
