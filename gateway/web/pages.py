@@ -11,7 +11,7 @@
 - ``ide_problem`` says whether the IDE can be served from a directory at all.
 - ``PublicFileHandler`` serves only what the pages load from the IDE directory: the pages, their
   scripts, styles and block files, and the built ``vendor/`` bundles, never ``node_modules/``,
-  the build script or package files.
+  the build script or package files; with ``ISOLATION``'s headers (the IDE's Python needs them).
 """
 
 from __future__ import annotations
@@ -28,6 +28,11 @@ from ..rules.names import forwarded
 # which checks who asks.
 PUBLIC_DIRS = frozenset({'blocks', 'css', 'generators', 'i18n', 'js', 'runtime', 'vendor'})
 PUBLIC_FILES = frozenset({'index.html', 'teleop.html', 'twin.html', 'toolbox.json'})
+# The IDE page is cross-origin isolated, so its Python worker may share memory with it
+# (SharedArrayBuffer: a blocked program wakes on the gateway's messages, ide/js/pyrun.js). Everything
+# the page loads is from the gateway itself; a page of another origin cannot embed these files.
+ISOLATION = {'Cross-Origin-Opener-Policy': 'same-origin', 'Cross-Origin-Embedder-Policy': 'require-corp',
+             'Cross-Origin-Resource-Policy': 'same-origin'}
 MAX_HTTP_BODY = 4 * 2**20   # the largest request body any route takes (a program is at most 2 MiB)
 # What the pages cannot work without (the bundles come from `npm run build` in ide/).
 IDE_REQUIRED = ('index.html', 'teleop.html', 'vendor/roslib.mjs', 'vendor/blockly/blockly_compressed.js')
@@ -104,14 +109,35 @@ class PublicFileHandler(tornado.web.StaticFileHandler):
 
     def set_extra_headers(self, path: str) -> None:
         self.set_header('Cache-Control', 'no-cache')
+        for name, value in ISOLATION.items():
+            self.set_header(name, value)
+
+    async def get(self, path: str, include_body: bool = True) -> None:
+        # Pyodide's 9.6 MB wasm goes out as the build's gzip of it (3.5 MB) to browsers that take
+        # gzip: tornado compresses text types only, and would do it again on every request
+        if path.endswith('.wasm'):
+            self.set_header('Vary', 'Accept-Encoding')
+            if ('gzip' in self.request.headers.get('Accept-Encoding', '')
+                    and os.path.isfile(os.path.join(self.root, path + '.gz'))):
+                self.set_header('Content-Encoding', 'gzip')
+                path += '.gz'
+        await super().get(path, include_body)
+
+    def get_content_type(self) -> str:
+        if self.absolute_path.endswith(('.wasm', '.wasm.gz')):   # streaming compilation needs it
+            return 'application/wasm'
+        return super().get_content_type()
 
 
-def write_page(handler: tornado.web.RequestHandler, page, cache: str = 'no-cache') -> None:
-    """One of the IDE's pages as the response (404 when the IDE is not built)."""
+def write_page(handler: tornado.web.RequestHandler, page, cache: str = 'no-cache', isolated: bool = False) -> None:
+    """One of the IDE's pages as the response (404 when the IDE is not built); ``isolated``: with
+    ``ISOLATION``'s headers (the IDE, whose Python worker shares memory with it)."""
     if not page.is_file():
         raise tornado.web.HTTPError(404)
     handler.set_header('Content-Type', 'text/html; charset=UTF-8')
     handler.set_header('Cache-Control', cache)
+    for name, value in (ISOLATION.items() if isolated else ()):
+        handler.set_header(name, value)
     handler.write(page.read_bytes())
 
 

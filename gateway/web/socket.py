@@ -132,7 +132,7 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
 
     async def get(self, *args, **kwargs) -> None:
         if self.request.headers.get('Upgrade', '').lower() != 'websocket':
-            write_page(self, self.gateway.settings.ide_dir / 'index.html')
+            write_page(self, self.gateway.settings.ide_dir / 'index.html', isolated=True)
             return
         await super().get(*args, **kwargs)
 

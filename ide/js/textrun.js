@@ -278,9 +278,8 @@ export class TextRunner extends EventTarget {
       namespace: this.ide.ns ?? '',
       log: (t, level) => { if (this.run_ === run) this.ide.console.log(t, level); },
       onLine: (line) => this._at(run, line),
-      onError: ({ line, message, traceback }) => {
+      onError: ({ line, message }) => {   // (its traceback has reached log already)
         if (this.run_ !== run) return;
-        if (traceback) for (const l of String(traceback).trimEnd().split('\n')) this.ide.console.log(l, 'error');
         this._error(run, new ProgramError(line, message));
       },
     });

@@ -14,6 +14,14 @@ import traceback
 
 import roslibpy
 
+# In the IDE page (Pyodide, ide/js/pyrun.js) the program has one thread: roslibpy is the page's
+# (ide/runtime/browser/roslibpy.py), waits deliver the messages, handlers run while the program waits.
+BROWSER = sys.platform == "emscripten"
+if BROWSER:
+    from rosgate_browser import Condition, Event
+else:
+    Condition, Event = threading.Condition, threading.Event
+
 GAIN = 6.0  # proportional gain of move/turn near the goal (1/s)
 SETTLE_SERVICE = "/rosapi/get_time"  # the round trip at the end of the program (Runtime.settle)
 
@@ -176,7 +184,7 @@ class _Sub:
     def __init__(self, topic):
         self.topic = topic
         self.latest = None
-        self.cond = threading.Condition()
+        self.cond = Condition()
         self.handlers = []
 
 
@@ -203,7 +211,7 @@ class Runtime:
         self.namespace = norm_namespace(namespace)
         self.ros = roslibpy.Ros(url)
         self.ros.run(timeout=10)
-        self.stopped = threading.Event()
+        self.stopped = Event()
         self.error = None
         self.t0 = time.monotonic()
         self._lock = threading.Lock()
@@ -213,7 +221,7 @@ class Runtime:
         self._actions = {}
         self._goals = {}
         self.handlers = 0
-        self._settled = threading.Event()
+        self._settled = Event()
         self.ros.factory.on_ready(self._take_status)
 
     def ns(self, name):
@@ -256,7 +264,8 @@ class Runtime:
         """Ends the program because of an error raised outside the main thread."""
         if not self.stopped.is_set():
             self.error = exc
-            print("error: %s" % exc, file=sys.stderr, flush=True)
+            if not BROWSER:   # the page reports it with its traceback, at the program's line
+                print("error: %s" % exc, file=sys.stderr, flush=True)
             self.stopped.set()
 
     def _handled(self, handler, value):
@@ -267,7 +276,8 @@ class Runtime:
         except StopProgram:
             return False
         except Exception as e:
-            traceback.print_exc()
+            if not BROWSER:
+                traceback.print_exc()
             self.fail(e)
             return False
 
@@ -319,6 +329,10 @@ class Runtime:
         """Runs handler(msg) in its own thread; while it is busy only the newest message waits."""
         sub = self._subscribe(topic, t)
         slot = {"msg": None, "has": False}
+        self.handlers += 1
+        if BROWSER:
+            sub.handlers.append(self._serial(handler, slot))
+            return
         ready = threading.Condition()
 
         def worker():
@@ -339,7 +353,25 @@ class Runtime:
 
         threading.Thread(target=worker, daemon=True).start()
         sub.handlers.append(offer)
-        self.handlers += 1
+
+    def _serial(self, handler, slot, keep_all=False):
+        """In the browser: handler(value) runs where the message is delivered, one at a time; a
+        value that comes while it runs (it waits in turn) waits for it: only the newest, or all
+        of them in order (keep_all), as the worker threads do in a script."""
+        slot.setdefault("queue", [])
+        slot["busy"] = False
+
+        def offer(value):
+            if slot["busy"]:
+                slot["queue"][:] = slot["queue"] + [value] if keep_all else [value]
+                return
+            slot["busy"] = True
+            try:
+                while not self.stopped.is_set() and self._handled(handler, value) and slot["queue"]:
+                    value = slot["queue"].pop(0)
+            finally:
+                slot["busy"] = False
+        return offer
 
     def wait_for_message(self, topic, t, timeout=0):
         sub = self._subscribe(topic, t)
@@ -363,7 +395,7 @@ class Runtime:
     # ---- services and actions
     def call_service(self, service, t, args=None, timeout=0):
         self._check()
-        done = threading.Event()
+        done = Event()
         out = {}
 
         def ok(values):
@@ -388,7 +420,7 @@ class Runtime:
             client = self._actions.get(action)
             if client is None:
                 client = self._actions[action] = roslibpy.ActionClient(self.ros, action, t)
-        done = threading.Event()
+        done = Event()
         out = {}
         feedbacks = queue.Queue()
 
@@ -400,13 +432,17 @@ class Runtime:
                 if not self._handled(on_feedback, values):
                     return
 
-        thread = None
-        if on_feedback is not None:
+        thread = serial = None
+        if on_feedback is not None and BROWSER:
+            serial = self._serial(on_feedback, {}, keep_all=True)
+        elif on_feedback is not None:
             thread = threading.Thread(target=worker, daemon=True)
             thread.start()
 
         def feedback(values):
-            if thread is not None:
+            if serial is not None:
+                serial(dict(values))
+            elif thread is not None:
                 feedbacks.put(dict(values))
 
         def result(res):
@@ -525,6 +561,9 @@ class Runtime:
                 self.ros.terminate()
             except Exception:
                 pass
+        if BROWSER:
+            close()
+            return True
         closing = threading.Thread(target=close, name="rosgate-shutdown", daemon=True)
         closing.start()
         closing.join(timeout)
@@ -545,8 +584,9 @@ def run(main, namespace=""):
     args = parser.parse_args()
     # Ctrl-C (and a run's Stop, a SIGINT) ends the program even when it was started with SIGINT
     # ignored, as a background job of a shell is: Python then leaves it ignored
-    signal.signal(signal.SIGINT, signal.default_int_handler)
-    signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
+    if not BROWSER:   # in the page, Stop ends the worker
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+        signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
     rt = Runtime(args.url, args.ns)
     # a program that imports the runtime (from rosgate_runtime import *) bound rt when it was
     # still None: its main() sees this one
@@ -562,6 +602,8 @@ def run(main, namespace=""):
     except (KeyboardInterrupt, StopProgram):
         code = 1 if rt.error is not None else 0
     except Exception:
+        if BROWSER:   # the page shows it at the program's line (after the shutdown below)
+            raise
         traceback.print_exc()
         code = 1
     finally:
@@ -570,5 +612,9 @@ def run(main, namespace=""):
                   "when the connection goes)", file=sys.stderr)
     sys.stdout.flush()
     sys.stderr.flush()
+    if BROWSER:
+        if rt.error is not None:
+            raise rt.error
+        raise SystemExit(code)
     os._exit(code)   # not sys.exit: a thread the connection left behind cannot keep the program alive
 # --- end of the rosgate runtime ---

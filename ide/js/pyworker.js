@@ -1,0 +1,78 @@
+// The Python worker (started by pyrun.js): Pyodide from vendor/pyodide/, the roslibpy of the page
+// (runtime/browser/roslibpy.py) and the runtime the generated programs use. It checks programs'
+// syntax while idle and runs one program, then ends: a fresh worker runs the next.
+import { loadPyodide } from '../vendor/pyodide/pyodide.mjs';
+
+const FILES = {   // module file -> URL, put on Python's path
+  'roslibpy.py': '../runtime/browser/roslibpy.py',
+  'rosgate_browser.py': '../runtime/browser/rosgate_browser.py',
+  'rosgate_runtime.py': '../runtime/rosgate_runtime.py',
+};
+const SEQ = 0, LOCK = 1, USED = 2, LINE = 3, HEAD = 16;
+const MODULES = '/home/pyodide/rosgate';
+
+let pyodide;
+let ctrl;
+let bytes;
+
+const post = (m) => postMessage(m);
+
+// What Python calls (rosgate_browser._js): ops out, the mailbox in, the running line.
+const bridge = {
+  send(json) { post({ kind: 'op', json }); },   // the page parses it: one parse, not two
+  log(text, level) { post({ kind: 'log', text, level }); },
+  close() { post({ kind: 'close' }); },
+  line(n) { Atomics.store(ctrl, LINE, n); },
+  // Waits up to `ms` for the gateway's messages and takes them all: '' or newline-separated JSON.
+  take(ms) {
+    if (ms > 0 && Atomics.load(ctrl, USED) === 0) {
+      const seq = Atomics.load(ctrl, SEQ);
+      if (Atomics.load(ctrl, USED) === 0) Atomics.wait(ctrl, SEQ, seq, ms);
+    }
+    if (Atomics.load(ctrl, USED) === 0) return '';
+    while (Atomics.compareExchange(ctrl, LOCK, 0, 1) !== 0) { /* the page appends: microseconds */ }
+    const used = Atomics.load(ctrl, USED);
+    const copy = bytes.slice(0, used);
+    Atomics.store(ctrl, USED, 0);
+    Atomics.store(ctrl, LOCK, 0);
+    post({ kind: 'taken' });
+    return new TextDecoder().decode(copy);
+  },
+};
+
+// The worker's memory (tests/bench/pyodide.py): Python's wasm heap and the worker's JavaScript heap, bytes.
+globalThis.rosgateMemory = () => JSON.stringify({
+  wasm: pyodide?._module?.HEAPU8?.byteLength ?? null, js: performance.memory?.usedJSHeapSize ?? null });
+
+async function start() {
+  const base = new URL('../vendor/pyodide/', import.meta.url).href;
+  pyodide = await loadPyodide({ indexURL: base, stdout: () => {}, stderr: () => {} });
+  pyodide.FS.mkdirTree(MODULES);
+  await Promise.all(Object.entries(FILES).map(async ([name, url]) => {
+    const r = await fetch(new URL(url, import.meta.url));
+    if (!r.ok) throw new Error(`${url}: HTTP ${r.status}`);
+    pyodide.FS.writeFile(`${MODULES}/${name}`, await r.text());
+  }));
+  pyodide.runPython(`import sys; sys.path.insert(0, ${JSON.stringify(MODULES)})`);
+  pyodide.registerJsModule('_rosgate_js', bridge);
+  pyodide.setStdout({ batched: (text) => bridge.log(text, 'info') });
+  pyodide.setStderr({ batched: (text) => bridge.log(text, 'error') });
+  pyodide.pyimport('rosgate_browser');
+}
+
+onmessage = (e) => {
+  const d = e.data;
+  if (d.kind === 'check') {
+    const errors = pyodide.pyimport('rosgate_browser').check(d.source).toJs({ dict_converter: Object.fromEntries });
+    post({ kind: 'checked', id: d.id, errors });
+  } else if (d.kind === 'run') {
+    ctrl = new Int32Array(d.sab, 0, 4);
+    bytes = new Uint8Array(d.sab, HEAD);
+    const browser = pyodide.pyimport('rosgate_browser');
+    const error = browser.run(d.source, d.namespace, d.base);
+    if (error) post({ kind: 'error', ...error.toJs({ dict_converter: Object.fromEntries }) });
+    post({ kind: 'done' });
+  }
+};
+
+start().then(() => post({ kind: 'ready' }), (e) => post({ kind: 'failed', message: String(e?.message ?? e) }));

@@ -1,0 +1,241 @@
+"""Python in the IDE page (ide/js/pyrun.js): Pyodide in a worker over the page's own connection, in
+Chromium, on `--robot turtlesim` without --allow-runs. Each program is run through the module's API
+(runPython, stopPython, checkPython) with the page's connected Ros; an independent roslibpy client
+watches what the turtle does."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import pytest
+
+from .conftest import wait_for
+
+START = """async ({source, ns}) => {
+  const py = await import('/js/pyrun.js');
+  const out = window.pyOut = {logs: [], lines: [], errors: [], done: false};
+  window.pyDone = py.runPython(source, {
+    ros: rosgateIde.ros, namespace: ns,
+    log: (text, level) => out.logs.push([level, text]),
+    onLine: (n) => out.lines.push(n),
+    onError: (e) => out.errors.push(e),
+  }).then(() => { out.done = true; out.doneAt = performance.now(); });
+  return true;
+}"""
+PYODIDE_START = 90   # s: a cold start on a busy 2-core machine
+
+
+@pytest.fixture(scope="module")
+def ide(chromium, turtle_gateway):
+    from .conftest import IdePage
+    ctx = chromium.new_context(viewport={"width": 1400, "height": 860})
+    page = IdePage(ctx.new_page(), turtle_gateway).open()
+    yield page
+    page.js("async () => (await import('/js/pyrun.js')).stopPython()")
+    ctx.close()
+
+
+def start(ide, source: str, ns: str = ""):
+    ide.js(START, {"source": source, "ns": ns})
+
+
+def out(ide) -> dict:
+    return ide.js("window.pyOut")
+
+
+def finish(ide, timeout: float = PYODIDE_START) -> dict:
+    ide.page.wait_for_function("window.pyOut.done", timeout=timeout * 1000)
+    return out(ide)
+
+
+def logged(ide, level: str | None = None) -> str:
+    return "\n".join(t for lv, t in out(ide)["logs"] if level is None or lv == level)
+
+
+def test_page_is_cross_origin_isolated_and_serves_pyodide(ide):
+    assert ide.js("crossOriginIsolated") is True
+    assert not [u for u in ide.requests if "pyodide" in u], "Pyodide loads before a Python program runs"
+    kinds = ide.js("""async () => {
+      const out = {};
+      for (const f of ['pyodide.asm.wasm', 'python_stdlib.zip', 'pyodide-lock.json', 'pyodide.mjs']) {
+        const r = await fetch('/vendor/pyodide/' + f);
+        out[f] = [r.status, r.headers.get('content-type'), r.headers.get('content-encoding')];
+      }
+      return out;
+    }""")
+    assert kinds["pyodide.asm.wasm"] == [200, "application/wasm", "gzip"]   # the build's gzip of it
+    assert kinds["python_stdlib.zip"][0] == 200 and "zip" in kinds["python_stdlib.zip"][1]
+    assert kinds["pyodide-lock.json"][0] == 200 and "json" in kinds["pyodide-lock.json"][1]
+    assert kinds["pyodide.mjs"][0] == 200 and "javascript" in kinds["pyodide.mjs"][1]
+
+
+def test_sleep_drives_the_turtle_and_prints_reach_the_log(ide, turtle_ros):
+    pose = turtle_ros.watch("/turtle1/pose", "turtlesim/msg/Pose")
+    wait_for(pose.latest, what="a pose")
+    x0 = pose.latest()["x"]
+    # it drives until its own subscription sees the turtle 1 m on (a busy machine may starve a run
+    # of fixed length), then stops
+    start(ide, """import time
+import roslibpy
+
+ros = roslibpy.Ros(host='robot.example', port=9090)
+ros.run()
+cmd = roslibpy.Topic(ros, '/turtle1/cmd_vel', 'geometry_msgs/msg/Twist')
+poses = []
+roslibpy.Topic(ros, '/turtle1/pose', 'turtlesim/msg/Pose').subscribe(poses.append)
+while not poses:
+    time.sleep(0.05)
+x0 = poses[-1]['x']
+print('driving')
+end = time.monotonic() + 60
+i = 0
+while poses[-1]['x'] < x0 + 1.0 and time.monotonic() < end:
+    cmd.publish(roslibpy.Message({'linear': {'x': 2.0, 'y': 0.0, 'z': 0.0}, 'angular': {'x': 0.0, 'y': 0.0, 'z': 0.0}}))
+    time.sleep(0.1)
+    i += 1
+print('done', i > 0)
+ros.terminate()
+""")
+    o = finish(ide, PYODIDE_START + 60)
+    assert o["errors"] == []
+    assert "driving" in logged(ide, "info") and "done True" in logged(ide, "info")
+    wait_for(lambda: pose.latest()["x"] > x0 + 1.0, what="the turtle moved forward")
+    assert o["lines"], "the running line was reported"
+
+
+def test_textbook_roslibpy_program_runs_unchanged(ide, turtle_ros):
+    start(ide, """import time
+import roslibpy
+
+client = roslibpy.Ros(host='localhost', port=9090)
+client.run()
+print('connected', client.is_connected)
+
+poses = []
+listener = roslibpy.Topic(client, '/turtle1/pose', 'turtlesim/msg/Pose')
+listener.subscribe(lambda message: poses.append(message))
+while not poses:
+    time.sleep(0.05)
+print('pose x', round(poses[-1]['x'], 1))
+listener.unsubscribe()
+
+service = roslibpy.Service(client, '/rosapi/get_time', 'rosapi/srv/GetTime')
+result = service.call(roslibpy.ServiceRequest())
+print('time', 'time' in result)
+
+teleport = roslibpy.Service(client, '/turtle1/teleport_absolute', 'turtlesim/srv/TeleportAbsolute')
+teleport.call(roslibpy.ServiceRequest({'x': 3.0, 'y': 4.0, 'theta': 0.0}))
+
+answers = []
+service.call(roslibpy.ServiceRequest(), lambda r: answers.append(r))
+while not answers:
+    time.sleep(0.01)
+print('callback answered')
+
+action = roslibpy.ActionClient(client, '/fibonacci', 'example_interfaces/action/Fibonacci')
+feedback = []
+results = []
+goal_id = action.send_goal(roslibpy.Goal({'order': 5}), lambda r: results.append(r),
+                           lambda f: feedback.append(f), lambda e: print('error', e))
+action.wait_goal(goal_id)
+print('sequence', list(results[0]['values']['sequence']), 'feedbacks', len(feedback) > 0)
+client.terminate()
+""")
+    o = finish(ide)
+    assert o["errors"] == [], logged(ide)
+    text = logged(ide, "info")
+    assert "connected True" in text and "pose x" in text and "time True" in text
+    assert "callback answered" in text
+    assert "sequence [0, 1, 1, 2, 3, 5] feedbacks True" in text
+    pose = turtle_ros.watch("/turtle1/pose", "turtlesim/msg/Pose")
+    wait_for(lambda: (p := pose.latest()) and abs(p["x"] - 3.0) < 0.05 and abs(p["y"] - 4.0) < 0.05,
+             what="the turtle teleported")
+
+
+def test_stop_zeroes_the_turtle_within_half_a_second(ide, turtle_ros):
+    cmd = turtle_ros.watch("/turtle1/cmd_vel", "geometry_msgs/msg/Twist")
+    start(ide, """import time, roslibpy
+ros = roslibpy.Ros('localhost', 9090)
+ros.run()
+cmd = roslibpy.Topic(ros, '/turtle1/cmd_vel', 'geometry_msgs/msg/Twist')
+while True:
+    cmd.publish({'linear': {'x': 0.5, 'y': 0.0, 'z': 0.0}, 'angular': {'x': 0.0, 'y': 0.0, 'z': 1.0}})
+    time.sleep(0.05)
+""")
+    wait_for(lambda: any(m["linear"]["x"] == 0.5 for _, m in cmd.messages), timeout=PYODIDE_START,
+             what="the program drives")
+    t0 = time.monotonic()
+    ide.js("async () => (await import('/js/pyrun.js')).stopPython()")
+    zero = wait_for(lambda: next((t for t, m in cmd.since(t0) if m["linear"]["x"] == 0 and m["angular"]["z"] == 0),
+                                 None), timeout=2, what="a zero Twist")
+    assert zero - t0 < 0.5
+    finish(ide, 2)
+    time.sleep(0.3)   # nothing drives after the zero: the worker is gone
+    assert all(m["linear"]["x"] == 0 for t, m in cmd.since(zero + 0.05))
+
+
+def test_stop_ends_a_busy_loop(ide):
+    start(ide, "print('spinning')\nwhile True:\n    pass\n")
+    ide.page.wait_for_function("window.pyOut.logs.some(([l, t]) => t === 'spinning')", timeout=PYODIDE_START * 1000)
+    t0 = ide.js("performance.now()")
+    ide.js("async () => (await import('/js/pyrun.js')).stopPython()")
+    o = finish(ide, 2)
+    assert o["doneAt"] - t0 < 500
+
+
+def test_runtime_error_reports_the_students_line(ide):
+    start(ide, """import roslibpy
+ros = roslibpy.Ros('localhost', 9090)
+
+def speed(v):
+    return v / 0
+
+print('before')
+speed(3)
+""")
+    o = finish(ide)
+    assert len(o["errors"]) == 1
+    err = o["errors"][0]
+    assert err["line"] == 5 and err["message"] == "ZeroDivisionError: division by zero"
+    assert 'File "<program>", line 8' in err["traceback"] and 'File "<program>", line 5' in err["traceback"]
+    assert "rosgate_browser" not in err["traceback"] and "pyodide" not in err["traceback"]
+    assert "ZeroDivisionError" in logged(ide, "error")
+    assert "before" in logged(ide, "info")
+
+
+def test_rosgate_runtime_runs_in_the_page(ide, turtle_ros):
+    """The runtime the downloaded scripts use, on the page's roslibpy: sleep, wait for a message,
+    a service call and an action block; a handler runs while the program waits."""
+    pose = turtle_ros.watch("/turtle1/pose", "turtlesim/msg/Pose")
+    wait_for(pose.latest, what="a pose")
+    start(ide, """import rosgate_runtime as r
+
+def main():
+    rt = r.rt
+    seen = []
+    rt.on_message('/turtle1/pose', 'turtlesim/msg/Pose', lambda m: seen.append(m['x']))
+    rt.call_service('/turtle1/teleport_absolute', 'turtlesim/srv/TeleportAbsolute', {'x': 5.0, 'y': 5.0, 'theta': 0.0})
+    m = rt.wait_for_message('/turtle1/pose', 'turtlesim/msg/Pose', 5)
+    rt.log('pose %.1f' % m['y'])
+    rt.drive('/turtle1/cmd_vel', 'geometry_msgs/msg/Twist', {'linear': {'x': 1.0, 'y': 0.0, 'z': 0.0},
+             'angular': {'x': 0.0, 'y': 0.0, 'z': 0.0}}, 0.5)
+    seq = rt.send_goal('/fibonacci', 'example_interfaces/action/Fibonacci', {'order': 4})
+    rt.log(seq['sequence'])
+    rt.log('handled %s' % (len(seen) > 0))
+    rt.sleep(0.2)
+    raise SystemExit(0)
+
+r.run(main)
+""")
+    o = finish(ide)
+    assert o["errors"] == [], logged(ide)
+    text = logged(ide, "info")
+    assert "pose 5.0" in text and "[0, 1, 1, 2, 3]" in text and "handled True" in text
+    wait_for(lambda: pose.latest()["x"] > 5.05, what="the turtle drove")
+
+
+def test_check_python_finds_a_syntax_error(ide):
+    errors = ide.js("""async () => (await import('/js/pyrun.js')).checkPython('x = 1\\nif x > 0\\n    print(x)\\n')""")
+    assert len(errors) == 1 and errors[0]["line"] == 2 and "SyntaxError" in errors[0]["message"]
+    assert ide.js("async () => (await import('/js/pyrun.js')).checkPython('print(1)\\n')") == []
