@@ -307,12 +307,14 @@ export class TextRunner extends EventTarget {
     if (this.run_ !== run) return;
     this.run_ = null;
     run.rt?.stop();                        // the runtime's waits end, its goals are cancelled, robot zeroed
-    run.door.close();                      // the program sends nothing more; zero on what it drove
-    for (const id of run.timers) run.clears?.get(id)?.(id);
-    run.timers.clear();
+    // Python's worker ends first: pyrun's own cleanup (its goals cancelled, subscriptions and
+    // advertisements ended, zero on what it drove) still passes the open door
     if (run.py) {
       try { run.py.stopPython(); } catch (e) { this.ide.console.error(`stopping Python: ${e.message}`); }
     }
+    run.door.close();                      // the program sends nothing more; zero on what it drove
+    for (const id of run.timers) run.clears?.get(id)?.(id);
+    run.timers.clear();
     this.ide.editor.running(null);
     this.line = null;
     this._setState('idle');
