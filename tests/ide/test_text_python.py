@@ -4,7 +4,7 @@ it, run with the real js/pyrun.js (Pyodide in a worker) behind js/textrun.js's d
 roslibpy program (`roslibpy.Ros(host='example.org', port=9090)`, `run()`, a `Topic` publish,
 `time.sleep`) drives turtle1 (an independent roslibpy client sees its pose move) and its prints
 reach the IDE's console; Stop zeroes the turtle within 0.5 s of the click; a runtime error is
-marked on its line; a program that ends says so. One gateway and one browser page for the module."""
+marked on its line, a syntax error before the run; a program that ends says so. One gateway and one browser page for the module."""
 
 from __future__ import annotations
 
@@ -82,7 +82,9 @@ def test_python_drives_the_turtle_and_stop_zeroes_it(ide, turtle):
              timeout=PYODIDE_START, what="turtle1 moving under the Python program")
     assert "driving 6" in ide.logs()
     assert ide.js("document.body.dataset.run") == "running"
+    # the running line: one of the loop's lines, marked in the editor
     ide.page.wait_for_selector(".cm-running-line")
+    assert 8 <= int(ide.page.get_attribute(".cm-running-line", "data-line")) <= 11
     t0 = time.monotonic()
     ide.page.click("#stop")
     zero = wait_for(lambda: next((t for t, m in cmd.since(t0) if not m["linear"]["x"] and not m["angular"]["z"]), None),
@@ -116,6 +118,18 @@ def test_a_runtime_error_is_marked_on_its_line(ide):
     text = ide.console_text()
     assert "before the error" in text
     assert "IndexError" in text and "line 5" in text
+    assert 'File "<program>", line 5' in text           # the traceback's line is the student's
+
+
+def test_a_syntax_error_is_marked_before_the_run(ide, turtle):
+    cmd = turtle.watch("/turtle1/cmd_vel", TWIST)
+    t0 = time.monotonic()
+    type_python(ide, ["import roslibpy", "print('never printed')", "def (", "x = 1"])
+    ide.page.click("#run")
+    assert error_line(ide) == 3
+    ide.page.wait_for_function("document.body.dataset.run === 'idle'")
+    assert "never printed" not in ide.logs() and "SyntaxError" in ide.console_text()
+    assert not cmd.since(t0)
 
 
 FINISH = [
