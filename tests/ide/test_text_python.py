@@ -124,7 +124,7 @@ def test_a_runtime_error_is_marked_on_its_line(ide):
 def test_a_syntax_error_is_marked_before_the_run(ide, turtle):
     cmd = turtle.watch("/turtle1/cmd_vel", TWIST)
     t0 = time.monotonic()
-    type_python(ide, ["import roslibpy", "print('never printed')", "def (", "x = 1"])
+    type_python(ide, ["x = 1", "print('never printed')", "if x > 0", "    x = 2"])
     ide.page.click("#run")
     assert error_line(ide) == 3
     ide.page.wait_for_function("document.body.dataset.run === 'idle'")
