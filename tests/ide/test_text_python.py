@@ -12,17 +12,11 @@ import time
 
 import pytest
 
-from .conftest import IdePage, RosClient, wait_for
+from .conftest import IdePage, wait_for
 from .test_text_programs import POSE, TWIST, error_line, open_text, page_errors
+from .test_text_programs import turtle  # noqa: F401  (the module's roslibpy client, a fixture)
 
 PYODIDE_START = 120   # s: Pyodide's cold start on a busy 2-core machine
-
-
-@pytest.fixture(scope="module")
-def turtle(turtle_gateway):
-    client = RosClient(turtle_gateway)
-    yield client
-    client.close()
 
 
 @pytest.fixture(scope="module")
@@ -50,8 +44,14 @@ def type_python(ide: IdePage, lines: list[str]):
     assert ide.js("rosgateIde.textMode.text") == "\n".join(lines)
 
 
-def run_count(ide: IdePage) -> int:
-    return ide.js("rosgateIde.textRunner.runs")
+def run_to_its_end(ide: IdePage, lines: list[str]) -> int:
+    """Types the program, presses Run and waits for the run to end; the run's number."""
+    type_python(ide, lines)
+    runs = ide.js("rosgateIde.textRunner.runs")
+    ide.page.click("#run")
+    ide.page.wait_for_function(f"rosgateIde.textRunner.runs > {runs}")
+    ide.page.wait_for_function("document.body.dataset.run === 'idle'", timeout=PYODIDE_START * 1000)
+    return runs + 1
 
 
 DRIVE = [
@@ -109,12 +109,8 @@ ERROR = [
 
 
 def test_a_runtime_error_is_marked_on_its_line(ide):
-    type_python(ide, ERROR)
-    runs = run_count(ide)
-    ide.page.click("#run")
-    ide.page.wait_for_function(f"rosgateIde.textRunner.runs > {runs}")
+    run_to_its_end(ide, ERROR)
     assert error_line(ide) == 5
-    ide.page.wait_for_function("document.body.dataset.run === 'idle'")
     text = ide.console_text()
     assert "before the error" in text
     assert "IndexError" in text and "line 5" in text
@@ -124,10 +120,8 @@ def test_a_runtime_error_is_marked_on_its_line(ide):
 def test_a_syntax_error_is_marked_before_the_run(ide, turtle):
     cmd = turtle.watch("/turtle1/cmd_vel", TWIST)
     t0 = time.monotonic()
-    type_python(ide, ["x = 1", "print('never printed')", "if x > 0", "    x = 2"])
-    ide.page.click("#run")
+    run_to_its_end(ide, ["x = 1", "print('never printed')", "if x > 0", "    x = 2"])
     assert error_line(ide) == 3
-    ide.page.wait_for_function("document.body.dataset.run === 'idle'")
     assert "never printed" not in ide.logs() and "SyntaxError" in ide.console_text()
     assert not cmd.since(t0)
 
@@ -144,14 +138,8 @@ FINISH = [
 
 
 def test_a_program_that_ends_says_so(ide):
-    type_python(ide, FINISH)
-    runs = run_count(ide)
-    ide.page.click("#run")
-    ide.page.wait_for_function(f"rosgateIde.textRunner.runs > {runs}")
-    ide.page.wait_for_function("document.body.dataset.run === 'idle'", timeout=PYODIDE_START * 1000)
-    logs = ide.logs()
-    assert "squares [0, 1, 4, 9] True" in logs
-    n = run_count(ide)
+    n = run_to_its_end(ide, FINISH)
+    assert "squares [0, 1, 4, 9] True" in ide.logs()
     assert f"run {n} finished" in ide.console_text()
     assert not ide.page.query_selector(".cm-error-line")
     assert not page_errors(ide)
