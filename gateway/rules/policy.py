@@ -88,7 +88,7 @@ class Policy:
         self.reads = reads     # the gateway's own read-only services (rosapi)
         self.allowed_origins = parse_globs(settings.allowed_origins)
         self.allowed_hosts = parse_globs(settings.allowed_hosts)
-        self.trusted_proxies = parse_networks(settings.extra.get('trusted_proxies'))
+        self.trusted_proxies = parse_networks(settings.security.trusted_proxies)
         self.own_names = own_names()
         self.globs = {
             kind: parse_globs(getattr(settings, f'{kind}_glob'))

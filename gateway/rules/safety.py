@@ -31,6 +31,7 @@ from protocol.errors import ProtocolError
 
 from ..backends.base import QoS
 from .policy import GATEWAY_ROLE
+from .hooks import Hook
 
 log = logging.getLogger('rosgate.safety')
 DEFAULT_TYPES = ('geometry_msgs/msg/Twist', 'geometry_msgs/msg/TwistStamped')
@@ -120,7 +121,7 @@ class Stream:
         self.timer: asyncio.TimerHandle | None = None
 
 
-class Safety:
+class Safety(Hook):
     def __init__(self, gateway, *, types=DEFAULT_TYPES, stop_on_disconnect: bool = True,
                  cmd_timeout: float = 1.0, limits: VelocityLimits | None = None,
                  cmd_max_age: float = CMD_MAX_AGE, require_stamp: bool = False):

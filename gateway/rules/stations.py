@@ -48,6 +48,7 @@ from dataclasses import dataclass
 from protocol.errors import ProtocolError
 
 from ..backends.base import QoS
+from .hooks import Hook
 
 STATIONS_TOPIC = '/rosgate/stations'
 STRING = 'std_msgs/msg/String'
@@ -107,7 +108,7 @@ class Owner:
     until: float | None = None   # a booked slot's end (epoch s): the seat holds till then, present or not
 
 
-class Stations:
+class Stations(Hook):
     def __init__(self, gateway, *, types: frozenset[str], idle: float = CLAIM_IDLE,
                  grace: float = CLAIM_GRACE, admin_role: str | None = None, timetable=None, queue=None):
         """admin_role: who may release others' stations (None: anyone, as without --auth);

@@ -6,22 +6,42 @@ from __future__ import annotations
 import json
 
 import tornado.web
+from tornado.log import gen_log
 
+from ..rules.errors import Refusal
 from ..rules.policy import PERMISSIONS
 from ..rules.tokens import AuthError
 
 
-class JsonHandler(tornado.web.RequestHandler):
+class Handler(tornado.web.RequestHandler):
+    """Every handler's errors, answered in one place: an HTTPError's message, or a refusal of the
+    domain (``rules.errors.Refusal``: a booking, a run, a recording) with its own status, is the
+    answer's reason; ``answer_error`` says how it is written (JSON here)."""
+
+    def write_error(self, status_code: int, **kwargs) -> None:
+        exc = kwargs.get('exc_info')
+        error, reason = exc[1] if exc else None, None
+        if isinstance(error, Refusal):
+            status_code, reason = error.status, error.message
+            self.set_status(status_code)
+        elif isinstance(error, tornado.web.HTTPError):
+            reason = error.log_message
+        self.answer_error(status_code, reason or self._reason)
+
+    def answer_error(self, status_code: int, reason: str) -> None:
+        self.finish(json.dumps({'error': reason, 'status': status_code}))
+
+    def log_exception(self, typ, value, tb) -> None:
+        if isinstance(value, Refusal):      # an answer, not a fault: logged as tornado logs an HTTPError
+            gen_log.warning('%d %s: %s', value.status, self._request_summary(), value.message)
+        else:
+            super().log_exception(typ, value, tb)
+
+
+class JsonHandler(Handler):
     def set_default_headers(self) -> None:
         self.set_header('Content-Type', 'application/json; charset=utf-8')
         self.set_header('Cache-Control', 'no-store')
-
-    def write_error(self, status_code: int, **kwargs) -> None:
-        reason = self._reason
-        exc = kwargs.get('exc_info')
-        if exc and isinstance(exc[1], tornado.web.HTTPError) and exc[1].log_message:
-            reason = exc[1].log_message
-        self.finish(json.dumps({'error': reason, 'status': status_code}))
 
 
 def caller(handler: tornado.web.RequestHandler, gateway, *, change: bool = False, roles=None):

@@ -34,7 +34,7 @@ import re
 import icalendar
 import tornado.web
 
-from ..rules.bookings import BookingError, Slots
+from ..rules.bookings import Slots
 from ..rules.stations import person_of
 from .api import JsonHandler, body_json, caller
 
@@ -43,7 +43,7 @@ ID = re.compile(r'[0-9]{1,12}')
 
 
 def _slots(gateway) -> Slots | None:
-    return next((h for h in gateway.hooks if isinstance(h, Slots)), None)
+    return gateway.ruleset.slots if gateway.ruleset is not None else None
 
 
 class _Handler(JsonHandler):
@@ -116,10 +116,7 @@ class BookingListHandler(_Handler):
             if not isinstance(behalf, str) or not 0 < len(behalf.strip()) <= 100:
                 raise tornado.web.HTTPError(400, '"for" is the name or id of a person')
             booker, name = self.behalf(behalf.strip())
-        try:
-            booking = await self.slots.timetable.add(station, booker, name, start, end, exempt=admin)
-        except BookingError as e:
-            raise tornado.web.HTTPError(e.status, e.message) from None
+        booking = await self.slots.timetable.add(station, booker, name, start, end, exempt=admin)   # BookingError: answered by Handler
         self.set_status(201)
         self.finish(_view(booking, key))
 

@@ -34,6 +34,7 @@ import sqlalchemy as sa
 
 from ..rules.names import parse_globs
 from ..store import METADATA
+from ..rules.hooks import Hook
 
 log = logging.getLogger('rosgate.history')
 
@@ -130,7 +131,7 @@ class _Tap:
         pass
 
 
-class History:
+class History(Hook):
     """The topics kept (their taps), the points waiting for the next batch, the latest value of
     each field (for the OPC UA face, ``listeners``), and the store work: batches, roll-ups, cap."""
 
@@ -335,12 +336,12 @@ def history_globs(value: str | None) -> tuple[str, ...] | None | bool:
 
 def start_history(gateway) -> History | None:
     """The gateway's history as its settings ask (None with --history none); it starts keeping now."""
-    s = gateway.settings
+    s = gateway.settings.twin
     globs = history_globs(s.history)
     if globs is False:
         return None
     history = History(gateway, globs, max_bytes=int(s.history_max_mb * 2**20),
                       full_seconds=s.history_full_hours * 3600)
-    gateway.hooks.append(history)
+    gateway.hooks.add(history)
     history.start()
     return history

@@ -34,7 +34,7 @@ import tornado.web
 
 from ..rules import lti
 from ..rules.lti import LaunchError
-from .api import check_origin
+from .api import Handler, check_origin
 from .cookies import clear_cookie, set_cookie
 from .login import begin_session
 
@@ -142,7 +142,7 @@ PAGE = """<!doctype html><html lang="en"><head><meta charset="utf-8"><meta name=
 button{{font:inherit;padding:.4rem 1rem;margin:.3rem 0}}</style></head><body>{body}</body></html>"""
 
 
-class _Base(tornado.web.RequestHandler):
+class _Base(Handler):
     def initialize(self, lti_: Lti) -> None:
         self.lti = lti_
         self.script_nonce = secrets.token_urlsafe(12)
@@ -166,10 +166,8 @@ class _Base(tornado.web.RequestHandler):
                   '<p>Nobody was signed in. Go back to your course and open the activity again; if this '
                   'keeps happening, show this page to your teacher.</p>', status)
 
-    def write_error(self, status_code: int, **kwargs) -> None:
-        exc = kwargs.get('exc_info')
-        reason = exc[1].log_message if exc and isinstance(exc[1], tornado.web.HTTPError) else None
-        self.refuse(reason or self._reason, status_code)
+    def answer_error(self, status_code: int, reason: str) -> None:
+        self.refuse(reason, status_code)
 
     def auto_post(self, action: str, fields: dict, note: str) -> None:
         inputs = ''.join(f'<input type="hidden" name="{html.escape(k)}" value="{html.escape(v)}">'

@@ -35,6 +35,7 @@ from datetime import datetime, timezone
 from ..rules.policy import PERMISSIONS
 from ..rules.tokens import AuthError
 from ..settings import data_dir
+from ..rules.hooks import Hook
 
 log = logging.getLogger('rosgate.opcua')
 NAMESPACE = 'urn:rosgate:twin'
@@ -55,7 +56,7 @@ def split(topic: str, stations: tuple[str, ...]) -> tuple[str, list[str]]:
     return ROOT_FOLDER, topic.strip('/').split('/')
 
 
-class Twin:
+class Twin(Hook):
     """The OPC UA server on a thread and event loop of its own: asyncua builds its standard
     address space in pure Python at start (about ten seconds of one core on a busy machine), which
     on the gateway's loop would stall every client meanwhile. Points cross over in one dict
@@ -95,11 +96,7 @@ class Twin:
             log.exception('OPC UA server failed')
 
     async def _serve(self) -> None:
-        try:
-            from asyncua import Server, ua
-        except ImportError:
-            log.error('--opcua needs asyncua: pip install "rosgate[opcua]"')
-            return
+        from asyncua import Server, ua     # there: the start-up check refused --opcua without it
         logging.getLogger('asyncua').setLevel(logging.WARNING)   # it logs each node it makes at INFO
         self.loop, self.stopping, self.ua = asyncio.get_running_loop(), asyncio.Event(), ua
         server = Server(user_manager=_Users(self.auth) if self.auth is not None else None)
@@ -212,12 +209,11 @@ class _Users:
 
 
 def start_twin(gateway, history, port: int | None) -> Twin | None:
+    """The OPC UA server with --opcua (the start-up check refused it without asyncua, or with
+    --history none)."""
     if port is None:
         return None
-    if history is None:
-        log.error('--opcua serves the history, and this gateway keeps none (--history none)')
-        return None
     twin = Twin(gateway, history, port)
-    gateway.hooks.append(twin)
+    gateway.hooks.add(twin)
     twin.start()
     return twin

@@ -47,6 +47,7 @@ from ..rules.stations import person_of
 from .api import JsonHandler, body_json, caller
 from .playback import Playback
 from ..settings import data_dir
+from ..rules.hooks import Hook
 
 log = logging.getLogger('rosgate.recordings')
 _ID = re.compile(r'rec-\d{8}-\d{6}-[0-9a-f]{4}')
@@ -168,7 +169,7 @@ def definition(backend, type: str, msgdef) -> tuple[str, str]:
     return text, store.hash_rihs01(type)
 
 
-class RecordingManager:
+class RecordingManager(Hook):
     def __init__(self, gateway, dir: Path, limits: RecordingLimits = RecordingLimits()):
         self.gateway, self.dir, self.limits = gateway, Path(dir), limits
         self.recordings: dict[str, Recording] = {}
@@ -454,16 +455,22 @@ class PlayHandler(_Handler):
         self.finish({'stopped': m.stop_playing(rec_id)})
 
 
-def recording_routes(gateway) -> list:
-    """The /api/recordings routes; with --record, the start-up recording begins here."""
-    settings = gateway.settings
-    record = settings.record
-    folder = settings.recordings_dir or record
+def start_recordings(gateway) -> RecordingManager:
+    """The recordings' manager (a part of the gateway's hooks); with --record, the start-up
+    recording begins once the loop runs."""
+    storage = gateway.settings.storage
+    record = storage.record
+    folder = storage.recordings_dir or record
     manager = RecordingManager(gateway, Path(folder) if folder else default_recordings_dir())
-    gateway.hooks.append(manager)
+    gateway.hooks.add(manager)
     if record:
-        globs = parse_globs(settings.record_topics) or ('/*',)
+        globs = parse_globs(storage.record_topics) or ('/*',)
         asyncio.get_running_loop().call_soon(_start_up, manager, globs)
+    return manager
+
+
+def recording_routes(manager: RecordingManager) -> list:
+    """The /api/recordings routes."""
     kw = {'manager': manager}
     return [(r'/api/recordings/?', RecordingListHandler, kw),
             (r'/api/recordings/([^/]+)\.mcap', RecordingFileHandler, kw),

@@ -44,7 +44,7 @@ from protocol.ops import MAX_IMAGE_SIDE
 from ..bridge import images
 from ..bridge.gateway import Gateway
 from ..rules.policy import PERMISSIONS
-from .api import caller
+from .api import Handler, caller
 from .socket import bound_unsent
 
 BOUNDARY = 'boundarydonotcross'
@@ -216,19 +216,17 @@ def reply_head(status: str, headers: list[tuple[str, str]]) -> bytes:
     return (f'HTTP/1.0 {status}\r\n' + ''.join(f'{k}: {v}\r\n' for k, v in headers) + '\r\n').encode()
 
 
-class VideoHandler(tornado.web.RequestHandler):
+class VideoHandler(Handler):
     """The checks in front of every video URL; the replies themselves are written on the
     detached connection, byte for byte as web_video_server writes them."""
 
     def initialize(self, video: Video) -> None:
         self.video = video
 
-    def write_error(self, status_code: int, **kwargs) -> None:
-        exc = kwargs.get('exc_info')
-        reason = exc[1].log_message if exc and isinstance(exc[1], tornado.web.HTTPError) else None
+    def answer_error(self, status_code: int, reason: str) -> None:
         self.set_header('Content-Type', 'text/plain; charset=UTF-8')
         self.set_header('Cache-Control', 'no-store')
-        self.finish(f'{status_code} {self._reason}: {reason or self._reason}\n')
+        self.finish(f'{status_code} {self._reason}: {reason}\n')
 
     @property
     def open_cors(self) -> bool:
