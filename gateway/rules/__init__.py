@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import NamedTuple
 
+from .access import ADMINS
 from .bookings import BookingLimits, Slots, Timetable
 from .hooks import Hook, Hooks  # noqa: F401 (for the bridge and web)
 from .lease import Lease
@@ -207,7 +208,7 @@ def compose(gateway, files: Files = Files(), *, reads=lambda name: False, runs=N
             ahead=lab.booking_ahead * 86400))
     queue = Queue(timetable, grace=st.claim_grace) if timetable is not None else None
     stations = Stations(gateway, types=frozenset(types), idle=st.claim_idle, grace=st.claim_grace,
-                        admin_role='admin' if auth else None, timetable=timetable, queue=queue)
+                        admin_role=ADMINS[0] if auth else None, timetable=timetable, queue=queue)
     lease = None
 
     def group_of(topic):
@@ -226,7 +227,7 @@ def compose(gateway, files: Files = Files(), *, reads=lambda name: False, runs=N
 
     if safe.exclusive_control:
         lease = Lease(gateway, types=frozenset(types), globs=parse_globs(safe.control_glob),
-                      takeover_role='admin' if auth else None, stations=stations,
+                      takeover_role=ADMINS[0] if auth else None, stations=stations,
                       on_lost=lambda session, group: safety.stop_session(session, in_group(group)),
                       stop_group=stop_group)
     limits = Limits(max_subscriptions=sec.max_subscriptions, max_publishers=sec.max_publishers,

@@ -41,6 +41,7 @@ from protocol import ops
 from protocol.errors import ProtocolError
 
 from ..backends.base import QoS
+from ..rules.access import ADMINS, owns
 from ..rules.errors import Refusal
 from ..rules.hooks import Hook
 from ..rules.safety import Safety, moving_command
@@ -102,7 +103,7 @@ class RunManager(Hook):
             raise RunError(429, f'{len(going)} runs are going, the most this gateway runs at once '
                                              '(--max-runs); wait for one to end or stop one')
         mine = [r for r in going if person is not None and r.person == person]
-        if role != 'admin' and len(mine) >= self.max_per_person:
+        if role not in ADMINS and len(mine) >= self.max_per_person:
             raise RunError(429, f'{person} has {len(mine)} runs going ({", ".join(r.id for r in mine)}), '
                                              'the most one person may (--max-runs-per-person); stop one first')
         run_id = 'r' + secrets.token_hex(4)
@@ -331,8 +332,7 @@ class RunManager(Hook):
         if run is None or getattr(self.gateway.policy, 'auth', None) is None:
             return
         attrs = session.attrs
-        if attrs.get('role') == 'admin' or attrs.get('run') == run.id or (
-                run.owner is not None and attrs.get('person') == run.person):
+        if owns(session, attrs.get('run') == run.id or (run.owner is not None and attrs.get('person') == run.person)):
             return
         raise ProtocolError(f'{op.topic}: run {run.id} was started by {run.owner or "someone else"}; its output '
                             'and state are for them and admins', op=op.OP, id=op.id)

@@ -4,12 +4,13 @@ as JSON, who is asking, and the checks in front of every request that changes so
 from __future__ import annotations
 
 import json
+import math
 
 import tornado.web
 from tornado.log import gen_log
 
 from ..rules.errors import Refusal
-from ..rules.policy import PERMISSIONS
+from ..rules.access import may
 from ..rules.tokens import AuthError
 
 
@@ -96,6 +97,23 @@ def body_json(handler: tornado.web.RequestHandler, limit: int) -> dict:
     return value
 
 
+def query_number(handler: tornado.web.RequestHandler, name: str, default, what: str, *, kind=float,
+                 low: float = -math.inf, high: float = math.inf, blank: tuple[str, ...] = ('',)):
+    """``?name=`` as a finite number of ``kind`` (float or int) from ``low`` to ``high``: ``default``
+    when it is absent or one of ``blank``, a 400 saying it is ``what`` otherwise. Every API's
+    query numbers are read here."""
+    text = handler.get_query_argument(name, None)
+    if text is None or text.strip() in blank:
+        return default
+    try:
+        value = kind(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and low <= value <= high):
+        raise tornado.web.HTTPError(400, f'"{name}" is {what}, not {text[:40]!r}')
+    return value
+
+
 def require(handler: tornado.web.RequestHandler, policy, permission: str):
     """The caller's Identity (None when auth is off); raise 401 (no or bad token), 429 (too many
     failures) or 403 (role too low)."""
@@ -108,6 +126,6 @@ def require(handler: tornado.web.RequestHandler, policy, permission: str):
         raise tornado.web.HTTPError(e.status, str(e)) from None
     if identity is None:
         raise tornado.web.HTTPError(401, 'a token is required: sign in at /login or send Authorization: Bearer')
-    if permission not in PERMISSIONS[identity.role]:
+    if may(policy, identity, permission) is not None:
         raise tornado.web.HTTPError(403, f'role {identity.role} may not use this; it needs admin')
     return identity

@@ -10,6 +10,7 @@ from urllib.parse import quote
 
 import tornado.web
 
+from ..rules.access import is_admin
 from .api import Handler, require
 from .pages import write_page
 
@@ -28,7 +29,7 @@ class ClassHandler(Handler):
                     raise
                 self.redirect(f'/login?next={quote("/class")}')
                 return
-            if identity.role != 'admin':
+            if not is_admin(identity):
                 raise tornado.web.HTTPError(403, f'the class view is for admins; {identity.name} is '
                                                  f'{identity.role}')
         write_page(self, self.page, cache='no-store')

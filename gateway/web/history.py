@@ -32,6 +32,7 @@ from fnmatch import fnmatchcase
 import orjson
 import sqlalchemy as sa
 
+from ..rules.access import may
 from ..rules.names import parse_globs
 from ..store import METADATA
 from ..rules.hooks import Hook
@@ -164,7 +165,7 @@ class History(Hook):
         for topic, type in self.gateway.backend.topics():
             if topic in self.taps or topic in self.refused or not self.wants(topic, type):
                 continue
-            if not policy.allows(None, 'subscribe', topic):
+            if may(policy, None, 'subscribe', topic) is not None:
                 continue
             fan = None
             try:

@@ -33,6 +33,7 @@ import tornado.httpclient
 import tornado.web
 
 from ..rules import lti
+from ..rules.access import is_admin
 from ..rules.lti import LaunchError
 from .api import Handler, check_origin
 from .cookies import clear_cookie, set_cookie
@@ -258,7 +259,7 @@ class LaunchHandler(_Base):
         self.page('rosgate', landed_page(landing, ticket, identity, self.script_nonce))
 
     def _picker(self, identity, reg, claims) -> None:
-        if identity.role != 'admin':
+        if not is_admin(identity):
             self.refuse(f'adding rosgate to a course is for teachers; {identity.name} is {identity.role} here', 403)
             return
         ticket = secrets.token_urlsafe(24)

@@ -13,6 +13,7 @@ import re
 
 import tornado.web
 
+from ..rules.access import OPERATORS, owns
 from ..rules.stations import person_of
 from ..runs import Run, RunManager
 from .api import JsonHandler, body_json, caller
@@ -33,7 +34,7 @@ def _local_address(handler) -> tuple[str, int, bool]:
 
 def may_see(identity, run: Run) -> bool:
     """A run's state and output are its starter's and the admins' (everyone's with auth off)."""
-    return identity is None or identity.role == 'admin' or run.owner == identity.owner
+    return owns(identity, identity is not None and run.owner == identity.owner)
 
 
 class RunListHandler(JsonHandler):
@@ -49,7 +50,7 @@ class RunListHandler(JsonHandler):
         m = self.manager
         if not m.allowed:
             raise tornado.web.HTTPError(403, 'runs are off on this gateway (start it with --allow-runs)')
-        identity = caller(self, m.gateway, change=True, roles=('operator', 'admin'))
+        identity = caller(self, m.gateway, change=True, roles=OPERATORS)
         body = body_json(self, MAX_SOURCE)
         source = body.get('source')
         if source is None and body.get('program') is not None:
@@ -114,9 +115,9 @@ class RunHandler(JsonHandler):
         self.finish(run.detail())
 
     def delete(self, run_id: str) -> None:
-        identity = caller(self, self.manager.gateway, change=True, roles=('operator', 'admin'))
+        identity = caller(self, self.manager.gateway, change=True, roles=OPERATORS)
         run = self._run(run_id)
-        if identity is not None and identity.role != 'admin' and run.owner != identity.owner:
+        if not may_see(identity, run):
             raise tornado.web.HTTPError(403, f'run {run.id} was started by {run.owner or "someone else"}; '
                                              f'{identity.name} may not stop it')
         self.manager.stop(run)
