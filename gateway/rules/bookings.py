@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 
 import sqlalchemy as sa
 
+from ..settings import LabSettings
 from ..store import METADATA
 from .errors import Refusal
 from .hooks import Hook
@@ -63,10 +64,10 @@ class BookingError(Refusal):
 
 @dataclass(frozen=True)
 class BookingLimits:
-    slot: float = 3600.0       # s, the longest slot (--slot-minutes)
-    per_day: int = 8           # slots one person may book per calendar day (0: no limit)
-    per_week: int = 30         # per ISO week (0: no limit)
-    ahead: float = 14 * 86400.0   # s ahead a slot may begin
+    slot: float = LabSettings.slot_minutes * 60           # s, the longest slot (--slot-minutes)
+    per_day: int = LabSettings.booking_per_day            # slots one person may book per calendar day (0: no limit)
+    per_week: int = LabSettings.booking_per_week          # per ISO week (0: no limit)
+    ahead: float = LabSettings.booking_ahead * 86400      # s ahead a slot may begin
 
 
 @dataclass(eq=False)

@@ -19,6 +19,7 @@ from protocol.errors import ProtocolError
 from .stations import person_of
 from .names import ACTION_KINDS, LOCAL_HOSTS, host_name, is_ip, own_names, parse_globs, parse_networks, refuse, target
 from .sessions import SESSION_COOKIE, Sessions
+from ..settings import SecuritySettings
 from .access import role_of
 from .tokens import AuthError, Authenticator, Identity
 
@@ -180,10 +181,10 @@ class Policy:
 
 @dataclass(frozen=True)
 class Limits:
-    max_subscriptions: int = 1000
-    max_publishers: int = 1000
-    max_pending_calls: int = 256
-    max_op_rate: float = 0.0          # ops per second per client; 0: unlimited
+    max_subscriptions: int = SecuritySettings.max_subscriptions
+    max_publishers: int = SecuritySettings.max_publishers
+    max_pending_calls: int = SecuritySettings.max_pending_calls
+    max_op_rate: float = SecuritySettings.max_op_rate     # ops per second per client; 0: unlimited
 
 
 class SecurePolicy(Policy):

@@ -45,7 +45,7 @@ from ..rules.access import ADMINS, owns
 from ..rules.errors import Refusal
 from ..rules.hooks import Hook
 from ..rules.safety import Safety, moving_command
-from ..settings import Refused, data_dir
+from ..settings import Refused, RunSettings, data_dir
 from . import launcher
 from .cgroups import Cgroups, RunCgroup, limits_in_force
 from .process import Run, RunLimits, RunOutput
@@ -66,8 +66,8 @@ class RunError(Refusal):
 
 class RunManager(Hook):
     def __init__(self, gateway, *, allowed: bool, runs_dir: Path | None, limits: RunLimits = RunLimits(),
-                 box: Sandbox | None = None, cgroups: Cgroups | None = None, max_runs: int = 4,
-                 max_per_person: int = 2):
+                 box: Sandbox | None = None, cgroups: Cgroups | None = None, max_runs: int = RunSettings.max_runs,
+                 max_per_person: int = RunSettings.max_runs_per_person):
         self.gateway, self.allowed, self.limits = gateway, allowed, limits
         self.runs_dir = runs_dir
         self.box, self.cgroups = box, cgroups
