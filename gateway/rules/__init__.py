@@ -1,8 +1,9 @@
 """The rules: who may do what, and keeping robots safe.
 
 Rooms: name globs, the Host/Origin checks and a trusted proxy's forwarded headers (``names``);
-roles, tokens, caps and op rate (``policy``, ``tokens``: one policy, whose ``access`` answers
-"may this identity read/write/call/own this" for every path); sign-in sessions kept in the store
+roles, caps and op rate (``policy``: one policy), tokens and the brake on guessing (``tokens``);
+the one access rule, "may this identity read/write/call/own this", for every path (``access``);
+refusals that carry their HTTP status (``errors``); sign-in sessions kept in the store
 (``sessions``); who an LMS launch says someone is (``lti``); robot stations and the person who owns
 each (``stations``), the walk-ins' line (``queue``), booked slots (``bookings``); the driver lease
 per station (``lease``); velocity clamps and stops (``safety``); a stamped command's age

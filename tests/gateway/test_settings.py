@@ -84,3 +84,34 @@ def test_hooks_hear_every_event_in_order_and_a_failing_one_is_logged(caplog):
         hooks.connect('a session', None)          # no part takes it: nothing happens
     assert heard == [('close', 'a session'), ('slot', '/s01', 'ann', 'ended')]
     assert 'on_close hook of Broken failed' in caplog.text and 'broken part' in caplog.text
+
+
+async def test_the_rules_are_composed_in_their_documented_order(tmp_path):
+    """The publish door: the runs' guard, the lease, safety; installed once, not assigned piecemeal."""
+    from dataclasses import replace
+
+    from gateway import rules
+    from gateway.backends.sim import SimBackend
+    from gateway.bridge.gateway import Gateway
+    from gateway.runs import RunManager
+    from gateway.settings import LabSettings, SafetySettings, StorageSettings
+
+    backend = SimBackend(demo=False)
+    await backend.start()
+    settings = replace(Settings(), safety=SafetySettings(exclusive_control=True), lab=LabSettings(booking=True),
+                       storage=StorageSettings(db_url=f'sqlite:///{tmp_path / "db.sqlite"}'))
+    gateway = Gateway(settings, backend)
+    runs = RunManager(gateway, allowed=False, runs_dir=tmp_path)
+    composed = rules.compose(gateway, runs=runs)
+    try:
+        assert composed.publish == (runs.publish_hook, composed.lease.publish_hook, composed.safety.publish_hook)
+        assert composed.guards == (runs.subscribe_guard,)
+        assert composed.hooks == (composed.stations, composed.lease, composed.safety, composed.slots, runs)
+        gateway.install(composed)
+        assert gateway.policy is composed.policy and gateway.rules == composed.publish
+        assert list(gateway.hooks) == list(composed.hooks)
+        with pytest.raises(RuntimeError):
+            gateway.install(composed)
+    finally:
+        await gateway.shutdown()
+        await backend.stop()
