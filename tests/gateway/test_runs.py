@@ -404,4 +404,4 @@ rt.log("end")
 def test_trusted_runs_need_allow_runs(start_gateway):
     with pytest.raises(RuntimeError) as refused:
         start_gateway('--trusted-runs')
-    assert '--trusted-runs is a kind of run: give --allow-runs too' in str(refused.value)
+    assert 'rosgate: --trusted-runs: it is a kind of run: give --allow-runs too' in str(refused.value)

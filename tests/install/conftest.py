@@ -16,7 +16,7 @@ import pytest
 from tests.conftest import ROOT, Started
 
 # Tools a developer or a ROS 2 user has; they live in their own venv, not in the project's.
-TOOLS = ['build>=1', 'colcon-core>=0.15', 'colcon-ros>=0.4']
+TOOLS = ['build>=1', 'colcon-core>=0.15', 'colcon-ros>=0.4', 'setuptools>=77']   # colcon builds with this setuptools
 # What a source copy leaves out: generated, local or heavy (ide/vendor is built and kept).
 NOT_SOURCE = shutil.ignore_patterns('.git', '.venv*', 'node_modules', 'build', 'dist', '*.egg-info', '__pycache__',
                                     '.pytest_cache', '.hypothesis', '.bench', 'artifacts', '.built')

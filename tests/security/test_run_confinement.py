@@ -13,8 +13,8 @@ from pathlib import Path
 
 import pytest
 
-from gateway.web import sandbox
-from gateway.web.sandbox import Sandbox, SandboxUnavailable, reachable, unreadable
+from gateway.runs import sandbox
+from gateway.runs.sandbox import Sandbox, SandboxUnavailable, reachable, unreadable
 from tests.conftest import wait_for
 from tests.gateway.test_runs import api, ended, program, state_of
 from tests.security.client import Client
@@ -161,7 +161,7 @@ def test_run_user_is_never_root_and_warns_in_a_namespace_with_root_alone():
         pytest.skip('the rest needs root')
     assert user is not None and user[0] != 0 and user[1] != 0
     done = subprocess.run(['unshare', '-r', sys.executable, '-c',
-                           'from gateway.web.sandbox import run_user\nprint(run_user())'],
+                           'from gateway.runs.sandbox import run_user\nprint(run_user())'],
                           capture_output=True, text=True, timeout=60, cwd=Path(__file__).resolve().parents[2])
     assert done.stdout.strip() == 'None', done
     assert 'runs are uid 0 outside their box' in done.stderr and 'unshare -n' in done.stderr, done.stderr
