@@ -11,7 +11,7 @@ from gateway.backends.base import (
     SERVER_WAIT, STATUS_ABORTED, STATUS_CANCELED, STATUS_SUCCEEDED, ActionServerCallbacks, BackendError,
 )
 
-from .support import until
+from tests.support.wait import until
 
 pytestmark = pytest.mark.asyncio(loop_scope='session')
 

@@ -20,10 +20,9 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import wait_for
-from tests.security.conftest import TOKENS, tokens_toml
-
-from .conftest import rclpy_missing
+from tests.support.auth import TOKENS, tokens_toml
+from tests.support.contract import rclpy_missing
+from tests.support.wait import wait_for
 
 ROOT = Path(__file__).resolve().parents[2]
 RUNTIME = (ROOT / 'ide' / 'runtime' / 'rosgate_runtime.py').read_text()

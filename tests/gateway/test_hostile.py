@@ -12,9 +12,10 @@ import pytest
 from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
 
-from tests.conftest import proc_bytes, wait_for
-from tests.gateway.rawclient import Raw
-from tests.rawsocket import client_frame, raw_websocket
+from tests.support.process import proc_bytes
+from tests.support.rawclient import Raw
+from tests.support.rawsocket import client_frame, raw_websocket
+from tests.support.wait import wait_for
 
 
 @pytest.fixture

@@ -14,9 +14,10 @@ import roslibpy
 from PIL import Image
 
 from tests.bench.camera import ws_client, ws_stamps
-from tests.conftest import client, wait_for
-from tests.gateway.camera import Camera
-from tests.gateway.rawclient import Raw
+from tests.support.camera import Camera
+from tests.support.rawclient import Raw
+from tests.support.ros import client
+from tests.support.wait import wait_for
 
 TOPIC = '/cam/image_raw/compressed'
 

@@ -7,7 +7,7 @@ import time
 
 import roslibpy
 
-from tests.conftest import wait_for
+from tests.support.wait import wait_for
 
 
 def test_smoke_ten_messages_each_way(ros):

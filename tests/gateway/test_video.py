@@ -13,8 +13,10 @@ import urllib.request
 import pytest
 from PIL import Image
 
-from tests.conftest import client, proc_bytes, wait_for
-from tests.gateway.camera import BOUNDARY, Camera, Stream, stream_head
+from tests.support.camera import BOUNDARY, Camera, Stream, stream_head
+from tests.support.process import proc_bytes
+from tests.support.ros import client
+from tests.support.wait import wait_for
 
 BASE = '/cam/image_raw'
 

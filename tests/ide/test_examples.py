@@ -12,7 +12,8 @@ import time
 
 import pytest
 
-from .conftest import ARTIFACTS, wait_for
+from tests.support.ide import ARTIFACTS
+from tests.support.wait import wait_for
 
 START = 5.544445
 
@@ -171,7 +172,7 @@ def rover_at_rest(watch):
 @pytest.fixture
 def fresh_rover():
     """A new rover world for each run, so both languages start from the same pose."""
-    from tests.conftest import GatewayProcess
+    from tests.support.process import GatewayProcess
     started = []
 
     def start():
@@ -185,7 +186,7 @@ def fresh_rover():
 
 
 def test_rover_wall_follower(fresh_rover, ide_factory):
-    from .conftest import RosClient
+    from tests.support.ros import RosClient
     for language in ("javascript", "python"):
         gw = fresh_rover()
         ros = RosClient(gw)
@@ -214,7 +215,7 @@ def test_rover_wall_follower(fresh_rover, ide_factory):
 
 
 def test_rover_pid_go_to_goal(fresh_rover, ide_factory):
-    from .conftest import RosClient
+    from tests.support.ros import RosClient
     goal = (4.0, 2.5)
     logs = {}
     for language in ("javascript", "python"):

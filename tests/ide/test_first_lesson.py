@@ -11,10 +11,9 @@ import time
 
 import pytest
 
-from .conftest import ARTIFACTS, PHONE, wait_for
-from .test_class_lesson import TOKENS, TWIST, Teacher, console_says, move, on_station, open_ide
-from .test_class_lesson import tablets  # noqa: F401  (a fixture)
-from .test_ide_features import ex, program
+from tests.support.ide import ARTIFACTS, PHONE, ex, program
+from tests.support.lesson import TOKENS, TWIST, Teacher, console_says, move, on_station, open_ide
+from tests.support.wait import wait_for
 
 TABLET = {"width": 1024, "height": 768}
 POSE = "turtlesim/msg/Pose"

@@ -9,7 +9,8 @@ import time
 from pathlib import Path
 
 
-from .conftest import EXAMPLES, wait_for
+from tests.support.ide import EXAMPLES
+from tests.support.wait import wait_for
 
 _spec = importlib.util.spec_from_file_location("make_examples", EXAMPLES / "make_examples.py")
 ex = importlib.util.module_from_spec(_spec)

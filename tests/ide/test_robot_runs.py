@@ -9,10 +9,11 @@ from pathlib import Path
 
 import pytest
 
-from tests.gateway.test_runs import api, ended
-
-from .conftest import RosClient, wait_for
-from .test_ide_features import drive, ex, moving, program
+from tests.support.http import api
+from tests.support.ide import drive, ex, moving, program
+from tests.support.ros import RosClient
+from tests.support.runs import ended
+from tests.support.wait import wait_for
 
 
 def log(text: str) -> dict:

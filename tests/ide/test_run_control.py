@@ -8,8 +8,8 @@ import subprocess
 import sys
 import time
 
-from .conftest import ARTIFACTS, wait_for
-from .test_ide_features import ex, program
+from tests.support.ide import ARTIFACTS, ex, program
+from tests.support.wait import wait_for
 
 
 def bool_message() -> dict:

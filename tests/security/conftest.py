@@ -2,47 +2,11 @@
 
 from __future__ import annotations
 
-import hashlib
 import subprocess
 
 import pytest
 
-TOKENS = {
-    'viewer': 'viewer-token-0a1b2c',
-    'operator': 'operator-token-3d4e5f',
-    'operator2': 'operator-token-6a7b8c',
-    'admin': 'admin-token-9d0e1f',
-}
-ROSAUTH_SECRET = 'rosauth-shared-secret-42'
-
-
-def tokens_toml() -> str:
-    sha = hashlib.sha256(TOKENS['admin'].encode()).hexdigest()
-    return f'''
-[[tokens]]
-name = "vera"
-role = "viewer"
-token = "{TOKENS['viewer']}"
-
-[[tokens]]
-name = "alice"
-role = "operator"
-token = "{TOKENS['operator']}"
-
-[[tokens]]
-name = "bob"
-role = "operator"
-token = "{TOKENS['operator2']}"
-
-[[tokens]]
-name = "teacher"
-role = "admin"
-sha256 = "{sha}"
-
-[rosauth]
-secret = "{ROSAUTH_SECRET}"
-role = "viewer"
-'''
+from tests.support.auth import tokens_toml
 
 
 @pytest.fixture(scope='session')

@@ -16,11 +16,12 @@ import urllib.request
 import pytest
 import roslibpy
 
-from tests.conftest import client as connect, wait_for
-from tests.gateway.test_runs import ENDED, api, program, state_of
-
-from .client import Client
-from .conftest import TOKENS
+from tests.support.auth import TOKENS
+from tests.support.http import api
+from tests.support.ros import client as connect
+from tests.support.runs import ENDED, program, state_of
+from tests.support.wait import wait_for
+from tests.support.wsclient import Client
 
 TWIST = 'geometry_msgs/msg/Twist'
 POSE = 'turtlesim/msg/Pose'

@@ -7,10 +7,10 @@ import urllib.error
 import urllib.request
 from urllib.parse import quote
 
-from tests.conftest import wait_for
-from tests.gateway.test_runs import api
-from tests.security.client import Client, with_token
-from tests.security.conftest import TOKENS
+from tests.support.auth import TOKENS
+from tests.support.http import api
+from tests.support.wait import wait_for
+from tests.support.wsclient import Client, with_token
 
 FORGED = '2030-01-01 00:00:00,000 INFO rosgate: FORGED'
 

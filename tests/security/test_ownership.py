@@ -5,16 +5,15 @@ holds only what a client could subscribe to, and nobody holds every recording sl
 
 from __future__ import annotations
 
-import json
 import urllib.error
 import urllib.request
 
 import pytest
 
-from tests.conftest import wait_for
-from tests.gateway.test_runs import api
-from tests.security.client import TWIST, Client, is_zero_twist, twist
-from tests.security.conftest import TOKENS
+from tests.support.auth import TOKENS
+from tests.support.http import api
+from tests.support.wait import wait_for
+from tests.support.wsclient import TWIST, Client, is_zero_twist, twist
 
 POSE = 'turtlesim/msg/Pose'
 S01 = '/s01/turtle1/cmd_vel'

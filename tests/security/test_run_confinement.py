@@ -15,10 +15,11 @@ import pytest
 
 from gateway.web import sandbox
 from gateway.web.sandbox import Sandbox, SandboxUnavailable, reachable, unreadable
-from tests.conftest import wait_for
-from tests.gateway.test_runs import api, ended, program, state_of
-from tests.security.client import Client
-from tests.security.conftest import TOKENS, tokens_toml
+from tests.support.auth import TOKENS, tokens_toml
+from tests.support.http import api
+from tests.support.runs import ended, program, state_of
+from tests.support.wait import wait_for
+from tests.support.wsclient import Client
 
 
 @pytest.fixture(scope='module')

@@ -15,8 +15,8 @@ from pathlib import Path
 import cbor2
 import pytest
 
-from tests.security.client import TWIST, TWIST_STAMPED, Client, is_zero_twist, twist
-from tests.security.conftest import TOKENS
+from tests.support.auth import TOKENS
+from tests.support.wsclient import TWIST, TWIST_STAMPED, Client, is_zero_twist, twist
 
 ROOT = Path(__file__).resolve().parents[2]
 STOP_WITHIN = 0.2   # s from disconnect to the zero command, as promised

@@ -10,9 +10,8 @@ from contextlib import contextmanager
 import pytest
 import roslibpy
 
-from tests.conftest import wait_for
-
-from .conftest import TOKENS
+from tests.support.auth import TOKENS
+from tests.support.wait import wait_for
 
 TWIST = 'geometry_msgs/msg/Twist'
 TRIGGER = 'std_srvs/srv/Trigger'

@@ -8,9 +8,8 @@ import time
 import pytest
 import roslibpy
 
-from tests.conftest import wait_for
-
-from .conftest import Inbox, call, client, stream, twist
+from tests.support.ros import Inbox, call, client, stream, twist
+from tests.support.wait import wait_for
 
 SIZE = 11.088889
 CENTRE = 5.544445

@@ -1,0 +1,133 @@
+"""roslibpy clients of a gateway: a connection, the messages of a topic with their arrival times,
+service calls, and a Twist published at a rate."""
+
+from __future__ import annotations
+
+import threading
+import time
+from contextlib import contextmanager
+
+import roslibpy
+
+from tests.support.wait import wait_for
+
+
+@contextmanager
+def client(gw):
+    """A roslibpy connection to a gateway, closed on leaving."""
+    ros = roslibpy.Ros(gw.host, gw.port)
+    ros.run(timeout=10)
+    try:
+        yield ros
+    finally:
+        ros.close()
+
+
+class Watch:
+    """Records every message of a topic with its arrival time (an independent roslibpy client)."""
+
+    def __init__(self, ros, topic: str, type_: str):
+        import roslibpy
+        self.messages: list[tuple[float, dict]] = []
+        self.lock = threading.Lock()
+        self.topic = roslibpy.Topic(ros, topic, type_)
+        self.topic.subscribe(self._on)
+
+    def _on(self, msg):
+        with self.lock:
+            self.messages.append((time.monotonic(), dict(msg)))
+
+    def latest(self):
+        with self.lock:
+            return self.messages[-1][1] if self.messages else None
+
+    def since(self, t0: float) -> list[tuple[float, dict]]:
+        with self.lock:
+            return [(t, m) for t, m in self.messages if t >= t0]
+
+    def close(self):
+        self.topic.unsubscribe()
+
+
+class RosClient:
+    """A roslibpy connection with helpers used to check robots independently of the browser."""
+
+    def __init__(self, gateway):
+        import roslibpy
+        self.roslibpy = roslibpy
+        self.ros = roslibpy.Ros(gateway.host, gateway.port)
+        self.ros.run(timeout=10)
+        self.watches: list[Watch] = []
+
+    def watch(self, topic: str, type_: str) -> Watch:
+        w = Watch(self.ros, topic, type_)
+        self.watches.append(w)
+        return w
+
+    def call(self, service: str, type_: str, args: dict | None = None, timeout: float = 10):
+        srv = self.roslibpy.Service(self.ros, service, type_)
+        return srv.call(self.roslibpy.ServiceRequest(args or {}), timeout=timeout)
+
+    def close(self):
+        for w in self.watches:
+            try:
+                w.close()
+            except Exception:
+                pass
+        self.ros.close()
+
+
+class Inbox:
+    """Messages of one topic with their arrival times (monotonic)."""
+
+    def __init__(self, ros, topic: str, type: str, **kwargs):
+        self.items: list[tuple[float, dict]] = []
+        self.lock = threading.Lock()
+        self.topic = roslibpy.Topic(ros, topic, type, **kwargs)
+        self.topic.subscribe(self._add)
+
+    def _add(self, msg: dict) -> None:
+        with self.lock:
+            self.items.append((time.monotonic(), msg))
+
+    @property
+    def messages(self) -> list[dict]:
+        with self.lock:
+            return [m for _, m in self.items]
+
+    @property
+    def last(self) -> dict | None:
+        with self.lock:
+            return self.items[-1][1] if self.items else None
+
+    def since(self, t: float) -> list[dict]:
+        with self.lock:
+            return [m for at, m in self.items if at >= t]
+
+    def wait(self, predicate=lambda m: True, timeout: float = 5.0, after: float = 0.0) -> dict:
+        """The first message (arrived after ``after``) that satisfies predicate."""
+        def found():
+            return next((m for m in self.since(after) if predicate(m)), None)
+        return wait_for(found, timeout)
+
+    def close(self) -> None:
+        self.topic.unsubscribe()
+
+
+def call(ros, name: str, type: str, request: dict | None = None, timeout: float = 5.0) -> dict:
+    return roslibpy.Service(ros, name, type).call(roslibpy.ServiceRequest(request or {}), timeout=timeout)
+
+
+def twist(x: float = 0.0, z: float = 0.0) -> dict:
+    return {'linear': {'x': x, 'y': 0.0, 'z': 0.0}, 'angular': {'x': 0.0, 'y': 0.0, 'z': z}}
+
+
+def stream(pub: roslibpy.Topic, msg: dict, seconds: float, rate: float = 20.0) -> float:
+    """Publish msg at rate for seconds; the time of the last publish."""
+    start = time.monotonic()
+    last = start
+    while time.monotonic() - start < seconds:
+        pub.publish(roslibpy.Message(msg))
+        last = time.monotonic()
+        time.sleep(1 / rate)
+    return last
