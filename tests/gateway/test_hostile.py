@@ -160,7 +160,6 @@ def test_a_client_that_does_not_read_its_replies_costs_the_server_little_memory(
         assert other.call('/rosapi/get_time')['values']['time']['sec'] > 0
 
 
-
 def closed_with(ws) -> tuple[list, int, str]:
     """Everything the server sent until it closed, and its close code and reason (1006: dropped)."""
     got = []

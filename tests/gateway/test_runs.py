@@ -151,7 +151,6 @@ def test_second_run_in_a_namespace_is_refused_naming_the_first(runs_gw):
     assert ended(runs_gw, first)['state'] == 'stopped'
 
 
-
 def sleeper(marker: str) -> str:
     """Program lines starting a child process that sleeps with ``marker`` in its command line."""
     return f'child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(300)", "{marker}"])'

@@ -1,5 +1,6 @@
-"""Browser fixtures (Chromium itself is tests/support/fixtures.py's, one per test process): pages of the IDE, gateways with the simulated turtlesim and rover, and independent roslibpy clients
-that watch what the robots do."""
+"""Browser fixtures (Chromium itself is tests/support/fixtures.py's, one per test process): pages
+of the IDE, gateways with the simulated turtlesim and rover, and independent roslibpy clients that
+watch what the robots do."""
 
 from __future__ import annotations
 

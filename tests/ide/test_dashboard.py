@@ -12,7 +12,6 @@ from tests.support.ide import ARTIFACTS, PHONE, TABLET, open_teleop
 from tests.support.wait import wait_for
 
 
-
 def test_gauges_history_and_limits(chromium, rover):
     gw, ros = rover
     cmd = ros.watch("/cmd_vel", "geometry_msgs/msg/Twist")

@@ -11,13 +11,12 @@ from contextlib import contextmanager
 import json
 import queue
 import time
-import urllib.request
 
 import pytest
 import roslibpy
 
 from tests.support.auth import TOKENS
-from tests.support.http import api
+from tests.support.http import api, http
 from tests.support.ros import client as connect
 from tests.support.runs import ENDED, program, state_of
 from tests.support.wait import wait_for
@@ -159,17 +158,17 @@ def test_quotas_refuse_with_429(lab):
 def test_calendar_feed_lists_a_persons_own_slots(lab):
     t = time.time() + 1200
     _, hers = book(lab, 'operator', '/s02', t, t + 10)
-    url = f'{lab.http_url}api/bookings.ics?token='
-    with urllib.request.urlopen(url + TOKENS['operator'], timeout=10) as res:
-        assert res.headers['Content-Type'].startswith('text/calendar')
-        text = res.read().decode()
+    feed = '/api/bookings.ics?token='
+    res = http(lab, feed + TOKENS['operator'])
+    assert res.status == 200 and res.headers['Content-Type'].startswith('text/calendar')
+    text = res.body.decode()
     stamp = datetime.datetime.fromtimestamp(t, datetime.timezone.utc).strftime('%Y%m%dT%H%M%SZ')
     assert text.startswith('BEGIN:VCALENDAR') and f'UID:booking-{hers["id"]}@' in text
     assert f'DTSTART:{stamp}' in text and 'LOCATION:/s02' in text
-    with urllib.request.urlopen(url + TOKENS['operator2'], timeout=10) as res:   # bob's: his own only
-        assert f'UID:booking-{hers["id"]}@' not in res.read().decode()
-    with urllib.request.urlopen(url + TOKENS['admin'], timeout=10) as res:       # the teacher's: everyone's
-        assert f'UID:booking-{hers["id"]}@' in res.read().decode()
+    res = http(lab, feed + TOKENS['operator2'])    # bob's: his own only
+    assert res.status == 200 and f'UID:booking-{hers["id"]}@' not in res.body.decode()
+    res = http(lab, feed + TOKENS['admin'])        # the teacher's: everyone's
+    assert res.status == 200 and f'UID:booking-{hers["id"]}@' in res.body.decode()
 
 
 def test_the_slot_is_the_bookers_and_the_gateway_ends_it(lab):

@@ -8,7 +8,6 @@ from pathlib import Path
 
 import pytest
 
-from tests.support.ide import ARTIFACTS, CHROMIUM, CHROMIUM_ARGS
 from tests.support.process import ROOT, GatewayProcess
 from tests.support.ros import client
 
@@ -51,8 +50,9 @@ def playwright():
 
 @pytest.fixture(scope="session")
 def chromium(playwright):
-    """One Chromium per test process: starting one costs about a second of a loaded CPU, and tests
-    are kept apart by their own browser contexts (cookies, storage, pages)."""
+    """One Chromium per test process, where each browser module used to launch its own (40 launches
+    in a run); tests are kept apart by browser contexts of their own (cookies, storage, pages)."""
+    from tests.support.ide import ARTIFACTS, CHROMIUM, CHROMIUM_ARGS
     if not Path(CHROMIUM).exists():
         pytest.fail(f"Chromium not found at {CHROMIUM}: apt-get install chromium")
     if not (ROOT / "ide" / "vendor" / "roslib.mjs").exists():

@@ -89,3 +89,26 @@ def proc_bytes(pid: int, field: str = 'VmRSS') -> int:
             if line.startswith(f'{field}:'):
                 return int(line.split()[1]) * 1024
     raise AssertionError(f'no {field} for {pid}')
+
+
+def uids(pid: int) -> list[int]:
+    """Real, effective, saved and filesystem uid of a process (/proc/PID/status)."""
+    for line in Path(f'/proc/{pid}/status').read_text().splitlines():
+        if line.startswith('Uid:'):
+            return [int(v) for v in line.split()[1:]]
+    return []
+
+
+def descendants(pid: int) -> list[int]:
+    """Every process below pid (children, their children ...), from /proc/PID/task/*/children."""
+    found, todo = [], [pid]
+    while todo:
+        p = todo.pop()
+        try:
+            children = [int(c) for t in os.listdir(f'/proc/{p}/task')
+                        for c in Path(f'/proc/{p}/task/{t}/children').read_text().split()]
+        except OSError:
+            continue
+        found += children
+        todo += children
+    return found

@@ -1,5 +1,6 @@
 """roslibpy clients of a gateway: a connection, the messages of a topic with their arrival times,
-service calls, and a Twist published at a rate."""
+service calls, and a Twist published at a rate. roslibpy is imported where it is used: the rclpy
+environment (make test-rclpy) loads this plugin without it."""
 
 from __future__ import annotations
 
@@ -7,14 +8,13 @@ import threading
 import time
 from contextlib import contextmanager
 
-import roslibpy
-
 from tests.support.wait import wait_for
 
 
 @contextmanager
 def client(gw):
     """A roslibpy connection to a gateway, closed on leaving."""
+    import roslibpy
     ros = roslibpy.Ros(gw.host, gw.port)
     ros.run(timeout=10)
     try:
@@ -81,6 +81,7 @@ class Inbox:
     """Messages of one topic with their arrival times (monotonic)."""
 
     def __init__(self, ros, topic: str, type: str, **kwargs):
+        import roslibpy
         self.items: list[tuple[float, dict]] = []
         self.lock = threading.Lock()
         self.topic = roslibpy.Topic(ros, topic, type, **kwargs)
@@ -115,6 +116,7 @@ class Inbox:
 
 
 def call(ros, name: str, type: str, request: dict | None = None, timeout: float = 5.0) -> dict:
+    import roslibpy
     return roslibpy.Service(ros, name, type).call(roslibpy.ServiceRequest(request or {}), timeout=timeout)
 
 
@@ -122,8 +124,9 @@ def twist(x: float = 0.0, z: float = 0.0) -> dict:
     return {'linear': {'x': x, 'y': 0.0, 'z': 0.0}, 'angular': {'x': 0.0, 'y': 0.0, 'z': z}}
 
 
-def stream(pub: roslibpy.Topic, msg: dict, seconds: float, rate: float = 20.0) -> float:
+def stream(pub, msg: dict, seconds: float, rate: float = 20.0) -> float:
     """Publish msg at rate for seconds; the time of the last publish."""
+    import roslibpy
     start = time.monotonic()
     last = start
     while time.monotonic() - start < seconds:
