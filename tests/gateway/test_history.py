@@ -10,7 +10,7 @@ import pytest
 import roslibpy
 
 from tests.support.http import api
-from tests.support.ros import client as connect
+from tests.support.ros import client as connect, stream, twist
 from tests.support.wait import wait_for
 
 BATTERY = '/s01/battery_state'
@@ -36,9 +36,7 @@ def drove(fleet):
         cmd = roslibpy.Topic(ros, '/s01/cmd_vel', 'geometry_msgs/msg/Twist')
         cmd.advertise()
         t0 = time.time()
-        while time.time() - t0 < 20:
-            cmd.publish(roslibpy.Message({'linear': {'x': 0.3, 'y': 0, 'z': 0}, 'angular': {'x': 0, 'y': 0, 'z': 0.5}}))
-            time.sleep(0.1)
+        stream(cmd, twist(0.3, 0.5), 20, rate=10)
         t1 = time.time()
         wait_for(lambda: len(history(fleet, BATTERY, 'percentage', **{'from': t0, 'to': t1 + 5})[1]['t']) >= 15, 15, 0.2)
         battery.unsubscribe()
@@ -163,9 +161,7 @@ def test_a_turtle_fleet_keeps_each_turtles_pose(start_gateway):
         cmd = roslibpy.Topic(ros, '/s01/turtle1/cmd_vel', 'geometry_msgs/msg/Twist')
         cmd.advertise()
         t0 = time.time()
-        while time.time() - t0 < 6:
-            cmd.publish(roslibpy.Message({'linear': {'x': 1.0, 'y': 0, 'z': 0}, 'angular': {'x': 0, 'y': 0, 'z': 0.3}}))
-            time.sleep(0.1)
+        stream(cmd, twist(1.0, 0.3), 6, rate=10)
         t1 = time.time()
         body = wait_for(lambda: (lambda b: b if len(b.get('t', [])) >= 4 else None)(
             history(gw, '/s01/turtle1/pose', 'x', **{'from': t0, 'to': t1})[1]), 15, 0.2)

@@ -47,16 +47,14 @@ def rover_gateway(start_gateway):
 
 @pytest.fixture
 def turtle_ros(turtle_gateway):
-    client = RosClient(turtle_gateway)
-    yield client
-    client.close()
+    with RosClient(turtle_gateway) as client:
+        yield client
 
 
 @pytest.fixture
 def rover_ros(rover_gateway):
-    client = RosClient(rover_gateway)
-    yield client
-    client.close()
+    with RosClient(rover_gateway) as client:
+        yield client
 
 
 @pytest.fixture

@@ -12,7 +12,7 @@ import pytest
 
 from tests.support.http import api
 from tests.support.ide import ARTIFACTS, PHONE, drive, ex, program
-from tests.support.lesson import POSE, TOKENS, TWIST, Teacher, console_says, move, on_station, open_ide
+from tests.support.lesson import POSE, TOKENS, TWIST, Teacher, console_says, move, on_station, open_ide, tokens_file
 from tests.support.wait import wait_for
 
 GRACE = 1.0   # --claim-grace: how soon a claim lapsed after its tab closed, had it been a tab's
@@ -20,11 +20,7 @@ GRACE = 1.0   # --claim-grace: how soon a claim lapsed after its tab closed, had
 
 @pytest.fixture
 def lesson(start_gateway, tmp_path):
-    tokens = tmp_path / "tokens.toml"
-    tokens.write_text("".join(
-        f'[[tokens]]\nname = "{name}"\nrole = "{"admin" if name == "teacher" else "operator"}"\ntoken = "{token}"\n\n'
-        for name, token in TOKENS.items()))
-    return start_gateway("--robot", "turtlesim", "--fleet", "3", "--exclusive-control", "--auth", str(tokens),
+    return start_gateway("--robot", "turtlesim", "--fleet", "3", "--exclusive-control", "--auth", tokens_file(tmp_path),
                          "--allow-runs", "--runs-dir", str(tmp_path / "runs"), "--cmd-timeout", "0",
                          "--claim-grace", str(GRACE))
 

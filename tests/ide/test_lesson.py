@@ -177,9 +177,8 @@ def fleet(start_gateway, tmp_path_factory):
 
 @pytest.fixture
 def fleet_ros(fleet):
-    client = RosClient(fleet)
-    yield client
-    client.close()
+    with RosClient(fleet) as client:
+        yield client
 
 
 def claimed_ide(ide_factory, gw, **ctx):

@@ -19,6 +19,7 @@ from cryptography.hazmat.primitives import serialization
 from cryptography.hazmat.primitives.asymmetric import rsa
 
 from tests.support.http import api, http
+from tests.support.ide import drives_its_station
 from tests.support.wait import wait_for
 from tests.support.wsclient import Client
 
@@ -106,13 +107,7 @@ def test_a_learner_lands_on_teleop_as_operator_and_drives_a_station(lab, browser
     assert cookie['httpOnly'] and cookie['sameSite'] == 'Lax'
     assert 'student-ann' not in cookie['value']
     # the page drives its station: its commands reach the station's turtle (watched by the teacher)
-    with Client(gw.ws_url, ADMIN_TOKEN) as watcher:
-        watcher.subscribe(f'{ns}/turtle1/cmd_vel', 'geometry_msgs/msg/Twist')
-        page.locator('body').click(position={'x': 5, 'y': 5})
-        page.keyboard.down('ArrowUp')
-        msg = watcher.expect(lambda m: m.get('op') == 'publish' and m['msg']['linear']['x'] > 0, timeout=10)
-        page.keyboard.up('ArrowUp')
-        assert msg['topic'] == f'{ns}/turtle1/cmd_vel'
+    drives_its_station(page, gw, ADMIN_TOKEN, ns)
     assert not page.errors, page.errors
 
 

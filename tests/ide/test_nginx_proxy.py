@@ -27,10 +27,9 @@ from cryptography.hazmat.primitives import hashes, serialization
 from cryptography.hazmat.primitives.asymmetric import ec
 from cryptography.x509.oid import NameOID
 
-from tests.support.ide import CHROMIUM, CHROMIUM_ARGS
 from tests.support.http import http
+from tests.support.ide import CHROMIUM, CHROMIUM_ARGS, drives_its_station
 from tests.support.wait import wait_for
-from tests.support.wsclient import Client
 
 ROOT = Path(__file__).resolve().parents[2]
 TOKENS = {'operator': 'proxy-operator-token-1', 'admin': 'proxy-admin-token-2'}
@@ -163,13 +162,7 @@ def test_a_page_through_nginx_signs_in_opens_wss_and_drives_its_station(proxied,
     cookie = next(c for c in browser.cookies() if c['name'] == 'rosgate_session')
     assert cookie['secure'] and cookie['httpOnly'] and cookie['sameSite'] == 'Lax'
     assert TOKENS['operator'] not in cookie['value']
-    with Client(gw.ws_url, TOKENS['admin']) as watcher:
-        watcher.subscribe(f'{ns}/turtle1/cmd_vel', 'geometry_msgs/msg/Twist')
-        page.locator('body').click(position={'x': 5, 'y': 5})
-        page.keyboard.down('ArrowUp')
-        msg = watcher.expect(lambda m: m.get('op') == 'publish' and m['msg']['linear']['x'] > 0, timeout=10)
-        page.keyboard.up('ArrowUp')
-        assert msg['topic'] == f'{ns}/turtle1/cmd_vel'
+    drives_its_station(page, gw, TOKENS['admin'], ns)
     assert not errors, errors
 
     # pages of another https origin and of another port, in the same signed-in browser: no websocket

@@ -29,9 +29,8 @@ def runs_gateway(start_gateway, tmp_path_factory):
 
 @pytest.fixture
 def runs_ros(runs_gateway):
-    client = RosClient(runs_gateway)
-    yield client
-    client.close()
+    with RosClient(runs_gateway) as client:
+        yield client
 
 
 def console_has(ide, text: str) -> bool:

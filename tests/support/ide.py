@@ -9,6 +9,7 @@ import os
 import shutil
 
 from tests.support.process import ROOT
+from tests.support.wsclient import Client
 
 ARTIFACTS = ROOT / "tests" / "ide" / "artifacts"
 EXAMPLES = ROOT / "examples"
@@ -91,6 +92,18 @@ def open_teleop(chromium, gw, query: str = "", **ctx_args):
     page.wait_for_function("document.body?.dataset.ready === 'true'")
     page.wait_for_function("document.body?.dataset.connection === 'connected'")
     return ctx, page, errors
+
+
+def drives_its_station(page, gw, token: str, ns: str) -> None:
+    """Arrow-up on the teleop page reaches its station's turtle, as a client signed in with
+    ``token`` watching ``ns``'s cmd_vel sees."""
+    with Client(gw.ws_url, token) as watcher:
+        watcher.subscribe(f'{ns}/turtle1/cmd_vel', 'geometry_msgs/msg/Twist')
+        page.locator('body').click(position={'x': 5, 'y': 5})
+        page.keyboard.down('ArrowUp')
+        msg = watcher.expect(lambda m: m.get('op') == 'publish' and m['msg']['linear']['x'] > 0, timeout=10)
+        page.keyboard.up('ArrowUp')
+        assert msg['topic'] == f'{ns}/turtle1/cmd_vel'
 
 
 _spec = importlib.util.spec_from_file_location("make_examples", EXAMPLES / "make_examples.py")

@@ -16,6 +16,15 @@ TOKENS = {"teacher": "teacher-token-0001", "ada": "ada-token-0002", "bo": "bo-to
           "cy": "cy-token-0004", "dee": "dee-token-0005"}
 
 
+
+def tokens_file(folder) -> str:
+    """A tokens file in ``folder`` giving each of TOKENS its person: the teacher an admin, the rest operators."""
+    path = folder / "tokens.toml"
+    path.write_text("".join(
+        f'[[tokens]]\nname = "{name}"\nrole = "{"admin" if name == "teacher" else "operator"}"\ntoken = "{token}"\n\n'
+        for name, token in TOKENS.items()))
+    return str(path)
+
 class Teacher:
     """A roslibpy client signed in as the teacher, following /rosgate/stations and /rosgate/driver."""
 

@@ -12,10 +12,10 @@ from tests.support.wait import wait_for
 
 
 @contextmanager
-def client(gw):
-    """A roslibpy connection to a gateway, closed on leaving."""
+def client(gw, token: str | None = None):
+    """A roslibpy connection to a gateway (signed in with ``token`` if given), closed on leaving."""
     import roslibpy
-    ros = roslibpy.Ros(gw.host, gw.port)
+    ros = roslibpy.Ros(f'ws://{gw.host}:{gw.port}/?token={token}') if token else roslibpy.Ros(gw.host, gw.port)
     ros.run(timeout=10)
     try:
         yield ros
@@ -67,6 +67,12 @@ class RosClient:
     def call(self, service: str, type_: str, args: dict | None = None, timeout: float = 10):
         srv = self.roslibpy.Service(self.ros, service, type_)
         return srv.call(self.roslibpy.ServiceRequest(args or {}), timeout=timeout)
+
+    def __enter__(self) -> RosClient:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
 
     def close(self):
         for w in self.watches:
