@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import os
 import types
+from contextlib import ExitStack
 
 import pytest
 
@@ -23,16 +24,13 @@ def pytest_collection_modifyitems(items):
 
 @pytest.fixture
 def ide_factory(chromium):
-    contexts = []
+    with ExitStack() as contexts:
+        def make(gateway, url: str | None = None, **context_args) -> IdePage:
+            ctx = chromium.new_context(**{"viewport": {"width": 1400, "height": 860}, **context_args})
+            contexts.callback(ctx.close)
+            return IdePage(ctx.new_page(), gateway).open(url)
 
-    def make(gateway, url: str | None = None, **context_args) -> IdePage:
-        ctx = chromium.new_context(**{"viewport": {"width": 1400, "height": 860}, **context_args})
-        contexts.append(ctx)
-        return IdePage(ctx.new_page(), gateway).open(url)
-
-    yield make
-    for ctx in contexts:
-        ctx.close()
+        yield make
 
 
 @pytest.fixture(scope="module")
@@ -90,16 +88,13 @@ def util_page(chromium, start_gateway):
 @pytest.fixture
 def tablets(chromium):
     """tablet(gw, who, viewport): a browser context of a student, signed in through /login."""
-    contexts = []
+    with ExitStack() as contexts:
+        def make(gw, who: str | None, viewport=TABLET):
+            ctx = chromium.new_context(viewport=viewport, has_touch=True)
+            contexts.callback(ctx.close)
+            if who is not None:
+                r = ctx.request.post(gw.http_url + "login", form={"token": TOKENS[who], "next": "/whoami"})
+                assert r.ok, r.status
+            return ctx
 
-    def make(gw, who: str | None, viewport=TABLET):
-        ctx = chromium.new_context(viewport=viewport, has_touch=True)
-        if who is not None:
-            r = ctx.request.post(gw.http_url + "login", form={"token": TOKENS[who], "next": "/whoami"})
-            assert r.ok, r.status
-        contexts.append(ctx)
-        return ctx
-
-    yield make
-    for ctx in contexts:
-        ctx.close()
+        yield make

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import subprocess
+from contextlib import ExitStack
 
 import pytest
 
@@ -31,13 +32,10 @@ def certificate(tmp_path_factory):
 @pytest.fixture(scope='module')
 def launch(start_gateway):
     """start_gateway(*flags) for this module: every gateway it started is stopped at module end."""
-    started = []
+    with ExitStack() as started:
+        def start(*flags: str):
+            gw = start_gateway(*flags)
+            started.callback(gw.stop)
+            return gw
 
-    def start(*flags: str):
-        gw = start_gateway(*flags)
-        started.append(gw)
-        return gw
-
-    yield start
-    for gw in started:
-        gw.stop()
+        yield start

@@ -4,6 +4,7 @@ and one Chromium per test process."""
 
 from __future__ import annotations
 
+from contextlib import ExitStack
 from pathlib import Path
 
 import pytest
@@ -15,16 +16,13 @@ from tests.support.ros import client
 @pytest.fixture(scope='session')
 def start_gateway():
     """Factory: start_gateway(*flags) -> a GatewayProcess, stopped at the end of the session."""
-    started: list[GatewayProcess] = []
+    with ExitStack() as started:
+        def start(*args: str, env: dict | None = None) -> GatewayProcess:
+            gw = GatewayProcess(*args, env=env)
+            started.callback(gw.stop)
+            return gw
 
-    def start(*args: str, env: dict | None = None) -> GatewayProcess:
-        gw = GatewayProcess(*args, env=env)
-        started.append(gw)
-        return gw
-
-    yield start
-    for gw in started:
-        gw.stop()
+        yield start
 
 
 @pytest.fixture(scope='session')
