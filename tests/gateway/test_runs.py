@@ -282,20 +282,34 @@ def alice_drives(gw):
     return alice, drivers, seen
 
 
+def holding(topic: str) -> str:
+    """A run that holds until a message on ``topic``."""
+    return program(f'rt.log("holding")\nrt.wait_for_message("{topic}", "std_msgs/msg/String")')
+
+
+def lease_goes_to_the_run(drivers: queue.Queue, seen: list, run_id: str) -> None:
+    wait_for(lambda: (lambda d: d[-1] and d[-1]['name'] == f'run {run_id}')(drivers_seen(drivers, seen)), 30)
+
+
+def let_go(ros, topic: str) -> None:
+    """The message a holding run waits for, once it listens."""
+    wait_for_subscriber(ros, topic)
+    roslibpy.Topic(ros, topic, 'std_msgs/msg/String').publish(roslibpy.Message({'data': 'done'}))
+
+
 def test_run_takes_the_lease_when_it_starts(auth_gw):
     gw = auth_gw
     alice, drivers, seen = alice_drives(gw)
     try:
-        quiet = program('rt.log("holding")\nrt.wait_for_message("/run_test/done", "std_msgs/msg/String")')
+        quiet = holding('/run_test/done')
         status, body = api(gw, 'POST', '/api/runs', {'source': quiet}, token=TOKENS['operator2'])
         assert status == 409 and 'alice' in body['error'], body        # bob may not take it from alice
         status, body = api(gw, 'POST', '/api/runs', {'source': quiet}, token=TOKENS['admin'])
         assert status == 201, body                                     # the teacher's run takes over
         run_id = body['id']
-        wait_for(lambda: (lambda d: d[-1] and d[-1]['name'] == f'run {run_id}')(drivers_seen(drivers, seen)), 30)
+        lease_goes_to_the_run(drivers, seen, run_id)
         assert state_of(gw, run_id, TOKENS['admin'])['state'] == 'running'   # it has not commanded anything
-        wait_for_subscriber(alice, '/run_test/done')
-        roslibpy.Topic(alice, '/run_test/done', 'std_msgs/msg/String').publish(roslibpy.Message({'data': 'done'}))
+        let_go(alice, '/run_test/done')
         assert ended(gw, run_id, token=TOKENS['admin'])['state'] == 'finished'
         wait_for(lambda: drivers_seen(drivers, seen)[-1] is None, 10)   # and it gave the lease back
     finally:
@@ -307,13 +321,11 @@ def test_her_own_run_takes_her_lease_and_gives_it_back(auth_gw):
     gw = auth_gw
     alice, drivers, seen = alice_drives(gw)
     try:
-        quiet = program('rt.log("holding")\nrt.wait_for_message("/run_test/done2", "std_msgs/msg/String")')
-        status, body = api(gw, 'POST', '/api/runs', {'source': quiet}, token=TOKENS['operator'])
+        status, body = api(gw, 'POST', '/api/runs', {'source': holding('/run_test/done2')}, token=TOKENS['operator'])
         assert status == 201, body
         run_id = body['id']
-        wait_for(lambda: (lambda d: d[-1] and d[-1]['name'] == f'run {run_id}')(drivers_seen(drivers, seen)), 30)
-        wait_for_subscriber(alice, '/run_test/done2')
-        roslibpy.Topic(alice, '/run_test/done2', 'std_msgs/msg/String').publish(roslibpy.Message({'data': 'done'}))
+        lease_goes_to_the_run(drivers, seen, run_id)
+        let_go(alice, '/run_test/done2')
         final = ended(gw, run_id, token=TOKENS['admin'])
         assert final['state'] == 'finished' and 'driver lease' not in final['output'], final
         wait_for(lambda: (lambda d: d and d[-1] and d[-1]['name'] == 'alice')(drivers_seen(drivers, seen)), 10)

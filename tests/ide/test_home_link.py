@@ -43,11 +43,7 @@ class Poses:
         self.thread.start()
 
     def _read(self):
-        while not self.done:
-            try:
-                m = self.raw.recv(0.2)
-            except Exception:
-                continue
+        for m in self.raw.incoming(lambda: self.done):
             if m.get('op') == 'publish':
                 with self.lock:
                     self.samples.append((time.monotonic(), m['msg']['x'], m['msg']['y']))
@@ -107,11 +103,7 @@ class Driver:
             time.sleep(0.05)
 
     def _read(self):
-        while not self.done:
-            try:
-                m = self.raw.recv(0.2)
-            except Exception:
-                continue
+        for m in self.raw.incoming(lambda: self.done):
             if m.get('id') == 'p':   # a pong (a server without pings answers with an error status)
                 self.pongs.append(time.monotonic())
 

@@ -140,3 +140,16 @@ def stream(pub, msg: dict, seconds: float, rate: float = 20.0) -> float:
         last = time.monotonic()
         time.sleep(1 / rate)
     return last
+
+
+def cancelled(action, goal: dict, after_feedback: int, timeout: float) -> dict:
+    """Sends ``goal`` with a roslibpy ActionClient and cancels it after ``after_feedback`` feedbacks;
+    its result, which says CANCELED."""
+    import roslibpy
+    results, feedback = [], []
+    goal_id = action.send_goal(roslibpy.Goal(goal), results.append, feedback.append, results.append)
+    wait_for(lambda: len(feedback) >= after_feedback)
+    action.cancel_goal(goal_id)
+    action.wait_goal(goal_id, timeout=timeout)
+    assert results[0]['status'] == roslibpy.GoalStatus.CANCELED, results[0]
+    return results[0]
