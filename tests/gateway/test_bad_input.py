@@ -10,8 +10,8 @@ import pytest
 import roslibpy
 import websockets
 
-from tests.conftest import wait_for
-from tests.gateway.rawclient import Raw
+from tests.support.rawclient import Raw
+from tests.support.wait import wait_for
 
 
 @pytest.fixture

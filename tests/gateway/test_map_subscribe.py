@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from protocol.codec import decode_binary, typed_array_tag
-from tests.gateway.rawclient import Raw
+from tests.support.rawclient import Raw
 
 TOPIC = '/map'
 SIDE = 4000

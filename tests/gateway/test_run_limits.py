@@ -14,8 +14,10 @@ from pathlib import Path
 import pytest
 
 from gateway.runs.cgroups import LEAF, Cgroups, Scopes
-from tests.conftest import ROOT, wait_for
-from tests.gateway.test_runs import RUNTIME, api, state_of
+from tests.support.http import api
+from tests.support.process import ROOT
+from tests.support.runs import RUNTIME, state_of
+from tests.support.wait import wait_for
 
 LINE = re.compile(r'runs: in a bwrap sandbox; run limits: (.*)')
 

@@ -16,9 +16,10 @@ import pytest
 from gateway.runs.cgroups import Cgroups
 from gateway.runs.sandbox import Sandbox
 from gateway.runs.supervisor import LAUNCHER
-from tests.conftest import wait_for
-from tests.gateway.test_runs import alive, api, ended, state_of
-from tests.security.conftest import ROSAUTH_SECRET, TOKENS, tokens_toml
+from tests.support.auth import ROSAUTH_SECRET, TOKENS, tokens_toml
+from tests.support.http import api
+from tests.support.runs import alive, ended, state_of
+from tests.support.wait import wait_for
 
 SECRET = 'gateway-env-secret-5f6e'
 ADMIN = TOKENS['admin']

@@ -12,7 +12,7 @@ import pytest
 from gateway.cli import build_parser, settings_from
 from gateway.rules.hooks import Hook, Hooks
 from gateway.settings import Settings, flat, from_flat
-from tests.conftest import ROOT
+from tests.support.process import ROOT
 
 
 def test_every_flag_is_one_field_and_every_field_a_flag():

@@ -14,9 +14,8 @@ import xml.etree.ElementTree as ET
 
 import pytest
 
-from tests.conftest import ROOT
-
-from .conftest import started, run
+from tests.support.install import run, started
+from tests.support.process import ROOT
 
 # rosbridge_server's launch/rosbridge_websocket_launch.xml (ros2 branch): its arguments.
 ROSBRIDGE_ARGS = {

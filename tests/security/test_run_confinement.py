@@ -15,10 +15,12 @@ import pytest
 
 from gateway.runs import sandbox
 from gateway.runs.sandbox import Sandbox, SandboxUnavailable, reachable, unreadable
-from tests.conftest import wait_for
-from tests.gateway.test_runs import api, ended, program, state_of
-from tests.security.client import Client
-from tests.security.conftest import TOKENS, tokens_toml
+from tests.support.auth import TOKENS, tokens_toml
+from tests.support.http import api
+from tests.support.process import descendants, uids
+from tests.support.runs import ended, program, state_of
+from tests.support.wait import wait_for
+from tests.support.wsclient import Client
 
 
 @pytest.fixture(scope='module')
@@ -63,27 +65,6 @@ def test_a_runs_output_topic_is_its_starters_and_the_admins(class_gw):
         with Client(class_gw.ws_url, TOKENS[who]) as ok:
             assert ok.refusal({'op': 'subscribe', 'topic': f'/rosgate/runs/{run_id}/state',
                                'type': 'std_msgs/msg/String', 'id': 'mine'}) is None, who
-
-
-def uids(pid: int) -> list[int]:
-    for line in Path(f'/proc/{pid}/status').read_text().splitlines():
-        if line.startswith('Uid:'):
-            return [int(v) for v in line.split()[1:]]
-    return []
-
-
-def descendants(pid: int) -> list[int]:
-    found, todo = [], [pid]
-    while todo:
-        p = todo.pop()
-        try:
-            children = [int(c) for t in os.listdir(f'/proc/{p}/task')
-                        for c in Path(f'/proc/{p}/task/{t}/children').read_text().split()]
-        except OSError:
-            continue
-        found += children
-        todo += children
-    return found
 
 
 def test_no_process_of_a_run_is_root_seen_from_the_gateway(class_gw):
