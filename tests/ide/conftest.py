@@ -1,4 +1,4 @@
-"""Browser fixtures (Chromium itself is tests/support/fixtures.py's, one per test process): pages
+"""Browser fixtures (Chromium itself is tests/support/fixtures.py's, one per module): pages
 of the IDE, gateways with the simulated turtlesim and rover, and independent roslibpy clients that
 watch what the robots do."""
 

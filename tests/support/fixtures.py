@@ -1,6 +1,6 @@
 """The fixtures every test folder shares (registered by tests/conftest.py through ``pytest_plugins``):
 gateways started for the session, the shared sim gateway and a roslibpy client of it, Playwright
-and one Chromium per test process."""
+and one Chromium per module."""
 
 from __future__ import annotations
 
@@ -37,19 +37,20 @@ def ros(gateway):
         yield ros
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def playwright():
-    """Playwright's driver, once per test process (a second sync_playwright() in one thread fails):
-    tests that start a Chromium of their own (other flags, another network namespace) start it here."""
+    """Playwright's driver, once per module (a second sync_playwright() in one thread fails): tests
+    that start a Chromium of their own (other flags, another network namespace) start it here. Not
+    once per session: its event loop runs in the test thread while it lives, and a later module's
+    asyncio.run() or asyncio test then fails ("cannot be called from a running event loop")."""
     from playwright.sync_api import sync_playwright
     with sync_playwright() as p:
         yield p
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def chromium(playwright):
-    """One Chromium per test process, where each browser module used to launch its own (40 launches
-    in a run); tests are kept apart by browser contexts of their own (cookies, storage, pages)."""
+    """One Chromium per module; its tests are kept apart by browser contexts of their own."""
     from tests.support.ide import ARTIFACTS, CHROMIUM, CHROMIUM_ARGS
     if not Path(CHROMIUM).exists():
         pytest.fail(f"Chromium not found at {CHROMIUM}: apt-get install chromium")
