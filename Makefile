@@ -53,7 +53,7 @@ run: install ide
 # is the unit a process takes (tests/support/schedule.py). `make test TEST_PROCS=0` runs it in one.
 TEST_PROCS ?= auto
 test: system-test install-test ide tests/node/node_modules/.installed $(ROSVENV)/.installed
-	$(PY) -m pytest -q -n $(TEST_PROCS) --maxprocesses 4 --dist loadgroup --no-loadscope-reorder tests
+	$(PY) -m pytest -q -n $(TEST_PROCS) --maxprocesses 4 --no-loadscope-reorder tests
 	cd tests/node && node --test
 	$(MAKE) --no-print-directory test-rclpy
 

@@ -1,4 +1,4 @@
-"""How the suite is spread over parallel test processes (pytest-xdist, ``-n 2 --dist loadgroup``).
+"""How the suite is spread over parallel test processes (pytest-xdist, ``-n 2``: ``UnitScheduling``).
 
 A file is the unit a process takes whole: its module fixtures (a gateway, a browser context's
 state) are made once, and its tests keep their order. tests/install/ is one unit: its session
@@ -14,6 +14,11 @@ leaves the other process idle at the end (measured: SLOW lists the files that to
 from __future__ import annotations
 
 import pytest
+
+try:
+    from xdist.scheduler import LoadScopeScheduling
+except ImportError:   # no pytest-xdist: the suite runs in one process
+    LoadScopeScheduling = None
 
 SLOW = (
     'tests/install/',
@@ -41,12 +46,17 @@ def rank(nodeid: str) -> int:
     return next((i for i, prefix in enumerate(SLOW) if nodeid.startswith(prefix)), len(SLOW))
 
 
-def pytest_configure(config):
-    config.addinivalue_line('markers', 'xdist_group(name): the unit of work a test belongs to (pytest-xdist)')
-
-
-@pytest.hookimpl(tryfirst=True)   # before pytest-xdist's, which reads the marks
 def pytest_collection_modifyitems(config, items):
-    for item in items:
-        item.add_marker(pytest.mark.xdist_group(unit(item.nodeid)))
     items.sort(key=lambda item: rank(item.nodeid))   # stable: a file keeps its order
+
+
+if LoadScopeScheduling is not None:
+    class UnitScheduling(LoadScopeScheduling):
+        """xdist's file-by-file scheduling with ``unit`` as the scope: tests/install/ goes to one process
+        (pytest-xdist's own ``loadfile`` would split it, ``loadgroup`` did)."""
+
+        def _split_scope(self, nodeid: str) -> str:
+            return unit(nodeid)
+
+    def pytest_xdist_make_scheduler(config, log):
+        return UnitScheduling(config, log)
