@@ -49,8 +49,11 @@ ide: ide/vendor/.built
 run: install ide
 	$(PY) -m gateway --robot turtlesim $(ARGS)
 
+# pytest runs the suite in parallel test processes (pytest-xdist): one per core, at most 4; a file
+# is the unit a process takes (tests/support/schedule.py). `make test TEST_PROCS=0` runs it in one.
+TEST_PROCS ?= auto
 test: system-test install-test ide tests/node/node_modules/.installed $(ROSVENV)/.installed
-	$(PY) -m pytest -q tests
+	$(PY) -m pytest -q -n $(TEST_PROCS) --maxprocesses 4 --no-loadscope-reorder tests
 	cd tests/node && node --test
 	$(MAKE) --no-print-directory test-rclpy
 

@@ -4,34 +4,27 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import importlib.util
 import logging
 import os
 import re
-import signal
 import socket
-import ssl
 import sys
-from dataclasses import fields, replace
+from dataclasses import replace
 from pathlib import Path
+from typing import NamedTuple
 
-import tornado.httpserver
 import tornado.netutil
 
 from . import rules
 from .backends.rclpy import RclpyBackend
 from .backends.sim import SimBackend, robots
-from .bridge import rosapi
-from .bridge.gateway import Gateway
-from .settings import Settings, data_dir
+from .server import serve
+from .settings import Refused, Settings, flat, from_flat
 from .web import logs
-from .web.app import make_app
-from .web.pages import ide_problem
+from .web.history import history_globs
 
 log = logging.getLogger('rosgate')
-
-
-def default_programs_dir() -> Path:
-    return data_dir('programs')
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -41,34 +34,34 @@ def build_parser() -> argparse.ArgumentParser:
                     'Flags also accept the ROS form name:=value.')
     d = Settings()
     g = p.add_argument_group('rosbridge_server parameters')
-    g.add_argument('--port', type=int, default=d.port, help='port (0 picks a free one) [%(default)s]')
-    g.add_argument('--address', default=d.address, help='address to listen on (empty: all)')
-    g.add_argument('--url-path', default=d.url_path, help='websocket path [%(default)s]')
+    g.add_argument('--port', type=int, help='port (0 picks a free one) [%(default)s]')
+    g.add_argument('--address', help='address to listen on (empty: all)')
+    g.add_argument('--url-path', help='websocket path [%(default)s]')
     g.add_argument('--certfile', help='TLS certificate (with --keyfile: wss and https)')
     g.add_argument('--keyfile', help='TLS private key')
-    g.add_argument('--max-message-size', type=int, default=d.max_message_size,
+    g.add_argument('--max-message-size', type=int,
                    help='largest incoming frame in bytes [%(default)s]')
-    g.add_argument('--fragment-timeout', type=float, default=d.fragment_timeout, help='[%(default)s] s')
-    g.add_argument('--unregister-timeout', type=float, default=d.unregister_timeout,
+    g.add_argument('--fragment-timeout', type=float, help='[%(default)s] s')
+    g.add_argument('--unregister-timeout', type=float,
                    help='grace before an unadvertised publisher is destroyed [%(default)s] s')
-    g.add_argument('--use-compression', action=argparse.BooleanOptionalAction, default=d.use_compression,
+    g.add_argument('--use-compression', action=argparse.BooleanOptionalAction,
                    help='permessage-deflate')
     for kind in ('topics', 'services', 'params', 'actions', 'topics-pub', 'topics-sub'):
         g.add_argument(f'--{kind}-glob', help=f"allowed {kind.replace('-', ' ')} names, e.g. \"['/turtle1/*']\"")
-    g.add_argument('--default-call-service-timeout', type=float, default=d.default_call_service_timeout,
+    g.add_argument('--default-call-service-timeout', type=float,
                    help='[%(default)s] s')
-    g.add_argument('--websocket-ping-interval', type=float, default=d.websocket_ping_interval, metavar='S',
+    g.add_argument('--websocket-ping-interval', type=float, metavar='S',
                    help='ping every websocket this often, so a proxy does not cut a quiet one (nginx: 60 s); '
                         '0 for never [%(default)s]')
-    g.add_argument('--websocket-ping-timeout', type=float, default=d.websocket_ping_timeout, metavar='S',
+    g.add_argument('--websocket-ping-timeout', type=float, metavar='S',
                    help='close a websocket that has not answered a ping this long [%(default)s]')
-    g.add_argument('--send-buffer-limit', type=int, default=d.send_buffer_limit,
+    g.add_argument('--send-buffer-limit', type=int,
                    help='bytes queued per client before its topic messages are dropped [%(default)s]')
-    g.add_argument('--body-timeout', type=float, default=d.body_timeout, metavar='S',
+    g.add_argument('--body-timeout', type=float, metavar='S',
                    help='seconds a client has to send a request body; a slower one is cut off [%(default)s]')
-    g.add_argument('--idle-connection-timeout', type=float, default=d.idle_connection_timeout, metavar='S',
+    g.add_argument('--idle-connection-timeout', type=float, metavar='S',
                    help='seconds an HTTP connection may sit without sending a request\'s headers [%(default)s]')
-    g.add_argument('--auth-timeout', type=float, default=d.auth_timeout, metavar='S',
+    g.add_argument('--auth-timeout', type=float, metavar='S',
                    help='with --auth, seconds a websocket has to authenticate before it is closed [%(default)s]')
     g.add_argument('--allowed-hosts', help='Host names the gateway answers to besides IP addresses, localhost and '
                                             'this machine\'s names (globs, e.g. "[\'robot.example.org\']"); '
@@ -77,64 +70,68 @@ def build_parser() -> argparse.ArgumentParser:
                                               'and port; localhost for 127.0.0.1), globs, e.g. '
                                               '"[\'http://localhost:5173\']" ("*" for any)')
     b = p.add_argument_group('backend')
-    b.add_argument('--backend', choices=('auto', 'sim', 'rclpy'), default='auto',
+    b.add_argument('--backend', dest='backend.kind', choices=('auto', 'sim', 'rclpy'),
                    help='auto: rclpy when it imports, else the embedded sim [%(default)s]')
-    b.add_argument('--node-name', default=d.node_name,
+    b.add_argument('--node-name',
                    help='the gateway node name [rosgate_<host>_<port>: gateways on one graph differ]')
-    b.add_argument('--interfaces', type=Path, action='append', default=[], metavar='DIR',
+    b.add_argument('--interfaces', dest='backend.interfaces', type=Path, action='append', metavar='DIR',
                    help='rclpy: <pkg>/srv/<Name>.srv (and action, msg) texts of services and actions '
                         'this machine lacks; built on first use (repeatable)')
-    b.add_argument('--interface-cache', type=Path, metavar='DIR',
+    b.add_argument('--interface-cache', dest='backend.interface_cache', type=Path, metavar='DIR',
                    help='rclpy: where interfaces built on first use are kept [~/.cache/rosgate/interfaces]')
-    b.add_argument('--talker', action='store_true', help='sim: publish /chatter once a second')
-    b.add_argument('--fibonacci-interval', type=float, default=1.0,
+    b.add_argument('--talker', dest='sim.talker', action='store_true', help='sim: publish /chatter once a second')
+    b.add_argument('--fibonacci-interval', dest='sim.fibonacci_interval', type=float,
                    help='sim: seconds between /fibonacci steps [%(default)s]')
-    b.add_argument('--programs-dir', type=Path, default=default_programs_dir(),
+    b.add_argument('--programs-dir', dest='storage.programs_dir', type=Path,
                    help='where the IDE program library is stored [%(default)s]')
     r = p.add_argument_group('robot-side runs and recordings')
-    r.add_argument('--allow-runs', action='store_true',
+    r.add_argument('--allow-runs', dest='runs.allow_runs', action='store_true',
                    help='let operators run programs as processes on this machine (POST /api/runs): '
                         'this executes code sent over the network')
-    r.add_argument('--trusted-runs', action='store_true',
+    r.add_argument('--trusted-runs', dest='runs.trusted_runs', action='store_true',
                    help='with --allow-runs: runs join the ROS graph themselves (the gateway\'s ROS and DDS '
                         'variables, no network of their own), for programs that are real ROS 2 nodes at full '
                         'speed. What they publish that way is OUTSIDE every rule of the gateway: no lease, '
                         'glob, clamp, stop or slot end applies to it. For a robot whose operators are trusted')
-    r.add_argument('--runs-dir', type=Path, help='where runs get their working directories '
+    r.add_argument('--runs-dir', dest='runs.runs_dir', type=Path, help='where runs get their working directories '
                                                  '[$XDG_DATA_HOME/rosgate/runs]')
-    r.add_argument('--max-runs', type=_at_least_one, default=d.max_runs, metavar='N',
+    r.add_argument('--max-runs', dest='runs.max_runs', type=_at_least_one, metavar='N',
                    help='runs going at once [%(default)s]')
-    r.add_argument('--max-runs-per-person', type=_at_least_one, default=d.max_runs_per_person, metavar='N',
+    r.add_argument('--max-runs-per-person', dest='runs.max_runs_per_person', type=_at_least_one, metavar='N',
                    help='runs going at once for one signed-in person, admins excepted (with --auth) [%(default)s]')
-    r.add_argument('--recordings-dir', type=Path, metavar='DIR',
+    r.add_argument('--recordings-dir', dest='storage.recordings_dir', type=Path, metavar='DIR',
                    help='where recordings made from the pages and /api/recordings go '
                         '[--record\'s DIR, else $XDG_DATA_HOME/rosgate/recordings]')
-    r.add_argument('--record', type=Path, metavar='DIR',
+    r.add_argument('--record', dest='storage.record', type=Path, metavar='DIR',
                    help='record from start-up into DIR (also where /api/recordings keeps its files, '
                         'unless --recordings-dir says otherwise)')
-    r.add_argument('--record-topics', metavar='GLOBS', help='topics --record takes, e.g. "[\'/turtle1/*\']" [all]')
-    r.add_argument('--db', '--history-db', dest='db_url', metavar='URL',
+    r.add_argument('--record-topics', dest='storage.record_topics', metavar='GLOBS', help='topics --record takes, e.g. "[\'/turtle1/*\']" [all]')
+    r.add_argument('--db', '--history-db', dest='storage.db_url', metavar='URL',
                    help='where sign-in sessions, bookings and history are kept: an SQLAlchemy URL, e.g. '
                         'postgresql+psycopg://rosgate@dbhost/rosgate [sqlite:///$XDG_DATA_HOME/rosgate/rosgate.db]')
     h = p.add_argument_group('history and the twin')
-    h.add_argument('--history', metavar='GLOBS',
+    h.add_argument('--history', dest='twin.history', metavar='GLOBS',
                    help='topics whose numeric fields the gateway keeps, e.g. "[\'/s*/battery_state\', \'/turtle1/pose\']"; '
                         '"none" keeps nothing [every topic of type BatteryState, Temperature, Odometry or turtlesim Pose]')
-    h.add_argument('--history-max-mb', type=float, default=d.history_max_mb, metavar='MB',
+    h.add_argument('--history-max-mb', dest='twin.history_max_mb', type=float, metavar='MB',
                    help='past this size in the store, the oldest history goes [%(default)s]')
-    h.add_argument('--history-full-hours', type=float, default=d.history_full_hours, metavar='H',
+    h.add_argument('--history-full-hours', dest='twin.history_full_hours', type=float, metavar='H',
                    help='history kept at full rate (1 Hz) this long, then as per-minute min/mean/max [%(default)s]')
-    h.add_argument('--opcua', type=int, metavar='PORT',
+    h.add_argument('--opcua', dest='twin.opcua', type=int, metavar='PORT',
                    help='serve the robots\' history fields and pose over OPC UA on this port (0: any free one)')
-    h.add_argument('--urdf', type=Path, metavar='FILE',
+    h.add_argument('--urdf', dest='twin.urdf', type=Path, metavar='FILE',
                    help='the robot description the 3D twin draws (served at /urdf), in place of the '
                         'robot_description topic')
-    h.add_argument('--mesh-path', type=Path, action='append', default=[], metavar='DIR',
+    h.add_argument('--mesh-path', dest='twin.mesh_path', type=Path, action='append', metavar='DIR',
                    help='a folder of description packages (DIR/PKG/meshes/...) whose files the twin loads '
                         'as package://PKG/..., besides AMENT_PREFIX_PATH\'s share folders (repeatable)')
-    b.add_argument('--log-level', default='info', choices=('debug', 'info', 'warning', 'error'))
+    b.add_argument('--log-level', choices=('debug', 'info', 'warning', 'error'))
     robots.add_arguments(p)
     rules.add_arguments(p)
+    p.set_defaults(**flat(d))   # every default is the field's (gateway.settings)
+    for action in p._actions:    # --max-runs N, not RUNS.MAX_RUNS: the dest holds the group
+        if '.' in action.dest and action.metavar is None and action.nargs != 0:
+            action.metavar = action.option_strings[0][2:].upper().replace('-', '_')
     return p
 
 
@@ -169,11 +166,45 @@ def ros_style(argv: list[str], parser: argparse.ArgumentParser | None = None) ->
 
 
 def settings_from(args: argparse.Namespace) -> Settings:
-    known = {f.name for f in fields(Settings)}
-    values = {k: v for k, v in vars(args).items() if k in known}
-    values['mesh_path'] = tuple(values.get('mesh_path') or ())
-    extra = {k: v for k, v in vars(args).items() if k not in known}
-    return Settings(**values, extra=extra)
+    """Every flag's value in its field (each dest names one: ``port``, ``security.auth_backoff``)."""
+    return from_flat(vars(args))
+
+
+class Start(NamedTuple):
+    """What the start-up check read: the rules' files and the simulated robots."""
+    files: rules.Files
+    robots: tuple
+
+
+def check(settings: Settings) -> Start:
+    """The one validation of the settings, at start-up, before anything starts: a Refused names
+    the flags (``main`` prints it and exits 2). Flags whose values argparse cannot parse were
+    refused already, the same way (a usage line, exit 2)."""
+    try:
+        files = rules.load(settings)
+    except rules.ConfigError as e:
+        raise Refused(e.flags, e.why) from None
+    try:
+        specs = robots.specs_from(settings.sim)
+    except ValueError as e:
+        flag, _, why = str(e).partition(': ')    # 'FLAG: why' (robots.specs_from)
+        raise Refused(flag, why) from None
+    runs = settings.runs
+    if runs.trusted_runs and not runs.allow_runs:
+        raise Refused('--trusted-runs', 'it is a kind of run: give --allow-runs too')
+    twin = settings.twin
+    if twin.opcua is not None:
+        if history_globs(twin.history) is False:
+            raise Refused('--opcua, --history', '--opcua serves the history, and --history none keeps none')
+        if importlib.util.find_spec('asyncua') is None:
+            raise Refused('--opcua', 'it needs asyncua: pip install "rosgate[opcua]"')
+    return Start(files, specs)
+
+
+def refuse(refused: Refused) -> int:
+    """The one way the gateway refuses to start: a line naming the flags on stderr, exit status 2."""
+    print(f'rosgate: {refused}', file=sys.stderr)
+    return 2
 
 
 def default_node_name(port: int, host: str | None = None) -> str:
@@ -185,8 +216,8 @@ def default_node_name(port: int, host: str | None = None) -> str:
     return re.sub(r'_+', '_', name).strip('_')
 
 
-def make_backend(args: argparse.Namespace, ros_args: list[str], node_name: str):
-    choice = args.backend
+def make_backend(settings: Settings, robot_specs: tuple, ros_args: list[str], node_name: str):
+    choice = settings.backend.kind
     if choice == 'auto':
         try:
             import rclpy  # noqa: F401
@@ -194,62 +225,10 @@ def make_backend(args: argparse.Namespace, ros_args: list[str], node_name: str):
         except ImportError:
             choice = 'sim'
     if choice == 'rclpy':
-        return RclpyBackend(node_name=node_name, ros_args=ros_args, interfaces=tuple(args.interfaces),
-                            interface_cache=args.interface_cache)
-    return SimBackend(node_name=node_name, talker=args.talker,
-                      fibonacci_interval=args.fibonacci_interval, robots=robots.specs_from_args(args))
-
-
-def pages_box(base: str) -> str:
-    """The pages' addresses framed, after the start-up line: with --fleet 30 the line came after
-    some 60 lines of log and a teacher did not find it. The line above stays one line for scripts."""
-    rows = [('IDE (students)', base), ('teleop (driving)', f'{base}teleop'), ('class (teacher)', f'{base}class')]
-    lines = ['rosgate is ready. Open in a browser:', *(f'  {name:<17} {url}' for name, url in rows)]
-    if '//localhost:' in base:
-        lines.append('  (other machines: this machine\'s address in place of localhost)')
-    rule = '=' * max(len(line) for line in lines)
-    return '\n'.join(['', rule, *lines, rule, ''])
-
-
-async def serve(settings: Settings, backend, sockets: list[socket.socket], *, announce=print) -> None:
-    """Run the gateway on sockets already bound (``tornado.netutil.bind_sockets``)."""
-    await backend.start()
-    gateway = Gateway(settings, backend)
-    rules.install(gateway, reads=rosapi.handles)
-    app = make_app(gateway)
-    gateway.count_clients()
-    ssl_ctx = None
-    if settings.certfile and settings.keyfile:
-        ssl_ctx = ssl.create_default_context(ssl.Purpose.CLIENT_AUTH)
-        ssl_ctx.load_cert_chain(settings.certfile, settings.keyfile)
-    server = tornado.httpserver.HTTPServer(app, ssl_options=ssl_ctx, max_buffer_size=settings.max_message_size * 4,
-                                           body_timeout=settings.body_timeout,
-                                           idle_connection_timeout=settings.idle_connection_timeout)
-    server.add_sockets(sockets)
-    port = sockets[0].getsockname()[1]
-    host = settings.address if settings.address not in ('', '0.0.0.0', '::') else 'localhost'
-    host = f'[{host}]' if ':' in host else host
-    http, ws = ('https', 'wss') if ssl_ctx else ('http', 'ws')
-    path = settings.url_path if settings.url_path.startswith('/') else '/' + settings.url_path
-    problem = ide_problem(settings.ide_dir)
-    base = f'{http}://{host}:{port}/'
-    ide = (f'IDE {base} teleop {base}teleop class {base}class' if problem is None
-           else f'IDE unavailable ({problem})')
-    announce(f'rosgate: {ide} websocket {ws}://{host}:{port}{path} backend {backend.name} '
-             f'node {backend.node_name}')
-    if problem is None:
-        announce(pages_box(base))
-
-    stop = asyncio.Event()
-    loop = asyncio.get_running_loop()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        loop.add_signal_handler(sig, stop.set)
-    await stop.wait()
-    log.info('shutting down')
-    server.stop()
-    await gateway.shutdown()
-    await backend.stop()
-    await server.close_all_connections()
+        return RclpyBackend(node_name=node_name, ros_args=ros_args, interfaces=settings.backend.interfaces,
+                            interface_cache=settings.backend.interface_cache)
+    return SimBackend(node_name=node_name, talker=settings.sim.talker,
+                      fibonacci_interval=settings.sim.fibonacci_interval, robots=robot_specs)
 
 
 def announce(line: str) -> None:
@@ -274,13 +253,19 @@ def main(argv: list[str] | None = None) -> int:
     logs.install()   # no tokens in the log, no line forged by a name with a newline
     logging.getLogger('tornado.access').setLevel(logging.WARNING)
     settings = settings_from(args)
+    try:
+        start = check(settings)
+    except Refused as e:
+        return refuse(e)
     # bound before the backend starts: the default node name holds the port (also when it is 0)
     sockets = tornado.netutil.bind_sockets(settings.port, settings.address or None)
     node_name = settings.node_name or default_node_name(sockets[0].getsockname()[1])
     settings = replace(settings, node_name=node_name)
-    backend = make_backend(args, ros_args, node_name)
+    backend = make_backend(settings, start.robots, ros_args, node_name)
     try:
-        asyncio.run(serve(settings, backend, sockets, announce=announce))
+        asyncio.run(serve(settings, start.files, backend, sockets, announce=announce))
+    except Refused as e:     # a part that cannot start here (no bwrap for --allow-runs)
+        return refuse(e)
     except KeyboardInterrupt:
         pass
     return 0

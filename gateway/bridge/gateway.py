@@ -12,7 +12,6 @@ which clients may not publish to.
 from __future__ import annotations
 
 import asyncio
-import inspect
 import itertools
 import logging
 import time
@@ -21,7 +20,7 @@ from typing import TYPE_CHECKING
 from ..backends.base import BackendError, QoS
 from .fanout import TopicFanout
 from .outbox import corked
-from ..rules import GATEWAY_ROLE
+from ..rules import GATEWAY_ROLE, Hooks
 from ..rules.policy import Policy
 from ..store import Store
 
@@ -88,9 +87,10 @@ class Gateway:
         self.started = time.time()
         self.policy = Policy(settings)
         self.service_owners: dict[str, ClientSession] = {}
-        self.hooks: list = []          # objects with an optional on_close(session)
-        self.rules: list = []          # (sender, SharedPublisher, msg, issued) -> msg, or None to drop; may raise
-        self.guards: list = []         # (session, op) -> None, or raise ProtocolError to refuse the op
+        self.hooks = Hooks()           # the parts following the gateway's events (rules.hooks)
+        self.ruleset = None            # the rules in force (rules.compose), once installed
+        self.rules: tuple = ()         # the publish door's: (sender, SharedPublisher, msg, issued) -> msg or None
+        self.guards: tuple = ()        # (session, op) -> None, or raise ProtocolError to refuse the op
         self.senders: dict[int, Sender] = {}   # open senders that are not clients (playbacks)
         # the gateway's own services besides rosapi (the stations' claims): name -> (type, answer),
         # answer(session, request) -> response values, knowing who calls
@@ -102,11 +102,20 @@ class Gateway:
         if hasattr(backend, 'batch_scope'):   # a backend delivering messages in batches
             backend.batch_scope = corked      # sends each client its share in one write
 
+    def install(self, rules) -> None:
+        """Puts the rules in force (``rules.compose``), once, before the first client."""
+        if self.ruleset is not None:
+            raise RuntimeError('the rules are installed once')
+        self.ruleset, self.policy = rules, rules.policy
+        self.rules, self.guards = rules.publish, rules.guards
+        for part in rules.hooks:
+            self.hooks.add(part)
+
     @property
     def store(self) -> Store:
         """The one database (bookings, history), opened on first use."""
         if self._store is None:
-            self._store = Store(self.settings.db_url)
+            self._store = Store(self.settings.storage.db_url)
         return self._store
 
     # --- topics ------------------------------------------------------------------------------
@@ -187,13 +196,7 @@ class Gateway:
 
     def left(self, who) -> None:
         """Tell the hooks (lease, safety, runs, ...) that a client or sender is gone."""
-        for hook in self.hooks:
-            on_close = getattr(hook, 'on_close', None)
-            if on_close:
-                try:
-                    on_close(who)
-                except Exception:
-                    log.exception('close hook failed')
+        self.hooks.close(who)
 
     def everyone(self) -> list:
         """Every client session and open sender."""
@@ -225,15 +228,7 @@ class Gateway:
         self.sessions.pop(session.id, None)
 
     async def shutdown(self) -> None:
-        for hook in self.hooks:   # e.g. stop commands, while publishers and clients still exist
-            on_shutdown = getattr(hook, 'on_shutdown', None)
-            if on_shutdown:
-                try:
-                    result = on_shutdown()
-                    if inspect.isawaitable(result):
-                        await result
-                except Exception:
-                    log.exception('shutdown hook failed')
+        await self.hooks.shutdown()   # e.g. stop commands, while publishers and clients still exist
         for session in list(self.sessions.values()):
             session.close_connection(1001, 'server shutting down')
         for fan in list(self.fanouts.values()):

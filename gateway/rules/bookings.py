@@ -33,7 +33,10 @@ from dataclasses import dataclass, field
 
 import sqlalchemy as sa
 
+from ..settings import LabSettings
 from ..store import METADATA
+from .errors import Refusal
+from .hooks import Hook
 
 log = logging.getLogger('rosgate.bookings')
 MAX_SLEEP = 5.0            # s the timer sleeps at most (catches a clock that jumped)
@@ -55,20 +58,16 @@ TABLE = sa.Table(
 )
 
 
-class BookingError(Exception):
+class BookingError(Refusal):
     """A booking refused: ``status`` is the HTTP status that says why (400, 403, 404, 409, 429)."""
-
-    def __init__(self, status: int, message: str):
-        super().__init__(message)
-        self.status, self.message = status, message
 
 
 @dataclass(frozen=True)
 class BookingLimits:
-    slot: float = 3600.0       # s, the longest slot (--slot-minutes)
-    per_day: int = 8           # slots one person may book per calendar day (0: no limit)
-    per_week: int = 30         # per ISO week (0: no limit)
-    ahead: float = 14 * 86400.0   # s ahead a slot may begin
+    slot: float = LabSettings.slot_minutes * 60           # s, the longest slot (--slot-minutes)
+    per_day: int = LabSettings.booking_per_day            # slots one person may book per calendar day (0: no limit)
+    per_week: int = LabSettings.booking_per_week          # per ISO week (0: no limit)
+    ahead: float = LabSettings.booking_ahead * 86400      # s ahead a slot may begin
 
 
 @dataclass(eq=False)
@@ -210,7 +209,7 @@ class Timetable:
         self.bookings = [b for b in self.bookings if b.end > since]
 
 
-class Slots:
+class Slots(Hook):
     """The timer that starts and ends slots (see the module docstring)."""
 
     def __init__(self, gateway, timetable: Timetable, *, stations, lease, stop_group: Callable[[str], None],
@@ -273,13 +272,7 @@ class Slots:
         if self.lease is not None:
             self.lease.hand_over(station, None, why)
         self.stop_group(station)
-        for hook in self.gateway.hooks:
-            ended = getattr(hook, 'on_slot_ended', None)
-            if ended is not None:
-                try:
-                    ended(station, booking.person, why)
-                except Exception:
-                    log.exception('slot end hook failed')
+        self.gateway.hooks.slot_ended(station, booking.person, why)
         self.stations.unseat(station, booking.person, why)
         nxt = self.timetable.next(station, now)
         self.timetable.ended[station] = (booking.person, nxt.start if nxt is not None else now + self.timetable.limits.slot)

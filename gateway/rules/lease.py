@@ -45,6 +45,7 @@ from ..backends.base import QoS
 from .policy import CONTROL_TOPIC, GATEWAY_ROLE
 from .safety import moving_command
 from .stations import Stations, person
+from .hooks import Hook
 
 DRIVER_TOPIC = '/rosgate/driver'
 STRING = 'std_msgs/msg/String'
@@ -62,7 +63,7 @@ def glob_group(glob: str) -> str:
     return glob[:-2] if glob.endswith('/*') and glob.count('*') == 1 and len(glob) > 2 else glob
 
 
-class Lease:
+class Lease(Hook):
     def __init__(self, gateway, *, types: frozenset[str], globs: tuple[str, ...] | None,
                  takeover_role: str | None, on_lost: Callable[[object, str], None], stations: Stations,
                  stop_group: Callable[[str], None] = lambda group: None):

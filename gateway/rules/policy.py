@@ -19,6 +19,8 @@ from protocol.errors import ProtocolError
 from .stations import person_of
 from .names import ACTION_KINDS, LOCAL_HOSTS, host_name, is_ip, own_names, parse_globs, parse_networks, refuse, target
 from .sessions import SESSION_COOKIE, Sessions
+from ..settings import SecuritySettings
+from .access import role_of
 from .tokens import AuthError, Authenticator, Identity
 
 GATEWAY_ROLE = 'gateway'   # the role of what the gateway publishes itself (stops): passes the lease, never moves
@@ -88,7 +90,7 @@ class Policy:
         self.reads = reads     # the gateway's own read-only services (rosapi)
         self.allowed_origins = parse_globs(settings.allowed_origins)
         self.allowed_hosts = parse_globs(settings.allowed_hosts)
-        self.trusted_proxies = parse_networks(settings.extra.get('trusted_proxies'))
+        self.trusted_proxies = parse_networks(settings.security.trusted_proxies)
         self.own_names = own_names()
         self.globs = {
             kind: parse_globs(getattr(settings, f'{kind}_glob'))
@@ -116,9 +118,16 @@ class Policy:
                 refuse(session, op, e.message)
         return True
 
+    def refusal(self, who, action: str, name: str | None) -> str | None:
+        """The one access rule (``rules.access.may``): None, or why ``who`` may not ``action`` ``name``."""
+        if name is not None and not self.allows(who, action, name):
+            return f'{name} is not allowed for {action} by this gateway'
+        return None
+
     def check(self, session, action: str, name: str, op: str, id: str | None) -> None:
-        if not self.allows(session, action, name):
-            raise ProtocolError(f'{name} is not allowed for {action} by this gateway', op=op, id=id)
+        why = self.refusal(session, action, name)
+        if why is not None:
+            raise ProtocolError(why, op=op, id=id)
 
     def visible(self, session, kind: str, name: str) -> bool:
         """For rosapi listings: kind is topics, services, actions or params."""
@@ -172,10 +181,10 @@ class Policy:
 
 @dataclass(frozen=True)
 class Limits:
-    max_subscriptions: int = 1000
-    max_publishers: int = 1000
-    max_pending_calls: int = 256
-    max_op_rate: float = 0.0          # ops per second per client; 0: unlimited
+    max_subscriptions: int = SecuritySettings.max_subscriptions
+    max_publishers: int = SecuritySettings.max_publishers
+    max_pending_calls: int = SecuritySettings.max_pending_calls
+    max_op_rate: float = SecuritySettings.max_op_rate     # ops per second per client; 0: unlimited
 
 
 class SecurePolicy(Policy):
@@ -261,14 +270,19 @@ class SecurePolicy(Policy):
 
     # --- Policy hooks ------------------------------------------------------------------------
 
-    def check(self, session, action: str, name: str, op: str, id: str | None) -> None:
-        if self.auth is not None:
-            role = session.attrs.get('role')
+    def refusal(self, who, action: str, name: str | None) -> str | None:
+        """With auth, the role first (``who`` None: the gateway itself, the globs alone), then the globs."""
+        if self.auth is not None and who is not None:
+            role = role_of(who)
             if role is None:
-                raise ProtocolError(NOT_AUTHENTICATED, op=op, id=id)
-            need = permission(action, name, self.reads)
-            if need not in PERMISSIONS[role]:
-                raise ProtocolError(f'role {role} may not {VERBS[need]} {name}', op=op, id=id)
+                return NOT_AUTHENTICATED
+            need = permission(action, name, self.reads) if name is not None else action
+            if need not in PERMISSIONS.get(role, ()):
+                return f'role {role} may not {VERBS[need]} {name}' if name is not None else \
+                    f'role {role} may not {VERBS[need]} this'
+        return super().refusal(who, action, name)
+
+    def check(self, session, action: str, name: str, op: str, id: str | None) -> None:
         super().check(session, action, name, op, id)
         if self.lease is not None and action in ('call', 'send_goal'):
             self.lease.require(session, name)

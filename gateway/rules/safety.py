@@ -31,12 +31,14 @@ from protocol.errors import ProtocolError
 
 from ..backends.base import QoS
 from .policy import GATEWAY_ROLE
+from ..settings import SafetySettings
+from .hooks import Hook
 
 log = logging.getLogger('rosgate.safety')
-DEFAULT_TYPES = ('geometry_msgs/msg/Twist', 'geometry_msgs/msg/TwistStamped')
+DEFAULT_TYPES = SafetySettings.stop_types
 STREAM_MIN = 3           # commands in a row that make a stream
 SHUTDOWN_FLUSH = 0.5     # s at most to let stop commands reach subscribers before clients close
-CMD_MAX_AGE = 0.3        # s a stamped moving command may have waited beyond its link's fastest trip
+CMD_MAX_AGE = SafetySettings.cmd_max_age   # s a stamped moving command may have waited beyond its link's fastest trip
 STALE_TELL = 5.0         # s between two warnings to one client about its dropped commands
 
 
@@ -120,7 +122,7 @@ class Stream:
         self.timer: asyncio.TimerHandle | None = None
 
 
-class Safety:
+class Safety(Hook):
     def __init__(self, gateway, *, types=DEFAULT_TYPES, stop_on_disconnect: bool = True,
                  cmd_timeout: float = 1.0, limits: VelocityLimits | None = None,
                  cmd_max_age: float = CMD_MAX_AGE, require_stamp: bool = False):

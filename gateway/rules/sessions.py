@@ -31,13 +31,13 @@ from dataclasses import dataclass
 import sqlalchemy as sa
 import tornado.web
 
-from ..settings import data_dir
+from ..settings import SecuritySettings, data_dir
 from ..store import METADATA
 from .tokens import Identity
 
 log = logging.getLogger('rosgate.sessions')
 SESSION_COOKIE = 'rosgate_session'
-DEFAULT_HOURS = 12.0
+DEFAULT_HOURS = SecuritySettings.session_hours
 
 TABLE = sa.Table(
     'sessions', METADATA,

@@ -48,6 +48,8 @@ from dataclasses import dataclass
 from protocol.errors import ProtocolError
 
 from ..backends.base import QoS
+from .hooks import Hook
+from ..settings import StationSettings
 
 STATIONS_TOPIC = '/rosgate/stations'
 STRING = 'std_msgs/msg/String'
@@ -57,8 +59,8 @@ BROWSER_COOKIE = 'rosgate_browser'
 BROWSER_ID = re.compile(r'[A-Za-z0-9_-]{8,64}')
 STATIONS_TTL = 1.0        # s between looks at the graph for stations
 CHECK_PERIOD = 1.0        # s between looks for lapsed claims and new stations
-CLAIM_IDLE = 3600.0       # s a person's station stays theirs with none of their clients connected
-CLAIM_GRACE = 60.0        # s a script's station stays its own after it leaves
+CLAIM_IDLE = StationSettings.claim_idle     # s a person's station stays theirs with none of their clients connected
+CLAIM_GRACE = StationSettings.claim_grace   # s a script's station stays its own after it leaves
 
 
 def _clock(at: float) -> str:
@@ -107,7 +109,7 @@ class Owner:
     until: float | None = None   # a booked slot's end (epoch s): the seat holds till then, present or not
 
 
-class Stations:
+class Stations(Hook):
     def __init__(self, gateway, *, types: frozenset[str], idle: float = CLAIM_IDLE,
                  grace: float = CLAIM_GRACE, admin_role: str | None = None, timetable=None, queue=None):
         """admin_role: who may release others' stations (None: anyone, as without --auth);

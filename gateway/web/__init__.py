@@ -1,9 +1,15 @@
-"""The HTTP side: the tornado application with every route in one place (``app``), the rosbridge
-websocket (``socket``), the pages and what the HTTP side lets through (``pages``), the JSON API
-base (``api``) and its apps: the program library, robot-side runs, recordings and playback, the
-teacher's class view, and signing in (``login``; ``lti``: launches from an LMS; ``cookies``: the
-cookie attributes browsers need in and out of an LMS's iframe); what the process logs, scrubbed of tokens and forged
-lines (``logs``).
+"""The HTTP side: thin routes over the parts the server started (``gateway.server``).
 
-May import: ``bridge``, ``rules``, ``backends`` (types), ``protocol``, ``settings``.
+Rooms: the route table (``app``: ``make_app``, and ``socket_app``, the websocket alone for the runs'
+unix socket); the rosbridge websocket (``socket``); the pages, the Host/body checks in front of every
+request (``pages``); the JSON API base (``api``: ``Handler``, the one place errors and domain refusals
+become answers; who is asking; query numbers); and the apps: the program library (``programs``),
+robot-side runs (``runs``: HTTP only, the runs themselves are ``gateway.runs``), recordings and their
+playback (``recordings``, ``playback``), the robots' history (``history``: what it keeps;
+``history_api``), the OPC UA twin (``opcua``), bookings and the walk-ins' queue (``bookings``),
+web_video_server's camera URLs (``video``), the teacher's class view (``classview``), signing in
+(``login``; ``lti``: launches from an LMS; ``cookies``: the cookie attributes browsers need in and
+out of an LMS's iframe); what the process logs, scrubbed of tokens and forged lines (``logs``).
+
+May import: ``bridge``, ``runs``, ``rules``, ``store``, ``backends`` (types), ``protocol``, ``settings``.
 """

@@ -4,24 +4,45 @@ as JSON, who is asking, and the checks in front of every request that changes so
 from __future__ import annotations
 
 import json
+import math
 
 import tornado.web
+from tornado.log import gen_log
 
-from ..rules.policy import PERMISSIONS
+from ..rules.errors import Refusal
+from ..rules.access import may
 from ..rules.tokens import AuthError
 
 
-class JsonHandler(tornado.web.RequestHandler):
+class Handler(tornado.web.RequestHandler):
+    """Every handler's errors, answered in one place: an HTTPError's message, or a refusal of the
+    domain (``rules.errors.Refusal``: a booking, a run, a recording) with its own status, is the
+    answer's reason; ``answer_error`` says how it is written (JSON here)."""
+
+    def write_error(self, status_code: int, **kwargs) -> None:
+        exc = kwargs.get('exc_info')
+        error, reason = exc[1] if exc else None, None
+        if isinstance(error, Refusal):
+            status_code, reason = error.status, error.message
+            self.set_status(status_code)
+        elif isinstance(error, tornado.web.HTTPError):
+            reason = error.log_message
+        self.answer_error(status_code, reason or self._reason)
+
+    def answer_error(self, status_code: int, reason: str) -> None:
+        self.finish(json.dumps({'error': reason, 'status': status_code}))
+
+    def log_exception(self, typ, value, tb) -> None:
+        if isinstance(value, Refusal):      # an answer, not a fault: logged as tornado logs an HTTPError
+            gen_log.warning('%d %s: %s', value.status, self._request_summary(), value.message)
+        else:
+            super().log_exception(typ, value, tb)
+
+
+class JsonHandler(Handler):
     def set_default_headers(self) -> None:
         self.set_header('Content-Type', 'application/json; charset=utf-8')
         self.set_header('Cache-Control', 'no-store')
-
-    def write_error(self, status_code: int, **kwargs) -> None:
-        reason = self._reason
-        exc = kwargs.get('exc_info')
-        if exc and isinstance(exc[1], tornado.web.HTTPError) and exc[1].log_message:
-            reason = exc[1].log_message
-        self.finish(json.dumps({'error': reason, 'status': status_code}))
 
 
 def caller(handler: tornado.web.RequestHandler, gateway, *, change: bool = False, roles=None):
@@ -76,6 +97,23 @@ def body_json(handler: tornado.web.RequestHandler, limit: int) -> dict:
     return value
 
 
+def query_number(handler: tornado.web.RequestHandler, name: str, default, what: str, *, kind=float,
+                 low: float = -math.inf, high: float = math.inf, blank: tuple[str, ...] = ('',)):
+    """``?name=`` as a finite number of ``kind`` (float or int) from ``low`` to ``high``: ``default``
+    when it is absent or one of ``blank``, a 400 saying it is ``what`` otherwise. Every API's
+    query numbers are read here."""
+    text = handler.get_query_argument(name, None)
+    if text is None or text.strip() in blank:
+        return default
+    try:
+        value = kind(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and low <= value <= high):
+        raise tornado.web.HTTPError(400, f'"{name}" is {what}, not {text[:40]!r}')
+    return value
+
+
 def require(handler: tornado.web.RequestHandler, policy, permission: str):
     """The caller's Identity (None when auth is off); raise 401 (no or bad token), 429 (too many
     failures) or 403 (role too low)."""
@@ -88,6 +126,6 @@ def require(handler: tornado.web.RequestHandler, policy, permission: str):
         raise tornado.web.HTTPError(e.status, str(e)) from None
     if identity is None:
         raise tornado.web.HTTPError(401, 'a token is required: sign in at /login or send Authorization: Bearer')
-    if permission not in PERMISSIONS[identity.role]:
+    if may(policy, identity, permission) is not None:
         raise tornado.web.HTTPError(403, f'role {identity.role} may not use this; it needs admin')
     return identity

@@ -3,10 +3,11 @@
 ``/`` upgrades to the rosbridge websocket (``socket``) and, as a plain GET, serves the IDE;
 ``/teleop``, ``/twin`` (the robot in 3D) and ``/class`` are the other pages; ``/health``; the JSON
 API apps (``/api/programs``, ``/api/runs``, ``/api/recordings``, ``/api/history``, ``/api/bookings``),
-the login pages and LTI's (``/lti/...``, with ``--lti``); the OPC UA server beside them (``--opcua``);
+the login pages and LTI's (``/lti/...``, with ``--lti``);
 web_video_server's camera URLs (``/stream``, ``/snapshot``, ``/stream_viewer``, ``/streams``: ``video``);
 the robot's description and meshes (``/urdf``, ``/package/PKG/PATH``: ``packages``);
-the IDE's static files last.
+the IDE's static files last. The parts behind the routes (runs, recordings, history, the OPC UA
+server) are started by the server's start (``gateway.server``), not here.
 """
 
 from __future__ import annotations
@@ -19,11 +20,9 @@ import tornado.web
 from ..bridge.gateway import Gateway
 from .bookings import booking_routes
 from .classview import ClassHandler
-from .history import start_history
 from .history_api import history_routes
-from .opcua import start_twin
-from .packages import package_routes
 from .language import Texts
+from .packages import package_routes
 from .login import login_routes
 from .lti import lti_routes
 from .pages import Application, PublicFileHandler, write_page
@@ -67,14 +66,26 @@ class IdeFileHandler(tornado.web.StaticFileHandler):
         self.set_header('Cache-Control', 'no-cache')
 
 
-def make_app(gateway: Gateway) -> tornado.web.Application:
+def options(settings) -> dict:
+    return {'websocket_max_message_size': settings.max_message_size * HARD_LIMIT_FACTOR,
+            'websocket_ping_interval': settings.websocket_ping_interval or None,
+            'websocket_ping_timeout': settings.websocket_ping_timeout}
+
+
+def websocket_route(gateway: Gateway) -> tuple:
+    ws_path = gateway.settings.url_path.rstrip('/') or '/'
+    return (ws_path if ws_path == '/' else ws_path + '/?', RosbridgeHandler, {'gateway': gateway})
+
+
+def socket_app(gateway: Gateway) -> tornado.web.Application:
+    """The websocket alone: what the runs reach on their unix socket."""
+    return Application(gateway, [websocket_route(gateway)], **options(gateway.settings))
+
+
+def make_app(gateway: Gateway, parts) -> tornado.web.Application:
+    """The route table over the parts the server started (``server.start``); it starts nothing."""
     settings, policy = gateway.settings, gateway.policy
-    ws_path = settings.url_path.rstrip('/') or '/'
-    websocket = (ws_path if ws_path == '/' else ws_path + '/?', RosbridgeHandler, {'gateway': gateway})
-    options = {'websocket_max_message_size': settings.max_message_size * HARD_LIMIT_FACTOR,
-               'websocket_ping_interval': settings.websocket_ping_interval or None,
-               'websocket_ping_timeout': settings.websocket_ping_timeout}
-    routes: list = [websocket]
+    routes: list = [websocket_route(gateway)]
     routes += [
         (r'/health', HealthHandler, {'gateway': gateway}),
         (r'/teleop/', tornado.web.RedirectHandler, {'url': '/teleop'}),
@@ -86,16 +97,12 @@ def make_app(gateway: Gateway) -> tornado.web.Application:
     ]
     texts = Texts(settings.ide_dir / 'i18n')    # the login and LTI pages' words, in the reader's language
     routes += login_routes(policy, texts)
-    if settings.extra.get('lti') is not None:
-        routes += lti_routes(settings.extra['lti'], policy, settings.examples_dir, texts)
-    if settings.programs_dir is not None:
-        routes += program_routes(settings.programs_dir, policy)
-    # runs reach the websocket alone, on a unix socket bound into their box (runs.py)
-    routes += run_routes(gateway, Application(gateway, [websocket], **options)) + recording_routes(gateway)
-    routes += booking_routes(gateway) + video_routes(gateway) + package_routes(gateway)
-    history = start_history(gateway)
-    routes += history_routes(history)
-    start_twin(gateway, history, settings.opcua)
+    if parts.lti is not None:
+        routes += lti_routes(parts.lti, policy, settings.examples_dir, texts)
+    if settings.storage.programs_dir is not None:
+        routes += program_routes(settings.storage.programs_dir, policy)
+    routes += run_routes(parts.runs) + recording_routes(parts.recordings)
+    routes += booking_routes(gateway) + video_routes(gateway) + history_routes(parts.history)
+    routes += package_routes(gateway)
     routes.append((r'/(.*)', PublicFileHandler, {'path': str(settings.ide_dir), 'default_filename': 'index.html'}))
-    return Application(
-        gateway, routes, compress_response=True, **options)
+    return Application(gateway, routes, compress_response=True, **options(settings))

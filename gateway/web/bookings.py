@@ -34,16 +34,17 @@ import re
 import icalendar
 import tornado.web
 
-from ..rules.bookings import BookingError, Slots
+from ..rules.access import ADMINS, OPERATORS, acts_as_admin, is_admin, owns
+from ..rules.bookings import Slots
 from ..rules.stations import person_of
-from .api import JsonHandler, body_json, caller
+from .api import JsonHandler, body_json, caller, query_number
 
 MAX_BODY = 4096
 ID = re.compile(r'[0-9]{1,12}')
 
 
 def _slots(gateway) -> Slots | None:
-    return next((h for h in gateway.hooks if isinstance(h, Slots)), None)
+    return gateway.ruleset.slots if gateway.ruleset is not None else None
 
 
 class _Handler(JsonHandler):
@@ -66,13 +67,7 @@ class _Handler(JsonHandler):
         return float(value)
 
     def arg_time(self, name: str) -> float | None:
-        text = self.get_query_argument(name, None)
-        if text is None or text == '':
-            return None
-        try:
-            return float(text)
-        except ValueError:
-            raise tornado.web.HTTPError(400, f'?{name}= is a time in epoch seconds, not {text[:40]!r}') from None
+        return query_number(self, name, None, 'a time in epoch seconds')
 
 
 def _view(booking, key: str | None) -> dict:
@@ -96,7 +91,7 @@ class BookingListHandler(_Handler):
                      'limits': {'per_day': lim.per_day, 'per_week': lim.per_week, 'ahead': lim.ahead}})
 
     async def post(self) -> None:
-        identity, key = self.who(change=True, roles=('operator', 'admin'))
+        identity, key = self.who(change=True, roles=OPERATORS)
         if key is None:
             raise tornado.web.HTTPError(403, 'a booking needs a person: sign in, or book from the gateway\'s pages')
         body = body_json(self, MAX_BODY)
@@ -106,7 +101,7 @@ class BookingListHandler(_Handler):
             raise tornado.web.HTTPError(404 if isinstance(station, str) else 400,
                                         f'"station" is one of the stations ({known}), not {str(station)[:40]!r}')
         start, end = self.number('start', body.get('start')), self.number('end', body.get('end'))
-        admin = identity is not None and identity.role == 'admin'
+        admin = is_admin(identity)
         name = identity.name if identity is not None else f'guest {key.split()[-1][:6]}'
         booker = key
         behalf = body.get('for')
@@ -116,10 +111,7 @@ class BookingListHandler(_Handler):
             if not isinstance(behalf, str) or not 0 < len(behalf.strip()) <= 100:
                 raise tornado.web.HTTPError(400, '"for" is the name or id of a person')
             booker, name = self.behalf(behalf.strip())
-        try:
-            booking = await self.slots.timetable.add(station, booker, name, start, end, exempt=admin)
-        except BookingError as e:
-            raise tornado.web.HTTPError(e.status, e.message) from None
+        booking = await self.slots.timetable.add(station, booker, name, start, end, exempt=admin)   # BookingError: answered by Handler
         self.set_status(201)
         self.finish(_view(booking, key))
 
@@ -142,7 +134,7 @@ class PeopleHandler(_Handler):
         pass   # the people are known with or without --booking
 
     def get(self) -> None:
-        self.who(roles=('admin',))
+        self.who(roles=ADMINS)
         sessions = getattr(self.gateway.policy, 'sessions', None)
         self.finish({'people': [p.json() for p in sessions.people()] if sessions is not None else []})
 
@@ -161,11 +153,10 @@ class BookingHandler(_Handler):
     async def delete(self, booking_id: str) -> None:
         identity, key = self.who(change=True)
         booking = self._booking(booking_id)
-        admin = identity is None or identity.role == 'admin'   # without --auth every request is an admin's
-        if booking.person != key and not admin:
+        if not owns(identity, booking.person == key):
             raise tornado.web.HTTPError(403, f'booking {booking.id} is {booking.name}\'s; only they or an admin '
                                              'may cancel it')
-        if booking.end <= self.slots.timetable.now() and not admin:
+        if booking.end <= self.slots.timetable.now() and not acts_as_admin(identity):
             raise tornado.web.HTTPError(409, f'booking {booking.id} has ended; past slots stay on the timetable')
         await self.slots.timetable.remove(booking)
         self.finish({**_view(booking, key), 'deleted': True})
@@ -177,7 +168,7 @@ class CalendarHandler(_Handler):
 
     def get(self) -> None:
         identity, key = self.who()
-        admin = identity is not None and identity.role == 'admin'
+        admin = is_admin(identity)
         found = self.slots.timetable.query(person=None if admin else key) if (key or admin) else []
         cal = icalendar.Calendar()
         cal.add('prodid', '-//rosgate//bookings//EN')
@@ -214,7 +205,7 @@ class QueueHandler(_Handler):
         self.answer(key)
 
     def post(self) -> None:
-        identity, key = self.who(change=True, roles=('operator', 'admin'))
+        identity, key = self.who(change=True, roles=OPERATORS)
         if key is None:
             raise tornado.web.HTTPError(403, 'the queue needs a person: sign in, or join from the gateway\'s pages')
         stations = self.slots.stations

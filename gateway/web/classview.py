@@ -10,11 +10,12 @@ from urllib.parse import quote
 
 import tornado.web
 
-from .api import require
+from ..rules.access import is_admin
+from .api import Handler, require
 from .pages import write_page
 
 
-class ClassHandler(tornado.web.RequestHandler):
+class ClassHandler(Handler):
     def initialize(self, gateway, page) -> None:
         self.gateway, self.page = gateway, page
 
@@ -28,14 +29,13 @@ class ClassHandler(tornado.web.RequestHandler):
                     raise
                 self.redirect(f'/login?next={quote("/class")}')
                 return
-            if identity.role != 'admin':
+            if not is_admin(identity):
                 raise tornado.web.HTTPError(403, f'the class view is for admins; {identity.name} is '
                                                  f'{identity.role}')
         write_page(self, self.page, cache='no-store')
 
-    def write_error(self, status_code: int, **kwargs) -> None:
-        exc = kwargs.get('exc_info')
-        reason = exc[1].log_message if exc and isinstance(exc[1], tornado.web.HTTPError) else None
+    def answer_error(self, status_code: int, reason: str) -> None:
+        shown = reason if reason != self._reason else 'the class view cannot be shown'
         self.set_header('Content-Type', 'text/plain; charset=UTF-8')
-        self.finish(f'{status_code} {self._reason}: {reason or "the class view cannot be shown"}\n'
+        self.finish(f'{status_code} {self._reason}: {shown}\n'
                     'Sign in as an admin at /login?next=/class\n')

@@ -32,8 +32,10 @@ from fnmatch import fnmatchcase
 import orjson
 import sqlalchemy as sa
 
+from ..rules.access import may
 from ..rules.names import parse_globs
 from ..store import METADATA
+from ..rules.hooks import Hook
 
 log = logging.getLogger('rosgate.history')
 
@@ -130,7 +132,7 @@ class _Tap:
         pass
 
 
-class History:
+class History(Hook):
     """The topics kept (their taps), the points waiting for the next batch, the latest value of
     each field (for the OPC UA face, ``listeners``), and the store work: batches, roll-ups, cap."""
 
@@ -163,7 +165,7 @@ class History:
         for topic, type in self.gateway.backend.topics():
             if topic in self.taps or topic in self.refused or not self.wants(topic, type):
                 continue
-            if not policy.allows(None, 'subscribe', topic):
+            if may(policy, None, 'subscribe', topic) is not None:
                 continue
             fan = None
             try:
@@ -335,12 +337,12 @@ def history_globs(value: str | None) -> tuple[str, ...] | None | bool:
 
 def start_history(gateway) -> History | None:
     """The gateway's history as its settings ask (None with --history none); it starts keeping now."""
-    s = gateway.settings
+    s = gateway.settings.twin
     globs = history_globs(s.history)
     if globs is False:
         return None
     history = History(gateway, globs, max_bytes=int(s.history_max_mb * 2**20),
                       full_seconds=s.history_full_hours * 3600)
-    gateway.hooks.append(history)
+    gateway.hooks.add(history)
     history.start()
     return history

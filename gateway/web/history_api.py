@@ -16,17 +16,14 @@ is subscribing to its past: the same name globs, roles and tokens apply as to a 
 
 from __future__ import annotations
 
-import math
 import time
 
 import orjson
 import sqlalchemy as sa
 import tornado.web
 
-from protocol.errors import ProtocolError
-
-from ..bridge.gateway import Sender
-from .api import JsonHandler, caller
+from ..rules.access import may
+from .api import JsonHandler, caller, query_number
 from .history import MINUTE, MINUTES, POINTS, SERIES, History
 
 DEFAULT_SPAN = 600.0
@@ -128,13 +125,8 @@ class _Handler(JsonHandler):
 
     def may_read(self, identity, topic: str) -> bool:
         """A read of a topic's past is a subscribe to it: the globs and the role decide."""
-        probe = Sender(identity.name if identity is not None else 'history', identity.role if identity else None)
-        try:
-            self.history.gateway.policy.check(probe, 'subscribe', topic, 'subscribe', None)
-        except ProtocolError as e:
-            self.refusal = e.message
-            return False
-        return True
+        self.refusal = may(self.history.gateway.policy, identity, 'subscribe', topic)
+        return self.refusal is None
 
 
 class HistoryHandler(_Handler):
@@ -196,16 +188,7 @@ class HistoryHandler(_Handler):
                                   **({'step': step_ms / 1000} if step_ms else {}), **data}))
 
     def number(self, name: str, default: float) -> float:
-        text = self.get_query_argument(name, None)
-        if text is None:
-            return default
-        try:
-            value = float(text)
-        except ValueError:
-            value = math.nan
-        if not math.isfinite(value):
-            raise tornado.web.HTTPError(400, f'"{name}" is a number (seconds since 1970 for from and to), not {text[:40]!r}')
-        return value
+        return query_number(self, name, default, 'a number (seconds since 1970 for from and to)')
 
 
 class HistoryStatsHandler(_Handler):

@@ -35,8 +35,9 @@ import tornado.httpclient
 import tornado.web
 
 from ..rules import lti
+from ..rules.access import is_admin
 from ..rules.lti import LaunchError
-from .api import check_origin
+from .api import Handler, check_origin
 from .cookies import clear_cookie, set_cookie
 from .language import Texts, best
 from .login import begin_session
@@ -148,7 +149,7 @@ PAGE = """<!doctype html><html lang="en"><head><meta charset="utf-8"><meta name=
 button{{font:inherit;padding:.4rem 1rem;margin:.3rem 0}}</style></head><body>{body}</body></html>"""
 
 
-class _Base(tornado.web.RequestHandler):
+class _Base(Handler):
     def initialize(self, lti_: Lti) -> None:
         self.lti = lti_
         self.script_nonce = secrets.token_urlsafe(12)
@@ -175,10 +176,8 @@ class _Base(tornado.web.RequestHandler):
                   f'<h1>{self.say("lti.refused")}</h1><p class="msg" id="reason">{html.escape(reason)}</p>'
                   f'<p>{self.say("lti.refused.text")}</p>', status)
 
-    def write_error(self, status_code: int, **kwargs) -> None:
-        exc = kwargs.get('exc_info')
-        reason = exc[1].log_message if exc and isinstance(exc[1], tornado.web.HTTPError) else None
-        self.refuse(reason or self._reason, status_code)
+    def answer_error(self, status_code: int, reason: str) -> None:
+        self.refuse(reason, status_code)
 
     def auto_post(self, action: str, fields: dict, note: str) -> None:
         inputs = ''.join(f'<input type="hidden" name="{html.escape(k)}" value="{html.escape(v)}">'
@@ -271,7 +270,7 @@ class LaunchHandler(_Base):
                                          lambda key, **v: self.say(key, lang, **v)))
 
     def _picker(self, identity, reg, claims) -> None:
-        if identity.role != 'admin':
+        if not is_admin(identity):
             self.refuse(f'adding rosgate to a course is for teachers; {identity.name} is {identity.role} here', 403)
             return
         ticket = secrets.token_urlsafe(24)

@@ -32,9 +32,10 @@ import socket
 import threading
 from datetime import datetime, timezone
 
-from ..rules.policy import PERMISSIONS
+from ..rules.access import may
 from ..rules.tokens import AuthError
 from ..settings import data_dir
+from ..rules.hooks import Hook
 
 log = logging.getLogger('rosgate.opcua')
 NAMESPACE = 'urn:rosgate:twin'
@@ -55,7 +56,7 @@ def split(topic: str, stations: tuple[str, ...]) -> tuple[str, list[str]]:
     return ROOT_FOLDER, topic.strip('/').split('/')
 
 
-class Twin:
+class Twin(Hook):
     """The OPC UA server on a thread and event loop of its own: asyncua builds its standard
     address space in pure Python at start (about ten seconds of one core on a busy machine), which
     on the gateway's loop would stall every client meanwhile. Points cross over in one dict
@@ -95,14 +96,10 @@ class Twin:
             log.exception('OPC UA server failed')
 
     async def _serve(self) -> None:
-        try:
-            from asyncua import Server, ua
-        except ImportError:
-            log.error('--opcua needs asyncua: pip install "rosgate[opcua]"')
-            return
+        from asyncua import Server, ua     # there: the start-up check refused --opcua without it
         logging.getLogger('asyncua').setLevel(logging.WARNING)   # it logs each node it makes at INFO
         self.loop, self.stopping, self.ua = asyncio.get_running_loop(), asyncio.Event(), ua
-        server = Server(user_manager=_Users(self.auth) if self.auth is not None else None)
+        server = Server(user_manager=_Users(self.gateway.policy) if self.auth is not None else None)
         await server.init()
         server.set_endpoint(f'opc.tcp://{self.host}:{self.port}/rosgate/')
         server.set_server_name('rosgate twin')
@@ -191,8 +188,8 @@ def _utc(t: float) -> datetime:
 class _Users:
     """asyncua's user manager: the user name and a token of that user, as with --auth elsewhere."""
 
-    def __init__(self, auth):
-        self.auth = auth
+    def __init__(self, policy):
+        self.policy = policy
 
     def get_user(self, iserver, username=None, password=None, certificate=None):
         from asyncua.crypto.permission_rules import User, UserRole
@@ -201,23 +198,22 @@ class _Users:
             log.info('OPC UA: a session without user name and token was refused')
             return None
         try:
-            identity = self.auth.token(f'opcua:{username[:64]}', password)
+            identity = self.policy.auth.token(f'opcua:{username[:64]}', password)
         except AuthError as e:
             log.info('OPC UA: %s refused: %s', username[:64], e)
             return None
-        if identity.name != username or 'subscribe' not in PERMISSIONS[identity.role]:
+        if identity.name != username or may(self.policy, identity, 'subscribe') is not None:
             log.info('OPC UA: %s refused: the token is not theirs', username[:64])
             return None
         return User(role=UserRole.User, name=identity.name)
 
 
 def start_twin(gateway, history, port: int | None) -> Twin | None:
+    """The OPC UA server with --opcua (the start-up check refused it without asyncua, or with
+    --history none)."""
     if port is None:
         return None
-    if history is None:
-        log.error('--opcua serves the history, and this gateway keeps none (--history none)')
-        return None
     twin = Twin(gateway, history, port)
-    gateway.hooks.append(twin)
+    gateway.hooks.add(twin)
     twin.start()
     return twin

@@ -123,8 +123,8 @@ class UrdfHandler(PackageHandler):
 
 
 def package_routes(gateway) -> list:
-    settings = gateway.settings
-    roots = package_roots(settings.mesh_path)
-    urdf = Path(settings.urdf).expanduser() if settings.urdf else None
+    twin = gateway.settings.twin
+    roots = package_roots(twin.mesh_path)
+    urdf = Path(twin.urdf).expanduser() if twin.urdf else None
     return [(r'/package/([^/]*)/(.*)', PackageHandler, {'gateway': gateway, 'roots': roots}),
             (r'/urdf', UrdfHandler, {'gateway': gateway, 'urdf': urdf})]

@@ -38,15 +38,14 @@ from pathlib import Path
 import cbor2
 import tornado.web
 
-from protocol.errors import ProtocolError
-
 from ..bridge.gateway import Sender
-from ..rules.lease import who
+from ..rules.access import OPERATORS, may, owns
 from ..rules.names import parse_globs
 from ..rules.stations import person_of
 from .api import JsonHandler, body_json, caller
 from .playback import Playback
 from ..settings import data_dir
+from ..rules.hooks import Hook
 
 log = logging.getLogger('rosgate.recordings')
 _ID = re.compile(r'rec-\d{8}-\d{6}-[0-9a-f]{4}')
@@ -168,7 +167,7 @@ def definition(backend, type: str, msgdef) -> tuple[str, str]:
     return text, store.hash_rihs01(type)
 
 
-class RecordingManager:
+class RecordingManager(Hook):
     def __init__(self, gateway, dir: Path, limits: RecordingLimits = RecordingLimits()):
         self.gateway, self.dir, self.limits = gateway, Path(dir), limits
         self.recordings: dict[str, Recording] = {}
@@ -213,7 +212,7 @@ class RecordingManager:
         to a subscriber (a recording is a way to subscribe)."""
         policy = self.gateway.policy
         for topic, type in self.gateway.backend.topics():
-            if topic not in rec.connections and rec.wants(topic) and policy.allows(None, 'subscribe', topic):
+            if topic not in rec.connections and rec.wants(topic) and may(policy, None, 'subscribe', topic) is None:
                 try:
                     rec.add_topic(topic, type)
                 except Exception as e:   # an unknown type, a definition rosbags cannot parse, ...
@@ -269,7 +268,7 @@ class RecordingManager:
     def check_owner(self, rec_id: str, identity, verb: str) -> None:
         """Only who started a recording (or an admin) may stop, play, download or delete it;
         one that nobody signed in started is an admin's to change when auth is on."""
-        if identity is None or identity.role == 'admin' or not _ID.fullmatch(rec_id):
+        if owns(identity, False) or not _ID.fullmatch(rec_id):
             return   # a name that is no recording's gets its 404 from path()
         if rec_id not in self.recordings and not (self.dir / rec_id).is_dir():
             return
@@ -318,10 +317,9 @@ class RecordingManager:
         probe = Sender(name, role, person=person)   # not opened: only asked about
         lease = getattr(policy, 'lease', None)
         for topic, type in playback.targets():
-            try:
-                policy.check(probe, 'publish', topic, 'publish', None)
-            except ProtocolError as e:
-                raise tornado.web.HTTPError(403, f'cannot play into {topic}: {e.message}') from None
+            why = may(policy, probe, 'publish', topic)
+            if why is not None:
+                raise tornado.web.HTTPError(403, f'cannot play into {topic}: {why}')
             refusal = lease.topic_refusal(person, topic, type) if lease is not None else None
             if refusal is not None:
                 raise tornado.web.HTTPError(409, f'cannot play into {topic}: {refusal}')
@@ -374,7 +372,7 @@ class RecordingListHandler(_Handler):
 
     def post(self) -> None:
         m = self.manager
-        identity = caller(self, m.gateway, change=True, roles=('operator', 'admin'))
+        identity = caller(self, m.gateway, change=True, roles=OPERATORS)
         body = body_json(self, 64 * 1024)
         topics = body.get('topics')
         if not isinstance(topics, list) or not topics or not all(isinstance(t, str) and t.startswith('/') for t in topics):
@@ -399,7 +397,7 @@ class RecordingHandler(_Handler):
 
     def delete(self, rec_id: str) -> None:
         m = self.manager
-        identity = caller(self, m.gateway, change=True, roles=('operator', 'admin'))
+        identity = caller(self, m.gateway, change=True, roles=OPERATORS)
         m.check_owner(rec_id, identity, 'stop or delete')
         rec = m.recordings.get(rec_id)
         if rec is not None and rec.state == 'recording':
@@ -433,7 +431,7 @@ class RecordingFileHandler(_Handler):
 class PlayHandler(_Handler):
     def post(self, rec_id: str) -> None:
         m = self.manager
-        identity = caller(self, m.gateway, change=True, roles=('operator', 'admin'))
+        identity = caller(self, m.gateway, change=True, roles=OPERATORS)
         m.check_owner(rec_id, identity, 'play')
         body = body_json(self, 4096) if self.request.body else {}
         rate = body.get('rate', 1.0)
@@ -447,23 +445,29 @@ class PlayHandler(_Handler):
 
     def delete(self, rec_id: str) -> None:
         m = self.manager
-        identity = caller(self, m.gateway, change=True, roles=('operator', 'admin'))
+        identity = caller(self, m.gateway, change=True, roles=OPERATORS)
         player = m.player(rec_id)
-        if identity is not None and identity.role != 'admin' and player is not None and player != identity.owner:
+        if player is not None and not owns(identity, identity is not None and player == identity.owner):
             raise tornado.web.HTTPError(403, f'{player} plays {rec_id}; {identity.name} may not stop it')
         self.finish({'stopped': m.stop_playing(rec_id)})
 
 
-def recording_routes(gateway) -> list:
-    """The /api/recordings routes; with --record, the start-up recording begins here."""
-    settings = gateway.settings
-    record = settings.record
-    folder = settings.recordings_dir or record
+def start_recordings(gateway) -> RecordingManager:
+    """The recordings' manager (a part of the gateway's hooks); with --record, the start-up
+    recording begins once the loop runs."""
+    storage = gateway.settings.storage
+    record = storage.record
+    folder = storage.recordings_dir or record
     manager = RecordingManager(gateway, Path(folder) if folder else default_recordings_dir())
-    gateway.hooks.append(manager)
+    gateway.hooks.add(manager)
     if record:
-        globs = parse_globs(settings.record_topics) or ('/*',)
+        globs = parse_globs(storage.record_topics) or ('/*',)
         asyncio.get_running_loop().call_soon(_start_up, manager, globs)
+    return manager
+
+
+def recording_routes(manager: RecordingManager) -> list:
+    """The /api/recordings routes."""
     kw = {'manager': manager}
     return [(r'/api/recordings/?', RecordingListHandler, kw),
             (r'/api/recordings/([^/]+)\.mcap', RecordingFileHandler, kw),

@@ -170,10 +170,7 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
                                      self.request.remote_ip or '')
         self.session.attrs.update(self.gateway.policy.connect_attrs(self.request))
         self.session.open()
-        for hook in self.gateway.hooks:   # e.g. a robot-side run knowing its own connection
-            on_connect = getattr(hook, 'on_connect', None)
-            if on_connect:
-                on_connect(self.session, self.request)
+        self.gateway.hooks.connect(self.session, self.request)   # e.g. a robot-side run knowing its own connection
         self.gateway.count_clients()
         timeout = self.gateway.settings.auth_timeout
         if not self.gateway.policy.signed_in(self.session) and timeout > 0:

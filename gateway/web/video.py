@@ -43,8 +43,8 @@ from protocol.ops import MAX_IMAGE_SIDE
 
 from ..bridge import images
 from ..bridge.gateway import Gateway
-from ..rules.policy import PERMISSIONS
-from .api import caller
+from ..rules.access import may
+from .api import Handler, caller, query_number
 from .socket import bound_unsent
 
 BOUNDARY = 'boundarydonotcross'
@@ -216,19 +216,17 @@ def reply_head(status: str, headers: list[tuple[str, str]]) -> bytes:
     return (f'HTTP/1.0 {status}\r\n' + ''.join(f'{k}: {v}\r\n' for k, v in headers) + '\r\n').encode()
 
 
-class VideoHandler(tornado.web.RequestHandler):
+class VideoHandler(Handler):
     """The checks in front of every video URL; the replies themselves are written on the
     detached connection, byte for byte as web_video_server writes them."""
 
     def initialize(self, video: Video) -> None:
         self.video = video
 
-    def write_error(self, status_code: int, **kwargs) -> None:
-        exc = kwargs.get('exc_info')
-        reason = exc[1].log_message if exc and isinstance(exc[1], tornado.web.HTTPError) else None
+    def answer_error(self, status_code: int, reason: str) -> None:
         self.set_header('Content-Type', 'text/plain; charset=UTF-8')
         self.set_header('Cache-Control', 'no-store')
-        self.finish(f'{status_code} {self._reason}: {reason or self._reason}\n')
+        self.finish(f'{status_code} {self._reason}: {reason}\n')
 
     @property
     def open_cors(self) -> bool:
@@ -238,12 +236,10 @@ class VideoHandler(tornado.web.RequestHandler):
     def allowed(self, topic: str | None = None) -> None:
         """The rules of a subscribe: a token and a role that may subscribe (with --auth), and
         the topic globs (401/403 otherwise)."""
-        policy = self.video.gateway.policy
         identity = caller(self, self.video.gateway)
-        if identity is not None and 'subscribe' not in PERMISSIONS[identity.role]:
-            raise tornado.web.HTTPError(403, f'role {identity.role} may not subscribe')
-        if topic is not None and not policy.allows(None, 'subscribe', topic):
-            raise tornado.web.HTTPError(403, f'{topic} is not allowed for subscribe by this gateway')
+        why = may(self.video.gateway.policy, identity, 'subscribe', topic)
+        if why is not None:
+            raise tornado.web.HTTPError(403, why)
 
     def topic(self) -> str:
         topic = self.get_query_argument('topic', '').strip()
@@ -258,16 +254,8 @@ class VideoHandler(tornado.web.RequestHandler):
         return kind
 
     def number(self, name: str, default: int, low: int, high: int) -> int:
-        text = self.get_query_argument(name, None)
-        if text is None or text.strip() in ('', '-1'):
-            return default
-        try:
-            value = int(text)
-        except ValueError:
-            raise tornado.web.HTTPError(400, f'{name} must be an integer, got {text[:40]!r}') from None
-        if not low <= value <= high:
-            raise tornado.web.HTTPError(400, f'{name} must be from {low} to {high}, got {value}')
-        return value
+        return query_number(self, name, default, f'an integer from {low} to {high}', kind=int, low=low, high=high,
+                            blank=('', '-1'))
 
     def target(self, kind: str) -> images.Target:
         width = self.number('width', 0, 1, MAX_IMAGE_SIDE) or None
@@ -353,7 +341,7 @@ class ListHandler(VideoHandler):
         self.allowed()
         policy = self.video.gateway.policy
         types = {name: type for name, type in self.video.gateway.backend.topics()
-                 if policy.allows(None, 'subscribe', name)}
+                 if may(policy, None, 'subscribe', name) is None}
         head = reply_head('200 OK', [('Connection', 'close'), ('Server', 'web_video_server'),
                                      ('Cache-Control', NO_CACHE), ('Pragma', 'no-cache'),
                                      ('Content-type', 'text/html;')])

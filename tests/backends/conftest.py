@@ -14,17 +14,10 @@ from dataclasses import dataclass
 import pytest
 import pytest_asyncio
 
-from .support import until
+from tests.support.contract import rclpy_missing
+from tests.support.wait import until
 
 SIM_STEP = 0.05   # seconds per Fibonacci step, both backends
-
-
-def rclpy_missing() -> str | None:
-    try:
-        import rclpy  # noqa: F401
-    except ImportError as e:
-        return str(e)
-    return None
 
 
 @dataclass

@@ -14,7 +14,7 @@ from gateway.backends.base import (
     BackendError,
 )
 
-from .support import until
+from tests.support.wait import until
 
 pytestmark = pytest.mark.asyncio(loop_scope='session')
 

@@ -15,9 +15,8 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import wait_for
-
-from .conftest import rclpy_missing
+from tests.support.contract import rclpy_missing
+from tests.support.wait import wait_for
 
 ROOT = Path(__file__).resolve().parents[2]
 pytestmark = [

@@ -8,7 +8,7 @@ import pytest
 
 from gateway.backends.base import BackendError, QoS
 
-from .support import until
+from tests.support.wait import until
 
 pytestmark = pytest.mark.asyncio(loop_scope='session')
 

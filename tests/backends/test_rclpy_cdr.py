@@ -8,8 +8,7 @@ import math
 
 import pytest
 
-from .conftest import rclpy_missing
-from .support import same
+from tests.support.contract import rclpy_missing, same
 
 pytestmark = pytest.mark.skipif(rclpy_missing() is not None,
                                 reason=f'rclpy does not import here: {rclpy_missing()}')

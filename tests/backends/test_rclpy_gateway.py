@@ -15,10 +15,9 @@ import cbor2
 import pytest
 from tornado.websocket import websocket_connect
 
-from .conftest import rclpy_missing
-from tests.rawsocket import client_frame, raw_websocket
-
-from .support import until
+from tests.support.contract import rclpy_missing
+from tests.support.rawsocket import client_frame, raw_websocket
+from tests.support.wait import until
 
 pytestmark = [
     pytest.mark.asyncio(loop_scope='session'),

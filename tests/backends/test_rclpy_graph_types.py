@@ -30,8 +30,8 @@ from tornado.websocket import websocket_connect
 
 from protocol.msgdefs import INTERFACES_DIR
 
-from .conftest import rclpy_missing
-from .support import until
+from tests.support.contract import rclpy_missing
+from tests.support.wait import until
 
 pytestmark = [
     pytest.mark.asyncio(loop_scope='session'),

@@ -13,8 +13,8 @@ import pytest
 
 from gateway.backends.base import QoS
 
-from .conftest import rclpy_missing
-from .support import roundtrip, until
+from tests.support.contract import rclpy_missing, roundtrip
+from tests.support.wait import until
 
 pytestmark = [
     pytest.mark.asyncio(loop_scope='session'),

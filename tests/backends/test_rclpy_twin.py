@@ -15,10 +15,11 @@ import os
 import pytest
 import roslibpy
 
-from tests.conftest import client, wait_for
-from tests.ide.testbot import URDF, occupancy_grid, write_package
+from tests.support.ros import client
+from tests.support.wait import wait_for
+from tests.support.testbot import URDF, occupancy_grid, write_package
 
-from .conftest import rclpy_missing
+from tests.support.contract import rclpy_missing
 
 pytestmark = [
     pytest.mark.asyncio(loop_scope='session'),

@@ -12,8 +12,7 @@ import pytest
 from gateway.backends.rclpy.types import parse_idl_type
 from protocol.msgdefs import Field, UnknownType
 
-from .conftest import rclpy_missing
-from .support import same
+from tests.support.contract import rclpy_missing, same
 
 
 @pytest.mark.parametrize('idl, field', [

@@ -9,10 +9,9 @@ import io
 import pytest
 from PIL import Image
 
-from tests.gateway.camera import Stream, frames, stream_head
-
-from .conftest import rclpy_missing
-from .support import until
+from tests.support.camera import Stream, frames, stream_head
+from tests.support.contract import rclpy_missing
+from tests.support.wait import until
 
 pytestmark = [
     pytest.mark.asyncio(loop_scope='session'),

@@ -13,7 +13,7 @@ from gateway.bridge.gateway import Gateway
 from gateway.web.recordings import RecordingManager
 from gateway.settings import Settings
 
-from .support import until
+from tests.support.wait import until
 
 pytestmark = pytest.mark.asyncio(loop_scope='session')
 STRING = 'std_msgs/msg/String'

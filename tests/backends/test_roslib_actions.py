@@ -11,9 +11,10 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import client, wait_for
+from tests.support.ros import client
+from tests.support.wait import wait_for
 
-from .conftest import rclpy_missing
+from tests.support.contract import rclpy_missing
 
 ROOT = Path(__file__).resolve().parents[2]
 NODE_DIR = ROOT / 'tests' / 'node'

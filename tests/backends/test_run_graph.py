@@ -8,22 +8,20 @@ Run inside a loopback-only network namespace, as ``make test-rclpy`` does.
 
 from __future__ import annotations
 
-import json
 import os
 import socket
 import subprocess
 import sys
 import threading
-import urllib.error
-import urllib.request
 from pathlib import Path
 
 import pytest
 
-from tests.conftest import wait_for
-from tests.security.conftest import TOKENS, tokens_toml
-
-from .conftest import rclpy_missing
+from tests.support.auth import TOKENS, tokens_toml
+from tests.support.contract import rclpy_missing
+from tests.support.http import api
+from tests.support.process import descendants, uids
+from tests.support.wait import wait_for
 
 ROOT = Path(__file__).resolve().parents[2]
 RUNTIME = (ROOT / 'ide' / 'runtime' / 'rosgate_runtime.py').read_text()
@@ -114,16 +112,7 @@ def robot_gw(start_gateway, tmp_path_factory, robot):
 
 
 def state(gw, path: str, who: str, method: str = 'GET', body=None):
-    req = urllib.request.Request(gw.http_url.rstrip('/') + path, method=method,
-                                 data=None if body is None else json.dumps(body).encode())
-    req.add_header('Authorization', f'Bearer {TOKENS[who]}')
-    if body is not None:
-        req.add_header('Content-Type', 'application/json')
-    try:
-        with urllib.request.urlopen(req, timeout=10) as res:
-            return res.status, json.loads(res.read())
-    except urllib.error.HTTPError as e:
-        return e.code, json.loads(e.read() or b'null')
+    return api(gw, method, path, body, TOKENS[who])
 
 
 def run(gw, source: str, who: str = 'operator', **kw) -> dict:
@@ -226,27 +215,6 @@ def test_a_checkers_tcp_and_udp_listeners_hear_nothing_from_a_run(robot_gw):
     finally:
         tcp.close()
         udp.close()
-
-
-def uids(pid: int) -> list[int]:
-    for line in Path(f'/proc/{pid}/status').read_text().splitlines():
-        if line.startswith('Uid:'):
-            return [int(v) for v in line.split()[1:]]
-    return []
-
-
-def descendants(pid: int) -> list[int]:
-    found, todo = [], [pid]
-    while todo:
-        p = todo.pop()
-        try:
-            children = [int(c) for t in os.listdir(f'/proc/{p}/task')
-                        for c in Path(f'/proc/{p}/task/{t}/children').read_text().split()]
-        except OSError:
-            continue
-        found += children
-        todo += children
-    return found
 
 
 DRIVES = RUNTIME + '''

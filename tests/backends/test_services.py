@@ -9,7 +9,7 @@ import pytest
 
 from gateway.backends.base import SERVER_WAIT, BackendError, ServiceTimeout
 
-from .support import until
+from tests.support.wait import until
 
 pytestmark = pytest.mark.asyncio(loop_scope='session')
 

@@ -10,7 +10,7 @@ import pytest
 
 from gateway.rules.stations import find_stations
 
-from .support import until
+from tests.support.wait import until
 
 pytestmark = pytest.mark.asyncio(loop_scope='session')
 TWIST = 'geometry_msgs/msg/Twist'

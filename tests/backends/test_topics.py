@@ -10,7 +10,8 @@ import pytest
 from gateway.backends.base import BackendError, QoS
 from protocol.msgdefs import Definitions
 
-from .support import roundtrip, same, until
+from tests.support.contract import roundtrip, same
+from tests.support.wait import until
 
 pytestmark = pytest.mark.asyncio(loop_scope='session')
 

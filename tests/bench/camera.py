@@ -75,7 +75,7 @@ class Camera(threading.Thread):
     def __init__(self, port: int, topic: str):
         super().__init__(daemon=True)
         import roslibpy
-        from tests.gateway.camera import frames
+        from tests.support.camera import frames
         self.roslibpy = roslibpy
         self.ros = roslibpy.Ros('127.0.0.1', port)
         self.ros.run(timeout=10)

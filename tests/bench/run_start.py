@@ -25,7 +25,7 @@ import time
 import urllib.request
 from pathlib import Path
 
-from tests.conftest import GatewayProcess, Started
+from tests.support.process import GatewayProcess, Started
 
 ROOT = Path(__file__).resolve().parents[2]
 PRINT = 'import time\nprint("up %.6f" % time.time(), flush=True)\n'

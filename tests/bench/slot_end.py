@@ -24,8 +24,8 @@ import urllib.request
 
 import roslibpy
 
-from tests.conftest import GatewayProcess
-from tests.security.conftest import TOKENS, tokens_toml
+from tests.support.auth import TOKENS, tokens_toml
+from tests.support.process import GatewayProcess
 
 START = 5.544445
 

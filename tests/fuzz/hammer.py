@@ -25,10 +25,11 @@ from collections.abc import Callable
 from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
 
-from tests.conftest import GatewayProcess, proc_bytes, wait_for
-from tests.fuzz.client import Closed, FuzzConn
-from tests.fuzz.frames import frame
-from tests.rawsocket import upgrade_request
+from tests.support.fuzzclient import Closed, FuzzConn
+from tests.support.fuzzframes import frame
+from tests.support.process import GatewayProcess, proc_bytes
+from tests.support.rawsocket import upgrade_request
+from tests.support.wait import wait_for
 
 SET_LEVEL = json.dumps({'op': 'set_level', 'level': 'error'})
 MB = 2**20

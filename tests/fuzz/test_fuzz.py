@@ -18,10 +18,10 @@ import pytest
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
-from tests.conftest import proc_bytes
-from tests.fuzz.client import Closed, FuzzConn
-from tests.fuzz.frames import frame
-from tests.gateway.rawclient import Raw
+from tests.support.fuzzclient import Closed, FuzzConn
+from tests.support.fuzzframes import frame
+from tests.support.process import proc_bytes
+from tests.support.rawclient import Raw
 
 EXAMPLES = 1000
 BUDGET = 20.0   # seconds of fuzzing at most; examples past it are skipped (a slow machine runs fewer)

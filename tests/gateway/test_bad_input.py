@@ -10,8 +10,8 @@ import pytest
 import roslibpy
 import websockets
 
-from tests.conftest import wait_for
-from tests.gateway.rawclient import Raw
+from tests.support.rawclient import Raw
+from tests.support.wait import wait_for
 
 
 @pytest.fixture
@@ -220,3 +220,20 @@ def test_slow_client_does_not_stall_others(start_gateway):
     finally:
         slow.close()
     assert gw.alive
+
+
+@pytest.mark.parametrize('kind, advertise, unadvertise', [
+    ('topic', {'op': 'advertise', 'type': 'std_msgs/msg/Int32'}, 'unadvertise'),
+    ('service', {'op': 'advertise_service', 'type': 'std_srvs/srv/Empty'}, 'unadvertise_service'),
+    ('action', {'op': 'advertise_action', 'type': 'example_interfaces/action/Fibonacci'}, 'unadvertise_action'),
+])
+def test_unadvertising_what_this_client_does_not_advertise_is_a_warning(raw, kind, advertise, unadvertise):
+    name = f'/mine/{kind}'
+    raw.send({'op': 'set_level', 'level': 'warning'})
+    raw.send({'op': unadvertise, 'id': 'u1', kind: name})
+    status = raw.status('u1')
+    assert status['level'] == 'warning' and f'{name} is not advertised by this client' in status['msg'], status
+    raw.send({**advertise, kind: name})
+    raw.send({'op': unadvertise, 'id': 'u2', kind: name})     # this one is the client's: no status
+    raw.send({'op': unadvertise, 'id': 'u3', kind: name})     # and now it is gone again
+    assert raw.status()['id'] == 'u3'

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import pytest
 
-from tests.gateway.rawclient import Raw
+from tests.support.rawclient import Raw
 
 STRING = 'std_msgs/msg/String'
 # one of each length encoding per round: 7-bit (< 126), 16-bit, 64-bit (> 65535)

@@ -8,7 +8,7 @@ import json
 
 import pytest
 
-from tests.gateway.rawclient import Raw
+from tests.support.rawclient import Raw
 
 STRING = 'std_msgs/msg/String'
 # frame payload lengths: 7-bit, its largest; 16-bit, its smallest and largest; 64-bit; several reads

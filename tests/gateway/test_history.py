@@ -5,12 +5,14 @@ from __future__ import annotations
 
 import time
 import urllib.request
+from contextlib import contextmanager
 
 import pytest
 import roslibpy
 
-from tests.conftest import client as connect, wait_for
-from tests.gateway.test_runs import api
+from tests.support.http import api
+from tests.support.ros import client as connect, stream, twist
+from tests.support.wait import wait_for
 
 BATTERY = '/s01/battery_state'
 
@@ -25,23 +27,31 @@ def history(gw, topic, field, **params) -> tuple[int, dict]:
     return api(gw, 'GET', f'/api/history?{query}')
 
 
+@contextmanager
+def driving(ros, cmd_topic: str, move: dict, seconds: float, watched: str, type_: str, field: str):
+    """Drives with ``move`` on cmd_topic for ``seconds`` (10 Hz) while noting ``field`` of every message
+    of ``watched``; (start, end, the values noted) in wall time, still noting until the block ends."""
+    seen: list[float] = []
+    topic = roslibpy.Topic(ros, watched, type_)
+    topic.subscribe(lambda m: seen.append(m[field]))
+    cmd = roslibpy.Topic(ros, cmd_topic, 'geometry_msgs/msg/Twist')
+    cmd.advertise()
+    t0 = time.time()
+    stream(cmd, move, seconds, rate=10)
+    try:
+        yield t0, time.time(), seen
+    finally:
+        topic.unsubscribe()
+        cmd.unadvertise()
+
+
 @pytest.fixture(scope='module')
 def drove(fleet):
     """/s01 driven in a circle for 20 s while a subscriber notes every battery percentage it gets."""
-    seen: list[float] = []
-    with connect(fleet) as ros:
-        battery = roslibpy.Topic(ros, BATTERY, 'sensor_msgs/msg/BatteryState')
-        battery.subscribe(lambda m: seen.append(m['percentage']))
-        cmd = roslibpy.Topic(ros, '/s01/cmd_vel', 'geometry_msgs/msg/Twist')
-        cmd.advertise()
-        t0 = time.time()
-        while time.time() - t0 < 20:
-            cmd.publish(roslibpy.Message({'linear': {'x': 0.3, 'y': 0, 'z': 0}, 'angular': {'x': 0, 'y': 0, 'z': 0.5}}))
-            time.sleep(0.1)
-        t1 = time.time()
+    with connect(fleet) as ros, \
+            driving(ros, '/s01/cmd_vel', twist(0.3, 0.5), 20, BATTERY, 'sensor_msgs/msg/BatteryState', 'percentage') \
+            as (t0, t1, seen):
         wait_for(lambda: len(history(fleet, BATTERY, 'percentage', **{'from': t0, 'to': t1 + 5})[1]['t']) >= 15, 15, 0.2)
-        battery.unsubscribe()
-        cmd.unadvertise()
     return t0, t1, seen
 
 
@@ -155,20 +165,11 @@ def test_reading_history_obeys_the_subscribe_rules(start_gateway, tmp_path):
 
 def test_a_turtle_fleet_keeps_each_turtles_pose(start_gateway):
     gw = start_gateway('--fleet', '2')
-    seen: list[float] = []
-    with connect(gw) as ros:
-        pose = roslibpy.Topic(ros, '/s01/turtle1/pose', 'turtlesim/msg/Pose')
-        pose.subscribe(lambda m: seen.append(m['x']))
-        cmd = roslibpy.Topic(ros, '/s01/turtle1/cmd_vel', 'geometry_msgs/msg/Twist')
-        cmd.advertise()
-        t0 = time.time()
-        while time.time() - t0 < 6:
-            cmd.publish(roslibpy.Message({'linear': {'x': 1.0, 'y': 0, 'z': 0}, 'angular': {'x': 0, 'y': 0, 'z': 0.3}}))
-            time.sleep(0.1)
-        t1 = time.time()
+    with connect(gw) as ros, \
+            driving(ros, '/s01/turtle1/cmd_vel', twist(1.0, 0.3), 6, '/s01/turtle1/pose', 'turtlesim/msg/Pose', 'x') \
+            as (t0, t1, seen):
         body = wait_for(lambda: (lambda b: b if len(b.get('t', [])) >= 4 else None)(
             history(gw, '/s01/turtle1/pose', 'x', **{'from': t0, 'to': t1})[1]), 15, 0.2)
-        pose.unsubscribe()
     assert body['v'][-1] > body['v'][0]                 # it drove on
     for v in body['v']:
         assert min(abs(v - s) for s in seen) < 1e-6

@@ -136,8 +136,8 @@ def test_over_the_cap_the_oldest_tenth_goes(store):
 
 
 def test_a_gateway_keeps_its_history_in_postgresql(start_gateway, postgres):
-    from tests.conftest import wait_for
-    from tests.gateway.test_runs import api
+    from tests.support.http import api
+    from tests.support.wait import wait_for
 
     gw = start_gateway('--robot', 'rover', '--db', postgres)
     body = wait_for(lambda: (lambda b: b if len(b.get('t', [])) >= 3 else None)(

@@ -12,9 +12,10 @@ import pytest
 from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
 
-from tests.conftest import proc_bytes, wait_for
-from tests.gateway.rawclient import Raw
-from tests.rawsocket import client_frame, raw_websocket
+from tests.support.process import proc_bytes
+from tests.support.rawclient import Raw
+from tests.support.rawsocket import client_frame, raw_websocket
+from tests.support.wait import wait_for
 
 
 @pytest.fixture
@@ -157,7 +158,6 @@ def test_a_client_that_does_not_read_its_replies_costs_the_server_little_memory(
         left = proc_bytes(gw.pid, 'VmRSS') - before
         assert left < 10 * 2**20, f'RSS is still {left / 2**20:.1f} MiB above where it was'
         assert other.call('/rosapi/get_time')['values']['time']['sec'] > 0
-
 
 
 def closed_with(ws) -> tuple[list, int, str]:

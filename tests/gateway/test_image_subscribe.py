@@ -5,39 +5,22 @@ from __future__ import annotations
 
 import base64
 import io
-import json
 import time
-import urllib.request
 
 import pytest
 import roslibpy
 from PIL import Image
 
 from tests.bench.camera import ws_client, ws_stamps
-from tests.conftest import client, wait_for
-from tests.gateway.camera import Camera
-from tests.gateway.rawclient import Raw
+from tests.support.http import http
+from tests.support.rawclient import Raw
+from tests.support.ros import client
 
 TOPIC = '/cam/image_raw/compressed'
 
 
-@pytest.fixture(scope='module')
-def gw(start_gateway):
-    return start_gateway('--robot', 'none')
-
-
-@pytest.fixture(scope='module')
-def camera(gw):
-    with client(gw) as ros:
-        cam = Camera(ros, TOPIC)
-        wait_for(lambda: cam.count >= 3, 10)
-        yield cam
-        cam.close()
-
-
-def rendered(gw) -> int:
-    with urllib.request.urlopen(gw.http_url + 'health', timeout=10) as r:
-        return json.load(r)['images_rendered']
+def rendered(cam_gw) -> int:
+    return http(cam_gw, '/health').json()['images_rendered']
 
 
 def image_of(msg: dict) -> Image.Image:
@@ -50,8 +33,8 @@ def is_publish(msg: dict) -> bool:
 
 
 @pytest.mark.parametrize('compression', ['none', 'cbor'])
-def test_a_smaller_jpeg_on_request(gw, camera, compression):
-    c = Raw(gw.ws_url)
+def test_a_smaller_jpeg_on_request(cam_gw, camera, compression):
+    c = Raw(cam_gw.ws_url)
     try:
         c.send({'op': 'subscribe', 'topic': TOPIC, 'id': 'small', 'compression': compression,
                 'image': {'width': 320, 'quality': 50}})
@@ -66,30 +49,30 @@ def test_a_smaller_jpeg_on_request(gw, camera, compression):
         c.ws.close()
 
 
-def test_one_render_per_size_for_all_subscribers(gw, camera):
-    clients = [Raw(gw.ws_url) for _ in range(6)]
+def test_one_render_per_size_for_all_subscribers(cam_gw, camera):
+    clients = [Raw(cam_gw.ws_url) for _ in range(6)]
     try:
         for i, c in enumerate(clients):
             c.send({'op': 'subscribe', 'topic': TOPIC, 'id': f's{i}', 'image': {'width': 160, 'height': 120,
                                                                               'quality': 40}})
         for c in clients:
             c.expect(is_publish, 10)
-        before, published = rendered(gw), camera.count
+        before, published = rendered(cam_gw), camera.count
         for _ in range(4):
             for c in clients:
                 assert image_of(c.expect(is_publish, 10)).size == (160, 120)
         frames = camera.count - published
-        assert rendered(gw) - before <= frames + 1, (rendered(gw) - before, frames)
+        assert rendered(cam_gw) - before <= frames + 1, (rendered(cam_gw) - before, frames)
     finally:
         for c in clients:
             c.ws.close()
 
 
-def test_a_raw_image_topic(gw):
-    with client(gw) as ros:
+def test_a_raw_image_topic(cam_gw):
+    with client(cam_gw) as ros:
         topic = roslibpy.Topic(ros, '/raw/image', 'sensor_msgs/msg/Image')
         topic.advertise()
-        c = Raw(gw.ws_url)
+        c = Raw(cam_gw.ws_url)
         try:
             c.send({'op': 'subscribe', 'topic': '/raw/image', 'type': 'sensor_msgs/msg/Image',
                     'image': {'width': 32}})
@@ -114,8 +97,8 @@ def test_a_raw_image_topic(gw):
             topic.unadvertise()
 
 
-def test_refused_where_it_does_not_apply(gw, camera):
-    c = Raw(gw.ws_url)
+def test_refused_where_it_does_not_apply(cam_gw, camera):
+    c = Raw(cam_gw.ws_url)
     try:
         c.send({'op': 'subscribe', 'topic': '/client_count', 'id': 'not-image', 'image': {'width': 10}})
         status = c.expect(lambda m: m.get('op') == 'status', 5)
@@ -132,11 +115,11 @@ def test_refused_where_it_does_not_apply(gw, camera):
 
 
 @pytest.mark.parametrize('options', [{}, {'throttle_rate': 200, 'queue_length': 1}])
-def test_a_client_that_falls_behind_gets_the_newest_frame(gw, camera, options):
+def test_a_client_that_falls_behind_gets_the_newest_frame(cam_gw, camera, options):
     """Sensor streams are newest-wins and the kernel's unsent share is small: a websocket client
     that stops reading for 3 s finds a few frames from its pause, then fresh ones, not a backlog
     (before: the default queue held 100 frames and the kernel ~400 KiB)."""
-    c = ws_client(gw.port, None, {'op': 'subscribe', 'topic': TOPIC, 'type': 'sensor_msgs/msg/CompressedImage',
+    c = ws_client(cam_gw.port, None, {'op': 'subscribe', 'topic': TOPIC, 'type': 'sensor_msgs/msg/CompressedImage',
                                   **options})
     try:
         stamps = ws_stamps(c)
@@ -154,10 +137,10 @@ def test_a_client_that_falls_behind_gets_the_newest_frame(gw, camera, options):
         c.sock.close()
 
 
-def test_an_image_already_small_enough_passes_unchanged(gw, camera):
+def test_an_image_already_small_enough_passes_unchanged(cam_gw, camera):
     """Asked for more than the camera gives, the gateway sends the camera's own JPEG (never
     enlarged, and not re-encoded: re-encoding costs the event loop for a few bytes)."""
-    c = Raw(gw.ws_url)
+    c = Raw(cam_gw.ws_url)
     try:
         c.send({'op': 'subscribe', 'topic': TOPIC, 'id': 'big', 'image': {'width': 1000, 'quality': 30}})
         for _ in range(3):

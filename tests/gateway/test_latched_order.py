@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from tests.gateway.rawclient import Raw
+from tests.support.rawclient import Raw
 
 TOPIC = '/order/latched'
 STRING = 'std_msgs/msg/String'

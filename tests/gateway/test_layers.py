@@ -1,4 +1,5 @@
-"""gateway/ by role, imports pointing one way: web -> bridge -> rules -> backends (-> protocol).
+"""gateway/ by role, imports pointing one way: web -> bridge -> rules -> backends (-> protocol); runs
+(the run supervisor, its sandbox and cgroups) beside bridge, under web; server and cli on top.
 
 Every import of a gateway module is found (relative or absolute, at the top, inside a function or
 under TYPE_CHECKING) and checked against what its role may use; the run-time imports (those at a
@@ -13,7 +14,8 @@ from pathlib import Path
 
 GATEWAY = Path(__file__).resolve().parents[2] / 'gateway'
 MAY_USE = {   # role -> the roles its modules may import
-    'web': {'web', 'bridge', 'rules', 'store', 'backends', 'settings'},
+    'web': {'web', 'bridge', 'runs', 'rules', 'store', 'backends', 'settings'},
+    'runs': {'runs', 'rules', 'store', 'backends', 'settings'},
     'bridge': {'bridge', 'rules', 'store', 'backends', 'settings'},
     'rules': {'rules', 'store', 'backends', 'settings'},
     'store': {'store', 'settings'},
@@ -119,8 +121,9 @@ def circles(graph) -> list[list[str]]:
 
 def test_the_roles_are_the_packages():
     entries = {p.name for p in GATEWAY.iterdir() if not p.name.startswith(('_', '.')) or p.name == '__init__.py'}
-    assert entries <= {'__init__.py', 'cli.py', 'settings.py', 'bridge', 'rules', 'web', 'store', 'backends'}, entries
-    for package in ('bridge', 'rules', 'web', 'backends', 'backends/sim', 'backends/rclpy'):
+    assert entries <= {'__init__.py', 'cli.py', 'server.py', 'settings.py', 'bridge', 'rules', 'runs', 'web', 'store',
+                       'backends'}, entries
+    for package in ('bridge', 'rules', 'runs', 'web', 'backends', 'backends/sim', 'backends/rclpy'):
         assert ast.get_docstring(ast.parse((GATEWAY / package / '__init__.py').read_text())), package
 
 
@@ -148,6 +151,8 @@ def test_the_checks_see_what_they_forbid():
     bad = forbidden(graph)
     assert any(b.startswith('gateway.backends.sim.graph imports gateway.bridge.session') for b in bad)
     assert any(b.startswith('gateway.rules.lease imports gateway.web.runs') for b in bad)
+    up = {'gateway.runs.supervisor': gateway_imports('from ..web import api\n', 'gateway.runs'), 'gateway.web.api': []}
+    assert 'gateway.runs.supervisor imports gateway.web.api (runs may not use web)' in forbidden(up)
     typed = gateway_imports('from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from .session import S\n',
                             'gateway.bridge')
     assert typed and all(top is None for _, top in typed)

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from protocol.codec import decode_binary, typed_array_tag
-from tests.gateway.rawclient import Raw
+from tests.support.rawclient import Raw
 
 TOPIC = '/map'
 SIDE = 4000
@@ -66,6 +66,7 @@ def test_a_4000_square_map_costs_a_few_hundred_kib(gw):
 def test_a_map_that_fits_passes_as_it_is_and_a_bad_one_gets_a_warning(gw):
     with Raw(gw.ws_url) as pub, Raw(gw.ws_url) as sub:
         pub.send({'op': 'advertise', 'topic': '/small_map', 'type': 'nav_msgs/msg/OccupancyGrid'})
+        pub.sync()   # advertised before the other connection subscribes without a type
         sub.send({'op': 'subscribe', 'topic': '/small_map', 'image': {'width': 64}})
         sub.sync()
         info = {**INFO, 'width': 4, 'height': 2}

@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 
 from gateway.bridge.markers import merge
-from tests.gateway.rawclient import Raw
+from tests.support.rawclient import Raw
 
 ADD, DELETE, DELETEALL = 0, 2, 3
 MARKERS = 'visualization_msgs/msg/MarkerArray'

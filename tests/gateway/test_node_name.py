@@ -5,7 +5,7 @@ from __future__ import annotations
 import re
 
 from gateway.cli import default_node_name
-from tests.gateway.rawclient import Raw
+from tests.support.rawclient import Raw
 
 VALID = re.compile(r'[A-Za-z_][A-Za-z0-9_]*')   # a ROS node name (rmw_validate_node_name)
 

@@ -11,7 +11,8 @@ import time
 import pytest
 import roslibpy
 
-from tests.conftest import client as connect, wait_for
+from tests.support.ros import client as connect
+from tests.support.wait import wait_for
 
 asyncua = pytest.importorskip('asyncua')
 from asyncua import Client, ua  # noqa: E402

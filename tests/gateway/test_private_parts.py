@@ -14,8 +14,8 @@ import pytest
 from packaging.requirements import Requirement
 
 from gateway.web import socket
-from tests.conftest import ROOT, GatewayProcess
-from tests.gateway.test_runs import RUNTIME
+from tests.support.process import ROOT, GatewayProcess
+from tests.support.runs import RUNTIME
 
 HANG = 60   # s; a failure here is an answer within seconds, the old code's silence a hang
 RUNTIME_TESTED = next((line.split('"')[1] for line in RUNTIME.splitlines() if line.startswith('ROSLIBPY_TESTED')), None)

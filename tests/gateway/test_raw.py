@@ -12,7 +12,7 @@ import cbor2
 import pytest
 from rosbags.typesys import Stores, get_typestore
 
-from tests.gateway.rawclient import Raw
+from tests.support.rawclient import Raw
 
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
 

@@ -11,8 +11,9 @@ from pathlib import Path
 import pytest
 import roslibpy
 
-from tests.conftest import client as connect, wait_for
-from tests.gateway.test_runs import api
+from tests.support.http import api
+from tests.support.ros import client as connect
+from tests.support.wait import wait_for
 
 POSE = 'turtlesim/msg/Pose'
 

@@ -8,7 +8,8 @@ import uuid
 
 import roslibpy
 
-from tests.conftest import client, wait_for
+from tests.support.ros import cancelled, client
+from tests.support.wait import wait_for
 
 
 def test_smoke_ten_messages_each_way(ros):
@@ -89,13 +90,8 @@ def test_send_action_goal_fibonacci_feedback_and_result(ros):
 
 def test_cancel_action_goal(ros, gateway):
     client = roslibpy.ActionClient(ros, '/fibonacci', 'example_interfaces/action/Fibonacci')
-    results, feedback = [], []
-    goal_id = client.send_goal(roslibpy.Goal({'order': 40}), results.append, feedback.append, results.append)
-    wait_for(lambda: len(feedback) >= 2)
-    client.cancel_goal(goal_id)
-    client.wait_goal(goal_id, timeout=10)
-    assert results[0]['status'] == roslibpy.GoalStatus.CANCELED
-    assert len(results[0]['values']['sequence']) < 41
+    result = cancelled(client, {'order': 40}, after_feedback=2, timeout=10)
+    assert len(result['values']['sequence']) < 41
 
 
 def test_multiple_subscribers(ros, gateway):

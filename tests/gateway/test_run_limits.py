@@ -13,9 +13,11 @@ from pathlib import Path
 
 import pytest
 
-from gateway.web.sandbox import LEAF, Cgroups, Scopes
-from tests.conftest import ROOT, wait_for
-from tests.gateway.test_runs import RUNTIME, api, state_of
+from gateway.runs.cgroups import LEAF, Cgroups, Scopes
+from tests.support.http import api
+from tests.support.process import ROOT
+from tests.support.runs import RUNTIME, state_of
+from tests.support.wait import wait_for
 
 LINE = re.compile(r'runs: in a bwrap sandbox; run limits: (.*)')
 
@@ -87,7 +89,7 @@ needs_cgroup2 = pytest.mark.skipif(not cgroup2_with_hugetlb(), reason='no writab
 
 FIND = '''import json, os, sys
 from pathlib import Path
-from gateway.web.sandbox import Cgroups
+from gateway.runs.cgroups import Cgroups
 service = Path(sys.argv[1])
 (service / "cgroup.procs").write_text(str(os.getpid()))   # where a service manager would start it
 cgroups, how = Cgroups.find(Path(sys.argv[2]), want=("hugetlb",), need=("hugetlb",))

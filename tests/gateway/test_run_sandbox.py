@@ -13,10 +13,13 @@ import uuid
 
 import pytest
 
-from gateway.web.sandbox import Cgroups, Sandbox
-from tests.conftest import wait_for
-from tests.gateway.test_runs import alive, api, ended, state_of
-from tests.security.conftest import ROSAUTH_SECRET, TOKENS, tokens_toml
+from gateway.runs.cgroups import Cgroups
+from gateway.runs.sandbox import Sandbox
+from gateway.runs.supervisor import LAUNCHER
+from tests.support.auth import ROSAUTH_SECRET, TOKENS, tokens_toml
+from tests.support.http import api
+from tests.support.runs import alive, ended, state_of
+from tests.support.wait import wait_for
 
 SECRET = 'gateway-env-secret-5f6e'
 ADMIN = TOKENS['admin']
@@ -162,7 +165,7 @@ def test_a_run_sees_nothing_of_the_gateway(class_gw):
     assert 'tokens TOKENS_FILE -> FileNotFoundError' in tried and 'ls RUNS -> FileNotFoundError' in tried
     pids = json.loads(output.split('pids ', 1)[1].split('\n', 1)[0])
     assert pids[:2] == [1, 2] and len(pids) == 3, pids     # bwrap's init, the program and its relay
-    assert f'cmdline /proc/{pids[2]}/cmdline {sys.executable} -I -c import os, resource, sys' in output
+    assert f'cmdline /proc/{pids[2]}/cmdline {sys.executable} -I -c {LAUNCHER.splitlines()[0]}' in output
     assert f'gateway cmdline /proc/{class_gw.pid}/cmdline -> FileNotFoundError' in output
 
 

@@ -7,47 +7,19 @@ import json
 import queue
 import threading
 import time
-import urllib.error
-import urllib.request
 import uuid
-from pathlib import Path
 
 import pytest
 import roslibpy
 
-from tests.conftest import client as connect, wait_for
-from tests.security.conftest import TOKENS, tokens_toml
+from tests.support.auth import TOKENS, tokens_toml
+from tests.support.http import api
+from tests.support.ros import client as connect
+from tests.support.runs import alive, ended, program, state_of
+from tests.support.wait import wait_for
 
-ROOT = Path(__file__).resolve().parents[2]
-RUNTIME = (ROOT / 'ide' / 'runtime' / 'rosgate_runtime.py').read_text()
 TWIST = 'geometry_msgs/msg/Twist'
-ENDED = ('finished', 'failed', 'stopped', 'timed_out')
-
-
-def program(body: str) -> str:
-    """A program as the IDE generates it: the runtime, then main()."""
-    lines = ''.join(f'    {line}\n' for line in body.strip().splitlines())
-    return f'{RUNTIME}\n\ndef main():\n{lines}\n\nif __name__ == "__main__":\n    run(main)\n'
-
-
 GO = 'rt.wait_for_message("/run_test/go", "std_msgs/msg/String")'
-
-
-def api(gw, method: str, path: str, body=None, token: str | None = None, headers=None):
-    req = urllib.request.Request(gw.http_url.rstrip('/') + path, method=method,
-                                 data=None if body is None else json.dumps(body).encode())
-    if body is not None:
-        req.add_header('Content-Type', 'application/json')
-    if token:
-        req.add_header('Authorization', f'Bearer {token}')
-    for k, v in (headers or {}).items():
-        req.add_header(k, v)
-    try:
-        with urllib.request.urlopen(req, timeout=10) as res:
-            raw = res.read()
-            return res.status, json.loads(raw) if raw else None
-    except urllib.error.HTTPError as e:
-        return e.code, json.loads(e.read() or b'null')
 
 
 @pytest.fixture(scope='module')
@@ -70,16 +42,6 @@ def follow(ros, topic: str, type: str = 'std_msgs/msg/String') -> queue.Queue:
     q: queue.Queue = queue.Queue()
     roslibpy.Topic(ros, topic, type).subscribe(lambda m: q.put((time.monotonic(), m)))
     return q
-
-
-def state_of(gw, run_id: str, token: str | None = None) -> dict:
-    status, body = api(gw, 'GET', f'/api/runs/{run_id}', token=token)
-    assert status == 200, body
-    return body
-
-
-def ended(gw, run_id: str, timeout: float = 60, token: str | None = None) -> dict:
-    return wait_for(lambda: (lambda s: s if s['state'] in ENDED else None)(state_of(gw, run_id, token)), timeout, 0.05)
 
 
 def go(ros) -> None:
@@ -187,19 +149,6 @@ def test_second_run_in_a_namespace_is_refused_naming_the_first(runs_gw):
     assert first in body['error'] and 'first one' in body['error']
     api(runs_gw, 'DELETE', f'/api/runs/{first}')
     assert ended(runs_gw, first)['state'] == 'stopped'
-
-
-def alive(marker: str) -> list[int]:
-    """This machine's processes (zombies aside) with ``marker`` in their command line, seen from here."""
-    found = []
-    for entry in Path('/proc').iterdir():
-        try:
-            if entry.name.isdigit() and marker.encode() in (entry / 'cmdline').read_bytes() \
-                    and (entry / 'stat').read_text().rsplit(')', 1)[1].split()[0] != 'Z':
-                found.append(int(entry.name))
-        except OSError:
-            pass
-    return found
 
 
 def sleeper(marker: str) -> str:
@@ -333,20 +282,34 @@ def alice_drives(gw):
     return alice, drivers, seen
 
 
+def holding(topic: str) -> str:
+    """A run that holds until a message on ``topic``."""
+    return program(f'rt.log("holding")\nrt.wait_for_message("{topic}", "std_msgs/msg/String")')
+
+
+def lease_goes_to_the_run(drivers: queue.Queue, seen: list, run_id: str) -> None:
+    wait_for(lambda: (lambda d: d[-1] and d[-1]['name'] == f'run {run_id}')(drivers_seen(drivers, seen)), 30)
+
+
+def let_go(ros, topic: str) -> None:
+    """The message a holding run waits for, once it listens."""
+    wait_for_subscriber(ros, topic)
+    roslibpy.Topic(ros, topic, 'std_msgs/msg/String').publish(roslibpy.Message({'data': 'done'}))
+
+
 def test_run_takes_the_lease_when_it_starts(auth_gw):
     gw = auth_gw
     alice, drivers, seen = alice_drives(gw)
     try:
-        quiet = program('rt.log("holding")\nrt.wait_for_message("/run_test/done", "std_msgs/msg/String")')
+        quiet = holding('/run_test/done')
         status, body = api(gw, 'POST', '/api/runs', {'source': quiet}, token=TOKENS['operator2'])
         assert status == 409 and 'alice' in body['error'], body        # bob may not take it from alice
         status, body = api(gw, 'POST', '/api/runs', {'source': quiet}, token=TOKENS['admin'])
         assert status == 201, body                                     # the teacher's run takes over
         run_id = body['id']
-        wait_for(lambda: (lambda d: d[-1] and d[-1]['name'] == f'run {run_id}')(drivers_seen(drivers, seen)), 30)
+        lease_goes_to_the_run(drivers, seen, run_id)
         assert state_of(gw, run_id, TOKENS['admin'])['state'] == 'running'   # it has not commanded anything
-        wait_for_subscriber(alice, '/run_test/done')
-        roslibpy.Topic(alice, '/run_test/done', 'std_msgs/msg/String').publish(roslibpy.Message({'data': 'done'}))
+        let_go(alice, '/run_test/done')
         assert ended(gw, run_id, token=TOKENS['admin'])['state'] == 'finished'
         wait_for(lambda: drivers_seen(drivers, seen)[-1] is None, 10)   # and it gave the lease back
     finally:
@@ -358,13 +321,11 @@ def test_her_own_run_takes_her_lease_and_gives_it_back(auth_gw):
     gw = auth_gw
     alice, drivers, seen = alice_drives(gw)
     try:
-        quiet = program('rt.log("holding")\nrt.wait_for_message("/run_test/done2", "std_msgs/msg/String")')
-        status, body = api(gw, 'POST', '/api/runs', {'source': quiet}, token=TOKENS['operator'])
+        status, body = api(gw, 'POST', '/api/runs', {'source': holding('/run_test/done2')}, token=TOKENS['operator'])
         assert status == 201, body
         run_id = body['id']
-        wait_for(lambda: (lambda d: d[-1] and d[-1]['name'] == f'run {run_id}')(drivers_seen(drivers, seen)), 30)
-        wait_for_subscriber(alice, '/run_test/done2')
-        roslibpy.Topic(alice, '/run_test/done2', 'std_msgs/msg/String').publish(roslibpy.Message({'data': 'done'}))
+        lease_goes_to_the_run(drivers, seen, run_id)
+        let_go(alice, '/run_test/done2')
         final = ended(gw, run_id, token=TOKENS['admin'])
         assert final['state'] == 'finished' and 'driver lease' not in final['output'], final
         wait_for(lambda: (lambda d: d and d[-1] and d[-1]['name'] == 'alice')(drivers_seen(drivers, seen)), 10)
@@ -404,4 +365,4 @@ rt.log("end")
 def test_trusted_runs_need_allow_runs(start_gateway):
     with pytest.raises(RuntimeError) as refused:
         start_gateway('--trusted-runs')
-    assert '--trusted-runs is a kind of run: give --allow-runs too' in str(refused.value)
+    assert 'rosgate: --trusted-runs: it is a kind of run: give --allow-runs too' in str(refused.value)

@@ -11,7 +11,8 @@ import urllib.request
 
 import roslibpy
 
-from tests.conftest import ROOT, Started, wait_for
+from tests.support.process import ROOT, Started
+from tests.support.wait import wait_for
 
 GUIDE = ROOT / 'docs' / 'teacher.md'
 

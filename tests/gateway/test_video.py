@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 import io
-import json
 import os
 import time
 import urllib.error
@@ -13,29 +12,17 @@ import urllib.request
 import pytest
 from PIL import Image
 
-from tests.conftest import client, proc_bytes, wait_for
-from tests.gateway.camera import BOUNDARY, Camera, Stream, stream_head
+from tests.support.camera import BOUNDARY, Stream, stream_head
+from tests.support.http import http
+from tests.support.process import proc_bytes
+from tests.support.ros import client
+from tests.support.wait import wait_for
 
 BASE = '/cam/image_raw'
 
 
-@pytest.fixture(scope='module')
-def cam_gw(start_gateway):
-    return start_gateway('--robot', 'none')
-
-
-@pytest.fixture(scope='module')
-def camera(cam_gw):
-    with client(cam_gw) as ros:
-        cam = Camera(ros, BASE + '/compressed')
-        wait_for(lambda: cam.count >= 3, 10)
-        yield cam
-        cam.close()
-
-
 def health(gw) -> dict:
-    with urllib.request.urlopen(gw.http_url + 'health', timeout=10) as r:
-        return json.load(r)
+    return http(gw, '/health').json()
 
 
 def size_of(jpeg: bytes) -> tuple[int, int]:

@@ -11,7 +11,7 @@ import sys
 
 import pytest
 
-from tests.conftest import ROOT
+from tests.support.process import ROOT
 
 HANG = 30   # seconds; the closed form answers in microseconds, a loop over 1e20 never does
 

@@ -10,8 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from .conftest import TABLET, IdePage
-from .test_ide_features import ex, program
+from tests.support.ide import TABLET, IdePage, ex, program
 
 TOKENS = {"viewer": "ide-viewer-token-11", "operator": "ide-operator-token-22", "admin": "ide-admin-token-33"}
 NAMES = {"viewer": "vera", "operator": "alice", "admin": "teacher"}

@@ -13,9 +13,8 @@ import zoneinfo
 import pytest
 import roslibpy
 
-from tests.gateway.test_runs import api
-
-from .conftest import ARTIFACTS
+from tests.support.http import api
+from tests.support.ide import ARTIFACTS
 
 TOKENS = {"teacher": "teacher-token-b001", "ada": "ada-token-b002", "bo": "bo-token-b003", "cy": "cy-token-b004"}
 ZONE = "Asia/Tokyo"

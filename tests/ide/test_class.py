@@ -9,7 +9,9 @@ import json
 
 import pytest
 
-from .conftest import ARTIFACTS, EXAMPLES, PHONE, TABLET, RosClient, wait_for
+from tests.support.ide import ARTIFACTS, EXAMPLES, PHONE, TABLET
+from tests.support.ros import RosClient
+from tests.support.wait import wait_for
 
 _spec = importlib.util.spec_from_file_location("make_examples", EXAMPLES / "make_examples.py")
 ex = importlib.util.module_from_spec(_spec)

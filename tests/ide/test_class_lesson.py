@@ -6,86 +6,23 @@ robot back. Checked by an independent client signed in as the teacher."""
 
 from __future__ import annotations
 
-import json
-import threading
 import time
 
 import pytest
 
-from tests.gateway.test_runs import api
+from tests.support.http import api
+from tests.support.ide import ARTIFACTS, PHONE, drive, ex, program
+from tests.support.lesson import POSE, TOKENS, TWIST, Teacher, console_says, move, on_station, open_ide, tokens_file
+from tests.support.wait import wait_for
 
-from .conftest import ARTIFACTS, PHONE, TABLET, IdePage, wait_for
-from .test_ide_features import drive, ex, program
-
-TWIST = "geometry_msgs/msg/Twist"
-POSE = "turtlesim/msg/Pose"
-TOKENS = {"teacher": "teacher-token-0001", "ada": "ada-token-0002", "bo": "bo-token-0003",
-          "cy": "cy-token-0004", "dee": "dee-token-0005"}
 GRACE = 1.0   # --claim-grace: how soon a claim lapsed after its tab closed, had it been a tab's
 
 
 @pytest.fixture
 def lesson(start_gateway, tmp_path):
-    tokens = tmp_path / "tokens.toml"
-    tokens.write_text("".join(
-        f'[[tokens]]\nname = "{name}"\nrole = "{"admin" if name == "teacher" else "operator"}"\ntoken = "{token}"\n\n'
-        for name, token in TOKENS.items()))
-    return start_gateway("--robot", "turtlesim", "--fleet", "3", "--exclusive-control", "--auth", str(tokens),
+    return start_gateway("--robot", "turtlesim", "--fleet", "3", "--exclusive-control", "--auth", tokens_file(tmp_path),
                          "--allow-runs", "--runs-dir", str(tmp_path / "runs"), "--cmd-timeout", "0",
                          "--claim-grace", str(GRACE))
-
-
-class Teacher:
-    """A roslibpy client signed in as the teacher, following /rosgate/stations and /rosgate/driver."""
-
-    def __init__(self, gw):
-        import roslibpy
-        self.roslibpy = roslibpy
-        self.ros = roslibpy.Ros(f"ws://{gw.host}:{gw.port}/?token={TOKENS['teacher']}")
-        self.ros.run(timeout=10)
-        self.lock = threading.Lock()
-        self.stations: list[tuple[float, dict]] = []
-        self.drivers: list[dict] = []
-        self.messages: dict[str, list[tuple[float, dict]]] = {}
-        self.follow("/rosgate/stations", lambda m: self.stations.append((time.monotonic(), json.loads(m["data"]))))
-        self.follow("/rosgate/driver", lambda m: self.drivers.append(json.loads(m["data"])))
-        wait_for(lambda: self.stations and self.drivers, what="the gateway's announcements")
-
-    def follow(self, topic: str, on, type_: str = "std_msgs/msg/String"):
-        def take(m):
-            with self.lock:
-                on(m)
-        self.roslibpy.Topic(self.ros, topic, type_).subscribe(take)
-
-    def watch(self, topic: str, type_: str) -> list:
-        box = self.messages.setdefault(topic, [])
-        self.follow(topic, lambda m: box.append((time.monotonic(), dict(m))), type_)
-        return box
-
-    def owners(self) -> dict:
-        with self.lock:
-            return {ns: o["name"] for ns, o in self.stations[-1][1]["owners"].items()}
-
-    def owners_since(self, t0: float) -> list[dict]:
-        with self.lock:
-            return [{ns: o["name"] for ns, o in info["owners"].items()} for t, info in self.stations if t >= t0]
-
-    def driver(self, ns: str):
-        with self.lock:
-            return (self.drivers[-1]["drivers"].get(ns) or {}).get("name")
-
-    def drove(self, ns: str, which) -> bool:
-        """Whether a holder of ns for which which(holder) is true was announced."""
-        with self.lock:
-            return any(which(d["drivers"][ns]) for d in self.drivers if d["drivers"].get(ns))
-
-    def round_trip(self):
-        """Everything sent to the gateway before this has been handled."""
-        self.roslibpy.Service(self.ros, "/rosapi/get_time", "rosapi/srv/GetTime").call(
-            self.roslibpy.ServiceRequest({}), timeout=10)
-
-    def close(self):
-        self.ros.close()
 
 
 @pytest.fixture
@@ -93,42 +30,6 @@ def teacher(lesson):
     t = Teacher(lesson)
     yield t
     t.close()
-
-
-@pytest.fixture
-def tablets(chromium):
-    """tablet(gw, who, viewport): a browser context of a student, signed in through /login."""
-    contexts = []
-
-    def make(gw, who: str | None, viewport=TABLET):
-        ctx = chromium.new_context(viewport=viewport, has_touch=True)
-        if who is not None:
-            r = ctx.request.post(gw.http_url + "login", form={"token": TOKENS[who], "next": "/whoami"})
-            assert r.ok, r.status
-        contexts.append(ctx)
-        return ctx
-
-    yield make
-    for ctx in contexts:
-        ctx.close()
-
-
-def open_ide(ctx, gw, query: str = "") -> IdePage:
-    return IdePage(ctx.new_page(), gw).open(gw.http_url + query)
-
-
-def on_station(ide: IdePage, ns: str):
-    ide.page.wait_for_function("([ns]) => rosgateIde.ns === ns && rosgateIde.robotNs.mine === ns "
-                               "&& rosgateIde.lease.state === 'you'", arg=[ns], timeout=15000)
-
-
-def console_says(ide: IdePage, pattern: str):
-    ide.page.wait_for_function("(p) => new RegExp(p).test(document.querySelector('#console-lines').innerText)",
-                               arg=pattern, timeout=10000)
-
-
-def move(metres: float = 1.0) -> dict:
-    return program(ex.block("turtle_move", id="move", inputs={"TURTLE": ex.text("turtle1"), "DIST": ex.num(metres)}))
 
 
 def test_a_student_returns_to_her_own_station_and_a_late_one_drives_nothing(lesson, teacher, tablets):

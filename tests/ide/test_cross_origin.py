@@ -12,11 +12,10 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 
 import pytest
 
-from tests.gateway.test_runs import api
-from tests.security.client import Client
-from tests.security.conftest import TOKENS, tokens_toml
-
-from .conftest import wait_for
+from tests.support.auth import TOKENS, tokens_toml
+from tests.support.http import api
+from tests.support.wait import wait_for
+from tests.support.wsclient import Client
 
 ATTACK = """<!doctype html><meta charset="utf-8"><title>elsewhere</title><script>
 const gw = %(gw)s, result = window.result = {ws: 'pending', play: 'pending', text: 'pending'};

@@ -8,8 +8,8 @@ import time
 
 import pytest
 
-from .conftest import ARTIFACTS, PHONE, TABLET, open_teleop, wait_for
-
+from tests.support.ide import ARTIFACTS, PHONE, TABLET, open_teleop
+from tests.support.wait import wait_for
 
 
 def test_gauges_history_and_limits(chromium, rover):

@@ -16,9 +16,10 @@ import time
 import pytest
 import roslibpy
 
-from . import engines
-from .conftest import RosClient, wait_for
-from .test_class import ex, program
+from tests.support import engines
+from tests.support.ide import ex, program
+from tests.support.ros import RosClient
+from tests.support.wait import wait_for
 
 ENGINES = ["chromium", "webkit", "firefox"]
 STATION = {"chromium": "/s01", "webkit": "/s02", "firefox": "/s03"}   # each engine's own on the fleet

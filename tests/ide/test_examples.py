@@ -12,17 +12,10 @@ import time
 
 import pytest
 
-from .conftest import ARTIFACTS, wait_for
+from tests.support.ide import ARTIFACTS
+from tests.support.ros import START, reset_turtlesim
+from tests.support.wait import wait_for
 
-START = 5.544445
-
-
-def reset_turtlesim(ros):
-    ros.call("/reset", "std_srvs/srv/Empty")
-    pose = ros.watch("/turtle1/pose", "turtlesim/msg/Pose")
-    wait_for(lambda: (p := pose.latest()) and abs(p["x"] - START) < 1e-3 and abs(p["y"] - START) < 1e-3
-             and abs(p["theta"]) < 1e-3, what="turtle1 back at the start after /reset")
-    return pose
 
 
 def run_python(ide, gateway, name: str, stop_when=None, timeout: float = 90):
@@ -171,7 +164,7 @@ def rover_at_rest(watch):
 @pytest.fixture
 def fresh_rover():
     """A new rover world for each run, so both languages start from the same pose."""
-    from tests.conftest import GatewayProcess
+    from tests.support.process import GatewayProcess
     started = []
 
     def start():
@@ -185,7 +178,7 @@ def fresh_rover():
 
 
 def test_rover_wall_follower(fresh_rover, ide_factory):
-    from .conftest import RosClient
+    from tests.support.ros import RosClient
     for language in ("javascript", "python"):
         gw = fresh_rover()
         ros = RosClient(gw)
@@ -214,7 +207,7 @@ def test_rover_wall_follower(fresh_rover, ide_factory):
 
 
 def test_rover_pid_go_to_goal(fresh_rover, ide_factory):
-    from .conftest import RosClient
+    from tests.support.ros import RosClient
     goal = (4.0, 2.5)
     logs = {}
     for language in ("javascript", "python"):

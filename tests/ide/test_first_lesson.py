@@ -11,10 +11,9 @@ import time
 
 import pytest
 
-from .conftest import ARTIFACTS, PHONE, wait_for
-from .test_class_lesson import TOKENS, TWIST, Teacher, console_says, move, on_station, open_ide
-from .test_class_lesson import tablets  # noqa: F401  (a fixture)
-from .test_ide_features import ex, program
+from tests.support.ide import ARTIFACTS, PHONE, ex, program
+from tests.support.lesson import TWIST, Teacher, console_says, move, on_station, open_ide, tokens_file
+from tests.support.wait import wait_for
 
 TABLET = {"width": 1024, "height": 768}
 POSE = "turtlesim/msg/Pose"
@@ -26,12 +25,8 @@ GLOBS = ("--topics-glob", "['/s[0-9][0-9]/*', '/rosgate/*', '/client_count']",
 
 @pytest.fixture
 def lesson(start_gateway, tmp_path):
-    tokens = tmp_path / "tokens.toml"
-    tokens.write_text("".join(
-        f'[[tokens]]\nname = "{name}"\nrole = "{"admin" if name == "teacher" else "operator"}"\ntoken = "{token}"\n\n'
-        for name, token in TOKENS.items()))
     # the guide's flags, three stations (--allow-runs is left to tests/ide/test_class_lesson.py)
-    return start_gateway("--robot", "turtlesim", "--fleet", "3", "--exclusive-control", "--auth", str(tokens),
+    return start_gateway("--robot", "turtlesim", "--fleet", "3", "--exclusive-control", "--auth", tokens_file(tmp_path),
                          "--recordings-dir", str(tmp_path / "recordings"), *GLOBS)
 
 

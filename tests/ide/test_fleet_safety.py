@@ -6,7 +6,9 @@ from __future__ import annotations
 
 import pytest
 
-from .conftest import ARTIFACTS, PHONE, TABLET, RosClient, open_teleop, wait_for
+from tests.support.ide import ARTIFACTS, PHONE, TABLET, open_teleop
+from tests.support.ros import RosClient
+from tests.support.wait import wait_for
 
 TWIST = "geometry_msgs/msg/Twist"
 

@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-from .conftest import EXAMPLES
+from tests.support.ide import EXAMPLES
 
 INDEX = json.loads((EXAMPLES / "index.json").read_text())["examples"]
 
@@ -64,7 +64,7 @@ STDLIB = set(sys.stdlib_module_names)
 def ide(chromium, start_gateway):
     gw = start_gateway()
     ctx = chromium.new_context(viewport={"width": 1400, "height": 860})
-    from .conftest import IdePage
+    from tests.support.ide import IdePage
     page = IdePage(ctx.new_page(), gw).open()
     yield page
     ctx.close()

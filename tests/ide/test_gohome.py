@@ -3,11 +3,7 @@ battery it used, in Chromium, on made-up readings and then on the live rover."""
 
 from __future__ import annotations
 
-import time
-
-import roslibpy
-
-from .conftest import TABLET, open_teleop
+from tests.support.ide import TABLET, open_teleop
 
 ESTIMATE = """async ([start, pcts]) => {
   const { HomeEstimate } = await import('./js/gohome.js');

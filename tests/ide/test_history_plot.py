@@ -7,7 +7,8 @@ import time
 
 import roslibpy
 
-from .conftest import ARTIFACTS, TABLET, open_teleop, wait_for
+from tests.support.ide import ARTIFACTS, TABLET, open_teleop
+from tests.support.wait import wait_for
 
 
 def test_a_fresh_browser_shows_the_earlier_drive_over_an_hour(chromium, rover):

@@ -11,16 +11,17 @@ namespace, the gateway in another, 150 ms ± 50 ms each way between them.
 
 from __future__ import annotations
 
-import json
 import math
 import threading
 import time
+from contextlib import nullcontext
 
 import pytest
 
-from tests import netlink
-from tests.gateway.rawclient import Raw
-from tests.ide.conftest import CHROMIUM, CHROMIUM_ARGS, wait_for
+from tests.support import netlink
+from tests.support.ide import CHROMIUM, CHROMIUM_ARGS
+from tests.support.rawclient import Raw
+from tests.support.wait import wait_for
 
 pytestmark = pytest.mark.skipif(netlink.available() is not None, reason=str(netlink.available()))
 
@@ -42,11 +43,7 @@ class Poses:
         self.thread.start()
 
     def _read(self):
-        while not self.done:
-            try:
-                m = self.raw.recv(0.2)
-            except Exception:
-                continue
+        for m in self.raw.incoming(lambda: self.done):
             if m.get('op') == 'publish':
                 with self.lock:
                     self.samples.append((time.monotonic(), m['msg']['x'], m['msg']['y']))
@@ -106,11 +103,7 @@ class Driver:
             time.sleep(0.05)
 
     def _read(self):
-        while not self.done:
-            try:
-                m = self.raw.recv(0.2)
-            except Exception:
-                continue
+        for m in self.raw.incoming(lambda: self.done):
             if m.get('id') == 'p':   # a pong (a server without pings answers with an error status)
                 self.pongs.append(time.monotonic())
 
@@ -191,12 +184,11 @@ def test_released_key_stops_within_cmd_timeout_over_jitter():
 
 
 @pytest.fixture
-def linked_browser(tmp_path):
+def linked_browser(playwright, tmp_path):
     """A link, a fleet gateway beyond it, and Chromium inside the client namespace."""
-    from playwright.sync_api import sync_playwright
     with netlink.NetLink(delay=DELAY, jitter=JITTER) as link:
         gw = link.start_gateway('--robot', 'turtlesim', '--fleet', '2')
-        with sync_playwright() as p:
+        with nullcontext(playwright) as p:
             browser = p.chromium.launch(executable_path=str(link.chromium_wrapper(CHROMIUM, tmp_path)),
                                         args=CHROMIUM_ARGS)
             try:
@@ -293,10 +285,9 @@ TILE_AGES = """() => {
 }"""
 
 
-def test_class_view_of_ten_stations_fits_a_1_mbit_line(tmp_path):
+def test_class_view_of_ten_stations_fits_a_1_mbit_line(playwright, tmp_path):
     """/class for 10 driven stations over 1 Mbit/s (64 KiB buffer) + 150 ms: every tile drawn within
     20 s of opening the page, and what the tiles show at most 2 s old (p95)."""
-    from playwright.sync_api import sync_playwright
     stations = 10
     with netlink.NetLink(delay=DELAY, rate=125_000, buffer=64 * 1024) as link:
         gw = link.start_gateway('--robot', 'turtlesim', '--fleet', str(stations))
@@ -304,7 +295,7 @@ def test_class_view_of_ten_stations_fits_a_1_mbit_line(tmp_path):
         driving = drive_circles(link, gw, [f'/s{i:02d}/turtle1/cmd_vel' for i in range(1, stations + 1)], stop)
         try:
             time.sleep(2.0)   # the lesson is under way when the teacher opens the page
-            with sync_playwright() as p:
+            with nullcontext(playwright) as p:
                 browser = p.chromium.launch(executable_path=str(link.chromium_wrapper(CHROMIUM, tmp_path)),
                                             args=CHROMIUM_ARGS)
                 try:
@@ -346,7 +337,7 @@ CAMERA_AGES = """() => {
 def camera_publisher(link, gw, topic: str, stop: threading.Event) -> threading.Thread:
     """A 640x480 JPEG camera (~40 KiB, 10 Hz, stamped with the wall clock) beside the gateway."""
     import base64
-    from tests.gateway.camera import frames
+    from tests.support.camera import frames
     images = [base64.b64encode(f).decode() for f in frames()]
     with link.inside('server'):
         raw = Raw(gw.ws_url)
@@ -369,11 +360,10 @@ def camera_publisher(link, gw, topic: str, stop: threading.Event) -> threading.T
 
 
 @pytest.mark.parametrize('camera', ['640x480 jpeg', 'rover'])
-def test_teleop_camera_stays_fresh_over_a_1_mbit_line(tmp_path, camera):
+def test_teleop_camera_stays_fresh_over_a_1_mbit_line(playwright, tmp_path, camera):
     """The teleop page's camera over 1 Mbit/s (64 KiB buffer) + 150 ms ± 50 ms, as the page asks
     for it: a 640x480 JPEG camera at 10 Hz, and the rover's own camera, arrive fresh and do not
     fall behind. The ages are the page's own (arrival - stamp)."""
-    from playwright.sync_api import sync_playwright
     seconds = 20
     with netlink.NetLink(delay=DELAY, jitter=JITTER, rate=125_000, buffer=64 * 1024) as link:
         gw = link.start_gateway('--robot', 'rover' if camera == 'rover' else 'turtlesim')
@@ -381,7 +371,7 @@ def test_teleop_camera_stays_fresh_over_a_1_mbit_line(tmp_path, camera):
         publishing = (camera_publisher(link, gw, '/camera/image_raw/compressed', stop)
                       if camera != 'rover' else None)
         try:
-            with sync_playwright() as p:
+            with nullcontext(playwright) as p:
                 browser = p.chromium.launch(executable_path=str(link.chromium_wrapper(CHROMIUM, tmp_path)),
                                             args=CHROMIUM_ARGS)
                 try:

@@ -3,33 +3,12 @@ Stop, errors on blocks, live dropdowns, message literals, saving, sharing, the l
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import time
 from pathlib import Path
 
-
-from .conftest import EXAMPLES, wait_for
-
-_spec = importlib.util.spec_from_file_location("make_examples", EXAMPLES / "make_examples.py")
-ex = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(ex)
-
-
-def program(*tops: dict, name: str = "test program", variables: dict | None = None) -> dict:
-    blocks = [{**b, "x": 20, "y": 20 + 120 * i} for i, b in enumerate(tops)]
-    return {"format": "rosgate-program", "version": 1, "name": name, "blocks": [],
-            "workspace": {"blocks": {"languageVersion": 0, "blocks": blocks},
-                          "variables": [{"name": n, "id": i} for n, i in (variables or {}).items()]}}
-
-
-def drive(seconds: float = 30, speed: float = 1.0) -> dict:
-    return ex.block("turtle_drive", inputs={"TURTLE": ex.text("turtle1"), "SPEED": ex.num(speed),
-                                             "TURN": ex.num(0), "SECONDS": ex.num(seconds)})
-
-
-def moving(w, t0=0.0):
-    return any(m["linear"]["x"] != 0 for t, m in w.since(t0))
+from tests.support.ide import drive, ex, moving, program
+from tests.support.wait import wait_for
 
 
 def test_stop_publishes_zero_within_300_ms(turtle_gateway, turtle_ros, ide_factory):

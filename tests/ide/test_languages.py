@@ -10,8 +10,9 @@ import urllib.request
 
 import pytest
 
-from .conftest import ROOT, IdePage
-from .test_class_lesson import open_ide
+from tests.support.ide import IdePage
+from tests.support.lesson import open_ide
+from tests.support.process import ROOT
 
 ES = json.loads((ROOT / 'ide/i18n/es.json').read_text())
 DE = json.loads((ROOT / 'ide/i18n/de.json').read_text())

@@ -5,12 +5,10 @@ scrolls to the console and a run works. Screenshots go to tests/ide/artifacts/."
 
 from __future__ import annotations
 
-from . import conftest
-from .conftest import IdePage
-from .test_ide_features import ex, program
+from tests.support.ide import PHONE as PHONE_VIEWPORT, TABLET as TABLET_VIEWPORT, IdePage, ex, program
 
-TABLET = {"viewport": conftest.TABLET, "has_touch": True, "device_scale_factor": 1}
-PHONE = {"viewport": conftest.PHONE, "has_touch": True, "is_mobile": True, "device_scale_factor": 1}
+TABLET = {"viewport": TABLET_VIEWPORT, "has_touch": True, "device_scale_factor": 1}
+PHONE = {"viewport": PHONE_VIEWPORT, "has_touch": True, "is_mobile": True, "device_scale_factor": 1}
 
 
 FLYOUTS = """() => {

@@ -7,7 +7,9 @@ import importlib.util
 import subprocess
 import sys
 
-from .conftest import ARTIFACTS, EXAMPLES, RosClient, wait_for
+from tests.support.ide import ARTIFACTS, EXAMPLES
+from tests.support.ros import RosClient
+from tests.support.wait import wait_for
 
 _spec = importlib.util.spec_from_file_location("make_examples", EXAMPLES / "make_examples.py")
 ex = importlib.util.module_from_spec(_spec)

@@ -13,9 +13,9 @@ import sys
 
 import pytest
 
-from .conftest import ARTIFACTS, PHONE, RosClient, open_teleop, wait_for
-from .test_ide_features import ex, program
-from .test_run_control import bool_message
+from tests.support.ide import ARTIFACTS, PHONE, bool_message, ex, open_teleop, program
+from tests.support.ros import RosClient
+from tests.support.wait import wait_for
 
 TWIST = "geometry_msgs/msg/Twist"
 VECTOR3 = [{"name": n, "type": "float64", "array": -1} for n in "xyz"]
@@ -177,9 +177,8 @@ def fleet(start_gateway, tmp_path_factory):
 
 @pytest.fixture
 def fleet_ros(fleet):
-    client = RosClient(fleet)
-    yield client
-    client.close()
+    with RosClient(fleet) as client:
+        yield client
 
 
 def claimed_ide(ide_factory, gw, **ctx):

@@ -18,10 +18,12 @@ import pytest
 from cryptography.hazmat.primitives import serialization
 from cryptography.hazmat.primitives.asymmetric import rsa
 
-from tests.conftest import wait_for
-from tests.security.client import Client
+from tests.support.http import api, http
+from tests.support.ide import drives_its_station
+from tests.support.wait import wait_for
+from tests.support.wsclient import Client
 
-from .lti_platform import CLAIM, DL, INST_ADMIN, INSTRUCTOR, LEARNER, STUDENT, Platform
+from tests.support.lti_platform import CLAIM, DL, INST_ADMIN, INSTRUCTOR, LEARNER, STUDENT, Platform
 
 ADMIN_TOKEN = 'lti-test-admin-token-77'
 
@@ -105,13 +107,7 @@ def test_a_learner_lands_on_teleop_as_operator_and_drives_a_station(lab, browser
     assert cookie['httpOnly'] and cookie['sameSite'] == 'Lax'
     assert 'student-ann' not in cookie['value']
     # the page drives its station: its commands reach the station's turtle (watched by the teacher)
-    with Client(gw.ws_url, ADMIN_TOKEN) as watcher:
-        watcher.subscribe(f'{ns}/turtle1/cmd_vel', 'geometry_msgs/msg/Twist')
-        page.locator('body').click(position={'x': 5, 'y': 5})
-        page.keyboard.down('ArrowUp')
-        msg = watcher.expect(lambda m: m.get('op') == 'publish' and m['msg']['linear']['x'] > 0, timeout=10)
-        page.keyboard.up('ArrowUp')
-        assert msg['topic'] == f'{ns}/turtle1/cmd_vel'
+    drives_its_station(page, gw, ADMIN_TOKEN, ns)
     assert not page.errors, page.errors
 
 
@@ -293,7 +289,7 @@ def test_a_launch_inside_the_course_page_iframe(lab, chromium, phaseout):
     third-party cookie phase-out on (unpartitioned cookies blocked in frames), the launch still
     signs the frame in and its page connects."""
     gw, platform = lab
-    from .conftest import CHROMIUM, CHROMIUM_ARGS
+    from tests.support.ide import CHROMIUM, CHROMIUM_ARGS
     browser = chromium.browser_type.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS + [
         '--test-third-party-cookie-phaseout']) if phaseout else chromium
     ctx = browser.new_context(viewport={'width': 1180, 'height': 900})
@@ -359,7 +355,6 @@ def test_the_teacher_books_a_slot_for_a_student_from_the_lms(start_gateway, brow
     """A student known only by her LMS launch (her key is a digest of issuer and subject) gets a
     slot the teacher books "for" her by name: it is hers on her pages, and she drives in it."""
     import time
-    import urllib.request
     key = rsa.generate_private_key(public_exponent=65537, key_size=2048)
     (tmp_path / 'tool.pem').write_bytes(key.private_bytes(serialization.Encoding.PEM, serialization.PrivateFormat.PKCS8,
                                                           serialization.NoEncryption()))
@@ -371,16 +366,6 @@ def test_the_teacher_books_a_slot_for_a_student_from_the_lms(start_gateway, brow
                            '--lti', str(tmp_path / 'tool.json'), '--booking')
         platform.tool = f'http://localhost:{gw.port}'
 
-        def api(path, body=None, token=ADMIN_TOKEN):
-            req = urllib.request.Request(gw.http_url.rstrip('/') + path, method='POST' if body else 'GET',
-                                         data=json.dumps(body).encode() if body else None,
-                                         headers={'Authorization': f'Bearer {token}', 'Content-Type': 'application/json'})
-            try:
-                with urllib.request.urlopen(req, timeout=10) as r:
-                    return r.status, json.loads(r.read())
-            except urllib.error.HTTPError as e:
-                return e.code, e.read().decode()
-
         twins = []
         for sub in ('student-gil', 'student-gil-2'):        # two Gil Rays in the course, and Hana
             page = browser()
@@ -388,26 +373,30 @@ def test_the_teacher_books_a_slot_for_a_student_from_the_lms(start_gateway, brow
             twins.append(page)
         hana = browser()
         launch(hana, platform.add('student-hana', [LEARNER], name='Hana Ito', target='/teleop'), '/teleop')
-        status, people = api('/api/people')
+        status, people = api(gw, 'GET', '/api/people', token=ADMIN_TOKEN)
         assert status == 200
         named = {p['name']: p for p in people['people'] if p['kind'] == 'lti'}
         assert named['Hana Ito']['role'] == 'operator' and named['Hana Ito']['id'].startswith('lti-')
         assert 'student-hana' not in json.dumps(people)                      # the LMS's subject stays out
-        assert api('/api/people', token=None)[0] == 401
+        assert http(gw, '/api/people').status == 401
 
         start = time.time() + 1
-        status, booked = api('/api/bookings', {'station': '/s02', 'start': start, 'end': start + 600, 'for': 'hana ito'})
+        slot = {'start': start, 'end': start + 600}
+        status, booked = api(gw, 'POST', '/api/bookings', {'station': '/s02', **slot, 'for': 'hana ito'}, ADMIN_TOKEN)
         assert status == 201 and booked['name'] == 'Hana Ito' and not booked['mine'], booked
-        status, why = api('/api/bookings', {'station': '/s01', 'start': start, 'end': start + 600, 'for': 'Gil Ray'})
+        status, why, _ = http(gw, '/api/bookings', method='POST', token=ADMIN_TOKEN,
+                              json={'station': '/s01', **slot, 'for': 'Gil Ray'})
+        why = why.decode()
         assert status == 409 and 'several people are named' in why and why.count('lti-') == 2, why
         gil = [p['id'] for p in people['people'] if p['name'] == 'Gil Ray']
-        status, booked = api('/api/bookings', {'station': '/s01', 'start': start, 'end': start + 600, 'for': gil[0]})
+        status, booked = api(gw, 'POST', '/api/bookings', {'station': '/s01', **slot, 'for': gil[0]}, ADMIN_TOKEN)
         assert status == 201 and booked['name'] == 'Gil Ray', booked
 
         # on her own pages the slot is hers, and her teleop page drives /s02 in it
         mine = hana.evaluate("fetch('/api/bookings', {credentials: 'same-origin'}).then((r) => r.json())")
         assert [b['station'] for b in mine['bookings'] if b['mine']] == ['/s02'], mine
-        wait_for(lambda: api('/api/bookings')[1]['now'] >= start, timeout=30, interval=0.2)   # her slot is on
+        wait_for(lambda: api(gw, 'GET', '/api/bookings', token=ADMIN_TOKEN)[1]['now'] >= start,   # her slot is on
+                 timeout=30, interval=0.2)
         hana.goto(platform.tool + '/teleop?ns=/s02')          # the tool's site, where her session is
         hana.wait_for_function("document.body?.dataset.connection === 'connected' && teleop.robotNs.mine === '/s02'",
                                timeout=30000)

@@ -10,8 +10,8 @@ import sys
 
 import pytest
 
-from .conftest import ARTIFACTS, wait_for
-from .test_ide_features import ex, program
+from tests.support.ide import ARTIFACTS, ex, program
+from tests.support.wait import wait_for
 
 
 def js_pick(page, msg, selector, index=0):

@@ -27,10 +27,9 @@ from cryptography.hazmat.primitives import hashes, serialization
 from cryptography.hazmat.primitives.asymmetric import ec
 from cryptography.x509.oid import NameOID
 
-from tests.conftest import wait_for
-from tests.security.client import Client
-
-from .conftest import CHROMIUM, CHROMIUM_ARGS
+from tests.support.http import http
+from tests.support.ide import CHROMIUM, CHROMIUM_ARGS, drives_its_station
+from tests.support.wait import wait_for
 
 ROOT = Path(__file__).resolve().parents[2]
 TOKENS = {'operator': 'proxy-operator-token-1', 'admin': 'proxy-admin-token-2'}
@@ -140,13 +139,11 @@ def browser(chromium_resolving):
 
 
 @pytest.fixture(scope='module')
-def chromium_resolving():
-    from playwright.sync_api import sync_playwright
-    with sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS + [
-            '--host-resolver-rules=MAP lab.localtest 127.0.0.1, MAP other.localtest 127.0.0.1'])
-        yield browser
-        browser.close()
+def chromium_resolving(playwright):
+    browser = playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS + [
+        '--host-resolver-rules=MAP lab.localtest 127.0.0.1, MAP other.localtest 127.0.0.1'])
+    yield browser
+    browser.close()
 
 
 def test_a_page_through_nginx_signs_in_opens_wss_and_drives_its_station(proxied, browser):
@@ -165,13 +162,7 @@ def test_a_page_through_nginx_signs_in_opens_wss_and_drives_its_station(proxied,
     cookie = next(c for c in browser.cookies() if c['name'] == 'rosgate_session')
     assert cookie['secure'] and cookie['httpOnly'] and cookie['sameSite'] == 'Lax'
     assert TOKENS['operator'] not in cookie['value']
-    with Client(gw.ws_url, TOKENS['admin']) as watcher:
-        watcher.subscribe(f'{ns}/turtle1/cmd_vel', 'geometry_msgs/msg/Twist')
-        page.locator('body').click(position={'x': 5, 'y': 5})
-        page.keyboard.down('ArrowUp')
-        msg = watcher.expect(lambda m: m.get('op') == 'publish' and m['msg']['linear']['x'] > 0, timeout=10)
-        page.keyboard.up('ArrowUp')
-        assert msg['topic'] == f'{ns}/turtle1/cmd_vel'
+    drives_its_station(page, gw, TOKENS['admin'], ns)
     assert not errors, errors
 
     # pages of another https origin and of another port, in the same signed-in browser: no websocket
@@ -184,17 +175,7 @@ def test_a_page_through_nginx_signs_in_opens_wss_and_drives_its_station(proxied,
 
 def _post_login(gw, token: str, forwarded_for: str) -> int:
     form = urllib.parse.urlencode({'token': token, 'next': '/'}).encode()
-    request = urllib.request.Request(gw.http_url + 'login', data=form, method='POST',
-                                     headers={'X-Forwarded-For': forwarded_for})
-
-    class NoRedirect(urllib.request.HTTPRedirectHandler):
-        def redirect_request(self, *args, **kw):
-            return None
-    try:
-        with urllib.request.build_opener(NoRedirect).open(request, timeout=5) as r:
-            return r.status
-    except urllib.error.HTTPError as e:
-        return e.code
+    return http(gw, '/login', method='POST', data=form, headers={'X-Forwarded-For': forwarded_for}).status
 
 
 @pytest.mark.parametrize('trusted, shared', [('127.0.0.1', False), ('127.0.0.2', True)])

@@ -10,7 +10,7 @@ import time
 
 import pytest
 
-from .conftest import wait_for
+from tests.support.wait import wait_for
 
 START = """async ({source, ns}) => {
   const py = await import('/js/pyrun.js');

@@ -9,10 +9,11 @@ from pathlib import Path
 
 import pytest
 
-from tests.gateway.test_runs import api, ended
-
-from .conftest import RosClient, wait_for
-from .test_ide_features import drive, ex, moving, program
+from tests.support.http import api
+from tests.support.ide import drive, ex, moving, program
+from tests.support.ros import RosClient
+from tests.support.runs import ended
+from tests.support.wait import wait_for
 
 
 def log(text: str) -> dict:
@@ -28,9 +29,8 @@ def runs_gateway(start_gateway, tmp_path_factory):
 
 @pytest.fixture
 def runs_ros(runs_gateway):
-    client = RosClient(runs_gateway)
-    yield client
-    client.close()
+    with RosClient(runs_gateway) as client:
+        yield client
 
 
 def console_has(ide, text: str) -> bool:

@@ -8,15 +8,8 @@ import subprocess
 import sys
 import time
 
-from .conftest import ARTIFACTS, wait_for
-from .test_ide_features import ex, program
-
-
-def bool_message() -> dict:
-    return {"type": "ros_message", "extraState": {"kind": "msg", "type": "std_msgs/msg/Bool",
-                                                  "fields": [{"name": "data", "type": "bool", "array": -1}]},
-            "fields": {"TYPE": "std_msgs/msg/Bool"},
-            "inputs": {"F_data": {"shadow": {"type": "logic_boolean", "fields": {"BOOL": "TRUE"}}}}}
+from tests.support.ide import ARTIFACTS, bool_message, ex, program
+from tests.support.wait import wait_for
 
 
 def test_wrong_type_publish_fails_on_its_block(turtle_gateway, turtle_ros, ide_factory):

@@ -10,9 +10,9 @@ import sys
 
 import pytest
 
-from tests.conftest import ROOT
-
-from .conftest import RosClient, wait_for
+from tests.support.process import ROOT
+from tests.support.ros import RosClient
+from tests.support.wait import wait_for
 
 RUNTIME = (ROOT / 'ide' / 'runtime' / 'rosgate_runtime.py').read_text()
 DRIVES_ON = RUNTIME + '''

@@ -5,9 +5,8 @@ from __future__ import annotations
 import statistics
 import time
 
-import pytest
-
-from .conftest import ARTIFACTS, PHONE, open_teleop, wait_for
+from tests.support.ide import ARTIFACTS, PHONE, open_teleop
+from tests.support.wait import wait_for
 
 
 def drag(cdp, x0, y0, dx, dy, steps=8):

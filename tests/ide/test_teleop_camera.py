@@ -3,10 +3,10 @@ as the smaller JPEG the page asks for, with the frame's age shown beside it."""
 
 from __future__ import annotations
 
-from tests.conftest import client, wait_for
-from tests.gateway.camera import Camera
-
-from .conftest import open_teleop
+from tests.support.camera import Camera
+from tests.support.ide import open_teleop
+from tests.support.ros import client
+from tests.support.wait import wait_for
 
 
 def test_teleop_asks_for_a_smaller_image_and_shows_its_age(chromium, start_gateway):

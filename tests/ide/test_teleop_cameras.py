@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import pytest
 
-from tests.conftest import client
-from tests.gateway.camera import Camera
+from tests.support.camera import Camera
+from tests.support.ros import client
 
-from .conftest import ARTIFACTS, PHONE, TABLET
+from tests.support.ide import ARTIFACTS, PHONE, TABLET
 
 WAIT = 60000
 LOADED = "(sel) => [...document.querySelectorAll(sel)].filter((i) => i.complete && i.naturalWidth > 0).length"

@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import time
 
-from .conftest import RosClient, open_teleop, wait_for
+from tests.support.ide import open_teleop
+from tests.support.ros import RosClient
+from tests.support.wait import wait_for
 
 TWIST = "geometry_msgs/msg/Twist"
 

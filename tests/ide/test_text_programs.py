@@ -14,8 +14,9 @@ import time
 
 import pytest
 
-from .conftest import ARTIFACTS, PHONE, IdePage, RosClient, wait_for
-from .test_examples import START, reset_turtlesim
+from tests.support.ide import ARTIFACTS, PHONE, IdePage
+from tests.support.ros import START, RosClient, reset_turtlesim
+from tests.support.wait import wait_for
 
 TWIST = "geometry_msgs/msg/Twist"
 POSE = "turtlesim/msg/Pose"

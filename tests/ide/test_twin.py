@@ -9,7 +9,7 @@ from contextlib import contextmanager
 
 import roslibpy
 
-from .conftest import ARTIFACTS, PHONE
+from tests.support.ide import ARTIFACTS, PHONE
 
 WAIT = 60000   # ms: a busy machine compiles the shaders slowly
 # the rover's body colour (0xf08c1a, lit): red well above blue, green between

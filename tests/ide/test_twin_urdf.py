@@ -13,11 +13,11 @@ from contextlib import contextmanager
 import pytest
 import roslibpy
 
-from tests.conftest import client
-from tests.gateway.rawclient import Raw
+from tests.support.rawclient import Raw
+from tests.support.ros import client
 
-from .conftest import ARTIFACTS, TABLET
-from .testbot import joint_state, occupancy_grid, transform, write_package
+from tests.support.ide import ARTIFACTS, TABLET
+from tests.support.testbot import joint_state, occupancy_grid, transform, write_package
 
 WAIT = 60000
 MASKS = """() => {

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import pytest
 
-from .conftest import PHONE, TABLET
+from tests.support.ide import PHONE, TABLET
 
 PAD = 8   # the view's margin around the world, in CSS pixels
 

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from .conftest import started
+from tests.support.install import started
 
 try:
     import rclpy  # noqa: F401

@@ -14,9 +14,8 @@ import xml.etree.ElementTree as ET
 
 import pytest
 
-from tests.conftest import ROOT
-
-from .conftest import started, run
+from tests.support.install import run, started
+from tests.support.process import ROOT
 
 # rosbridge_server's launch/rosbridge_websocket_launch.xml (ros2 branch): its arguments.
 ROSBRIDGE_ARGS = {
@@ -43,7 +42,7 @@ def test_package_xml_is_format_3_ament_python_and_agrees_with_pyproject(tools):
     assert info['format'] == 3 and info['build_type'] == 'ament_python'
     assert (info['name'], info['version'], info['description']) == \
         (project['name'], project['version'], project['description'])
-    assert info['licenses'] == [project['license']['text']]
+    assert info['licenses'] == [project['license']]   # an SPDX expression (PEP 639)
     assert {'rclpy', 'std_msgs', 'geometry_msgs', 'sensor_msgs'} <= set(info['exec'])
 
 
@@ -71,7 +70,7 @@ def argv_for(line: str, values: dict[str, str]) -> list[str]:
 
 
 def test_launch_file_takes_rosbridge_arguments_and_rosgate_understands_them():
-    from gateway.cli import build_parser, ros_style
+    from gateway.cli import build_parser, ros_style, settings_from
     args = launch_args()
     assert ROSBRIDGE_ARGS <= set(args)
     lines = node_command_lines()
@@ -86,7 +85,9 @@ def test_launch_file_takes_rosbridge_arguments_and_rosgate_understands_them():
     # ros2 launch rosgate rosgate_launch.xml port:=9091 (the defaults for the rest)
     plain = parser.parse_args(ros_style(argv_for(lines['false'], {**args, 'port': '9091'}), parser))
     assert (plain.port, plain.address, plain.certfile, plain.use_compression) == (9091, '', None, False)
-    assert plain.topics_glob == '' and plain.stop_on_disconnect is True and plain.exclusive_control is False
+    settings = settings_from(plain)
+    assert plain.topics_glob == '' and settings.safety.stop_on_disconnect is True
+    assert settings.safety.exclusive_control is False
     # ssl:=true with a certificate; rosbridge-style booleans and globs
     tls = parser.parse_args(ros_style(argv_for(lines['true'], {
         **args, 'ssl': 'true', 'certfile': '/etc/c.pem', 'keyfile': '/etc/k.pem', 'use_compression': 'true',

@@ -6,14 +6,14 @@ from __future__ import annotations
 import shutil
 import tarfile
 import zipfile
+from contextlib import nullcontext
 from pathlib import Path
 
 import pytest
 
-from tests.conftest import client
-from tests.ide.conftest import CHROMIUM, CHROMIUM_ARGS
-
-from .conftest import started, copy_source, run
+from tests.support.ide import CHROMIUM, CHROMIUM_ARGS
+from tests.support.install import copy_source, run, started
+from tests.support.ros import client
 
 # Files of ide/ that only build the IDE or describe it; everything else must reach users.
 IDE_BUILD_ONLY = {'package.json', 'package-lock.json', 'build.mjs', 'README.md', 'vendor/.built'}
@@ -73,11 +73,10 @@ def test_startup_line_advertises_the_ide(installed):
     assert f'IDE http://127.0.0.1:{installed.port}/' in installed.line
 
 
-def test_ide_and_teleop_work_in_chromium(installed):
+def test_ide_and_teleop_work_in_chromium(installed, playwright):
     if not Path(CHROMIUM).exists():
         pytest.fail(f'Chromium not found at {CHROMIUM}: apt-get install chromium')
-    from playwright.sync_api import sync_playwright
-    with sync_playwright() as p:
+    with nullcontext(playwright) as p:
         browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
         try:
             page = browser.new_page()

@@ -2,47 +2,12 @@
 
 from __future__ import annotations
 
-import hashlib
 import subprocess
+from contextlib import ExitStack
 
 import pytest
 
-TOKENS = {
-    'viewer': 'viewer-token-0a1b2c',
-    'operator': 'operator-token-3d4e5f',
-    'operator2': 'operator-token-6a7b8c',
-    'admin': 'admin-token-9d0e1f',
-}
-ROSAUTH_SECRET = 'rosauth-shared-secret-42'
-
-
-def tokens_toml() -> str:
-    sha = hashlib.sha256(TOKENS['admin'].encode()).hexdigest()
-    return f'''
-[[tokens]]
-name = "vera"
-role = "viewer"
-token = "{TOKENS['viewer']}"
-
-[[tokens]]
-name = "alice"
-role = "operator"
-token = "{TOKENS['operator']}"
-
-[[tokens]]
-name = "bob"
-role = "operator"
-token = "{TOKENS['operator2']}"
-
-[[tokens]]
-name = "teacher"
-role = "admin"
-sha256 = "{sha}"
-
-[rosauth]
-secret = "{ROSAUTH_SECRET}"
-role = "viewer"
-'''
+from tests.support.auth import tokens_toml
 
 
 @pytest.fixture(scope='session')
@@ -67,13 +32,10 @@ def certificate(tmp_path_factory):
 @pytest.fixture(scope='module')
 def launch(start_gateway):
     """start_gateway(*flags) for this module: every gateway it started is stopped at module end."""
-    started = []
+    with ExitStack() as started:
+        def start(*flags: str, env: dict | None = None):
+            gw = start_gateway(*flags, env=env)
+            started.callback(gw.stop)
+            return gw
 
-    def start(*flags: str, env: dict | None = None):
-        gw = start_gateway(*flags, env=env)
-        started.append(gw)
-        return gw
-
-    yield start
-    for gw in started:
-        gw.stop()
+        yield start

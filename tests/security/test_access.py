@@ -12,9 +12,10 @@ import urllib.request
 import pytest
 from websockets.exceptions import InvalidStatus
 
-from tests.conftest import wait_for
-from tests.security.client import Client
-from tests.security.conftest import ROSAUTH_SECRET, TOKENS
+from tests.support.auth import ROSAUTH_SECRET, TOKENS, login
+from tests.support.http import http
+from tests.support.wait import wait_for
+from tests.support.wsclient import Client
 
 ROLES = ('viewer', 'operator', 'admin')
 
@@ -35,20 +36,6 @@ def connect(gw, role: str, how: str = 'query') -> Client:
     client.send({'op': 'auth', 'token': token, 'id': 'auth'})
     assert client.call('/rosapi/get_time')['result'] is True
     return client
-
-
-def http(gw, path: str, *, method: str = 'GET', headers: dict | None = None, data: bytes | None = None):
-    """(status, headers, body) of an HTTP request that does not follow redirects."""
-    class NoRedirect(urllib.request.HTTPRedirectHandler):
-        def redirect_request(self, *args, **kw):
-            return None
-    opener = urllib.request.build_opener(NoRedirect)
-    request = urllib.request.Request(gw.http_url.rstrip('/') + path, data=data, method=method, headers=headers or {})
-    try:
-        with opener.open(request, timeout=5) as r:
-            return r.status, r.headers, r.read()
-    except urllib.error.HTTPError as e:
-        return e.code, e.headers, e.read()
 
 
 # --- origins ---------------------------------------------------------------------------------
@@ -185,7 +172,7 @@ def test_each_role_allowed_and_refused_exactly(secured, role, how):
 def test_program_library_keeps_a_space_per_name(secured):
     def as_(role, path, method='GET', data=None):
         headers = {'Authorization': f'Bearer {TOKENS[role]}', 'Content-Type': 'application/json'}
-        status, _, body = http(secured, path, method=method, data=data, headers=headers)
+        status, body, _ = http(secured, path, method=method, data=data, headers=headers)
         return status, json.loads(body) if body else None
 
     def names(role, query=''):
@@ -231,10 +218,10 @@ def test_before_auth_only_auth_is_accepted(secured):
 
 
 def test_login_page_sets_the_cookie_the_websocket_accepts(secured):
-    status, _, body = http(secured, '/login')
+    status, body, _ = http(secured, '/login')
     assert status == 200 and b'<form method="post" action="/login">' in body
     form = urllib.parse.urlencode({'token': TOKENS['admin'], 'next': '/?x=1'}).encode()
-    status, headers, _ = http(secured, '/login', method='POST', data=form)
+    status, _, headers = http(secured, '/login', method='POST', data=form)
     assert status == 303 and headers['Location'] == '/?x=1'
     cookie = headers['Set-Cookie']
     assert 'httponly' in cookie.lower() and 'samesite=lax' in cookie.lower()
@@ -243,29 +230,22 @@ def test_login_page_sets_the_cookie_the_websocket_accepts(secured):
     with Client(secured.ws_url, additional_headers={'Cookie': pair}) as c:
         assert _set_param(c, 'admin')
     assert http(secured, '/api/programs', headers={'Cookie': pair})[0] == 200
-    status, _, body = http(secured, '/whoami', headers={'Cookie': pair})
+    status, body, _ = http(secured, '/whoami', headers={'Cookie': pair})
     assert status == 200 and json.loads(body) == {'auth': True, 'name': 'teacher', 'role': 'admin'}
     assert http(secured, '/whoami')[0] == 401
-
-
-def _login(gw, role: str) -> str:
-    form = urllib.parse.urlencode({'token': TOKENS[role], 'next': '/'}).encode()
-    status, headers, _ = http(gw, '/login', method='POST', data=form)
-    assert status == 303
-    return headers['Set-Cookie'].split(';', 1)[0]
 
 
 def test_the_cookie_is_not_the_token(secured):
     """The session cookie holds a signed random id: neither the token nor anything made from it,
     a new one at each sign-in; its value with a changed signature, or as a token, is no one."""
-    pair = _login(secured, 'admin')
+    pair = login(secured, TOKENS['admin'])
     name, value = pair.split('=', 1)
     assert name == 'rosgate_session'
     token = TOKENS['admin']
     for form in (token, urllib.parse.quote(token), hashlib.sha256(token.encode()).hexdigest(),
                  __import__('base64').b64encode(token.encode()).decode().rstrip('=')):
         assert form not in urllib.parse.unquote(value)
-    assert _login(secured, 'admin') != pair
+    assert login(secured, TOKENS['admin']) != pair
     forged = value[:-4] + ('0000' if not value.endswith('0000') else '1111')
     assert http(secured, '/whoami', headers={'Cookie': f'{name}={forged}'})[0] == 401
     assert http(secured, '/whoami', headers={'Cookie': f'rosgate_token={token}'})[0] == 401
@@ -274,10 +254,10 @@ def test_the_cookie_is_not_the_token(secured):
 
 def test_logout_ends_the_session_on_the_server(secured):
     """A copy of the cookie (another browser, a stolen one) stops working once its owner signs out."""
-    pair = _login(secured, 'operator')
+    pair = login(secured, TOKENS['operator'])
     copy = pair
     assert http(secured, '/whoami', headers={'Cookie': copy})[0] == 200
-    status, headers, _ = http(secured, '/logout', method='POST', headers={'Cookie': pair})
+    status, _, headers = http(secured, '/logout', method='POST', headers={'Cookie': pair})
     assert status == 303 and 'max-age=0' in headers['Set-Cookie'].lower()
     assert http(secured, '/whoami', headers={'Cookie': copy})[0] == 401
     with Client(secured.ws_url, additional_headers={'Cookie': copy}) as c:
@@ -287,25 +267,25 @@ def test_logout_ends_the_session_on_the_server(secured):
 
 def test_sessions_survive_a_restart_and_end_at_their_expiry(launch, tokens_file, tmp_path):
     """Kept in the store: a restarted gateway knows its sessions; --session-hours bounds them."""
-    from tests.conftest import GatewayProcess
+    from tests.support.process import GatewayProcess
     home = str(tmp_path / 'home')
     gw = GatewayProcess('--auth', tokens_file, env={'XDG_DATA_HOME': home})
     try:
-        pair = _login(gw, 'viewer')
-        ended = _login(gw, 'operator')
+        pair = login(gw, TOKENS['viewer'])
+        ended = login(gw, TOKENS['operator'])
         assert http(gw, '/logout', method='POST', headers={'Cookie': ended})[0] == 303
     finally:
         gw.stop()
     gw = GatewayProcess('--auth', tokens_file, env={'XDG_DATA_HOME': home})
     try:
-        status, _, body = http(gw, '/whoami', headers={'Cookie': pair})
+        status, body, _ = http(gw, '/whoami', headers={'Cookie': pair})
         assert status == 200 and json.loads(body)['role'] == 'viewer'
         assert http(gw, '/whoami', headers={'Cookie': ended})[0] == 401
     finally:
         gw.stop()
     gw = GatewayProcess('--auth', tokens_file, '--session-hours', '0.001', env={'XDG_DATA_HOME': home})
     try:
-        short = _login(gw, 'viewer')
+        short = login(gw, TOKENS['viewer'])
         assert http(gw, '/whoami', headers={'Cookie': short})[0] == 200
         wait_for(lambda: http(gw, '/whoami', headers={'Cookie': short})[0] == 401, timeout=20)   # past its 3.6 s lifetime
     finally:
@@ -393,7 +373,7 @@ def test_wss_with_self_signed_certificate(launch, tokens_file, certificate):
 
 def test_the_class_page_goes_out_only_through_its_admin_check(secured):
     """/class sends the signed-out to sign in; its file is not served as a public file."""
-    status, headers, _ = http(secured, '/class')
+    status, _, headers = http(secured, '/class')
     assert status == 302 and headers['Location'].startswith('/login'), (status, dict(headers))
     assert http(secured, '/class.html')[0] == 404
     assert http(secured, '/class.html', headers={'Authorization': f'Bearer {TOKENS["operator"]}'})[0] == 404

@@ -7,20 +7,19 @@ robot-side run."""
 from __future__ import annotations
 
 import datetime
-from contextlib import contextmanager
 import json
 import queue
 import time
-import urllib.request
 
 import pytest
 import roslibpy
 
-from tests.conftest import client as connect, wait_for
-from tests.gateway.test_runs import ENDED, api, program, state_of
-
-from .client import Client
-from .conftest import TOKENS
+from tests.support.auth import TOKENS
+from tests.support.http import api, http
+from tests.support.ros import client as connect
+from tests.support.runs import ENDED, program, state_of
+from tests.support.wait import wait_for
+from tests.support.wsclient import Client
 
 TWIST = 'geometry_msgs/msg/Twist'
 POSE = 'turtlesim/msg/Pose'
@@ -32,17 +31,6 @@ LAB = ('--robot', 'turtlesim', '--fleet', '2', '--exclusive-control', '--allow-r
 @pytest.fixture(scope='module')
 def lab(launch, tokens_file, tmp_path_factory):
     return launch(*LAB, '--auth', tokens_file, '--runs-dir', str(tmp_path_factory.mktemp('runs')))
-
-
-@contextmanager
-def watching(gw, who: str = 'viewer'):
-    """A roslibpy page signed in as ``who`` (a viewer: it only watches)."""
-    ros = roslibpy.Ros(f'ws://{gw.host}:{gw.port}/?token={TOKENS[who]}')
-    ros.run(timeout=10)
-    try:
-        yield ros
-    finally:
-        ros.close()
 
 
 def book(gw, who: str, station: str, start: float, end: float):
@@ -158,17 +146,17 @@ def test_quotas_refuse_with_429(lab):
 def test_calendar_feed_lists_a_persons_own_slots(lab):
     t = time.time() + 1200
     _, hers = book(lab, 'operator', '/s02', t, t + 10)
-    url = f'{lab.http_url}api/bookings.ics?token='
-    with urllib.request.urlopen(url + TOKENS['operator'], timeout=10) as res:
-        assert res.headers['Content-Type'].startswith('text/calendar')
-        text = res.read().decode()
+    feed = '/api/bookings.ics?token='
+    res = http(lab, feed + TOKENS['operator'])
+    assert res.status == 200 and res.headers['Content-Type'].startswith('text/calendar')
+    text = res.body.decode()
     stamp = datetime.datetime.fromtimestamp(t, datetime.timezone.utc).strftime('%Y%m%dT%H%M%SZ')
     assert text.startswith('BEGIN:VCALENDAR') and f'UID:booking-{hers["id"]}@' in text
     assert f'DTSTART:{stamp}' in text and 'LOCATION:/s02' in text
-    with urllib.request.urlopen(url + TOKENS['operator2'], timeout=10) as res:   # bob's: his own only
-        assert f'UID:booking-{hers["id"]}@' not in res.read().decode()
-    with urllib.request.urlopen(url + TOKENS['admin'], timeout=10) as res:       # the teacher's: everyone's
-        assert f'UID:booking-{hers["id"]}@' in res.read().decode()
+    res = http(lab, feed + TOKENS['operator2'])    # bob's: his own only
+    assert res.status == 200 and f'UID:booking-{hers["id"]}@' not in res.body.decode()
+    res = http(lab, feed + TOKENS['admin'])        # the teacher's: everyone's
+    assert res.status == 200 and f'UID:booking-{hers["id"]}@' in res.body.decode()
 
 
 def test_the_slot_is_the_bookers_and_the_gateway_ends_it(lab):
@@ -176,7 +164,7 @@ def test_the_slot_is_the_bookers_and_the_gateway_ends_it(lab):
     without Take and starts a run; at her slot's end, with no page acting, the turtle stops
     within 1 s and is back at its start pose, her run ends, her commands are refused, and bob
     drives without Take."""
-    with watching(lab) as watcher, Client(lab.ws_url, TOKENS['operator']) as alice, \
+    with connect(lab, TOKENS['viewer']) as watcher, Client(lab.ws_url, TOKENS['operator']) as alice, \
             Client(lab.ws_url, TOKENS['operator2']) as bob:
         poses = Poses(watcher, '/s01')
         poses.wait(lambda p: True)
@@ -276,7 +264,7 @@ def test_walk_ins_hold_until_the_next_booking_and_queue_when_all_are_taken(lab):
     """Bob walks into /s02 (the page can say until when: the next booking); with both stations
     taken the teacher queues, is told the estimated wait and is seated at /s01 when alice's slot
     there ends; at the start of alice's booking of /s02 bob's walk-in ends."""
-    with watching(lab, 'admin') as teacher, Client(lab.ws_url, TOKENS['operator2']) as bob, \
+    with connect(lab, TOKENS['admin']) as teacher, Client(lab.ws_url, TOKENS['operator2']) as bob, \
             Client(lab.ws_url, TOKENS['admin']) as teacher_page:
         roslibpy.Service(teacher, '/fleet/release_all', 'std_srvs/srv/Empty').call(roslibpy.ServiceRequest({}), timeout=10)
         t0 = time.time()
@@ -307,7 +295,7 @@ def test_walk_ins_hold_until_the_next_booking_and_queue_when_all_are_taken(lab):
 
 
 def test_a_booked_station_the_teacher_released_is_still_nobody_elses(lab):
-    with watching(lab, 'admin') as teacher, Client(lab.ws_url, TOKENS['operator']) as alice, \
+    with connect(lab, TOKENS['admin']) as teacher, Client(lab.ws_url, TOKENS['operator']) as alice, \
             Client(lab.ws_url, TOKENS['operator2']) as bob:
         t0 = time.time()
         status, hers = book(lab, 'operator', '/s01', t0 + 1, t0 + 15)

@@ -9,9 +9,9 @@ import json
 import pytest
 from websockets.exceptions import ConnectionClosed
 
-from tests.conftest import proc_bytes
-from tests.security.client import Client
-from tests.security.conftest import TOKENS
+from tests.support.auth import TOKENS
+from tests.support.process import proc_bytes
+from tests.support.wsclient import Client
 
 FLOOD = 200_000
 MB = 2**20

@@ -8,7 +8,7 @@ import time
 import pytest
 
 from gateway.rules.freshness import DRIFT, ClientClock
-from tests.security.client import TWIST, Client, is_zero_twist, twist
+from tests.support.wsclient import TWIST, Client, is_zero_twist, twist
 
 TOPIC = '/fresh/cmd_vel'
 

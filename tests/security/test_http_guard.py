@@ -6,24 +6,12 @@ from __future__ import annotations
 import json
 import os
 import socket
-import urllib.error
-import urllib.request
 
 import pytest
 
-from tests.rawsocket import upgrade_request
-from tests.security.conftest import TOKENS
-
-
-def http(gw, path: str, host: str | None = None, method: str = 'GET', body: bytes | None = None,
-         headers: dict | None = None) -> tuple[int, bytes]:
-    req = urllib.request.Request(gw.http_url.rstrip('/') + path, data=body, method=method,
-                                 headers={**({'Host': host} if host else {}), **(headers or {})})
-    try:
-        with urllib.request.urlopen(req, timeout=10) as res:
-            return res.status, res.read()
-    except urllib.error.HTTPError as e:
-        return e.code, e.read()
+from tests.support.auth import TOKENS
+from tests.support.http import http
+from tests.support.rawsocket import upgrade_request
 
 
 def raw_request(gw, head: str) -> str:
@@ -54,7 +42,7 @@ def test_dns_rebinding_is_refused_on_every_route(gateway):
     assert upgrade(gateway, evil, f'http://{evil}').startswith('HTTP/1.1 421')
     for path in ('/', '/health', '/teleop', '/api/programs', '/vendor/roslib.mjs', '/login'):
         assert http(gateway, path, host=evil)[0] == 421, path
-    assert http(gateway, '/api/programs/x', host=evil, method='PUT', body=b'{}')[0] == 421
+    assert http(gateway, '/api/programs/x', host=evil, method='PUT', data=b'{}')[0] == 421
     # names of this machine and IP literals pass
     for host in (f'127.0.0.1:{port}', f'localhost:{port}', f'{socket.gethostname()}:{port}'):
         assert upgrade(gateway, host, f'http://{host}').startswith('HTTP/1.1 101'), host
@@ -79,10 +67,11 @@ def test_only_what_the_pages_load_is_served(gateway):
 def test_symlinks_in_the_program_library_are_not_followed(gateway, tmp_path):
     secret = tmp_path / 'secret.json'
     secret.write_text(json.dumps({'secret': 'do not serve'}))
+    os.makedirs(gateway.programs_dir, exist_ok=True)   # made by the first save, which may not have happened yet
     link = os.path.join(gateway.programs_dir, 'linked.json')
     os.symlink(secret, link)
     try:
-        status, body = http(gateway, '/api/programs/linked')
+        status, body, _ = http(gateway, '/api/programs/linked')
         assert status == 404 and b'do not serve' not in body
         names = [p['name'] for p in json.loads(http(gateway, '/api/programs')[1])['programs']]
         assert 'linked' not in names
@@ -104,7 +93,7 @@ def test_unauthenticated_bodies_are_refused_before_reading(launch, tokens_file):
     bad = head.replace('\r\n\r\n', '\r\nAuthorization: Bearer not-a-token-at-all\r\n\r\n')
     assert raw_request(gw, bad).startswith('HTTP/1.1 401')
     admin = {'Authorization': f"Bearer {TOKENS['admin']}", 'Content-Type': 'application/json'}
-    assert http(gw, '/api/programs/ok', method='PUT', body=b'{"blocks": {}}', headers=admin)[0] == 200
-    status, _ = http(gw, '/login', method='POST', body=b'token=wrong&next=/',
+    assert http(gw, '/api/programs/ok', method='PUT', data=b'{"blocks": {}}', headers=admin)[0] == 200
+    status, *_ = http(gw, '/login', method='POST', data=b'token=wrong&next=/',
                      headers={'Content-Type': 'application/x-www-form-urlencoded'})
     assert status == 401   # the login form itself is a small body read without a token

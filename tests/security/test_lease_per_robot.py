@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import json
 
-from tests.security.client import TWIST, Client, is_zero_twist, twist
-from tests.security.conftest import TOKENS
+from tests.support.auth import TOKENS
+from tests.support.wsclient import TWIST, Client, is_zero_twist, twist
 
 DRIVER = '/rosgate/driver'
 

@@ -7,7 +7,7 @@ import time
 import pytest
 from websockets.exceptions import InvalidStatus
 
-from tests.security.client import Client
+from tests.support.wsclient import Client
 
 FIB = 'example_interfaces/action/Fibonacci'
 

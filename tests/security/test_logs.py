@@ -3,24 +3,18 @@ client chose (a run's name, a topic) could forge with a newline."""
 
 from __future__ import annotations
 
-import urllib.error
-import urllib.request
 from urllib.parse import quote
 
-from tests.conftest import wait_for
-from tests.gateway.test_runs import api
-from tests.security.client import Client, with_token
-from tests.security.conftest import TOKENS
+from tests.support.auth import TOKENS
+from tests.support.http import api, http
+from tests.support.wait import wait_for
+from tests.support.wsclient import Client, with_token
 
 FORGED = '2030-01-01 00:00:00,000 INFO rosgate: FORGED'
 
 
 def get(gw, path: str) -> int:
-    try:
-        with urllib.request.urlopen(gw.http_url.rstrip('/') + path, timeout=10) as res:
-            return res.status
-    except urllib.error.HTTPError as e:
-        return e.code
+    return http(gw, path).status
 
 
 def test_no_token_value_in_the_log(launch, tokens_file, tmp_path):

@@ -7,10 +7,10 @@ from __future__ import annotations
 
 import json
 
-from tests.conftest import wait_for
-from tests.gateway.test_runs import api
-from tests.security.client import Client
-from tests.security.conftest import TOKENS
+from tests.support.auth import TOKENS
+from tests.support.http import api
+from tests.support.wait import wait_for
+from tests.support.wsclient import Client
 
 STRING = 'std_msgs/msg/String'
 

@@ -5,16 +5,13 @@ holds only what a client could subscribe to, and nobody holds every recording sl
 
 from __future__ import annotations
 
-import json
-import urllib.error
-import urllib.request
 
 import pytest
 
-from tests.conftest import wait_for
-from tests.gateway.test_runs import api
-from tests.security.client import TWIST, Client, is_zero_twist, twist
-from tests.security.conftest import TOKENS
+from tests.support.auth import TOKENS
+from tests.support.http import api, http
+from tests.support.wait import wait_for
+from tests.support.wsclient import TWIST, Client, is_zero_twist, twist
 
 POSE = 'turtlesim/msg/Pose'
 S01 = '/s01/turtle1/cmd_vel'
@@ -41,14 +38,7 @@ def finished(gw, rec_id: str) -> dict:
 
 
 def download(gw, rec_id: str, who: str) -> int:
-    req = urllib.request.Request(f'{gw.http_url}api/recordings/{rec_id}.mcap',
-                                 headers={'Authorization': f'Bearer {TOKENS[who]}'})
-    try:
-        with urllib.request.urlopen(req, timeout=10) as res:
-            res.read()
-            return res.status
-    except urllib.error.HTTPError as e:
-        return e.code
+    return http(gw, f'/api/recordings/{rec_id}.mcap', token=TOKENS[who]).status
 
 
 def listed(gw, rec_id: str) -> dict | None:

@@ -9,7 +9,7 @@ import os
 
 import pytest
 
-from tests.security.conftest import TOKENS
+from tests.support.auth import TOKENS
 
 STL = b'solid body\nendsolid body\n'
 SECRET = b'TOP-SECRET-42'

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import json
 
-from tests.security.client import TWIST, Client, twist
-from tests.security.conftest import TOKENS
+from tests.support.auth import TOKENS
+from tests.support.wsclient import TWIST, Client, twist
 
 DRIVER, STATIONS = '/rosgate/driver', '/rosgate/stations'
 S01 = '/s01/turtle1/cmd_vel'

@@ -13,12 +13,14 @@ from pathlib import Path
 
 import pytest
 
-from gateway.web import sandbox
-from gateway.web.sandbox import Sandbox, SandboxUnavailable, reachable, unreadable
-from tests.conftest import wait_for
-from tests.gateway.test_runs import api, ended, program, state_of
-from tests.security.client import Client
-from tests.security.conftest import TOKENS, tokens_toml
+from gateway.runs import sandbox
+from gateway.runs.sandbox import Sandbox, SandboxUnavailable, reachable, unreadable
+from tests.support.auth import TOKENS, tokens_toml
+from tests.support.http import api
+from tests.support.process import descendants, uids
+from tests.support.runs import ended, program, state_of
+from tests.support.wait import wait_for
+from tests.support.wsclient import Client
 
 
 @pytest.fixture(scope='module')
@@ -63,27 +65,6 @@ def test_a_runs_output_topic_is_its_starters_and_the_admins(class_gw):
         with Client(class_gw.ws_url, TOKENS[who]) as ok:
             assert ok.refusal({'op': 'subscribe', 'topic': f'/rosgate/runs/{run_id}/state',
                                'type': 'std_msgs/msg/String', 'id': 'mine'}) is None, who
-
-
-def uids(pid: int) -> list[int]:
-    for line in Path(f'/proc/{pid}/status').read_text().splitlines():
-        if line.startswith('Uid:'):
-            return [int(v) for v in line.split()[1:]]
-    return []
-
-
-def descendants(pid: int) -> list[int]:
-    found, todo = [], [pid]
-    while todo:
-        p = todo.pop()
-        try:
-            children = [int(c) for t in os.listdir(f'/proc/{p}/task')
-                        for c in Path(f'/proc/{p}/task/{t}/children').read_text().split()]
-        except OSError:
-            continue
-        found += children
-        todo += children
-    return found
 
 
 def test_no_process_of_a_run_is_root_seen_from_the_gateway(class_gw):
@@ -161,7 +142,7 @@ def test_run_user_is_never_root_and_warns_in_a_namespace_with_root_alone():
         pytest.skip('the rest needs root')
     assert user is not None and user[0] != 0 and user[1] != 0
     done = subprocess.run(['unshare', '-r', sys.executable, '-c',
-                           'from gateway.web.sandbox import run_user\nprint(run_user())'],
+                           'from gateway.runs.sandbox import run_user\nprint(run_user())'],
                           capture_output=True, text=True, timeout=60, cwd=Path(__file__).resolve().parents[2])
     assert done.stdout.strip() == 'None', done
     assert 'runs are uid 0 outside their box' in done.stderr and 'unshare -n' in done.stderr, done.stderr

@@ -10,13 +10,14 @@ import socket
 import subprocess
 import sys
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 import cbor2
 import pytest
 
-from tests.security.client import TWIST, TWIST_STAMPED, Client, is_zero_twist, twist
-from tests.security.conftest import TOKENS
+from tests.support.auth import TOKENS
+from tests.support.wsclient import TWIST, TWIST_STAMPED, Client, is_zero_twist, twist
 
 ROOT = Path(__file__).resolve().parents[2]
 STOP_WITHIN = 0.2   # s from disconnect to the zero command, as promised
@@ -30,15 +31,23 @@ def safe(launch, tmp_path_factory):
                   '--max-angular', '0.5', '--velocity-limits', str(limits))
 
 
-def teleop(url: str, topic: str) -> subprocess.Popen:
-    proc = subprocess.Popen([sys.executable, '-m', 'tests.security.teleop', url, topic, '50'], cwd=ROOT,
-                            stdout=subprocess.PIPE, text=True)
-    assert proc.stdout.readline().strip() == 'streaming'
-    return proc
-
-
 def moving(msg: dict) -> bool:
     return not is_zero_twist(msg)
+
+
+@contextmanager
+def teleop(watcher: Client, url: str, topic: str):
+    """A teleop process streaming Twists to ``topic`` at 50 Hz, once ``watcher`` (subscribed to it)
+    has seen it move; killed on leaving."""
+    proc = subprocess.Popen([sys.executable, '-m', 'tests.security.teleop', url, topic, '50'], cwd=ROOT,
+                            stdout=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout.readline().strip() == 'streaming'
+        watcher.next_message(topic, moving)
+        yield proc
+    finally:
+        proc.kill()
+        proc.wait()
 
 
 def test_teleop_killed_mid_stream_stops_within_200_ms(gateway):
@@ -46,16 +55,11 @@ def test_teleop_killed_mid_stream_stops_within_200_ms(gateway):
     topic = '/killed/cmd_vel'
     with Client(gateway.ws_url) as watcher:
         watcher.subscribe(topic, TWIST)
-        proc = teleop(gateway.ws_url, topic)
-        try:
-            watcher.next_message(topic, moving)
+        with teleop(watcher, gateway.ws_url, topic) as proc:
             killed = time.monotonic()
             os.kill(proc.pid, signal.SIGKILL)
             zero = watcher.next_message(topic, is_zero_twist, timeout=2)
             latency = time.monotonic() - killed
-        finally:
-            proc.kill()
-            proc.wait()
     print(f'\nzero command {latency * 1000:.1f} ms after kill -9 of the teleop client')
     assert zero == twist() and latency < STOP_WITHIN
 
@@ -179,16 +183,11 @@ def test_sigterm_publishes_stop_before_closing(launch):
     topic = '/halt/cmd_vel'
     with Client(gw.ws_url) as watcher:
         watcher.subscribe(topic, TWIST)
-        proc = teleop(gw.ws_url, topic)
-        try:
-            watcher.next_message(topic, moving)
+        with teleop(watcher, gw.ws_url, topic):
             signalled = time.monotonic()
             gw.proc.send_signal(signal.SIGTERM)
             watcher.next_message(topic, is_zero_twist, timeout=5)
             latency = time.monotonic() - signalled
             assert watcher.closed_code() == 1001
-        finally:
-            proc.kill()
-            proc.wait()
     assert gw.proc.wait(10) == 0
     print(f'\nzero command {latency * 1000:.1f} ms after SIGTERM, then close 1001 and exit 0')

@@ -9,7 +9,7 @@ import select
 import socket
 import time
 
-from tests.security.client import Client
+from tests.support.wsclient import Client
 
 DEADLINE = 30.0   # s; the timeouts below are 1 s
 

@@ -5,14 +5,13 @@ student's robot-side run drives her own station and gives it back: --fleet 3 --e
 from __future__ import annotations
 
 import json
-from contextlib import contextmanager
 
 import pytest
 import roslibpy
 
-from tests.conftest import wait_for
-
-from .conftest import TOKENS
+from tests.support.auth import TOKENS
+from tests.support.ros import client
+from tests.support.wait import wait_for
 
 TWIST = 'geometry_msgs/msg/Twist'
 TRIGGER = 'std_srvs/srv/Trigger'
@@ -22,16 +21,6 @@ TRIGGER = 'std_srvs/srv/Trigger'
 def fleet(start_gateway, tokens_file):
     return start_gateway('--robot', 'turtlesim', '--fleet', '3', '--exclusive-control', '--auth', tokens_file,
                          '--cmd-timeout', '0', '--claim-grace', '0.5')
-
-
-@contextmanager
-def person(gw, who: str):
-    ros = roslibpy.Ros(f'ws://{gw.host}:{gw.port}/?token={TOKENS[who]}')
-    ros.run(timeout=10)
-    try:
-        yield ros
-    finally:
-        ros.close()
 
 
 def call(ros, service: str, type_: str = TRIGGER) -> dict:
@@ -66,17 +55,17 @@ def driver(ros, ns: str):
 
 
 def test_a_station_is_a_persons_and_comes_back_to_them(fleet):
-    with person(fleet, 'admin') as teacher:
+    with client(fleet, TOKENS['admin']) as teacher:
         call(teacher, '/fleet/release_all', 'std_srvs/srv/Empty')
-        with person(fleet, 'operator') as alice:
+        with client(fleet, TOKENS['operator']) as alice:
             assert call(alice, '/fleet/claim') == {'success': True, 'message': '/s01'}
             assert call(alice, '/fleet/claim') == {'success': True, 'message': '/s01'}   # a second tab: the same
         # alice has gone for longer than a script's grace; bob arrives and gets the next one
-        with person(fleet, 'operator2') as bob:
+        with client(fleet, TOKENS['operator2']) as bob:
             wait_for(lambda: announced(bob, '/rosgate/stations')['owners'].get('/s01', {}).get('name') == 'alice', 5)
             assert call(bob, '/fleet/claim') == {'success': True, 'message': '/s02'}
             assert 'alice\'s station' in call(bob, '/s01/fleet/claim')['message']
-            with person(fleet, 'operator') as alice:
+            with client(fleet, TOKENS['operator']) as alice:
                 assert call(alice, '/fleet/claim') == {'success': True, 'message': '/s01'}
             # the teacher releases alice's station; a script takes the last free one
             assert call(teacher, '/s01/fleet/release')['success'] is True
@@ -88,7 +77,8 @@ def test_a_station_is_a_persons_and_comes_back_to_them(fleet):
 
 
 def test_another_person_cannot_release_or_drive_a_station(fleet):
-    with person(fleet, 'admin') as teacher, person(fleet, 'operator') as alice, person(fleet, 'operator2') as bob:
+    with client(fleet, TOKENS['admin']) as teacher, client(fleet, TOKENS['operator']) as alice, \
+            client(fleet, TOKENS['operator2']) as bob:
         call(teacher, '/fleet/release_all', 'std_srvs/srv/Empty')
         assert call(alice, '/fleet/claim')['message'] == '/s01'
         assert 'only they or an admin' in refused(bob, '/s01/fleet/release')
@@ -102,7 +92,8 @@ def test_another_person_cannot_release_or_drive_a_station(fleet):
 
 
 def test_a_stop_sticks_until_the_owner_takes(fleet):
-    with person(fleet, 'admin') as teacher, person(fleet, 'operator') as alice, person(fleet, 'operator2') as bob:
+    with client(fleet, TOKENS['admin']) as teacher, client(fleet, TOKENS['operator']) as alice, \
+            client(fleet, TOKENS['operator2']) as bob:
         call(teacher, '/fleet/release_all', 'std_srvs/srv/Empty')
         assert call(alice, '/fleet/claim')['message'] == '/s01'
         drive(alice, '/s01')
@@ -113,7 +104,7 @@ def test_a_stop_sticks_until_the_owner_takes(fleet):
         drive(alice, '/s01')
         control(alice, 'take-if-free /s01')
         control(bob, 'take /s01')
-        with person(fleet, 'operator') as alice2:   # alice's page reloaded
+        with client(fleet, TOKENS['operator']) as alice2:   # alice's page reloaded
             control(alice2, 'take-if-free /s01')
             drive(alice2, '/s01')
             call(alice2, '/rosapi/get_time', 'rosapi/srv/GetTime')
@@ -135,8 +126,8 @@ def test_a_stop_sticks_until_the_owner_takes(fleet):
 def test_a_station_lapses_after_its_owner_is_away_for_claim_idle(start_gateway, tokens_file):
     gw = start_gateway('--robot', 'turtlesim', '--fleet', '2', '--exclusive-control', '--auth', tokens_file,
                        '--claim-idle', '1')
-    with person(gw, 'admin') as teacher:
-        with person(gw, 'operator') as alice:
+    with client(gw, TOKENS['admin']) as teacher:
+        with client(gw, TOKENS['operator']) as alice:
             assert call(alice, '/fleet/claim')['message'] == '/s01'
             held = announced(teacher, '/rosgate/stations')['owners']
             assert held['/s01']['name'] == 'alice'

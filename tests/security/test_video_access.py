@@ -8,9 +8,8 @@ from urllib.parse import quote
 
 import pytest
 
-from tests.gateway.camera import BOUNDARY, Stream, stream_head
-from tests.security.conftest import TOKENS
-from tests.security.test_access import _login
+from tests.support.auth import TOKENS, login
+from tests.support.camera import BOUNDARY, Stream, stream_head
 
 CAMERA = '/camera/image_raw'
 
@@ -48,7 +47,7 @@ def test_each_way_of_giving_the_token(secured, how):
     if how == 'header':
         headers = f'Authorization: Bearer {token}\r\n'
     elif how == 'cookie':   # the session cookie of /login
-        headers = f'Cookie: {_login(secured, "viewer")}\r\n'
+        headers = f'Cookie: {login(secured, TOKENS["viewer"])}\r\n'
     else:
         path += f'&token={quote(token)}'
     s = Stream(secured.port, path, headers=headers)

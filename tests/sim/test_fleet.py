@@ -10,9 +10,8 @@ import json
 import pytest
 import roslibpy
 
-from tests.conftest import wait_for
-
-from .conftest import Inbox, call, client, stream, twist
+from tests.support.ros import Inbox, call, client, stream, twist
+from tests.support.wait import wait_for
 
 CENTRE = 5.544445
 

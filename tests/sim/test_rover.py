@@ -11,9 +11,8 @@ import pytest
 import roslibpy
 from PIL import Image
 
-from tests.conftest import wait_for
-
-from .conftest import Inbox, call, client, stream, twist
+from tests.support.ros import Inbox, call, client, stream, twist
+from tests.support.wait import wait_for
 
 RADIUS = 0.18
 TOPICS = {
@@ -265,7 +264,7 @@ def test_a_world_that_does_not_exist_is_refused():
     import subprocess
     import sys
 
-    from tests.conftest import ROOT
+    from tests.support.process import ROOT
     done = subprocess.run([sys.executable, '-m', 'gateway', '--port', '0', '--address', '127.0.0.1',
                            '--robot', 'rover', '--world', 'no_such_world'],
                           cwd=ROOT, capture_output=True, text=True, timeout=30)

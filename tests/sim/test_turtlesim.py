@@ -8,9 +8,8 @@ import time
 import pytest
 import roslibpy
 
-from tests.conftest import wait_for
-
-from .conftest import Inbox, call, client, stream, twist
+from tests.support.ros import Inbox, call, cancelled, client, stream, twist
+from tests.support.wait import wait_for
 
 SIZE = 11.088889
 CENTRE = 5.544445
@@ -206,14 +205,8 @@ def test_rotate_absolute_cancel_and_preemption(fresh):
     ros = fresh
     assert spawn(ros, 'spinner', 3.0, 3.0) == 'spinner'
     action = roslibpy.ActionClient(ros, '/spinner/rotate_absolute', 'turtlesim/action/RotateAbsolute')
-
-    results, feedback = [], []
-    goal = action.send_goal(roslibpy.Goal({'theta': 3.0}), results.append, feedback.append, results.append)
-    wait_for(lambda: len(feedback) >= 5)
-    action.cancel_goal(goal)
-    action.wait_goal(goal, timeout=5)
-    assert results[0]['status'] == roslibpy.GoalStatus.CANCELED
-    assert 0 < -results[0]['values']['delta'] < 2.5
+    result = cancelled(action, {'theta': 3.0}, after_feedback=5, timeout=5)
+    assert 0 < -result['values']['delta'] < 2.5
 
     first, second, fb = [], [], []
     g1 = action.send_goal(roslibpy.Goal({'theta': -2.0}), first.append, fb.append, first.append)

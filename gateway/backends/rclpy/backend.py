@@ -19,17 +19,15 @@ import threading
 from collections.abc import Awaitable, Callable
 from typing import Any
 
-from protocol.msgdefs import ActionDef, MsgDef, SrvDef, normalize
+from protocol.msgdefs import normalize
 
-from . import params as rclpy_params
-from ..base import (
-    SERVER_WAIT, ActionServerCallbacks, BackendError, Message, NodeInfo, QoS, ServiceTimeout, is_hidden,
-)
+from ..base import SERVER_WAIT, ActionServerCallbacks, BackendError, Message, QoS, ServiceTimeout
 from .actions import RclpyActionServer, send_goal
 from .build import Builder
-from .cdr import Slow
+from .entities import Held, RclpyPublisher, RclpyService, RclpySubscription, ros_qos
 from .graphtypes import GraphTypes
 from .pump import Pump, ServiceCaller, ServiceServer, TopicReader
+from .queries import TypesAndGraph
 from .types import Converter, RosDefinitions
 
 log = logging.getLogger('rosgate.rclpy')
@@ -45,142 +43,7 @@ COOL = 0.005        # seconds without the gateway publishing before the pump wai
 UNHELD_FOR = 10.0   # seconds a topic stays with the pump once the middleware delivered late
 
 
-def fq_name(namespace: str, name: str) -> str:
-    return namespace.rstrip('/') + '/' + name
-
-
-def split_node(node: str) -> tuple[str, str]:
-    """'/ns/name' -> ('name', '/ns'); 'name' -> ('name', '/')."""
-    ns, _, name = ('/' + node.strip('/')).rpartition('/')
-    return name, ns or '/'
-
-
-class RclpyPublisher:
-    def __init__(self, backend: RclpyBackend, topic: str, type: str, cls, publisher):
-        self.topic, self.type = topic, type
-        self._backend, self._cls, self._pub = backend, cls, publisher
-        self._cdr = backend.convert.cdr_writer(cls)
-
-    def publish(self, msg: Message) -> None:
-        if self._pub is None:
-            return
-        data = None
-        if self._cdr is not None:
-            try:
-                data = self._cdr(msg)
-            except Slow:
-                pass
-        self._pub.publish(self._backend.convert.from_dict(self._cls, msg) if data is None else data)
-        self._backend.published(self.topic)
-
-    def destroy(self) -> None:
-        if self._pub is not None:
-            self._backend.node.destroy_publisher(self._pub)
-            self._pub = None
-
-
-class Held:
-    """A topic the gateway is publishing to, whose readers the loop takes from (not the pump)."""
-
-    __slots__ = ('owed', 'busy')
-
-    def __init__(self):
-        self.owed = 0       # messages published since the last take
-        self.busy = True    # published to since the last cool-down check
-
-
-class RclpySubscription:
-    def __init__(self, backend: RclpyBackend, topic: str, type: str, callback: Callable[..., None],
-                 with_cdr: bool = False):
-        self.topic, self.type = topic, type
-        self._backend, self._callback, self._with_cdr = backend, callback, with_cdr
-        self.sub: TopicReader | None = None
-
-    def deliver(self, item: tuple[Message, bytes | None]) -> None:    # on the loop
-        if self.sub is not None:
-            if self._with_cdr:
-                self._callback(*item)
-            else:
-                self._callback(item[0])
-
-    def want_cdr(self, wanted: bool) -> None:
-        """A type with a compiled CDR reader is taken as CDR anyway; any other only while wanted."""
-        if self.sub is not None:
-            self.sub.keep_cdr = wanted and self._with_cdr
-
-    def destroy(self) -> None:
-        sub, self.sub = self.sub, None
-        if sub is not None:
-            readers = self._backend.readers.get(self.topic, [])
-            if sub in readers:
-                readers.remove(sub)
-                if not readers:
-                    del self._backend.readers[self.topic]
-            self._backend.pump.remove(sub)
-
-
-class RclpyService:
-    """A service served by the gateway: requests come from the pump, answers go out from the loop."""
-
-    def __init__(self, backend: RclpyBackend, name: str, type: str, cls, handler):
-        self.name, self.type, self.cls = name, type, cls
-        self._backend, self._handler = backend, handler
-        self.srv: ServiceServer | None = None       # None once destroyed
-        self.entity: ServiceServer | None = None    # kept: late answers still go out through it
-        self.pending: set[asyncio.Task] = set()     # requests waiting for the gateway's answer
-
-    def on_request(self, item) -> None:             # on the loop
-        request, header = item
-        backend = self._backend
-        if self.srv is None:
-            self.respond(header, None)
-            return
-        try:
-            data = backend.convert.to_dict(request)
-        except Exception as e:  # noqa: BLE001
-            backend.report(f'service {self.name}', e)
-            self.respond(header, None)
-            return
-        task = backend.loop.create_task(backend.serve(self.name, self._handler, data))
-        self.pending.add(task)
-        task.add_done_callback(lambda t: self._answered(header, t))
-
-    def _answered(self, header, task: asyncio.Task) -> None:
-        self.pending.discard(task)
-        self.respond(header, None if task.cancelled() else task.result())
-
-    def respond(self, header, data: Message | None) -> None:
-        """Answer one caller; None: a default response."""
-        response = self.cls.Response()
-        if data is not None:
-            try:
-                response = self._backend.convert.from_dict(self.cls.Response, data)
-            except Exception as e:  # noqa: BLE001
-                self._backend.report(f'service {self.name}: bad response', e)
-        handle = self.entity.handle
-        try:
-            with handle:
-                handle.service_send_response(response, header.request_id)
-        except Exception as e:  # noqa: BLE001 (the service is gone: its callers get nothing)
-            log.debug('service %s: %s', self.name, e)
-
-    def destroy(self) -> None:
-        srv, self.srv = self.srv, None
-        if srv is None:
-            return
-        backend = self._backend
-        if backend._served.get(self.name) is self:
-            del backend._served[self.name]
-        if not self.pending:
-            backend.pump.remove(srv)
-            return
-        # waiting callers get a default response now; the service goes once they have it
-        for task in list(self.pending):
-            task.cancel()
-        backend.loop.call_later(0.5, backend.pump.remove, srv)
-
-
-class RclpyBackend:
+class RclpyBackend(TypesAndGraph):
     """Backend over rclpy. ``ros_args``: ROS arguments (``['--ros-args', '-r', '__ns:=/robot']``);
     None reads them from ``sys.argv``. ``service_timeout``: how long a ROS caller of a service
     served by the gateway waits for its answer, and a goal for its acceptance. ``interfaces``:
@@ -322,34 +185,6 @@ class RclpyBackend:
             await asyncio.sleep(min(delay, left))
             delay = min(delay * 2, 0.05)
         return True
-
-    # --- types --------------------------------------------------------------------------------
-
-    def msg_def(self, type: str) -> MsgDef:
-        found = self.defs.derived(type)   # an action's X_FeedbackMessage
-        return found if isinstance(found, MsgDef) else self.defs.msg(normalize(type, 'msg'))
-
-    def srv_def(self, type: str) -> SrvDef:
-        return self.defs.srv(type)
-
-    def action_def(self, type: str) -> ActionDef:
-        return self.defs.action(type)
-
-    def interfaces(self) -> list[str]:
-        return self.defs.interfaces()
-
-    def typedefs(self, msg: MsgDef) -> list[dict]:
-        return self.defs.typedefs(msg)
-
-    def full_text(self, msg: MsgDef) -> str:
-        return self.defs.full_text(msg)
-
-    def to_cdr(self, type: str, msg: Message) -> bytes:
-        from rclpy.serialization import serialize_message  # noqa: PLC0415
-        cls = self.defs.msg_class(type)
-        if getattr(cls, 'raw_only', False):     # described by the graph: no class
-            return self.convert.cdr_writer(cls)(msg)
-        return serialize_message(self.convert.from_dict(cls, msg))
 
     # --- entities -----------------------------------------------------------------------------
 
@@ -627,110 +462,3 @@ class RclpyBackend:
         if self._action_servers.get(server.name) is server:
             del self._action_servers[server.name]
             self._closing[server.name] = server
-
-    # --- graph --------------------------------------------------------------------------------
-
-    def topics(self, hidden: bool = False) -> list[tuple[str, str]]:
-        return sorted((n, t[0]) for n, t in self.node.get_topic_names_and_types()
-                      if t and (hidden or not is_hidden(n)))
-
-    def served_types(self) -> dict[str, list[str]]:
-        """Services with a server (clients alone make a name appear in the graph too)."""
-        return {n: t for n, t in self.node.get_service_names_and_types()
-                if t and self.node.count_services(n)}
-
-    def services(self, hidden: bool = False) -> list[tuple[str, str]]:
-        return sorted((n, t[0]) for n, t in self.served_types().items() if hidden or not is_hidden(n))
-
-    def actions(self) -> list[tuple[str, str]]:
-        """Actions with a server: a server publishes the action's status topic, clients do not."""
-        from rclpy.action import get_action_names_and_types  # noqa: PLC0415
-        return sorted((n, t[0]) for n, t in get_action_names_and_types(self.node)
-                      if t and self.node.count_publishers(f'{n}/_action/status'))
-
-    def nodes(self) -> list[str]:
-        return sorted({fq_name(ns, n) for n, ns in self.node.get_node_names_and_namespaces()})
-
-    def node_info(self, node: str) -> NodeInfo:
-        name, ns = split_node(node)
-        try:
-            pubs = self.node.get_publisher_names_and_types_by_node(name, ns)
-            subs = self.node.get_subscriber_names_and_types_by_node(name, ns)
-            srvs = self.node.get_service_names_and_types_by_node(name, ns)
-        except Exception as e:  # rclpy's NodeNameNonExistentError
-            raise BackendError(f'no node named {node}') from e
-        return NodeInfo(sorted(n for n, _ in pubs), sorted(n for n, _ in subs), sorted(n for n, _ in srvs))
-
-    def publishers(self, topic: str) -> list[str]:
-        return sorted({fq_name(i.node_namespace, i.node_name)
-                       for i in self.node.get_publishers_info_by_topic(topic)})
-
-    def subscribers(self, topic: str) -> list[str]:
-        return sorted({fq_name(i.node_namespace, i.node_name)
-                       for i in self.node.get_subscriptions_info_by_topic(topic)})
-
-    def service_providers(self, service: str) -> list[str]:
-        providers = []
-        for name, ns in self.node.get_node_names_and_namespaces():
-            try:
-                services = self.node.get_service_names_and_types_by_node(name, ns)
-            except Exception:  # noqa: BLE001 (the node left meanwhile)
-                continue
-            if any(s == service for s, _ in services):
-                providers.append(fq_name(ns, name))
-        return sorted(set(providers))
-
-    def action_servers(self, action: str) -> list[str]:
-        from rclpy.action import get_action_server_names_and_types_by_node  # noqa: PLC0415
-        servers = []
-        for name, ns in self.node.get_node_names_and_namespaces():
-            try:
-                actions = get_action_server_names_and_types_by_node(self.node, name, ns)
-            except Exception:  # noqa: BLE001 (the node left meanwhile)
-                continue
-            if any(a == action for a, _ in actions):
-                servers.append(fq_name(ns, name))
-        return sorted(set(servers))
-
-    # --- parameters (through the target node's rcl_interfaces services) ------------------------
-
-    async def get_param(self, node: str, name: str) -> Any:
-        return await rclpy_params.get_param(self, node, name)
-
-    async def set_param(self, node: str, name: str, value: Any) -> None:
-        await rclpy_params.set_param(self, node, name, value)
-
-    async def delete_param(self, node: str, name: str) -> None:
-        await rclpy_params.delete_param(self, node, name)
-
-    async def param_names(self) -> list[str]:
-        return await rclpy_params.param_names(self)
-
-    async def param_call(self, node: str, suffix: str, srv_cls, request):
-        """Call ``<node>/<suffix>`` (an rcl_interfaces service) with a ROS request object."""
-        node = '/' + node.strip('/')
-        service = f'{node}/{suffix}'
-        if not self.node.count_services(service):
-            raise BackendError(f'no node named {node} with parameter services')
-        type = f'rcl_interfaces/srv/{srv_cls.__name__}'
-        return await self._call(service, type, srv_cls, request, self.service_timeout)
-
-    def now(self) -> tuple[int, int]:
-        return self.node.get_clock().now().seconds_nanoseconds()
-
-
-def ros_qos(qos: QoS):
-    from rclpy.duration import Duration  # noqa: PLC0415
-    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy  # noqa: PLC0415
-
-    kwargs = {
-        'history': HistoryPolicy.KEEP_ALL if qos.history_keep_all else HistoryPolicy.KEEP_LAST,
-        'depth': max(1, qos.depth),
-        'reliability': ReliabilityPolicy.RELIABLE if qos.reliable else ReliabilityPolicy.BEST_EFFORT,
-        'durability': DurabilityPolicy.TRANSIENT_LOCAL if qos.transient_local else DurabilityPolicy.VOLATILE,
-    }
-    if qos.deadline:
-        kwargs['deadline'] = Duration(nanoseconds=int(qos.deadline * 1e9))
-    if qos.lifespan:
-        kwargs['lifespan'] = Duration(nanoseconds=int(qos.lifespan * 1e9))
-    return QoSProfile(**kwargs)

@@ -29,7 +29,7 @@ class SimBackend:
 
     @property
     def batch_scope(self):
-        """What a timer's tick publishes inside (the gateway sets its ``corked``): graph.Ticker."""
+        """What a timer's tick publishes inside (the gateway sets its ``corked``): timers.Ticker."""
         return self.graph.batch_scope
 
     @batch_scope.setter

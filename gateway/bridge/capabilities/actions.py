@@ -18,7 +18,7 @@ from ...backends import blame
 from ...backends.base import (
     SERVER_WAIT, STATUS_ABORTED, STATUS_CANCELED, STATUS_SUCCEEDED, STATUS_UNKNOWN, ActionServerCallbacks,
 )
-from .topics import absolute
+from .topics import absolute, unadvertised
 
 if TYPE_CHECKING:
     from ..session import ClientSession
@@ -146,11 +146,7 @@ def action_result(s: ClientSession, op: ActionResult) -> None:
 
 
 def unadvertise_action(s: ClientSession, op: UnadvertiseAction) -> None:
-    name = absolute(op.action)
-    if name not in s.actions:
-        s.status('warning', f'{name} is not advertised by this client', op.OP, op.id)
-        return
-    _release(s, name)
+    unadvertised(s, absolute(op.action), s.actions, op, _release)
 
 
 def _release(s: ClientSession, name: str) -> None:

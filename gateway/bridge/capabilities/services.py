@@ -15,7 +15,7 @@ from ...backends import blame
 from .. import rosapi
 from ...backends.base import SERVER_WAIT, BackendError
 from .actions import sent_through_hidden_service
-from .topics import absolute
+from .topics import absolute, unadvertised
 
 if TYPE_CHECKING:
     from ..session import ClientSession
@@ -115,11 +115,7 @@ def service_response(s: ClientSession, op: ServiceResponse) -> None:
 
 
 def unadvertise_service(s: ClientSession, op: UnadvertiseService) -> None:
-    name = absolute(op.service)
-    if name not in s.services:
-        s.status('warning', f'{name} is not advertised by this client', op.OP, op.id)
-        return
-    _release(s, name)
+    unadvertised(s, absolute(op.service), s.services, op, _release)
 
 
 def _release(s: ClientSession, name: str) -> None:

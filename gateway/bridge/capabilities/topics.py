@@ -75,12 +75,7 @@ def advertise(s: ClientSession, op: Advertise) -> None:
 
 
 def unadvertise(s: ClientSession, op: Unadvertise) -> None:
-    topic = absolute(op.topic)
-    pub = s.publishers.pop(topic, None)
-    if pub is None:
-        s.status('warning', f'{topic} is not advertised by this client', op.OP, op.id)
-        return
-    pub.detach(s.id)
+    unadvertised(s, absolute(op.topic), s.publishers, op, lambda s, topic: s.publishers.pop(topic).detach(s.id))
 
 
 def publish(s: ClientSession, op: Publish) -> None:
@@ -134,3 +129,12 @@ def unsubscribe(s: ClientSession, op: Unsubscribe) -> None:
 
 def absolute(name: str) -> str:
     return name if name.startswith('/') else '/' + name
+
+
+def unadvertised(s: ClientSession, name: str, mine, op, release) -> None:
+    """``release(s, name)`` when ``name`` is in ``mine`` (what this client advertised); a warning
+    status when not: the unadvertise ops of topics, services and actions."""
+    if name in mine:
+        release(s, name)
+    else:
+        s.status('warning', f'{name} is not advertised by this client', op.OP, op.id)

@@ -25,47 +25,48 @@ KINDS = ('turtlesim', 'rover', 'none')
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     group = parser.add_argument_group('simulated robots (sim backend)')
-    group.add_argument('--robot', action='append', choices=KINDS, default=None,
+    group.add_argument('--robot', dest='sim.robot', action='append', choices=KINDS,
                        help='robot to simulate; repeat for several (default: turtlesim)')
-    group.add_argument('--world', default='arena', metavar='NAME|PATH',
+    group.add_argument('--world', dest='sim.world', metavar='NAME|PATH',
                        help="the rover's world: arena, maze or a world .json file (default: arena)")
-    group.add_argument('--twist-stamped', action='store_true',
+    group.add_argument('--twist-stamped', dest='sim.twist_stamped', action='store_true',
                        help="the rover's cmd_vel is geometry_msgs/msg/TwistStamped instead of Twist")
-    group.add_argument('--fleet', type=int, default=0, metavar='N',
+    group.add_argument('--fleet', dest='sim.fleet', type=int, metavar='N',
                        help='N namespaced stations /s01../sNN, each with its own robots; '
                             'people claim one with the /fleet/claim service')
-    group.add_argument('--sim-speed', type=float, default=1.0, metavar='F',
+    group.add_argument('--sim-speed', dest='sim.sim_speed', type=float, metavar='F',
                        help='simulation speed factor, for tests (default: 1.0, real time)')
 
 
-def specs_from_args(args) -> tuple:
-    """Robot specs for SimBackend(robots=...). Exits with a message for a bad world or option."""
-    kinds = tuple(dict.fromkeys(k for k in (args.robot or ['turtlesim']) if k != 'none'))
+def specs_from(sim) -> tuple:
+    """Robot specs for SimBackend(robots=...) from the settings' ``sim`` group. A bad world or
+    option is a ValueError naming its flag (the CLI refuses to start with it)."""
+    kinds = tuple(dict.fromkeys(k for k in (sim.robot or ['turtlesim']) if k != 'none'))
     if not kinds:
         return ()
-    if not args.sim_speed > 0:
-        raise SystemExit('rosgate: --sim-speed must be positive')
-    if not 0 <= args.fleet <= 999:
-        raise SystemExit('rosgate: --fleet must be between 0 and 999')
+    if not sim.sim_speed > 0:
+        raise ValueError('--sim-speed: must be positive')
+    if not 0 <= sim.fleet <= 999:
+        raise ValueError('--fleet: must be between 0 and 999')
     world = None
     if 'rover' in kinds:
         try:
-            world = World.load(args.world)
+            world = World.load(sim.world)
         except WorldError as e:
-            raise SystemExit(f'rosgate: {e}') from None
+            raise ValueError(f'--world: {e}') from None
         if world.clearance(*world.start[:2]) < ROVER_RADIUS:
-            raise SystemExit(f'rosgate: the start of world {world.name!r} is inside or too close to a wall')
-    options = {'speed': args.sim_speed, 'twist_stamped': args.twist_stamped}
+            raise ValueError(f'--world: the start of world {world.name!r} is inside or too close to a wall')
+    options = {'speed': sim.sim_speed, 'twist_stamped': sim.twist_stamped}
 
     def station(namespace: str):
         async def spec(graph):
             return Station(graph, namespace, kinds, world, **options)
         return spec
 
-    if not args.fleet:
+    if not sim.fleet:
         return (station('/'),)
-    width = max(2, len(str(args.fleet)))
-    namespaces = [f'/s{i:0{width}d}' for i in range(1, args.fleet + 1)]
+    width = max(2, len(str(sim.fleet)))
+    namespaces = [f'/s{i:0{width}d}' for i in range(1, sim.fleet + 1)]
 
     async def fleet(graph):
         return Fleet(graph, namespaces)
@@ -73,4 +74,4 @@ def specs_from_args(args) -> tuple:
     return (*(station(ns) for ns in namespaces), fleet)
 
 
-__all__ = ['add_arguments', 'specs_from_args']
+__all__ = ['add_arguments', 'specs_from']

@@ -1,22 +1,10 @@
-"""Helpers of the backend contract suite."""
+"""The backend contract suite's checks: whether rclpy imports, equality where NaN equals NaN,
+and a publish repeated until a fresh subscription delivers."""
 
 from __future__ import annotations
 
 import asyncio
 import math
-
-
-async def until(predicate, timeout: float = 5.0, what: str = 'condition'):
-    """Await until predicate() is truthy; its value, or AssertionError after timeout."""
-    loop = asyncio.get_running_loop()
-    deadline = loop.time() + timeout
-    while True:
-        value = predicate()
-        if value:
-            return value
-        if loop.time() > deadline:
-            raise AssertionError(f'{what} not met within {timeout} s')
-        await asyncio.sleep(0.01)
 
 
 def same(a, b) -> bool:
@@ -42,3 +30,11 @@ async def roundtrip(publisher, queue: asyncio.Queue, msg: dict, timeout: float =
         except asyncio.TimeoutError:
             if loop.time() > deadline:
                 raise AssertionError(f'no message on {publisher.topic} within {timeout} s') from None
+
+
+def rclpy_missing() -> str | None:
+    try:
+        import rclpy  # noqa: F401
+    except ImportError as e:
+        return str(e)
+    return None

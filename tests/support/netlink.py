@@ -34,7 +34,7 @@ import time
 from contextlib import contextmanager
 from pathlib import Path
 
-from tests.conftest import ROOT, Started
+from tests.support.process import ROOT, Started
 
 CLONE_NEWNET = 0x40000000
 TUNSETIFF = 0x400454CA

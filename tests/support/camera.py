@@ -10,9 +10,13 @@ import re
 import socket
 import threading
 import time
+from contextlib import contextmanager
 
 import numpy as np
 from PIL import Image
+
+from tests.support.ros import client
+from tests.support.wait import wait_for
 
 BOUNDARY = b'boundarydonotcross'
 PART = re.compile(rb'Content-type: (image/[a-z]+)\r\nX-Timestamp: (\d+\.\d{6})\r\nContent-Length: (\d+)\r\n\r\n')
@@ -139,3 +143,15 @@ def stream_head(cors: bool) -> bytes:
             b'Cache-Control: no-cache, no-store, must-revalidate, pre-check=0, post-check=0, max-age=0\r\n'
             b'Pragma: no-cache\r\nContent-type: multipart/x-mixed-replace;boundary=boundarydonotcross\r\n'
             + (b'Access-Control-Allow-Origin: *\r\n' if cors else b'') + b'\r\n')
+
+
+@contextmanager
+def running_camera(gw, topic: str = '/cam/image_raw/compressed'):
+    """A Camera publishing to ``gw`` over a roslibpy connection of its own, its first frames sent."""
+    with client(gw) as ros:
+        cam = Camera(ros, topic)
+        try:
+            wait_for(lambda: cam.count >= 3, 10)
+            yield cam
+        finally:
+            cam.close()

@@ -32,6 +32,15 @@ class Raw:
             return cbor2.loads(frame)
         return json.loads(frame)
 
+    def incoming(self, stopped):
+        """Messages as they arrive until stopped() is true, for a reader thread: a receive that times
+        out (every 0.2 s, to look at stopped()) or fails is passed over."""
+        while not stopped():
+            try:
+                yield self.recv(0.2)
+            except Exception:
+                continue
+
     def expect(self, predicate, timeout: float = 5.0) -> dict:
         """The first message matching predicate; everything read before it lands in self.seen."""
         deadline = time.monotonic() + timeout

@@ -8,7 +8,7 @@ from urllib.parse import quote
 
 from websockets.exceptions import ConnectionClosed
 
-from tests.gateway.rawclient import Raw
+from tests.support.rawclient import Raw
 
 TWIST = 'geometry_msgs/msg/Twist'
 TWIST_STAMPED = 'geometry_msgs/msg/TwistStamped'

@@ -1,0 +1,447 @@
+"""The run supervisor: starts a robot-side run's process in its box, follows it, stops it.
+
+The process is a fresh interpreter (the gateway's, where roslibpy is installed) inside a
+bubblewrap sandbox (``sandbox``: namespaces of its own, a read-only view of the interpreter, no
+gateway process or file in sight; the whole tree dies with it), with a clean environment, a cgroup
+where the machine allows one (``cgroups``), and resource limits set by the launcher (``launcher``)
+right before it execs the program. The program connects back to the gateway as an ordinary
+rosbridge client, with a per-run key in its URL: the gateway knows that connection as the run's,
+so the safety layer can stop what it drove and the driver lease can be the run's. Each line of
+its output is published on /rosgate/runs/ID/output (std_msgs/msg/String), and its state (a JSON
+text) on /rosgate/runs/ID/state, latched.
+
+At most ``--max-runs`` runs go at once, ``--max-runs-per-person`` of one signed-in person (an
+admin has only the first limit), each in a namespace of the graph (a station like /s07, or the
+root): a run's namespace is a name the gateway knows, not any text. A refusal is a ``RunError``
+carrying its HTTP status (the web layer answers it).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import hmac
+import json
+import logging
+import os
+import re
+import secrets
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import tornado.httpserver
+import tornado.netutil
+
+from protocol import ops
+from protocol.errors import ProtocolError
+
+from ..backends.base import QoS
+from ..rules.access import ADMINS, owns
+from ..rules.errors import Refusal
+from ..rules.hooks import Hook
+from ..rules.safety import Safety, moving_command
+from ..settings import Refused, RunSettings, data_dir
+from . import launcher
+from .cgroups import Cgroups, RunCgroup, limits_in_force
+from .process import Run, RunLimits, RunOutput
+from .sandbox import HOME, SOCKET, Sandbox, SandboxUnavailable, exit_code, kill_box, run_user
+
+log = logging.getLogger('rosgate.runs')
+STRING = 'std_msgs/msg/String'
+KEEP_ENDED = 50                # ended runs kept (with their directories) before the oldest goes
+KILL_AFTER = 2.0               # s between SIGINT and SIGKILL
+CGROUP_GONE = 5.0              # s to wait for a run's cgroup to empty before leaving it behind
+RUN_TOPIC = re.compile(r'/rosgate/runs/(r[0-9a-f]{8})/(?:output|state)')
+LAUNCHER = Path(launcher.__file__).read_text()   # handed to the box's interpreter as source (-c)
+
+
+class RunError(Refusal):
+    """A run refused or failed to start: ``status`` is the HTTP status that says why (404, 409, 429, 500)."""
+
+
+class RunManager(Hook):
+    def __init__(self, gateway, *, allowed: bool, runs_dir: Path | None, limits: RunLimits = RunLimits(),
+                 box: Sandbox | None = None, cgroups: Cgroups | None = None, max_runs: int = RunSettings.max_runs,
+                 max_per_person: int = RunSettings.max_runs_per_person):
+        self.gateway, self.allowed, self.limits = gateway, allowed, limits
+        self.runs_dir = runs_dir
+        self.box, self.cgroups = box, cgroups
+        self.max_runs, self.max_per_person = max_runs, max_per_person
+        self.runs: dict[str, Run] = {}
+        self.server: tornado.httpserver.HTTPServer | None = None
+        self.home: Path | None = None       # the box's files of the gateway's: the unix socket, staged views
+
+    def serve(self, app, sock) -> None:
+        """Serve ``app`` (the rosbridge websocket alone) on the unix socket that the boxes bind in:
+        the runs' one way to the gateway."""
+        settings = self.gateway.settings
+        self.server = tornado.httpserver.HTTPServer(app, max_buffer_size=settings.max_message_size * 4,
+                                                    idle_connection_timeout=settings.idle_connection_timeout)
+        self.server.add_socket(sock)
+
+    # --- starting -----------------------------------------------------------------------------
+
+    def start(self, source: str, name: str, ns: str, timeout: float, role: str | None, port: tuple[str, int, bool],
+              person: str | None = None):
+        """A new Run, its process being started; raises RunError 404 for a namespace the graph does
+        not have, 409 when the namespace is busy or its lease is not the starter's, 429 past the
+        limits on runs going at once. person: who starts it (rules.stations.person_of), for whom
+        the run drives."""
+        self._known(ns)
+        going = [r for r in self.runs.values() if r.state in ('starting', 'running')]
+        busy = next((r for r in going if r.ns == ns), None)
+        if busy is not None:
+            where = f'namespace {ns}' if ns else 'the root namespace'
+            raise RunError(409, f'run {busy.id} ({busy.name}) is already running in {where}; '
+                                             f'stop it first (DELETE /api/runs/{busy.id})')
+        if len(going) >= self.max_runs:
+            raise RunError(429, f'{len(going)} runs are going, the most this gateway runs at once '
+                                             '(--max-runs); wait for one to end or stop one')
+        mine = [r for r in going if person is not None and r.person == person]
+        if role not in ADMINS and len(mine) >= self.max_per_person:
+            raise RunError(429, f'{person} has {len(mine)} runs going ({", ".join(r.id for r in mine)}), '
+                                             'the most one person may (--max-runs-per-person); stop one first')
+        run_id = 'r' + secrets.token_hex(4)
+        person = person or f'run {run_id}'
+        self._lease_free_for(person, role, ns)
+        workdir = self.runs_dir / run_id
+        try:
+            workdir.mkdir(parents=True, mode=0o700)
+            (workdir / 'program.py').write_text(source)
+        except OSError as e:
+            raise RunError(500, f'cannot prepare the run directory: {e}') from None
+        run = Run(run_id, name, ns, timeout, workdir)
+        run.role, run.person = role, person
+        latched = QoS(depth=1, transient_local=True)
+        gateway = self.gateway
+        run.state_pub = gateway.own_topic(f'/rosgate/runs/{run_id}/state', STRING, latched)
+        run.output_pub = gateway.own_topic(f'/rosgate/runs/{run_id}/output', STRING, QoS(depth=100))
+        self.runs[run_id] = run
+        self._forget_old()
+        self._announce(run)
+        task = asyncio.ensure_future(self._supervise(run, port))
+        task.add_done_callback(lambda t: t.cancelled() or t.exception() is None or log.error(
+            'run %s: supervising it failed', run.id, exc_info=t.exception()))
+        return run
+
+    def namespaces(self) -> set[str]:
+        """The root and the namespaces of the graph's nodes (/s07 of /s07/turtlesim, and so on)."""
+        known = {''}
+        for node in self.gateway.backend.nodes():
+            parts = node.strip('/').split('/')[:-1]
+            known.update('/' + '/'.join(parts[:i]) for i in range(1, len(parts) + 1))
+        return known
+
+    def _known(self, ns: str) -> None:
+        known = self.namespaces()
+        if ns not in known:
+            names = ', '.join(sorted(n for n in known if n)[:20]) or 'none but the root'
+            raise RunError(404, f'no robot namespace {ns} on this gateway (namespaces: {names})')
+
+    def _lease_free_for(self, person: str, role: str | None, ns: str) -> None:
+        """With --exclusive-control a run takes its namespace's driver lease (from its starter's own
+        page quietly, and gives it back when it ends): refuse at once a run that could not (another
+        person's station or lease, or a stop that holds until Take)."""
+        lease = getattr(self.gateway.policy, 'lease', None)
+        why = lease.run_refusal(person, role, ns) if lease is not None else None
+        if why is not None:
+            raise RunError(409, why)
+
+    def _env(self, run: Run, url: str) -> dict:
+        """Only what a Python program needs: none of the gateway's own environment (tokens, keys).
+        bwrap hands it on as it is (the run key stays out of every command line)."""
+        graph = dict(self.box.environment) if self.box is not None else {}   # --trusted-runs
+        return {**graph, 'PATH': '/usr/bin:/bin', 'HOME': HOME, 'LANG': 'C.UTF-8', 'PYTHONUNBUFFERED': '1',
+                'PYTHONDONTWRITEBYTECODE': '1', 'ROSBRIDGE_URL': url, 'ROSGATE_NS': run.ns,
+                'ROSGATE_RUN': run.id}
+
+    async def _supervise(self, run: Run, port: tuple[str, int, bool]) -> None:
+        host, number, tls = port
+        path = self.gateway.settings.url_path
+        path = path if path.startswith('/') else '/' + path
+        relayed = self.box is not None and self.box.socket is not None
+        if relayed:     # the relay in the box, at the gateway's port number: ws://localhost:9090 works too
+            host, tls = '127.0.0.1', False
+        host = f'[{host}]' if ':' in host else host
+        # the key goes in the environment, not argv: other users of the machine can read argv
+        url = f"{'wss' if tls else 'ws'}://{host}:{number}{path}?run_key={run.key}&name=run-{run.id}"
+        lim = self.limits
+        limits = f'{lim.cpu_seconds},{lim.memory_mb * 2**20},{lim.open_files},{lim.processes}'
+        command = [sys.executable, '-I', '-c', LAUNCHER, limits, str(number if relayed else 0), SOCKET, 'program.py']
+        if run.ns:
+            command += ['--ns', run.ns]
+        if self.cgroups is not None:
+            run.cgroup = self.cgroups.make(run.id, lim.memory_mb * 2**20, lim.processes, lim.cpus)
+        loop = asyncio.get_running_loop()
+        output = RunOutput(lambda line: self._line(run, line), lambda: self._limit_reached(run),
+                         self.limits.output_bytes, loop)
+        try:
+            with self.box.launch(command, run.workdir / 'program.py') as (argv, fds):
+                transport, _ = await loop.subprocess_exec(
+                    lambda: output, *(run.cgroup.join(argv) if run.cgroup else argv), cwd='/', pass_fds=fds,
+                    env=self._env(run, url), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                    stderr=subprocess.STDOUT, start_new_session=True)
+        except OSError as e:
+            self._line(run, f'could not start the program: {e}\n', ours=True)
+            self._ended(run, None, f'could not start: {e}')
+            return
+        run.pid = transport.get_pid()
+        if run.ending:   # stopped while it was starting
+            self._signal(run, signal.SIGINT)
+            run.timers.append(loop.call_later(KILL_AFTER, self._signal, run, signal.SIGKILL))
+        run.state = 'running'
+        self._announce(run)
+        run.timers.append(loop.call_later(run.timeout, self.stop, run, 'timed_out'))
+        try:
+            await output.exited                 # bwrap ended: its init, so every process of the box, is gone
+            try:
+                await asyncio.wait_for(asyncio.shield(output.eof), KILL_AFTER)
+            except asyncio.TimeoutError:        # cannot be, unless the kernel is slow to empty the box
+                self._line(run, '[output after the program ended is not shown]\n', ours=True)
+        finally:
+            code = exit_code(transport.get_returncode())
+            transport.close()
+            self._ended(run, code, None)
+
+    def _line(self, run: Run, line: str, *, ours: bool = False) -> None:
+        """One line of output (or, ``ours``, a note of the gateway's)."""
+        if 'MemoryError' in line and not ours:
+            run.memory_error = True
+        run.keep(line)
+        run.output_pub.publish({'data': line.rstrip('\n')})
+
+    def _limit_reached(self, run: Run) -> None:
+        self._line(run, f'[output limit of {self.limits.output_bytes} bytes reached: further output is dropped]\n',
+                   ours=True)
+
+    # --- ending -------------------------------------------------------------------------------
+
+    def stop(self, run: Run, why: str = 'stopped') -> None:
+        """Zero what the run drives at once, then SIGINT; SIGKILL if it is still there after 2 s."""
+        if run.state not in ('starting', 'running') or run.ending:
+            return
+        run.ending = why
+        if why == 'timed_out':
+            self._line(run, f'[timeout of {run.timeout:g} s: stopping]\n', ours=True)
+        self.halt(run)
+        self._signal(run, signal.SIGINT)
+        run.timers.append(asyncio.get_running_loop().call_later(KILL_AFTER, self._signal, run, signal.SIGKILL))
+
+    def _safety(self) -> Safety | None:
+        rules = self.gateway.ruleset
+        return rules.safety if rules is not None else None
+
+    def halt(self, run: Run) -> int:
+        safety = self._safety()
+        if safety is None:
+            return 0
+        return sum(safety.stop_session(s) for s in run.sessions)
+
+    def _signal(self, run: Run, sig: int) -> None:
+        """SIGINT to the program's process group; SIGKILL to the whole box."""
+        if run.pid is not None and run.ended is None:
+            kill_box(run.pid, sig)
+
+    def _ended(self, run: Run, code: int | None, reason: str | None) -> None:
+        for timer in run.timers:
+            timer.cancel()
+        run.timers.clear()
+        run.exit_code, run.ended = code, time.time()
+        if run.ending:
+            run.state = run.ending
+            if run.ending == 'timed_out':
+                reason = f'timeout of {run.timeout:g} s'
+        elif code == 0:
+            run.state = 'finished'
+        else:
+            run.state = 'failed'
+            reason = reason or self._why(run, code)
+        run.reason = reason
+        self._line(run, f'[run {run.state}{f": {reason}" if reason else ""}]\n', ours=True)
+        self._announce(run)
+        run.done.set_result(run.state)
+        log.info('run %s (%s) %s%s', run.id, run.name, run.state, f': {reason}' if reason else '')
+        if run.cgroup is not None:
+            self._remove_cgroup(run.cgroup, time.monotonic() + CGROUP_GONE)
+
+    def _remove_cgroup(self, cgroup: RunCgroup, until: float) -> None:
+        """A cgroup goes once the kernel has emptied it (its last processes may take a moment)."""
+        if not cgroup.remove():
+            if time.monotonic() < until:
+                asyncio.get_running_loop().call_later(0.1, self._remove_cgroup, cgroup, until)
+            else:
+                log.warning('run cgroup %s still holds processes; left in place', cgroup.dirs[0])
+
+    def _why(self, run: Run, code: int | None) -> str:
+        if run.memory_error:
+            return f'memory limit of {self.limits.memory_mb} MiB exceeded (MemoryError)'
+        if run.cgroup is not None and run.cgroup.oom_killed():
+            return f'memory limit of {self.limits.memory_mb} MiB exceeded (the kernel killed it)'
+        if code is not None and code < 0:
+            sig = signal.Signals(-code)
+            if sig == signal.SIGXCPU:
+                return f'CPU time limit of {self.limits.cpu_seconds} s exceeded'
+            if sig in (signal.SIGKILL, signal.SIGSEGV):
+                return f'killed by {sig.name} (perhaps the memory limit of {self.limits.memory_mb} MiB)'
+            return f'killed by {sig.name}'
+        return f'exit code {code}'
+
+    def _announce(self, run: Run) -> None:
+        run.state_pub.publish({'data': json.dumps(run.summary())})
+
+    def _forget_old(self) -> None:
+        ended = [r for r in self.runs.values() if r.ended is not None]
+        for run in ended[:max(0, len(ended) - KEEP_ENDED)]:
+            del self.runs[run.id]
+            run.output_pub.destroy()
+            run.state_pub.destroy()
+            shutil.rmtree(run.workdir, ignore_errors=True)
+
+    # --- gateway hooks ------------------------------------------------------------------------
+
+    def on_connect(self, session, request) -> None:
+        """A run's own connection (its key in the URL) becomes one of the run's sessions."""
+        key = request.query_arguments.get('run_key')
+        if not key:
+            return
+        key = key[-1].decode('ascii', 'replace')
+        run = next((r for r in self.runs.values() if hmac.compare_digest(r.key, key)), None)
+        if run is None or run.state not in ('starting', 'running'):
+            return
+        run.sessions.append(session)
+        session.attrs.update(run=run.id, name=f'run {run.id}', person=run.person)
+        if run.role is not None:
+            session.attrs['role'] = run.role
+            session.attrs.pop('auth_error', None)
+        lease = getattr(self.gateway.policy, 'lease', None)
+        if lease is not None:
+            try:
+                lease.take(session, run.ns)
+            except ProtocolError as e:
+                self._line(run, f'[driver lease: {e.message}]\n', ours=True)
+
+    def subscribe_guard(self, session, op) -> None:
+        """A run's output and state topics are its starter's and the admins', as GET is."""
+        found = RUN_TOPIC.fullmatch(op.topic) if isinstance(op, ops.Subscribe) else None
+        run = self.runs.get(found.group(1)) if found else None
+        if run is None or getattr(self.gateway.policy, 'auth', None) is None:
+            return
+        attrs = session.attrs
+        if owns(session, attrs.get('run') == run.id or (run.owner is not None and attrs.get('person') == run.person)):
+            return
+        raise ProtocolError(f'{op.topic}: run {run.id} was started by {run.owner or "someone else"}; its output '
+                            'and state are for them and admins', op=op.OP, id=op.id)
+
+    def publish_hook(self, session, pub, msg, issued=None):
+        """A run being stopped may still send commands before its SIGINT lands: those that would
+        move the robot again are dropped."""
+        run_id = session.attrs.get('run')
+        if run_id is None:
+            return msg
+        run = self.runs.get(run_id)
+        if run is not None and run.ending and moving_command(msg) and self._is_velocity(pub.type):
+            return None
+        return msg
+
+    def _is_velocity(self, type: str) -> bool:
+        safety = self._safety()
+        return type in safety.types if safety is not None else type.startswith('geometry_msgs/msg/Twist')
+
+    def on_slot_ended(self, station: str, person: str, why: str) -> None:
+        """A booked slot ended (rules.bookings): the booker's runs in that station end."""
+        for run in list(self.runs.values()):
+            if run.person == person and (run.ns == station or run.ns.startswith(station + '/')):
+                if run.state in ('starting', 'running') and not run.ending:
+                    self._line(run, f'[{why}: stopping]\n', ours=True)
+                    self.stop(run)
+
+    def on_close(self, session) -> None:
+        run = self.runs.get(session.attrs.get('run'))
+        if run is not None and session in run.sessions:
+            run.sessions.remove(session)
+
+    async def on_shutdown(self) -> None:
+        running = [r for r in self.runs.values() if r.pid is not None and r.ended is None]
+        for run in running:
+            self.stop(run)
+        for run in running:
+            try:
+                await asyncio.wait_for(asyncio.shield(run.done), KILL_AFTER + 1)
+            except asyncio.TimeoutError:
+                self._signal(run, signal.SIGKILL)
+        if self.server is not None:
+            self.server.stop()
+            await self.server.close_all_connections()
+        if self.home is not None:
+            shutil.rmtree(self.home, ignore_errors=True)
+        left = [r.cgroup for r in self.runs.values() if r.cgroup is not None]
+        deadline = time.monotonic() + 1.0
+        while left and time.monotonic() < deadline:     # each goes once the kernel has emptied it
+            left = [c for c in left if not c.remove()]
+            if left:
+                await asyncio.sleep(0.02)
+
+
+def start_runs(gateway) -> tuple[RunManager, socket.socket | None]:
+    """The run manager as the settings ask, and the unix socket the boxes reach the gateway by
+    (None: runs are off, or trusted runs reach the gateway's port themselves), for the server's
+    start to serve (``RunManager.serve``). With --allow-runs and no working bwrap a Refused
+    names what to install (the gateway does not start)."""
+    settings, flags = gateway.settings, gateway.settings.runs
+    runs_dir = Path(flags.runs_dir or default_runs_dir())
+    box = cgroups = home = sock = None
+    if flags.allow_runs:
+        private = [settings.storage.programs_dir, runs_dir, settings.storage.record, data_dir(''), settings.certfile,
+                   settings.keyfile, Path.home(), *(a for a in sys.argv[1:] if a.startswith('/'))]
+        sweep_homes()
+        home = Path(tempfile.mkdtemp(prefix=f'{HOME_PREFIX}{os.getpid()}-'))
+        try:
+            user = run_user()
+            sock = None     # a trusted run, on the machine's network, reaches the gateway's port itself
+            if not flags.trusted_runs:
+                sock = tornado.netutil.bind_unix_socket(str(home / 'gateway.sock'), mode=0o600 if user is None else 0o660)
+            if user is not None:     # the runs' user reaches the socket through its group (else it is ours)
+                os.chown(home, 0, user[1])
+                if sock is not None:
+                    os.chown(home / 'gateway.sock', 0, user[1])
+                home.chmod(0o750)
+            box = Sandbox.create(private, home=home, socket=None if sock is None else str(home / 'gateway.sock'),
+                                 graph=flags.trusted_runs)
+        except SandboxUnavailable as e:
+            shutil.rmtree(home, ignore_errors=True)
+            raise Refused('--allow-runs', str(e)) from None
+        cgroups, how = Cgroups.find()
+        if cgroups is not None:
+            cgroups.sweep()
+        if box.graph:
+            log.warning('runs: --trusted-runs: each run is a node of the ROS graph itself; what it publishes '
+                        'that way is outside every rule of this gateway (lease, globs, clamps, stops, slot '
+                        'ends): only its websocket ops obey them')
+        lim = RunLimits()
+        log.info('runs: in a bwrap sandbox; %s', limits_in_force(
+            cgroups, how, memory_mb=lim.memory_mb, processes=lim.processes, cpus=lim.cpus,
+            cpu_seconds=lim.cpu_seconds, open_files=lim.open_files))
+    manager = RunManager(gateway, allowed=flags.allow_runs, runs_dir=runs_dir, box=box, cgroups=cgroups,
+                         max_runs=flags.max_runs, max_per_person=flags.max_runs_per_person)
+    manager.home = home          # removed at shutdown
+    return manager, sock
+
+
+def default_runs_dir() -> Path:
+    return data_dir('runs')
+
+
+HOME_PREFIX = 'rosgate-box-'
+
+
+def sweep_homes() -> None:
+    """Remove the socket folders of gateways that are gone (killed before they could)."""
+    for d in Path(tempfile.gettempdir()).glob(f'{HOME_PREFIX}*-*'):
+        pid = d.name[len(HOME_PREFIX):].split('-')[0]
+        if pid.isdigit() and not Path(f'/proc/{pid}').exists():
+            shutil.rmtree(d, ignore_errors=True)

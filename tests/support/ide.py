@@ -1,0 +1,134 @@
+"""The IDE and the teleop page in Debian's Chromium driven by Playwright: the browser's path and
+flags, viewports, a page of the IDE, and programs built from the examples' block makers."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import os
+import shutil
+
+from tests.support.process import ROOT
+from tests.support.wsclient import Client
+
+ARTIFACTS = ROOT / "tests" / "ide" / "artifacts"
+EXAMPLES = ROOT / "examples"
+CHROMIUM = os.environ.get("ROSGATE_CHROMIUM") or shutil.which("chromium") or "/usr/bin/chromium"
+TABLET, PHONE = {"width": 1180, "height": 820}, {"width": 390, "height": 844}   # viewports
+CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
+                 "--disable-component-update", "--no-first-run", "--disable-sync"]
+
+
+class IdePage:
+    """The block IDE in a browser page."""
+
+    def __init__(self, page, gateway):
+        self.page = page
+        self.gateway = gateway
+        self.errors: list[str] = []
+        self.requests: list[str] = []
+        page.on("request", lambda r: self.requests.append(r.url))
+        page.on("pageerror", lambda e: self.errors.append(str(e)))
+        page.on("console", lambda m: m.type == "error" and self.errors.append(m.text))
+
+    def open(self, url: str | None = None):
+        self.page.goto(url or self.gateway.http_url)
+        self.page.wait_for_function("document.body?.dataset.ready === 'true'", timeout=20000)
+        self.page.wait_for_function("document.body?.dataset.connection === 'connected'", timeout=10000)
+        return self
+
+    def js(self, expr: str, arg=None):
+        return self.page.evaluate(expr, arg)
+
+    def load_example(self, file: str):
+        program = json.loads((EXAMPLES / file).read_text())
+        self.js("(p) => rosgateIde.loadProgram(p)", program)
+        return program
+
+    def make_block(self, kind: str, rosname: str, label: str, block_type: str):
+        """"Make a block" through its dialog; returns once Blockly knows the new block type."""
+        self.js("rosgateIde.makeBlock.open()")
+        self.page.select_option("#dlg-make [name=kind]", kind)
+        self.page.fill("#dlg-make [name=rosname]", rosname)
+        self.page.fill("#dlg-make [name=label]", label)
+        self.page.click("#dlg-make [data-act=create]")
+        self.page.wait_for_function("(t) => !!Blockly.Blocks[t]", arg=block_type)
+
+    def workspace(self) -> dict:
+        return self.js("Blockly.serialization.workspaces.save(rosgateIde.workspace)")
+
+    def python(self) -> str:
+        return self.js("rosgateIde.generatePython()")
+
+    def javascript(self) -> str:
+        return self.js("rosgateIde.generateJs(false)")
+
+    def run(self):
+        runs = self.js("rosgateIde.runner.runs")
+        self.page.click("#run")
+        self.page.wait_for_function(f"rosgateIde.runner.runs > {runs}", timeout=5000)
+
+    def wait_idle(self, timeout: float = 60):
+        self.page.wait_for_function("document.body?.dataset.run === 'idle'", timeout=timeout * 1000)
+
+    def logs(self) -> list[str]:
+        return self.js("rosgateIde.console.logs()")
+
+    def console_text(self) -> str:
+        return self.page.inner_text("#console-lines")
+
+    def screenshot(self, name: str):
+        self.page.screenshot(path=str(ARTIFACTS / f"{name}.png"))
+
+
+def open_teleop(chromium, gw, query: str = "", **ctx_args):
+    """The teleop page (with ``query``) in a new browser context, ready and connected:
+    (context, page, its page errors)."""
+    ctx = chromium.new_context(**ctx_args)
+    page = ctx.new_page()
+    errors = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    page.goto(gw.http_url + "teleop" + query)
+    page.wait_for_function("document.body?.dataset.ready === 'true'")
+    page.wait_for_function("document.body?.dataset.connection === 'connected'")
+    return ctx, page, errors
+
+
+def drives_its_station(page, gw, token: str, ns: str) -> None:
+    """Arrow-up on the teleop page reaches its station's turtle, as a client signed in with
+    ``token`` watching ``ns``'s cmd_vel sees."""
+    with Client(gw.ws_url, token) as watcher:
+        watcher.subscribe(f'{ns}/turtle1/cmd_vel', 'geometry_msgs/msg/Twist')
+        page.locator('body').click(position={'x': 5, 'y': 5})
+        page.keyboard.down('ArrowUp')
+        msg = watcher.expect(lambda m: m.get('op') == 'publish' and m['msg']['linear']['x'] > 0, timeout=10)
+        page.keyboard.up('ArrowUp')
+        assert msg['topic'] == f'{ns}/turtle1/cmd_vel'
+
+
+_spec = importlib.util.spec_from_file_location("make_examples", EXAMPLES / "make_examples.py")
+ex = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(ex)
+
+
+def program(*tops: dict, name: str = "test program", variables: dict | None = None) -> dict:
+    blocks = [{**b, "x": 20, "y": 20 + 120 * i} for i, b in enumerate(tops)]
+    return {"format": "rosgate-program", "version": 1, "name": name, "blocks": [],
+            "workspace": {"blocks": {"languageVersion": 0, "blocks": blocks},
+                          "variables": [{"name": n, "id": i} for n, i in (variables or {}).items()]}}
+
+
+def drive(seconds: float = 30, speed: float = 1.0) -> dict:
+    return ex.block("turtle_drive", inputs={"TURTLE": ex.text("turtle1"), "SPEED": ex.num(speed),
+                                             "TURN": ex.num(0), "SECONDS": ex.num(seconds)})
+
+
+def moving(w, t0=0.0):
+    return any(m["linear"]["x"] != 0 for t, m in w.since(t0))
+
+
+def bool_message() -> dict:
+    return {"type": "ros_message", "extraState": {"kind": "msg", "type": "std_msgs/msg/Bool",
+                                                  "fields": [{"name": "data", "type": "bool", "array": -1}]},
+            "fields": {"TYPE": "std_msgs/msg/Bool"},
+            "inputs": {"F_data": {"shadow": {"type": "logic_boolean", "fields": {"BOOL": "TRUE"}}}}}
