@@ -14,7 +14,7 @@ import time
 
 import pytest
 
-from tests.support.ide import ARTIFACTS, PHONE, IdePage
+from tests.support.ide import ARTIFACTS, PHONE, IdePage, error_line, open_text, page_errors
 from tests.support.ros import START, RosClient, reset_turtlesim
 from tests.support.wait import wait_for
 
@@ -37,14 +37,6 @@ def ide(chromium, turtle_gateway):
     ctx.close()
 
 
-def open_text(ide: IdePage, lang: str):
-    ide.open(ide.gateway.http_url + f"?mode=text&lang={lang}")
-    ide.page.wait_for_selector(".cm-content")
-    ide.page.wait_for_function("rosgateIde.graph.loaded")
-    assert ide.js("document.body.dataset.mode") == "text"
-    assert ide.js("rosgateIde.textMode.lang") == lang
-
-
 def type_program(ide: IdePage, lines: list[str]):
     """Types each line at the end of the text, as keys; the editor closes brackets and quotes
     itself and steps over the ones typed after them."""
@@ -65,16 +57,6 @@ def went_round_the_square(pose, cmd, tol: float = 0.35):
     end = pose.latest()
     assert abs(end["x"] - START) < tol and abs(end["y"] - START) < tol, end
     assert cmd.latest()["linear"]["x"] == 0 and cmd.latest()["angular"]["z"] == 0
-
-
-def page_errors(ide: IdePage) -> list[str]:
-    """The page's errors but a send on a socket the link just dropped (a loaded machine's silence)."""
-    return [e for e in ide.errors if "WebSocket is already in CLOSING or CLOSED state" not in e]
-
-
-def error_line(ide: IdePage) -> int:
-    ide.page.wait_for_selector(".cm-error-line")
-    return int(ide.page.get_attribute(".cm-error-line", "data-line"))
 
 
 DRIVE = [

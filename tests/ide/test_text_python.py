@@ -12,11 +12,21 @@ import time
 
 import pytest
 
-from .conftest import IdePage, wait_for
-from .test_text_programs import POSE, TWIST, error_line, open_text, page_errors
-from .test_text_programs import turtle  # noqa: F401  (the module's roslibpy client, a fixture)
+from tests.support.ide import IdePage, error_line, open_text, page_errors
+from tests.support.ros import RosClient
+from tests.support.wait import wait_for
+
+TWIST = "geometry_msgs/msg/Twist"
+POSE = "turtlesim/msg/Pose"
 
 PYODIDE_START = 120   # s: Pyodide's cold start on a busy 2-core machine
+
+
+@pytest.fixture(scope="module")
+def turtle(turtle_gateway):
+    client = RosClient(turtle_gateway)
+    yield client
+    client.close()
 
 
 @pytest.fixture(scope="module")
