@@ -5,6 +5,8 @@
 // subscribe: at most 320 px wide at quality 60, ~8 KB a frame, its aspect kept, encoded once per
 // size for every viewer; 5 frames a second, the newest only), and its caption links
 // web_video_server's viewer page (/stream_viewer) at full size; an unchecked camera is unsubscribed.
+import { t } from './i18n.js';
+
 const IMAGE_TYPES = /^sensor_msgs\/(msg\/)?(Image|CompressedImage)$/;
 const KEY = 'rosgate.cameras.hidden';
 const MAX_SHOWN = 4;   // cameras shown at first (more are in the picker, unchecked)
@@ -13,10 +15,10 @@ const MAX_SHOWN = 4;   // cameras shown at first (more are in the picker, unchec
 // subscribe (the raw Image when there is one, else BASE/compressed).
 export function cameraTopics(topics, types, ns) {
   const out = new Map();
-  topics.forEach((t, i) => {
-    if (!IMAGE_TYPES.test(types[i] ?? '') || (ns && !t.startsWith(`${ns}/`))) return;
-    const base = /CompressedImage$/.test(types[i]) ? t.replace(/\/compressed$/, '') : t;
-    if (!out.has(base) || base === t) out.set(base, { topic: t, type: types[i] });
+  topics.forEach((topic, i) => {
+    if (!IMAGE_TYPES.test(types[i] ?? '') || (ns && !topic.startsWith(`${ns}/`))) return;
+    const base = /CompressedImage$/.test(types[i]) ? topic.replace(/\/compressed$/, '') : topic;
+    if (!out.has(base) || base === topic) out.set(base, { topic: topic, type: types[i] });
   });
   return new Map([...out].sort(([a], [b]) => a.localeCompare(b)));
 }
@@ -66,50 +68,57 @@ export function showCameras({ ros, topics, types, ns, main, after }) {
     card = document.createElement('section');
     card.id = 'cameras-card';
     card.className = 'card';
-    card.innerHTML = '<h2>cameras</h2><div class="camera-picker" role="group" aria-label="cameras shown"></div>'
-      + '<div class="camera-grid"></div>';
+    const h2 = document.createElement('h2');
+    h2.textContent = t('cameras.title');
+    const pick = document.createElement('div');
+    pick.className = 'camera-picker';
+    pick.setAttribute('role', 'group');
+    pick.setAttribute('aria-label', t('cameras.shown'));
+    const gridEl = document.createElement('div');
+    gridEl.className = 'camera-grid';
+    card.append(h2, pick, gridEl);
     after.after(card);
   }
   card.hidden = !cameras.length;
   const hidden = hiddenSet();
   const picker = card.querySelector('.camera-picker'), grid = card.querySelector('.camera-grid');
-  const shown = (t, i) => !hidden.has(t) && i < MAX_SHOWN;
+  const shown = (topic, i) => !hidden.has(topic) && i < MAX_SHOWN;
   const draw = () => {
-    const want = cameras.filter((t, i) => picker.querySelector(`input[value="${CSS.escape(t)}"]`)?.checked ?? shown(t, i));
+    const want = cameras.filter((topic, i) => picker.querySelector(`input[value="${CSS.escape(topic)}"]`)?.checked ?? shown(topic, i));
     for (const fig of [...grid.children]) {
-      const t = fig.dataset.topic;
-      if (!want.includes(t) || live.get(t)?.ros !== ros) { close(t); fig.remove(); }
+      const topic = fig.dataset.topic;
+      if (!want.includes(topic) || live.get(topic)?.ros !== ros) { close(topic); fig.remove(); }
     }
-    for (const t of want) {
-      if (grid.querySelector(`figure[data-topic="${CSS.escape(t)}"]`)) continue;
+    for (const topic of want) {
+      if (grid.querySelector(`figure[data-topic="${CSS.escape(topic)}"]`)) continue;
       const fig = document.createElement('figure');
-      fig.dataset.topic = t;
+      fig.dataset.topic = topic;
       const img = document.createElement('img');
-      img.alt = `camera ${t}`;
+      img.alt = t('cameras.alt', { topic });
       const cap = document.createElement('figcaption');
       const link = document.createElement('a');
-      link.href = viewerUrl(t);
+      link.href = viewerUrl(topic);
       link.target = '_blank';
-      link.textContent = t;
+      link.textContent = topic;
       cap.append(link);
       fig.append(img, cap);
       grid.append(fig);
-      open(ros, t, found.get(t), img);
+      open(ros, topic, found.get(topic), img);
     }
   };
-  picker.replaceChildren(...cameras.map((t, i) => {
+  picker.replaceChildren(...cameras.map((topic, i) => {
     const label = document.createElement('label');
     const box = document.createElement('input');
     box.type = 'checkbox';
-    box.value = t;
-    box.checked = shown(t, i);
+    box.value = topic;
+    box.checked = shown(topic, i);
     box.addEventListener('change', () => {
       const now = hiddenSet();
-      if (box.checked) now.delete(t); else now.add(t);
+      if (box.checked) now.delete(topic); else now.add(topic);
       try { localStorage.setItem(KEY, JSON.stringify([...now])); } catch { /* storage off */ }
       draw();
     });
-    label.append(box, ` ${t}`);
+    label.append(box, ` ${topic}`);
     return label;
   }));
   draw();

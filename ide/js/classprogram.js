@@ -71,6 +71,6 @@ function showText(report, view) {
     return div;
   }));
   const lang = { python: 'Python', javascript: 'JavaScript' }[report.program.lang] ?? 'text';
-  document.querySelector('#program-note').textContent = `Read-only: the student's ${lang} program as last reported.`;
+  document.querySelector('#program-note').textContent = t('class.program.readonly', { lang });
   window.classView.programShown = lines.length;
 }

@@ -5,6 +5,9 @@
 // warning), never refused: the robot may not be up yet.
 import { normType } from './graph.js';
 import { withNamespace } from '../runtime/util.js';
+import { t } from './i18n.js';
+
+const KINDS = new Set(['topic', 'service', 'action']);   // the names the graph has, by kind
 
 // The runtime's functions (runtime/runtime.js, runtime/rosgate_runtime.py) and their arguments.
 const RT = {
@@ -189,6 +192,6 @@ export function unknownNames(text, env) {
 export function lintSource(lang, env) {
   return (view) => unknownNames(view.state.doc.toString(), env).map((u) => ({
     from: u.from, to: u.to, severity: 'warning', source: 'robot',
-    message: `${u.name}: no ${u.kind} of that name on the robot now (it runs anyway; check the name)`,
+    message: t(`completion.unknown.${KINDS.has(u.kind) ? u.kind : 'name'}`, { name: u.name }),
   }));
 }

@@ -3,6 +3,7 @@
 // the robot there (send_action_goal, through the gateway's rules like any command), facing away
 // from where it stands. The goal shows as an arrow until its result comes back.
 import * as THREE from 'three';
+import { t, num } from './i18n.js';
 
 export const NAVIGATE = 'nav2_msgs/action/NavigateToPose';
 let calls = 0;
@@ -35,8 +36,8 @@ export async function offerGoals(ros, twin, { ns, frame, onState }) {
   const button = document.createElement('button');
   button.type = 'button';
   button.id = 'goal';
-  button.textContent = 'goal';
-  button.title = 'then tap the floor: the robot drives there';
+  button.textContent = t('goal.button');
+  button.title = t('goal.title');
   document.querySelector('#bar').append(button);
   const arrow = new THREE.ArrowHelper(new THREE.Vector3(1, 0, 0), new THREE.Vector3(), 0.5, 0x00e5ff, 0.15, 0.1);
   arrow.visible = false;
@@ -48,11 +49,11 @@ export async function offerGoals(ros, twin, { ns, frame, onState }) {
     arrow.position.set(x, y, 0.05);
     arrow.setDirection(new THREE.Vector3(Math.cos(yaw), Math.sin(yaw), 0));
     arrow.visible = true;
-    onState(`goal sent: ${x.toFixed(2)}, ${y.toFixed(2)}`);
+    onState(t('goal.sent', { x: num(x, 2), y: num(y, 2) }));
     ros.once(id, (m) => {
       if (m.op === 'status') return;
       arrow.visible = false;
-      onState(m.result === false ? `goal not reached (${m.status ?? m.values?.error_msg ?? 'refused'})` : 'goal reached');
+      onState(m.result === false ? t('goal.failed', { why: m.status ?? m.values?.error_msg ?? t('goal.refused') }) : t('goal.reached'));
     });
     ros.callOnConnection({
       op: 'send_action_goal', id, action, action_type: NAVIGATE,

@@ -338,9 +338,9 @@ async function start() {
   // "Edit as text": the block program in the code panel's language, as a text program of its own
   const editAsText = async (lang, name = `${ide.programName} ${lang}`) => {
     let text;
-    try { text = blocksAsText(ide, lang); } catch (e) { consoleView.error(`Cannot write the program as text: ${e.message}`); return; }
+    try { text = blocksAsText(ide, lang); } catch (e) { consoleView.error(t('text.cannot.convert', { error: e.message })); return; }
     await ide.loadProgram(storage.makeTextProgram({ name, robot: ide.robot, lang, text }));
-    consoleView.info(`"${ide.programName}" is the block program as ${LANGS[lang]}; the blocks are kept: "Blocks" goes back to them`);
+    consoleView.info(t('text.converted', { name: ide.programName, lang: LANGS[lang] }));
   };
   $('#edit-text').onclick = () => editAsText($('[data-tab].on')?.dataset.tab === 'code-js' ? 'javascript' : 'python');
   $('#to-blocks').onclick = async () => {

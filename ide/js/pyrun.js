@@ -12,6 +12,7 @@
 // the next run as soon as one ends (Pyodide's files come from the browser's cache then), so Run
 // after Stop does not wait for Pyodide to start.
 import { isVelocityType, zeroVelocity } from '../runtime/util.js';
+import { t, num } from './i18n.js';
 
 const MAILBOX = 4 * 2 ** 20;     // bytes of gateway messages waiting for the worker
 const PER_TOPIC = 200;           // messages of one topic kept while the worker is busy (the oldest go)
@@ -56,7 +57,7 @@ export async function checkPython(source) {
   let worker;
   try { worker = await w.ready; } catch (e) {
     if (spare === w) spare = null;
-    return [{ line: 1, col: 1, message: `Python did not start: ${e.message}` }];
+    return [{ line: 1, col: 1, message: t('py.no.start', { error: e.message }) }];
   }
   const id = ++checks;
   return new Promise((resolve) => {
@@ -84,9 +85,9 @@ export async function runPython(source, { ros, namespace = '', log = () => {}, o
     say(message, 'error');
     try { onError({ line: null, message, traceback: '' }); } catch { /* the page's problem */ }
   };
-  if (!ros?.isConnected) { fail('Not connected to the gateway.'); return; }
+  if (!ros?.isConnected) { fail(t('py.not.connected')); return; }
   if (!globalThis.crossOriginIsolated) {
-    fail('Python cannot run in this page: it is not cross-origin isolated (open the IDE on its own, not inside another site\'s frame).');
+    fail(t('py.not.isolated'));
     return;
   }
   const prog = new Program(run, ros, { log: say, onLine, onError });
@@ -97,7 +98,7 @@ export async function runPython(source, { ros, namespace = '', log = () => {}, o
     await Promise.race([w.ready, prog.ended]);
   } catch (e) {
     w.worker.terminate();
-    if (current === prog) { current = null; fail(`Python did not start: ${e.message}`); prog.end(); }
+    if (current === prog) { current = null; fail(t('py.no.start', { error: e.message })); prog.end(); }
     return;
   }
   if (current !== prog) return prog.ended;          // stopped while Pyodide was loading
@@ -141,7 +142,7 @@ class Program {
     this.onRaw = (m) => this.heard(m);
     this.onClose = () => {
       if (current !== this) return;
-      this.hooks.log('the connection to the gateway closed: program stopped', 'error');
+      this.hooks.log(t('py.closed'), 'error');
       stopPython();
     };
   }
@@ -151,7 +152,7 @@ class Program {
     this.ros.on('close', this.onClose);
     this.worker.addEventListener('message', (e) => this.fromWorker(e.data));
     this.worker.addEventListener('error', (e) => {
-      this.hooks.log(`Python worker: ${e.message}`, 'error');
+      this.hooks.log(t('py.worker', { error: e.message }), 'error');
       if (current === this) stopPython();
     });
     if (this.hooks.onLine) {
@@ -185,7 +186,7 @@ class Program {
   deliver(m) {
     const data = this.encoder.encode(`${JSON.stringify(m)}\n`);
     if (data.length > MAILBOX) {
-      const msg = `a ${m.op} of ${data.length} bytes is larger than the program's mailbox (${MAILBOX})`;
+      const msg = t('py.mailbox', { op: m.op, bytes: num(data.length), max: num(MAILBOX) });
       this.deliver({ op: 'status', level: 'error', id: m.id, msg });
       return;
     }

@@ -100,7 +100,7 @@ export class Runner extends EventTarget {
     }
     if (this.pendingStep) {
       this.pendingStep = false;
-      this.console.info(`▷ step${block ? `: ${blockText(block)}` : ''}`);
+      this.console.info(block ? t('run.step.block', { block: blockText(block) }) : t('run.step'));
       rt.stepOnce();
       return;
     }
@@ -163,7 +163,7 @@ export class Runner extends EventTarget {
   step() {
     if (!this.rt) { this.run({ step: true }); return; }
     const block = this.heldAt ? this.workspace.getBlockById(this.heldAt) : null;
-    this.console.info(`▷ step${block ? `: ${blockText(block)}` : ''}`);
+    this.console.info(block ? t('run.step.block', { block: blockText(block) }) : t('run.step'));
     this.heldAt = null;
     this.rt.stepOnce();
     this._setState('paused');

@@ -10,6 +10,7 @@ import {
 } from '../vendor/codemirror.mjs';
 import { completionSource, lintSource } from './completion.js';
 import { compileJs, ProgramError } from './textrun.js';
+import { t } from './i18n.js';
 
 const setMarks = StateEffect.define();   // {running: line|null, error: {line, message}|null}
 
@@ -146,8 +147,8 @@ function toolbar(editor) {
   const bar = document.createElement('div');
   bar.className = 'text-tools';
   const buttons = [
-    ['indent', '⇥', 'indent the line (Tab)'], ['outdent', '⇤', 'outdent the line (Shift-Tab)'],
-    ['undo', '↶', 'undo (Ctrl-Z)'], ['redo', '↷', 'redo (Ctrl-Y)'], ['search', 'Find', 'search and replace (Ctrl-F)'],
+    ['indent', '⇥', t('text.tool.indent')], ['outdent', '⇤', t('text.tool.outdent')],
+    ['undo', '↶', t('text.tool.undo')], ['redo', '↷', t('text.tool.redo')], ['search', t('text.tool.find'), t('text.tool.search')],
   ];
   for (const [name, text, title] of buttons) {
     const b = document.createElement('button');

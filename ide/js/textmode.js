@@ -3,6 +3,7 @@
 // block program as readable Python or JavaScript that imports the runtime), and the downloads
 // that run unchanged (the Python one with the runtime bundled on its import line).
 import * as storage from './storage.js';
+import { t } from './i18n.js';
 
 export const LANGS = { python: 'Python', javascript: 'JavaScript' };
 
@@ -102,13 +103,13 @@ export class TextMode {
     const editor = await this._editor();
     this.lang = lang;
     this.loading = true;
-    try { editor.load(text, lang, `for example:\n\n${starter(lang)}`); } finally { this.loading = false; }
+    try { editor.load(text, lang, `${t('text.for.example')}\n\n${starter(lang)}`); } finally { this.loading = false; }
     document.body.dataset.mode = 'text';
     document.body.dataset.lang = lang;
     document.querySelector('#text-editor').hidden = false;
     document.querySelector('#blockly').hidden = true;
     document.querySelector('#download-py').textContent = lang === 'python' ? '.py' : '.js';
-    document.querySelector('#download-py').title = `download the ${LANGS[lang]} program`;
+    document.querySelector('#download-py').title = t('text.download', { lang: LANGS[lang] });
     editor.tools.querySelector('.text-lang').textContent = LANGS[lang];
   }
 
@@ -119,7 +120,7 @@ export class TextMode {
     document.querySelector('#text-editor').hidden = true;
     document.querySelector('#blockly').hidden = false;
     document.querySelector('#download-py').textContent = '.py';
-    document.querySelector('#download-py').title = 'download the Python program';
+    document.querySelector('#download-py').title = t('text.download', { lang: LANGS.python });
     window.dispatchEvent(new Event('resize'));     // Blockly measures its box again
   }
 

@@ -14,6 +14,7 @@
 import * as ROSLIB from 'roslib';
 import { Runtime, StopSignal, fmt, field, pick, yaw, rangeAt } from '../runtime/runtime.js';
 import { isVelocityType, zeroVelocity, angleDiff } from '../runtime/util.js';
+import { t, num } from './i18n.js';
 
 const AsyncFunction = Object.getPrototypeOf(async () => {}).constructor;
 const PARAMS = ['ros', 'ROSLIB', '__modules', 'console', 'setTimeout', 'setInterval', 'clearTimeout', 'clearInterval'];
@@ -73,8 +74,7 @@ export function prepareJs(text) {
     if (!/^\s*import\b(?!\s*\()/.test(line)) return line;
     const m = IMPORT.exec(line);
     if (!m || !MODULES.includes(m[4])) {
-      throw new ProgramError(i + 1, `SyntaxError: a program in the page imports only from ${MODULES.map((s) => `'${s}'`).join(' or ')}, `
-        + 'one import per line');
+      throw new ProgramError(i + 1, t('text.import.only', { modules: MODULES.map((s) => `'${s}'`).join(', ') }));
     }
     const from = `__modules[${JSON.stringify(m[4])}]`;
     const clause = m[2].trim();
@@ -82,7 +82,7 @@ export function prepareJs(text) {
     if (/^\*\s+as\s+[\w$]+$/.test(clause)) decl = `const ${clause.split(/\s+/).pop()} = ${from};`;
     else if (/^\{[^}]*\}$/.test(clause)) decl = `const ${clause.replace(/\b([\w$]+)\s+as\s+([\w$]+)/g, '$1: $2')} = ${from};`;
     else if (/^[\w$]+$/.test(clause)) decl = `const ${clause} = ${from};`;
-    else throw new ProgramError(i + 1, `SyntaxError: cannot read this import: ${clause}`);
+    else throw new ProgramError(i + 1, t('text.import.unread', { clause }));
     return m[1] + decl;
   }).join('\n');
 }
@@ -172,7 +172,7 @@ export class TextRunner extends EventTarget {
   async run(text, lang) {
     if (this.run_) this.stop();
     const ros = this.ide.ros;
-    if (!ros?.isConnected) { this.ide.console.error('Not connected to the gateway: press Reconnect.'); return; }
+    if (!ros?.isConnected) { this.ide.console.error(t('text.not.connected')); return; }
     const n = ++this.runs;
     this.ide.editor.error(null);
     this.ide.editor.running(null);
@@ -181,7 +181,7 @@ export class TextRunner extends EventTarget {
     const run = { n, door, lang, url: `rosgate-program-${++sourceCount}.js`, timers: new Set(), rt: null };
     this.run_ = run;
     this._setState('running');
-    this.ide.console.info(`▶ run ${n} (${lang === 'python' ? 'Python' : 'JavaScript'})`);
+    this.ide.console.info(t('text.run.start', { n: num(n), lang: lang === 'python' ? 'Python' : 'JavaScript' }));
     try {
       if (lang === 'python') await this._python(run, text);
       else await this._javascript(run, text);
@@ -242,23 +242,22 @@ export class TextRunner extends EventTarget {
     const own = new Set([...rt.subs.values()].map((s) => s.id));     // the runtime's, not the program's own
     const listening = [...door.subscribed.keys()].some((id) => !own.has(id));
     if (handlers || run.timers.size || listening) {
-      this.ide.console.info('the program\'s end is reached; its callbacks and timers keep running until Stop');
+      this.ide.console.info(t('text.callbacks'));
       return;
     }
     await rt.settle();
-    this._finish(run, `■ run ${run.n} finished`);
+    this._finish(run, t('text.finished', { n: num(run.n) }));
   }
 
   // ---- Python (js/pyrun.js: Pyodide in a worker, loaded at the first Python run) ----
   async _python(run, text) {
     let py;
-    if (!this.pythonLoaded) this.ide.console.info('loading Python for its first run in this page…');
+    if (!this.pythonLoaded) this.ide.console.info(t('text.python.loading'));
     try {
       py = await import('./pyrun.js');
       this.pythonLoaded = true;
     } catch (e) {
-      throw new Error(`Python cannot run in this page: its runner (js/pyrun.js) did not load (${e.message}); `
-        + 'download the .py and run it with roslibpy instead');
+      throw new Error(t('text.python.noload', { error: e.message }));
     }
     if (this.run_ !== run) return;
     run.py = py;
@@ -266,9 +265,9 @@ export class TextRunner extends EventTarget {
     if (this.run_ !== run) return;
     if (problems.length) {
       const [first] = problems;
-      for (const p of problems) this.ide.console.error(`line ${p.line}: ${p.message}`);
+      for (const p of problems) this.ide.console.error(t('text.at.line', { line: num(p.line), message: p.message }));
       this.ide.editor.error(first.line, first.message);
-      this._finish(run, '■ not run: a syntax error (see the marked line)');
+      this._finish(run, t('text.not.run'));
       return;
     }
     await this.ready();
@@ -283,7 +282,7 @@ export class TextRunner extends EventTarget {
         this._error(run, new ProgramError(line, message));
       },
     });
-    if (this.run_ === run) this._finish(run, `■ run ${run.n} finished`);
+    if (this.run_ === run) this._finish(run, t('text.finished', { n: num(run.n) }));
   }
 
   // ---- the end ----
@@ -298,21 +297,23 @@ export class TextRunner extends EventTarget {
     const line = e instanceof ProgramError ? e.line : (run.lang === 'javascript' ? lineOf(e?.stack, run.url) : null) ?? this.line;
     const name = e?.name && e.name !== 'Error' && !(e instanceof ProgramError) ? `${e.name}: ` : '';
     const msg = `${name}${e?.message ?? String(e)}`;
-    this.ide.console.error(line ? `line ${line}: ${msg}` : msg);
+    this.ide.console.error(line ? t('text.at.line', { line: num(line), message: msg }) : msg);
     this.ide.editor.error(line, msg);
-    this._finish(run, '■ stopped after an error (robot stopped)');
+    this._finish(run, t('text.stopped.error'));
   }
 
   _finish(run, text) {
     if (this.run_ !== run) return;
     this.run_ = null;
     run.rt?.stop();                        // the runtime's waits end, its goals are cancelled, robot zeroed
+    // Python's worker ends first: pyrun's own cleanup (its goals cancelled, subscriptions and
+    // advertisements ended, zero on what it drove) still passes the open door
+    if (run.py) {
+      try { run.py.stopPython(); } catch (e) { this.ide.console.error(t('text.python.stopping', { error: e.message })); }
+    }
     run.door.close();                      // the program sends nothing more; zero on what it drove
     for (const id of run.timers) run.clears?.get(id)?.(id);
     run.timers.clear();
-    if (run.py) {
-      try { run.py.stopPython(); } catch (e) { this.ide.console.error(`stopping Python: ${e.message}`); }
-    }
     this.ide.editor.running(null);
     this.line = null;
     this._setState('idle');
@@ -321,6 +322,6 @@ export class TextRunner extends EventTarget {
 
   stop() {
     const run = this.run_;
-    if (run) this._finish(run, '■ stopped (robot stopped)');
+    if (run) this._finish(run, t('text.stopped'));
   }
 }

@@ -16,7 +16,7 @@ import { Frames } from './frames.js';
 import { MapLayer } from './map3d.js';
 import { mapSubscribe } from './grid.js';
 import { offerGoals } from './goal.js';
-import { t, num } from './i18n.js';
+import { t, tn, num } from './i18n.js';
 
 const params = new URLSearchParams(location.search);
 const ns = (params.get('ns') || '').replace(/\/+$/, '');
@@ -98,8 +98,7 @@ function useUrdf(xml, from) {
     state.missing = missing;
     state.meshes = missing.length ? 'missing' : 'loaded';
     if (missing.length) {
-      notice(`${missing.length} mesh${missing.length > 1 ? 'es' : ''} of the robot could not be loaded and `
-        + `${missing.length > 1 ? 'are drawn as grey boxes' : 'is drawn as a grey box'}: ${problems.join('; ')}`);
+      notice(tn('twin.meshes.missing', missing.length, { problems: problems.join('; ') }));
     }
     placeByTf();
   });

@@ -6,6 +6,7 @@
 // Joints move from sensor_msgs/JointState (revolute, continuous, prismatic; by name).
 import * as THREE from 'three';
 import { URDFLoader, STLLoader, ColladaLoader, OBJLoader, MTLLoader } from 'three';
+import { t } from './i18n.js';
 
 const PLACEHOLDER = 0x9097a8;
 let calls = 0;
@@ -83,12 +84,12 @@ export function loadUrdf(xml, { onProblem = () => {} } = {}) {
     const fill = (obj) => { holder.add(obj); oneDone(); };
     const fail = (why) => {
       missing.push(path);
-      onProblem(`${path}: ${why?.message ?? why ?? 'cannot load'}`);
+      onProblem(`${path}: ${why?.message ?? why ?? t('urdf.cannot.load')}`);
       holder.add(placeholder(standInSize(holder.parent)));
       oneDone();
     };
     const ext = (/\.([a-z0-9]+)$/i.exec(url)?.[1] ?? '').toLowerCase();
-    if (!url) { fail('not a package:// or file:// path the gateway serves'); return; }
+    if (!url) { fail(t('urdf.not.served')); return; }
     if (ext === 'stl') {
       new STLLoader(mgr).load(url, (geom) => {
         geom.computeVertexNormals();   // flat, from the triangles: exporters often write 0 0 0 normals
@@ -103,7 +104,7 @@ export function loadUrdf(xml, { onProblem = () => {} } = {}) {
     } else if (ext === 'obj') {
       loadObj(url, mgr, material, fill, fail);
     } else {
-      fail(`no loader for .${ext || '?'} meshes (STL, DAE and OBJ are read)`);
+      fail(t('urdf.no.loader', { ext: ext || '?' }));
     }
   };
   const robot = loader.parse(xml);

@@ -138,7 +138,7 @@ export class WorldView {
       b.setAttribute('role', 'tab');
       b.setAttribute('aria-selected', String(w.frame === current));
       b.textContent = w.robots.length ? w.robots.join(', ') : w.frame;
-      b.title = `world (frame ${w.frame})`;
+      b.title = t('world.tab.title', { frame: w.frame });
       b.style.cssText = `font:inherit;font-size:12px;min-height:28px;padding:2px 10px;border-radius:6px;cursor:pointer;
         border:1px solid #3b4460;color:#e9ecf5;background:${w.frame === current ? '#3f6fd8' : '#2e3650'}`;
       b.onclick = () => this.choose(w.frame);

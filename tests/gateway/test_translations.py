@@ -81,6 +81,52 @@ def code_keys() -> set[str]:
     return keys
 
 
+# Where a script writes words the reader sees: an element's text or title, an attribute, the
+# console's lines, the twin's notices, a mesh's problem, a Python run's failure, an innerHTML.
+SHOWN = re.compile(r"""(?:\.(?:textContent|title|alt|placeholder)\s*=|setAttribute\(\s*'(?:title|aria-label|alt|placeholder)'\s*,"""
+                   r"""|\.(?:info|error|warn)\(|\b(?:notice|onState|onProblem|fail)\(|innerHTML\s*=)\s*(?=['`])""")
+CODE_NAMES = {'rosapi', 'Python', 'JavaScript'}
+
+
+def literal(text: str, i: int) -> str:
+    """The words of the string literal opening at text[i] ('...' or a template), without what a
+    template interpolates (${...}, nested templates and all)."""
+    quote, out, depth, j = text[i], [], 0, i + 1
+    while j < len(text):
+        c = text[j]
+        if c == '\\':
+            j += 2
+            continue
+        if depth == 0:
+            if c == quote:
+                break
+            if quote == '`' and text.startswith('${', j):
+                depth, j = 1, j + 2
+                continue
+            out.append(c)
+        elif c == '{':
+            depth += 1
+        elif c == '}':
+            depth -= 1
+        elif c == '`':                       # a template inside the interpolation: skip it whole
+            j = text.index('`', j + 1)
+        j += 1
+    return ''.join(out)
+
+
+def test_no_script_writes_english_words_outside_t():
+    """Words a script shows (an element's text or title, the console's statuses, the twin's
+    notices) come from t(): a literal with words there is English in every language."""
+    loose = []
+    for js in sorted((IDE / 'js').glob('*.js')):
+        text = js.read_text()
+        for m in SHOWN.finditer(text):
+            words = re.sub(r'<[^>]*>', ' ', literal(text, m.end()))
+            if [w for w in re.findall(r'[A-Za-z]{3,}', words) if w not in CODE_NAMES]:
+                loose.append(f'{js.name}: {text[m.start():m.end() + 60]!r}')
+    assert not loose, f'words written by scripts outside t(): {loose}'
+
+
 def placeholders(text: str) -> set[str]:
     return set(re.findall(r'\{\w+\}|%\d', text))
 

@@ -186,7 +186,8 @@ def test_class_tiles_and_stop_all(engine, fleet, watcher):
 def test_twin_draws_or_says_why_not(engine, lab):
     engine.open(lab.http_url + "twin")
     engine.wait("document.body.dataset.ready === 'true'", 60, "the twin ready")
-    engine.wait("twin.state.error || (twin.state.model === 'rover' && twin.state.pose !== null && twin.state.frames > 3)",
+    # the sim's rover publishes its robot_description: the twin draws it from that URDF
+    engine.wait("twin.state.error || (twin.state.model === 'urdf' && twin.state.pose !== null && twin.state.frames > 3)",
                 60, "a drawn rover, or why not")
     if engine.js("!!document.querySelector('#view').dataset.webgl"):
         # no WebGL here: the view says so, in words (not checked: they are translated)

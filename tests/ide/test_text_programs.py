@@ -14,7 +14,7 @@ import time
 
 import pytest
 
-from tests.support.ide import ARTIFACTS, PHONE, IdePage
+from tests.support.ide import ARTIFACTS, PHONE, IdePage, error_line, open_text, page_errors
 from tests.support.ros import START, RosClient, reset_turtlesim
 from tests.support.wait import wait_for
 
@@ -37,14 +37,6 @@ def ide(chromium, turtle_gateway):
     ctx.close()
 
 
-def open_text(ide: IdePage, lang: str):
-    ide.open(ide.gateway.http_url + f"?mode=text&lang={lang}")
-    ide.page.wait_for_selector(".cm-content")
-    ide.page.wait_for_function("rosgateIde.graph.loaded")
-    assert ide.js("document.body.dataset.mode") == "text"
-    assert ide.js("rosgateIde.textMode.lang") == lang
-
-
 def type_program(ide: IdePage, lines: list[str]):
     """Types each line at the end of the text, as keys; the editor closes brackets and quotes
     itself and steps over the ones typed after them."""
@@ -65,16 +57,6 @@ def went_round_the_square(pose, cmd, tol: float = 0.35):
     end = pose.latest()
     assert abs(end["x"] - START) < tol and abs(end["y"] - START) < tol, end
     assert cmd.latest()["linear"]["x"] == 0 and cmd.latest()["angular"]["z"] == 0
-
-
-def page_errors(ide: IdePage) -> list[str]:
-    """The page's errors but a send on a socket the link just dropped (a loaded machine's silence)."""
-    return [e for e in ide.errors if "WebSocket is already in CLOSING or CLOSED state" not in e]
-
-
-def error_line(ide: IdePage) -> int:
-    ide.page.wait_for_selector(".cm-error-line")
-    return int(ide.page.get_attribute(".cm-error-line", "data-line"))
 
 
 DRIVE = [
@@ -273,78 +255,5 @@ def test_a_phone_indents_with_buttons(chromium, turtle_gateway):
         assert editor["width"] >= PHONE["width"] - 2 and editor["height"] > 300, editor
         ide.screenshot("text-phone")
         assert not page_errors(ide)
-    finally:
-        ctx.close()
-
-
-# js/pyrun.js (Python in the page, Pyodide in a worker) is built apart; this stand-in keeps to its
-# contract (runPython, stopPython, checkPython) and drives turtle1 through the ros it is given, so
-# the editor's side is checked: the source and namespace passed, prints in the console, the
-# running line, an error's line from onError, a syntax error before the run, and Stop zeroing the
-# turtle within 0.5 s though the stand-in keeps publishing 300 ms longer (the door drops it).
-PYRUN_STANDIN = """
-let timer = null, done = null;
-export async function checkPython(source) {
-  return source.split('\\n').flatMap((l, i) => (/def \\(/.test(l) ? [{ line: i + 1, col: 4, message: 'SyntaxError: invalid syntax' }] : []));
-}
-export async function runPython(source, { ros, namespace, log, onLine, onError }) {
-  window.pyrunCalls = (window.pyrunCalls ?? 0) + 1;
-  log(`source of ${source.split('\\n').length} lines, namespace '${namespace}'`);
-  return new Promise((resolve) => {
-    done = resolve;
-    if (source.includes('raise')) {
-      onError({ line: 3, message: 'ZeroDivisionError: division by zero',
-        traceback: 'Traceback (most recent call last):\\n  File "program.py", line 3, in <module>\\nZeroDivisionError: division by zero' });
-      resolve();
-      return;
-    }
-    ros.callOnConnection({ op: 'advertise', topic: '/turtle1/cmd_vel', type: 'geometry_msgs/msg/Twist' });
-    timer = setInterval(() => {
-      onLine(2);
-      ros.callOnConnection({ op: 'publish', topic: '/turtle1/cmd_vel', msg: { linear: { x: 1, y: 0, z: 0 }, angular: { x: 0, y: 0, z: 0.5 } } });
-    }, 50);
-  });
-}
-export function stopPython() { setTimeout(() => { clearInterval(timer); done?.(); }, 300); }
-"""
-
-
-def test_python_runs_through_pyrun(chromium, turtle_gateway, turtle):
-    ctx = chromium.new_context(viewport={"width": 1400, "height": 860})
-    try:
-        ctx.route("**/js/pyrun.js", lambda route: route.fulfill(body=PYRUN_STANDIN, content_type="text/javascript"))
-        ide = IdePage(ctx.new_page(), turtle_gateway)
-        open_text(ide, "python")
-        assert ide.js("window.pyrunCalls") is None          # Python loads at the first run only
-        type_program(ide, ["print('hi')", "x = 1", "rt.sleep(x)"])
-        cmd = turtle.watch("/turtle1/cmd_vel", TWIST)
-        ide.page.click("#run")
-        wait_for(lambda: any(m["linear"]["x"] for _, m in cmd.messages), what="the stand-in driving")
-        assert "source of 3 lines, namespace ''" in ide.logs()
-        ide.page.wait_for_selector(".cm-running-line[data-line='2']")
-        t0 = time.monotonic()
-        ide.page.click("#stop")
-        zero = wait_for(lambda: next((t for t, m in cmd.since(t0) if not m["linear"]["x"]), None), timeout=2,
-                        what="a zero Twist after Stop")
-        assert zero - t0 < 0.5, zero - t0
-        time.sleep(0.5)
-        assert all(not m["linear"]["x"] for _, m in cmd.since(zero + 0.01)), "Python's publishes went on after Stop"
-        # an error's line, as pyrun reports it
-        ide.page.click(".cm-content")
-        ide.page.keyboard.press("Control+End")
-        ide.page.keyboard.type("\nraise ValueError")
-        ide.page.click("#run")
-        assert error_line(ide) == 3
-        assert "line 3: ZeroDivisionError: division by zero" in ide.console_text()
-        assert 'File "program.py", line 3' in ide.console_text()
-        # a syntax error is marked before the run
-        calls = ide.js("window.pyrunCalls")
-        ide.page.click(".cm-content")
-        ide.page.keyboard.press("Control+Home")
-        ide.page.keyboard.type("def (")
-        ide.page.click("#run")
-        assert error_line(ide) == 1
-        ide.page.wait_for_function("document.body.dataset.run === 'idle'")
-        assert ide.js("window.pyrunCalls") == calls
     finally:
         ctx.close()

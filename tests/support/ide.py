@@ -132,3 +132,24 @@ def bool_message() -> dict:
                                                   "fields": [{"name": "data", "type": "bool", "array": -1}]},
             "fields": {"TYPE": "std_msgs/msg/Bool"},
             "inputs": {"F_data": {"shadow": {"type": "logic_boolean", "fields": {"BOOL": "TRUE"}}}}}
+
+
+# Text programs (the editor, CodeMirror's .cm-content)
+def open_text(ide: IdePage, lang: str):
+    """A new text program in `lang` (/?mode=text&lang=...), the robot's graph read."""
+    ide.open(ide.gateway.http_url + f"?mode=text&lang={lang}")
+    ide.page.wait_for_selector(".cm-content")
+    ide.page.wait_for_function("rosgateIde.graph.loaded")
+    assert ide.js("document.body.dataset.mode") == "text"
+    assert ide.js("rosgateIde.textMode.lang") == lang
+
+
+def page_errors(ide: IdePage) -> list[str]:
+    """The page's errors but a send on a socket the link just dropped (a loaded machine's silence)."""
+    return [e for e in ide.errors if "WebSocket is already in CLOSING or CLOSED state" not in e]
+
+
+def error_line(ide: IdePage) -> int:
+    """The line the editor marks as an error's (once it marks one)."""
+    ide.page.wait_for_selector(".cm-error-line")
+    return int(ide.page.get_attribute(".cm-error-line", "data-line"))

@@ -1,0 +1,155 @@
+"""A Python text program from end to end in Chromium, on `--robot turtlesim` without --allow-runs:
+`/?mode=text&lang=python`, the program typed into the editor (.cm-content) as a student types
+it, run with the real js/pyrun.js (Pyodide in a worker) behind js/textrun.js's door. A textbook
+roslibpy program (`roslibpy.Ros(host='example.org', port=9090)`, `run()`, a `Topic` publish,
+`time.sleep`) drives turtle1 (an independent roslibpy client sees its pose move) and its prints
+reach the IDE's console; Stop zeroes the turtle within 0.5 s of the click; a runtime error is
+marked on its line, a syntax error before the run; a program that ends says so. One gateway and one browser page for the module."""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+
+from tests.support.ide import IdePage, error_line, open_text, page_errors
+from tests.support.ros import RosClient
+from tests.support.wait import wait_for
+
+TWIST = "geometry_msgs/msg/Twist"
+POSE = "turtlesim/msg/Pose"
+
+PYODIDE_START = 120   # s: Pyodide's cold start on a busy 2-core machine
+
+
+@pytest.fixture(scope="module")
+def turtle(turtle_gateway):
+    client = RosClient(turtle_gateway)
+    yield client
+    client.close()
+
+
+@pytest.fixture(scope="module")
+def ide(chromium, turtle_gateway):
+    ctx = chromium.new_context(viewport={"width": 1400, "height": 860})
+    page = IdePage(ctx.new_page(), turtle_gateway)
+    open_text(page, "python")
+    yield page
+    ctx.close()
+
+
+def type_python(ide: IdePage, lines: list[str]):
+    """Replaces the text with `lines`, typed key by key. After each Enter the editor indents the
+    new line as Python's blocks suggest; Shift-Tab (the editor's outdent) takes that back and the
+    line is typed with its own indentation, as a student fixing the editor's guess would."""
+    ide.page.click(".cm-content")
+    ide.page.keyboard.press("Control+a")
+    ide.page.keyboard.press("Delete")
+    for i, line in enumerate(lines):
+        if i:
+            ide.page.keyboard.press("Enter")
+            for _ in range(3):
+                ide.page.keyboard.press("Shift+Tab")
+        ide.page.keyboard.type(line, delay=2)
+    assert ide.js("rosgateIde.textMode.text") == "\n".join(lines)
+
+
+def run_to_its_end(ide: IdePage, lines: list[str]) -> int:
+    """Types the program, presses Run and waits for the run to end; the run's number."""
+    type_python(ide, lines)
+    runs = ide.js("rosgateIde.textRunner.runs")
+    ide.page.click("#run")
+    ide.page.wait_for_function(f"rosgateIde.textRunner.runs > {runs}")
+    ide.page.wait_for_function("document.body.dataset.run === 'idle'", timeout=PYODIDE_START * 1000)
+    return runs + 1
+
+
+DRIVE = [
+    "import time",
+    "import roslibpy",
+    "",
+    "ros = roslibpy.Ros(host='example.org', port=9090)",
+    "ros.run()",
+    "cmd = roslibpy.Topic(ros, '/turtle1/cmd_vel', 'geometry_msgs/msg/Twist')",
+    "print('driving', 2 * 3)",
+    "for i in range(2000):",
+    "    twist = {'linear': {'x': 0.6, 'y': 0.0, 'z': 0.0}, 'angular': {'x': 0.0, 'y': 0.0, 'z': 0.5}}",
+    "    cmd.publish(roslibpy.Message(twist))",
+    "    time.sleep(0.05)",
+    "print('not reached')",
+]
+
+
+def test_python_drives_the_turtle_and_stop_zeroes_it(ide, turtle):
+    pose = turtle.watch("/turtle1/pose", POSE)
+    cmd = turtle.watch("/turtle1/cmd_vel", TWIST)
+    start = wait_for(pose.latest, what="a pose")
+    type_python(ide, DRIVE)
+    ide.page.click("#run")
+    ide.page.wait_for_function("document.body.dataset.run === 'running'")
+    # Pyodide loads at the first Python run of the page
+    wait_for(lambda: (p := pose.latest()) and abs(p["x"] - start["x"]) + abs(p["y"] - start["y"]) > 0.3,
+             timeout=PYODIDE_START, what="turtle1 moving under the Python program")
+    assert "driving 6" in ide.logs()
+    assert ide.js("document.body.dataset.run") == "running"
+    # the running line: one of the loop's lines, marked in the editor
+    ide.page.wait_for_selector(".cm-running-line")
+    assert 8 <= int(ide.page.get_attribute(".cm-running-line", "data-line")) <= 11
+    t0 = time.monotonic()
+    ide.page.click("#stop")
+    zero = wait_for(lambda: next((t for t, m in cmd.since(t0) if not m["linear"]["x"] and not m["angular"]["z"]), None),
+                    timeout=2, what="a zero Twist after Stop")
+    print(f"Stop -> zero Twist (Python): {(zero - t0) * 1000:.0f} ms")
+    assert zero - t0 < 0.5, zero - t0
+    ide.page.wait_for_function("document.body.dataset.run === 'idle'")
+    # the program's loop would have published ten times by now: none of it left the page
+    wait_for(lambda: time.monotonic() > zero + 0.5, what="half a second")
+    assert all(not m["linear"]["x"] for _, m in cmd.since(zero + 0.01)), "the Python program went on after Stop"
+    assert "not reached" not in ide.logs()
+    assert not ide.page.query_selector(".cm-running-line")
+
+
+ERROR = [
+    "import time",
+    "print('before the error')",
+    "time.sleep(0.1)",
+    "values = [1, 2, 3]",
+    "print(values[7])",
+]
+
+
+def test_a_runtime_error_is_marked_on_its_line(ide):
+    run_to_its_end(ide, ERROR)
+    assert error_line(ide) == 5
+    text = ide.console_text()
+    assert "before the error" in text
+    assert "IndexError" in text and "line 5" in text
+    assert 'File "<program>", line 5' in text           # the traceback's line is the student's
+
+
+def test_a_syntax_error_is_marked_before_the_run(ide, turtle):
+    cmd = turtle.watch("/turtle1/cmd_vel", TWIST)
+    t0 = time.monotonic()
+    run_to_its_end(ide, ["x = 1", "print('never printed')", "if x > 0", "    x = 2"])
+    assert error_line(ide) == 3
+    assert "never printed" not in ide.logs() and "SyntaxError" in ide.console_text()
+    assert not cmd.since(t0)
+
+
+FINISH = [
+    "import roslibpy",
+    "client = roslibpy.Ros(host='example.org', port=9090)",
+    "client.run()",
+    "def square(n):",
+    "    return n * n",
+    "print('squares', [square(k) for k in range(4)], client.is_connected)",
+    "client.terminate()",
+]
+
+
+def test_a_program_that_ends_says_so(ide):
+    n = run_to_its_end(ide, FINISH)
+    assert "squares [0, 1, 4, 9] True" in ide.logs()
+    assert f"run {n} finished" in ide.console_text()
+    assert not ide.page.query_selector(".cm-error-line")
+    assert not page_errors(ide)
