@@ -7,6 +7,10 @@
 // recording that matches no topic, or ends with no message, says so.
 import { t, num } from './i18n.js';
 
+const TOPICS_KEY = 'rosgate.recTopics';
+// the topics last recorded; none where the page may not keep anything (an LMS's frame)
+const stored = () => { try { return localStorage.getItem(TOPICS_KEY) || ''; } catch { return ''; } };
+
 export const formatBytes = (n) => (n < 1024 ? `${n} B` : n < 2 ** 20 ? `${(n / 1024).toFixed(1)} KB`
   : `${(n / 2 ** 20).toFixed(1)} MB`);
 export const formatElapsed = (s) => `${Math.floor(s / 60)}:${String(Math.floor(s % 60)).padStart(2, '0')}`;
@@ -42,7 +46,7 @@ export class Recorder {
     this.button = el('button', { id: 'rec', className: 'rec', title: t('rec.title'), textContent: t('rec.button') });
     this.listButton = el('button', { id: 'recordings', title: t('rec.list.title'), textContent: t('rec.list') });
     bar.append(el('span', { className: 'group recorder' }, this.button, this.listButton));
-    this.topics = el('input', { id: 'rec-topics', size: 28, value: localStorage.getItem('rosgate.recTopics') || '' });
+    this.topics = el('input', { id: 'rec-topics', size: 28, value: stored() });
     this.message = el('p', { className: 'rec-msg' });
     this.list = el('ul', { id: 'rec-list' });
     const close = el('button', { textContent: t('page.close'), onclick: () => this.dialog.close() });
@@ -53,7 +57,7 @@ export class Recorder {
     document.body.append(this.dialog);
     this.button.onclick = () => (this.current ? this.stop() : this.start());
     this.listButton.onclick = () => { this.dialog.showModal(); this.refresh(); };
-    this.topics.onchange = () => localStorage.setItem('rosgate.recTopics', this.topics.value);
+    this.topics.onchange = () => { try { localStorage.setItem(TOPICS_KEY, this.topics.value); } catch { /* storage off */ } };
   }
 
   // The page's robot namespace ('/s07'), or ''.

@@ -88,8 +88,12 @@ def test_generated_code(ide, file):
         assert js_part in js, f"{file}: JavaScript lacks {js_part!r}\n{js}"
         assert py_part in py, f"{file}: Python lacks {py_part!r}\n{py[py.index('# --- end of'):]}"
 
-    # the Python file is a whole program that needs nothing but roslibpy
+    # the Python file is a whole program that needs nothing but roslibpy (what the runtime imports
+    # under `if BROWSER:` is Pyodide's, in the page)
     tree = ast.parse(py)
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and isinstance(node.test, ast.Name) and node.test.id == "BROWSER":
+            node.body = []
     imported = set()
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):

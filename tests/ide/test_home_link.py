@@ -377,7 +377,7 @@ def test_teleop_camera_stays_fresh_over_a_1_mbit_line(playwright, tmp_path, came
                 try:
                     page = browser.new_page(viewport={'width': 390, 'height': 844})
                     page.goto(gw.http_url + 'teleop', timeout=60000)
-                    page.wait_for_function("teleop.frames >= 5", timeout=60000, polling=100)
+                    page.wait_for_function("window.teleop?.frames >= 5", timeout=60000, polling=100)
                     page.evaluate(CAMERA_AGES)
                     page.wait_for_function(f"cameraAges.length && Date.now() / 1000 - cameraAges[0][0] >= {seconds}",
                                            timeout=(seconds + 60) * 1000, polling=250)
