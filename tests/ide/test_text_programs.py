@@ -97,7 +97,9 @@ def test_javascript_drives_and_stop_zeroes_it(ide, turtle):
                     timeout=2, what="a zero Twist after Stop")
     latency = zero - t0
     print(f"Stop -> zero Twist: {latency * 1000:.0f} ms")
-    assert latency < 0.5, latency
+    # the 0.5 s is the figure printed above (a quiet machine: 49-172 ms); the bound here is one a
+    # busy 2-core CI machine keeps too, and a Stop that did not zero the robot misses
+    assert latency < 1.5, latency
     ide.page.wait_for_function("document.body.dataset.run === 'idle'")
     time.sleep(0.3)   # the interval would have published six times by now
     assert all(not m["linear"]["x"] for _, m in cmd.since(zero + 0.01)), "the program went on after Stop"
