@@ -245,7 +245,7 @@ async def test_the_robot_hears_what_a_client_publishes(client, robot, caller):
                  + caller.node.get_subscriptions_info_by_topic('/robot/cmd_wheel'))
         names = {i.node_name for i in infos}
         return infos if 'robot' in names and any(n.startswith('rosgate') for n in names) else None
-    infos = await until(endpoints, 10, 'both endpoints named in the graph')
+    infos = await until(endpoints, 10, what='both endpoints named in the graph')
     assert len({str(i.topic_type_hash) for i in infos}) == 1, 'the gateway\'s endpoint has another type hash'
 
 
