@@ -1,5 +1,5 @@
 """Every page in three engines: Chromium, WebKitGTK (what every browser on an iPad is) and Firefox
-ESR, each driven as a student or a teacher would (engines.py). A page that starts in Chromium
+ESR, each driven as a student or a teacher would (tests/support/engines.py). A page that starts in Chromium
 alone is no page for a class of tablets: the teleop page once never started in WebKit (a module
 of its graph failed to evaluate there; ide/README.md, "One module per page").
 

@@ -1,5 +1,5 @@
 // Firefox ESR driven by puppeteer-core over WebDriver BiDi, for the pages' smoke suite in three
-// engines (tests/ide/engines.py): Debian has no geckodriver, and Firefox speaks BiDi itself.
+// engines (tests/support/engines.py): Debian has no geckodriver, and Firefox speaks BiDi itself.
 // One command per stdin line, one answer per stdout line (JSON):
 //   {"op": "open", "url": U, "width": W, "height": H}   a new tab at U (the previous one closed)
 //   {"op": "js", "expr": E}                              the value of the expression E in the page
