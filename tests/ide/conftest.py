@@ -43,6 +43,13 @@ def rover_gateway(start_gateway):
     return start_gateway("--robot", "rover", "--fibonacci-interval", "0.05")
 
 
+@pytest.fixture(scope="module")
+def turtle(turtle_gateway):
+    """A roslibpy client of the module's turtlesim gateway, kept for the module."""
+    with RosClient(turtle_gateway) as client:
+        yield client
+
+
 @pytest.fixture
 def turtle_ros(turtle_gateway):
     with RosClient(turtle_gateway) as client:

@@ -15,18 +15,11 @@ import time
 import pytest
 
 from tests.support.ide import ARTIFACTS, PHONE, IdePage, error_line, open_text, page_errors
-from tests.support.ros import START, RosClient, reset_turtlesim
+from tests.support.ros import START, reset_turtlesim
 from tests.support.wait import wait_for
 
 TWIST = "geometry_msgs/msg/Twist"
 POSE = "turtlesim/msg/Pose"
-
-
-@pytest.fixture(scope="module")
-def turtle(turtle_gateway):
-    client = RosClient(turtle_gateway)
-    yield client
-    client.close()
 
 
 @pytest.fixture(scope="module")

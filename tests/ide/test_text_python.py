@@ -13,20 +13,12 @@ import time
 import pytest
 
 from tests.support.ide import IdePage, error_line, open_text, page_errors
-from tests.support.ros import RosClient
 from tests.support.wait import wait_for
 
 TWIST = "geometry_msgs/msg/Twist"
 POSE = "turtlesim/msg/Pose"
 
 PYODIDE_START = 120   # s: Pyodide's cold start on a busy 2-core machine
-
-
-@pytest.fixture(scope="module")
-def turtle(turtle_gateway):
-    client = RosClient(turtle_gateway)
-    yield client
-    client.close()
 
 
 @pytest.fixture(scope="module")
