@@ -27,15 +27,26 @@ const browser = typeof document !== 'undefined';   // else Node, whose tests imp
 const readStore = (store, key) => { try { return globalThis[store].getItem(key); } catch { return null; } };
 const writeStore = (store, key, value) => { try { globalThis[store].setItem(key, value); } catch { /* private mode */ } };
 
-async function getJson(path) {
+// A file of texts, or null when there is none. A fetch the network or a busy gateway failed is
+// tried twice more (a home link drops one now and then); a 404 is an answer, not a failure.
+async function getJson(path, tries = 3) {
   try {
     if (!browser) {
       const { readFile } = await import('node:fs/promises');
       return JSON.parse(await readFile(new URL(path, base), 'utf8'));
     }
     const res = await fetch(new URL(path, base), { cache: 'no-cache' });
-    return res.ok ? await res.json() : null;
-  } catch { return null; }
+    if (res.ok) return await res.json();
+    if (res.status < 500) return null;
+    throw new Error(`${path}: HTTP ${res.status}`);
+  } catch (e) {
+    if (!browser || tries <= 1) {
+      if (browser) console.warn('rosgate: no', path, e);
+      return null;
+    }
+    await new Promise((resolve) => { setTimeout(resolve, 250); });
+    return getJson(path, tries - 1);
+  }
 }
 
 // The best offered language for a list of wanted tags: an exact match ('pt-br') first, else

@@ -54,6 +54,8 @@ def browser(chromium):
         page = ctx.new_page()
         page.errors = []
         page.on('pageerror', lambda e: page.errors.append(str(e)))
+        page.console = []       # its warnings and errors, to say why when a test fails
+        page.on('console', lambda m: m.type in ('warning', 'error') and page.console.append(m.text))
         return page
 
     yield make
@@ -155,7 +157,7 @@ def test_the_course_language_comes_with_the_launch(lab, browser):
     where = launch(page, platform.add('student-ivo', [LEARNER], target='/teleop', locale='es-ES'), '/teleop?lang=es-ES')
     assert where.path == '/teleop'
     teleop_ready(page)
-    assert page.evaluate('document.documentElement.lang') == 'es'
+    assert page.evaluate('document.documentElement.lang') == 'es', (page.url, page.errors, page.console)
     assert page.inner_text('#status') == 'conectado'
     assert page.evaluate("document.querySelector('#claim').textContent") == 'Pedir un robot'
     # the tab's other pages keep the course's language

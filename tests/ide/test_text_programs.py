@@ -134,8 +134,7 @@ def test_completion_offers_the_graph(ide):
     ide.page.keyboard.type("rt.publish('/turtle1/cm")
     item = ide.page.wait_for_selector(".cm-tooltip-autocomplete li:has-text('/turtle1/cmd_vel')")
     assert TWIST in item.inner_text()
-    ide.page.keyboard.press("ArrowDown")    # nothing is chosen until then: Enter alone is a new line
-    ide.page.keyboard.press("Enter")
+    item.click()        # one event: the option shown is the one taken, however late the list redraws
     ide.page.keyboard.type("', 'geometry_msgs/msg/Twist', {'li")      # ' steps over the closing quote
     fields = ".cm-tooltip-autocomplete li:has-text('linear')"
     try:    # the fields come from rosapi; a link the loaded machine dropped meanwhile is asked again

@@ -37,6 +37,13 @@ MASKS = """() => {
 }"""
 
 
+def open_page(page, url: str):
+    """Go to the page at url and wait for its module to have run: it awaits the page's language
+    first, so it may run after the load event goto waits for."""
+    page.goto(url)
+    page.wait_for_function("document.body?.dataset.ready === 'true'", timeout=WAIT)
+
+
 @contextmanager
 def tablet_page(chromium, url: str | None = None):
     """(page, its errors) of a tablet-sized page (at url, when given); closed after."""
@@ -46,7 +53,7 @@ def tablet_page(chromium, url: str | None = None):
     page.on('pageerror', lambda e: errors.append(str(e)))
     try:
         if url:
-            page.goto(url)
+            open_page(page, url)
         yield page, errors
     finally:
         ctx.close()
@@ -181,7 +188,7 @@ def test_the_urdf_flag_gives_the_model_of_a_robot_without_a_description_topic(ch
     with client(gw) as ros, tablet_page(chromium) as (page, errors):
         joints = roslibpy.Topic(ros, '/bot2/joint_states', 'sensor_msgs/msg/JointState')
         joints.advertise()
-        page.goto(gw.http_url + 'twin?ns=/bot2')
+        open_page(page, gw.http_url + 'twin?ns=/bot2')
         page.wait_for_function("twin.state.model === 'urdf' && twin.state.meshes === 'missing'", timeout=WAIT)
         assert page.evaluate('twin.state.urdfFrom') == '--urdf'
         assert page.evaluate('twin.state.missing') == ['package://testbot/meshes/missing.stl']
