@@ -41,7 +41,7 @@ async function getJson(path, tries = 3) {
     throw new Error(`${path}: HTTP ${res.status}`);
   } catch (e) {
     if (!browser || tries <= 1) {
-      if (browser) console.warn('rosgate: no', path, e);
+      if (browser) console.warn(path, e);    // the developer's console: which file, and why
       return null;
     }
     await new Promise((resolve) => { setTimeout(resolve, 250); });

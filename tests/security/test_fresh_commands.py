@@ -162,7 +162,10 @@ def test_commands_made_before_the_teachers_stop_never_move_after_take(launch):
         ping(alice)
         alice.send(command(topic, 0.5, ms()))
         watcher.expect(lambda m: m.get('topic') == topic and not is_zero_twist(m['msg']))
-        held = [command(topic, 0.5, ms()) for _ in range(3)]   # made now, delivered later
+        # made a second before the Stop, delivered after the Take: the gateway places a stamp on its
+        # own clock to within the link's fastest trip, which a loaded machine stretches; a second
+        # leaves room for that and is still a stalled link's backlog
+        held = [command(topic, 0.5, ms() - 1000) for _ in range(3)]
         teacher.publish('/rosgate/control', {'data': 'stop /s01'})
         watcher.expect(lambda m: m.get('topic') == topic and is_zero_twist(m['msg']))
         watcher.seen = []
