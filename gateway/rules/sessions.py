@@ -39,13 +39,19 @@ log = logging.getLogger('rosgate.sessions')
 SESSION_COOKIE = 'rosgate_session'
 DEFAULT_HOURS = SecuritySettings.session_hours
 
+
+def _who() -> list[sa.Column]:
+    """The columns that say who: the name shown, the role, how they signed in (token or lti)."""
+    return [sa.Column('name', sa.String(200), nullable=False),
+            sa.Column('role', sa.String(16), nullable=False),
+            sa.Column('kind', sa.String(16), nullable=False)]
+
+
 TABLE = sa.Table(
     'sessions', METADATA,
     sa.Column('id_hash', sa.String(64), primary_key=True),
-    sa.Column('name', sa.String(200), nullable=False),
-    sa.Column('role', sa.String(16), nullable=False),
+    *_who(),
     sa.Column('owner', sa.String(100), nullable=False),
-    sa.Column('kind', sa.String(16), nullable=False),    # token or lti
     sa.Column('created', sa.Float, nullable=False),
     sa.Column('expires', sa.Float, nullable=False),
 )
@@ -53,9 +59,7 @@ TABLE = sa.Table(
 PEOPLE = sa.Table(
     'people', METADATA,
     sa.Column('owner', sa.String(100), primary_key=True),
-    sa.Column('name', sa.String(200), nullable=False),
-    sa.Column('role', sa.String(16), nullable=False),
-    sa.Column('kind', sa.String(16), nullable=False),
+    *_who(),
     sa.Column('seen', sa.Float, nullable=False),
 )
 

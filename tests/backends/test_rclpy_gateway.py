@@ -84,6 +84,26 @@ async def warm_up(sub: Client, publish, topic: str, timeout: float = 20.0) -> No
             continue
 
 
+async def subscribe_raw_and_plain(raw: Client, plain: Client, topic: str, type: str) -> None:
+    """raw subscribed to topic as cbor-raw (the CDR bytes), plain as JSON."""
+    await raw.send({'op': 'subscribe', 'topic': topic, 'type': type, 'compression': 'cbor-raw', 'queue_length': 100})
+    await plain.send({'op': 'subscribe', 'topic': topic, 'type': type, 'queue_length': 100})
+    await raw.sync()
+    await plain.sync()
+
+
+async def raw_bytes(raw: Client, n: int, keep) -> list[bytes]:
+    """The CDR bytes of the next n messages a cbor-raw client gets that keep(bytes) accepts."""
+    got = []
+    while len(got) < n:
+        frame = await asyncio.wait_for(raw.conn.read_message(), 20)
+        assert isinstance(frame, bytes), frame
+        msg = cbor2.loads(frame)
+        if msg.get('op') == 'publish' and keep(msg['msg']['bytes']):
+            got.append(msg['msg']['bytes'])
+    return got
+
+
 def through(client: Client, topic: str):
     """publish(text) on topic through a websocket client (std_msgs/String, advertised)."""
     return lambda text: asyncio.ensure_future(
@@ -293,22 +313,12 @@ async def test_cbor_raw_clients_get_the_cdr_as_the_ros_node_published_it(gateway
     raw, plain = await Client.open(gateway), await Client.open(gateway)
     publish, _count = caller.string_publisher(topic)
     try:
-        await raw.send({'op': 'subscribe', 'topic': topic, 'type': 'std_msgs/msg/String',
-                        'compression': 'cbor-raw', 'queue_length': 100})
-        await plain.send({'op': 'subscribe', 'topic': topic, 'type': 'std_msgs/msg/String', 'queue_length': 100})
-        await raw.sync()
-        await plain.sync()
+        await subscribe_raw_and_plain(raw, plain, topic, 'std_msgs/msg/String')
         await warm_up(plain, publish, topic)
         texts = ['hello', 'é' * 700, 'y' * 100_000]
         for text in texts:
             publish(text)
-        got = []
-        while len(got) < len(texts):
-            frame = await asyncio.wait_for(raw.conn.read_message(), 20)
-            assert isinstance(frame, bytes), frame
-            msg = cbor2.loads(frame)
-            if msg.get('op') == 'publish' and msg['msg']['bytes'] != serialize_message(String(data='warm-up')):
-                got.append(msg['msg']['bytes'])
+        got = await raw_bytes(raw, len(texts), lambda data: data != serialize_message(String(data='warm-up')))
         for data, text in zip(got, texts):   # as published: the CDR, plus any padding the middleware adds
             expected = serialize_message(String(data=text))
             assert data[:len(expected)] == expected and set(data[len(expected):]) <= {0}, data[-16:]
@@ -340,21 +350,11 @@ async def test_cbor_raw_clients_get_the_cdr_dds_delivered_for_types_without_a_co
         heard = [d for d in delivered if not warm(d)]
         return heard if len(heard) >= len(sent) else None
     try:
-        await raw.send({'op': 'subscribe', 'topic': topic, 'type': type, 'compression': 'cbor-raw',
-                        'queue_length': 100})
-        await plain.send({'op': 'subscribe', 'topic': topic, 'type': type, 'queue_length': 100})
-        await raw.sync()
-        await plain.sync()
+        await subscribe_raw_and_plain(raw, plain, topic, type)
         await warm_up(plain, lambda text: publish(JointState(name=[text])), topic)
         for msg in sent:
             publish(msg)
-        got = []
-        while len(got) < len(sent):
-            frame = await asyncio.wait_for(raw.conn.read_message(), 20)
-            assert isinstance(frame, bytes), frame
-            msg = cbor2.loads(frame)
-            if msg.get('op') == 'publish' and not warm(msg['msg']['bytes']):
-                got.append(msg['msg']['bytes'])
+        got = await raw_bytes(raw, len(sent), lambda data: not warm(data))
         heard = await until(heard_all, what='the ROS subscriber hearing them')
         assert [deserialize_message(d, JointState) for d in got] == sent
         assert got == heard[-len(sent):]

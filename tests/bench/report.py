@@ -4,44 +4,38 @@ from __future__ import annotations
 
 import statistics
 
+# The metrics most tables end with: the CPU of the server, the clients and the rest of the machine.
+CPU = [("server_cpu_pct", "srv CPU%"), ("client_cpu_pct", "cli CPU%"), ("other_cpu_pct", "other%")]
+LATENCY = [("lat_p50_ms", "p50 ms"), ("lat_p95_ms", "p95 ms"), ("lat_p99_ms", "p99 ms")]
 # Per scenario: the metrics shown in its table, with their headings.
 COLUMNS = {
     "throughput": [
-        ("msg_per_s", "msg/s"), ("lat_p50_ms", "p50 ms"), ("lat_p95_ms", "p95 ms"),
-        ("lat_p99_ms", "p99 ms"), ("delivered_pct", "deliv%"), ("server_us_per_msg", "srv us/msg"),
-        ("server_cpu_pct", "srv CPU%"), ("client_cpu_pct", "cli CPU%"), ("other_cpu_pct", "other%"),
+        ("msg_per_s", "msg/s"), *LATENCY, ("delivered_pct", "deliv%"), ("server_us_per_msg", "srv us/msg"), *CPU,
     ],
     "fanout": [
         ("delivered_pct", "deliv%"), ("server_cpu_pct", "srv CPU%"),
-        ("server_cpu_s_per_1000", "srv CPU s/1000"), ("lat_p50_ms", "p50 ms"),
-        ("lat_p95_ms", "p95 ms"), ("client_cpu_pct", "cli CPU%"), ("other_cpu_pct", "other%"),
+        ("server_cpu_s_per_1000", "srv CPU s/1000"), *LATENCY[:2], *CPU[1:],
     ],
     "encodings": [
         ("hz", "max Hz"), ("wire_kib", "wire KiB"), ("publish_kib", "in KiB"),
-        ("server_ms_per_msg", "srv ms/msg"), ("delivered_pct", "deliv%"),
-        ("server_cpu_pct", "srv CPU%"), ("client_cpu_pct", "cli CPU%"), ("other_cpu_pct", "other%"),
+        ("server_ms_per_msg", "srv ms/msg"), ("delivered_pct", "deliv%"), *CPU,
     ],
     "encodings_rate": [
         ("published_hz", "pub Hz"), ("delivered_pct", "deliv%"),
-        ("server_ms_per_msg", "srv ms/msg"), ("server_cores", "srv cores"),
-        ("client_cpu_pct", "cli CPU%"), ("other_cpu_pct", "other%"),
+        ("server_ms_per_msg", "srv ms/msg"), ("server_cores", "srv cores"), *CPU[1:],
     ],
     "images": [
         ("sub_hz", "Hz each (min)"), ("published_hz", "pub Hz"), ("delivered_pct", "deliv%"),
-        ("server_ms_per_msg", "srv ms/msg"), ("server_cpu_pct", "srv CPU%"),
-        ("client_cpu_pct", "cli CPU%"), ("other_cpu_pct", "other%"),
+        ("server_ms_per_msg", "srv ms/msg"), *CPU,
     ],
     "services": [
-        ("calls_per_s", "calls/s"), ("lat_p50_ms", "p50 ms"), ("lat_p95_ms", "p95 ms"),
-        ("lat_p99_ms", "p99 ms"), ("failed", "failed"), ("server_us_per_call", "srv us/call"),
-        ("server_cpu_pct", "srv CPU%"), ("client_cpu_pct", "cli CPU%"), ("other_cpu_pct", "other%"),
+        ("calls_per_s", "calls/s"), *LATENCY, ("failed", "failed"), ("server_us_per_call", "srv us/call"), *CPU,
     ],
     "slow_consumer": [
         ("published_hz", "pub Hz"), ("healthy_hz_before", "others Hz before"),
         ("healthy_hz_stalled", "others Hz stalled"), ("healthy_loss_pct", "others loss%"),
         ("rss_at_stall_mb", "RSS MB at stall"), ("rss_max_mb", "RSS MB max"),
-        ("rss_growth_mb", "RSS growth MB"), ("server_cpu_pct", "srv CPU%"),
-        ("client_cpu_pct", "cli CPU%"), ("other_cpu_pct", "other%"),
+        ("rss_growth_mb", "RSS growth MB"), *CPU,
     ],
 }
 

@@ -22,7 +22,7 @@ import threading
 import time
 from pathlib import Path
 
-from .servers import REPO, Target, _start
+from .servers import REPO, Target, _start, end
 
 ROS_VENV = REPO / ".venv-ros"
 ROS_PYTHON_ENV = "ROSGATE_BENCH_ROS_PYTHON"  # set by --ros-python; children inherit it
@@ -111,13 +111,7 @@ class Proc:
             proc.stdin.close()  # ends the ceiling's command loop
         except OSError:
             pass
-        if proc.poll() is None:
-            proc.send_signal(signal.SIGINT)
-            try:
-                proc.wait(5)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait(5)
+        end(proc, signal.SIGINT)
         try:
             proc.stdout.close()
         except OSError:

@@ -167,31 +167,15 @@ async def ros_slow_consumer(target: Target, duration: float, rate: float = 30.0)
 
 def plan(cfg):
     """(scenario, label, point, run(target), repeated?) as runner.plan, for --backend rclpy."""
-    from .runner import size_label
+    from .runner import shared_points
 
+    ros = {"throughput": ros_throughput, "fanout": ros_fanout, "services": ros_services,
+           "slow_consumer": ros_slow_consumer}
     for scenario in cfg.scenarios:
-        if scenario == "throughput":
-            for size in cfg.sizes:
-                for w in cfg.windows:
-                    yield (scenario, f"{size_label(size)} W={w}", {"size": size, "window": w},
-                           lambda t, s=size, w=w: ros_throughput(t, s, w, cfg.point_s), True)
-        elif scenario == "fanout":
-            for n in cfg.fanout_ns:
-                yield (scenario, f"N={n} {cfg.fanout_rate:g}Hz {size_label(cfg.fanout_size)}",
-                       {"subscribers": n, "rate": cfg.fanout_rate, "size": cfg.fanout_size},
-                       lambda t, n=n: ros_fanout(t, n, cfg.fanout_rate, cfg.fanout_size, cfg.fanout_s,
-                                                 cfg.repeats, cfg.fanout_procs, cfg.malloc_tune), False)
-        elif scenario == "images":
+        yield from shared_points(cfg, scenario, ros)
+        if scenario == "images":
             for enc in ("none", "cbor"):
                 label = "json" if enc == "none" else enc
                 yield (scenario, f"640x480 rgb8 30Hz 3x{label}",
                        {"subscribers": 3, "compression": enc, "rate": 30},
                        lambda t, e=enc: ros_images(t, e, 3, 30.0, cfg.rate_s), True)
-        elif scenario == "services":
-            for c in cfg.concurrency:
-                yield (scenario, f"C={c}", {"concurrency": c},
-                       lambda t, c=c: ros_services(t, c, cfg.point_s), True)
-        elif scenario == "slow_consumer":
-            yield (scenario, f"{cfg.slow_s:g}s", {"duration_s": cfg.slow_s},
-                   lambda t: ros_slow_consumer(t, cfg.slow_s), False)
-

@@ -78,22 +78,36 @@ def size_label(size: int) -> str:
     return f"{size // KIB}KiB" if size >= KIB else f"{size}B"
 
 
+def shared_points(cfg, scenario: str, run: dict):
+    """The points of the scenarios every backend's bench has (throughput, fanout, services,
+    slow_consumer), each measured by ``run[scenario]``: (scenario, label, point, run(target),
+    repeated?); none for another scenario."""
+    if scenario == "throughput":
+        for size in cfg.sizes:
+            for w in cfg.windows:
+                yield (scenario, f"{size_label(size)} W={w}", {"size": size, "window": w},
+                       lambda t, s=size, w=w: run[scenario](t, s, w, cfg.point_s), True)
+    elif scenario == "fanout":
+        for n in cfg.fanout_ns:
+            yield (scenario, f"N={n} {cfg.fanout_rate:g}Hz {size_label(cfg.fanout_size)}",
+                   {"subscribers": n, "rate": cfg.fanout_rate, "size": cfg.fanout_size},
+                   lambda t, n=n: run[scenario](t, n, cfg.fanout_rate, cfg.fanout_size, cfg.fanout_s,
+                                                cfg.repeats, cfg.fanout_procs, cfg.malloc_tune), False)
+    elif scenario == "services":
+        for c in cfg.concurrency:
+            yield (scenario, f"C={c}", {"concurrency": c}, lambda t, c=c: run[scenario](t, c, cfg.point_s), True)
+    elif scenario == "slow_consumer":
+        yield (scenario, f"{cfg.slow_s:g}s", {"duration_s": cfg.slow_s},
+               lambda t: run[scenario](t, cfg.slow_s), False)
+
+
 def plan(cfg: Config):
     """(scenario, label, point, run(target) -> list of runs, repeated?) in order."""
     image, cloud = payloads.image(), payloads.pointcloud()
+    sim = {"throughput": throughput, "fanout": fanout, "services": services, "slow_consumer": slow_consumer}
     for scenario in cfg.scenarios:
-        if scenario == "throughput":
-            for size in cfg.sizes:
-                for w in cfg.windows:
-                    yield (scenario, f"{size_label(size)} W={w}", {"size": size, "window": w},
-                           lambda t, s=size, w=w: throughput(t, s, w, cfg.point_s), True)
-        elif scenario == "fanout":
-            for n in cfg.fanout_ns:
-                yield (scenario, f"N={n} {cfg.fanout_rate:g}Hz {size_label(cfg.fanout_size)}",
-                       {"subscribers": n, "rate": cfg.fanout_rate, "size": cfg.fanout_size},
-                       lambda t, n=n: fanout(t, n, cfg.fanout_rate, cfg.fanout_size, cfg.fanout_s,
-                                             cfg.repeats, cfg.fanout_procs, cfg.malloc_tune), False)
-        elif scenario == "encodings":
+        yield from shared_points(cfg, scenario, sim)
+        if scenario == "encodings":
             for payload in (image, cloud):
                 for enc in cfg.encodings:
                     yield (scenario, f"{payload.name} {enc}", {"payload": payload.name, "compression": enc},
@@ -103,13 +117,6 @@ def plan(cfg: Config):
                 yield ("encodings_rate", f"{image.name} 30Hz {subs}x{enc if subs else 'pub only'}",
                        {"payload": image.name, "subscribers": subs, "compression": enc, "rate": 30},
                        lambda t, s=subs, e=enc: encoding_rate(t, image, e, s, 30.0, cfg.rate_s), True)
-        elif scenario == "services":
-            for c in cfg.concurrency:
-                yield (scenario, f"C={c}", {"concurrency": c},
-                       lambda t, c=c: services(t, c, cfg.point_s), True)
-        elif scenario == "slow_consumer":
-            yield (scenario, f"{cfg.slow_s:g}s", {"duration_s": cfg.slow_s},
-                   lambda t: slow_consumer(t, cfg.slow_s), False)
 
 
 def alive_error(target: Target) -> str | None:

@@ -17,6 +17,18 @@ REPO = Path(__file__).resolve().parents[2]
 WS_URL = re.compile(r"ws://[^\s/]+:\d+/")
 
 
+def end(proc: subprocess.Popen, sig: int = signal.SIGTERM, timeout: float = 5) -> int | None:
+    """Stop a process: ``sig``, then a kill if it has not ended within ``timeout``; its exit code."""
+    if proc.poll() is None:
+        proc.send_signal(sig)
+        try:
+            proc.wait(timeout)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(timeout)
+    return proc.returncode
+
+
 @dataclass
 class Target:
     name: str
@@ -28,15 +40,8 @@ class Target:
     argv: list[str] = field(default_factory=list)
 
     def stop(self) -> None:
-        proc = self.process
-        if proc is None or proc.poll() is not None:
-            return
-        proc.send_signal(signal.SIGTERM)
-        try:
-            proc.wait(5)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(5)
+        if self.process is not None:
+            end(self.process)
 
 
 def _start(name: str, kind: str, argv: list[str], timeout: float = 30.0) -> Target:

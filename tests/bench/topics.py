@@ -78,15 +78,10 @@ async def throughput(target: Target, size: int, window: int, duration: float) ->
             meter = Window(ProcMeter(target.pid))
             state["measure_from"] = seq
             first = seq
-            end = time.monotonic() + duration
-            while time.monotonic() < end:
-                await credit.acquire()
-                await pub.send(frames.frame(seq), text=True)
-                seq += 1
-            state["stop_at"] = time.monotonic_ns()
-            elapsed = time.monotonic() - meter.t0
-            await credit.drain()
-            figures = meter.stop()
+
+            def stopped() -> None:
+                state["stop_at"] = time.monotonic_ns()
+            seq, elapsed, figures = await _measure(pub, credit, meter, frames.frame, seq, duration, stopped)
         finally:
             credit.close()
             reader.cancel()
@@ -106,6 +101,21 @@ async def throughput(target: Target, size: int, window: int, duration: float) ->
         "other_cpu_pct": figures["other_cpu_pct"],
         **({"statuses": statuses} if statuses else {}),
     }
+
+
+async def _measure(pub, credit, meter, frame_of, seq: int, duration: float, stopped=lambda: None):
+    """Send frame_of(seq), frame_of(seq + 1) ... for ``duration`` s, each once the window has
+    credit; ``stopped()`` when the last is sent, then wait for the window to drain. Returns (the
+    next seq, the seconds measured, the meter's figures)."""
+    end = time.monotonic() + duration
+    while time.monotonic() < end:
+        await credit.acquire()
+        await pub.send(frame_of(seq), text=True)
+        seq += 1
+    stopped()
+    elapsed = time.monotonic() - meter.t0
+    await credit.drain()
+    return seq, elapsed, meter.stop()
 
 
 async def _warm_up(pub, make_frame, ready, credit: SendWindow | None = None) -> int:
@@ -150,15 +160,7 @@ async def encoding_max(target: Target, payload: payloads.Payload, compression: s
             await _warm_up(pub, lambda _seq: frame, lambda: state["any"] > 0, credit)
             meter = Window(ProcMeter(target.pid))
             state["measuring"] = True
-            sent = 0
-            end = time.monotonic() + duration
-            while time.monotonic() < end:
-                await credit.acquire()
-                await pub.send(frame, text=True)
-                sent += 1
-            elapsed = time.monotonic() - meter.t0
-            await credit.drain()
-            figures = meter.stop()
+            sent, elapsed, figures = await _measure(pub, credit, meter, lambda _seq: frame, 0, duration)
         finally:
             credit.close()
             reader.cancel()

@@ -55,9 +55,14 @@ def started(sock: Socket) -> Outbox:
     return box
 
 
-async def test_frames_written_while_corked_go_out_in_one_write_in_order():
+def opened() -> tuple[Socket, Outbox]:
+    """A recording socket and a started outbox writing to it."""
     sock = Socket()
-    box = started(sock)
+    return sock, started(sock)
+
+
+async def test_frames_written_while_corked_go_out_in_one_write_in_order():
+    sock, box = opened()
     with corked():
         box.message(b'm1', False, 'topic', 0)
         box.reply(b'status', False)
@@ -68,8 +73,7 @@ async def test_frames_written_while_corked_go_out_in_one_write_in_order():
 
 
 async def test_without_a_cork_each_frame_is_written_at_once():
-    sock = Socket()
-    box = started(sock)
+    sock, box = opened()
     box.message(b'm1', False, 'topic', 0)
     assert sock.writes == [[(b'm1', False)]]
     box.close()
@@ -89,8 +93,7 @@ async def test_every_outbox_written_under_one_cork_gets_its_own_single_write():
 
 
 async def test_a_nested_cork_joins_the_outer_one():
-    sock = Socket()
-    box = started(sock)
+    sock, box = opened()
     with corked():
         box.message(b'm1', False, 'topic', 0)
         with corked():
@@ -102,8 +105,7 @@ async def test_a_nested_cork_joins_the_outer_one():
 
 
 async def test_while_a_write_is_pending_frames_queue_and_go_out_together_after_it():
-    sock = Socket()
-    box = started(sock)
+    sock, box = opened()
     box.message(b'first', False, 'topic', 0)        # written at once; the socket has not taken it
     with corked():
         box.message(b'm1', False, 'topic', 0)
@@ -116,8 +118,7 @@ async def test_while_a_write_is_pending_frames_queue_and_go_out_together_after_i
 
 
 async def test_a_queued_topic_message_beyond_its_queue_length_is_not_written():
-    sock = Socket()
-    box = started(sock)
+    sock, box = opened()
     box.message(b'first', False, 'other', 0)
     for i in range(5):
         box.message(b'm%d' % i, False, 'topic', 2)   # queue_length 2: the two newest stay
@@ -128,8 +129,7 @@ async def test_a_queued_topic_message_beyond_its_queue_length_is_not_written():
 
 
 async def test_an_outbox_closed_under_a_cork_writes_nothing():
-    sock = Socket()
-    box = started(sock)
+    sock, box = opened()
     with corked():
         box.message(b'm1', False, 'topic', 0)
         box.close()
@@ -140,8 +140,7 @@ async def test_frames_dropped_for_a_stalled_client_are_let_go_at_once():
     """A client that stopped reading: its socket never takes the first frame, and each newer
     frame of a newest-wins subscription replaces the waiting one. The replaced frames are
     released then, not kept in the queue until the pump reaches them (it never does)."""
-    sock = Socket()
-    box = started(sock)
+    sock, box = opened()
     box.message(b'x' * 2**20, True, 'camera', 1)      # written; the socket never finishes it
     await sock.until_writes(1)
     for i in range(300):

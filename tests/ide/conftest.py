@@ -10,6 +10,7 @@ from contextlib import ExitStack
 
 import pytest
 
+from tests.support.fixtures import client_of
 from tests.support.ide import TABLET, IdePage
 from tests.support.lesson import TOKENS
 from tests.support.process import ROOT, GatewayProcess
@@ -43,23 +44,9 @@ def rover_gateway(start_gateway):
     return start_gateway("--robot", "rover", "--fibonacci-interval", "0.05")
 
 
-@pytest.fixture(scope="module")
-def turtle(turtle_gateway):
-    """A roslibpy client of the module's turtlesim gateway, kept for the module."""
-    with RosClient(turtle_gateway) as client:
-        yield client
-
-
-@pytest.fixture
-def turtle_ros(turtle_gateway):
-    with RosClient(turtle_gateway) as client:
-        yield client
-
-
-@pytest.fixture
-def rover_ros(rover_gateway):
-    with RosClient(rover_gateway) as client:
-        yield client
+turtle = client_of("turtle_gateway", "module", RosClient, "A client of the module's turtlesim gateway, kept for the module.")
+turtle_ros = client_of("turtle_gateway", kind=RosClient)
+rover_ros = client_of("rover_gateway", kind=RosClient)
 
 
 @pytest.fixture

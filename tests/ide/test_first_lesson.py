@@ -234,11 +234,16 @@ def test_the_ide_follows_its_console_and_shows_the_stopped_banner(lesson, teache
         assert not ide.errors, ide.errors
 
 
-def test_stop_all_leaves_a_free_station_ready(lesson, teacher, tablets):  # noqa: F811
-    gw = lesson
+def bo_on_s01_and_the_class(gw, tablets):
+    """bo's IDE on a tablet, on station /s01, and the teacher's class view."""
     bo = open_ide(tablets(gw, "bo", TABLET), gw)
     on_station(bo, "/s01")
-    cls = open_class(tablets(gw, "teacher"), gw)
+    return bo, open_class(tablets(gw, "teacher"), gw)
+
+
+def test_stop_all_leaves_a_free_station_ready(lesson, teacher, tablets):  # noqa: F811
+    gw = lesson
+    bo, cls = bo_on_s01_and_the_class(gw, tablets)
     holder_is(cls, "/s01", "bo drives")
     cls.click("#stop-all")
     holder_is(cls, "/s01", "bo's station (stopped)")
@@ -263,9 +268,7 @@ def test_stop_all_leaves_a_free_station_ready(lesson, teacher, tablets):  # noqa
 
 def test_tiles_show_the_present(lesson, teacher, tablets):  # noqa: F811
     gw = lesson
-    bo = open_ide(tablets(gw, "bo", TABLET), gw)
-    on_station(bo, "/s01")
-    cls = open_class(tablets(gw, "teacher"), gw)
+    bo, cls = bo_on_s01_and_the_class(gw, tablets)
     tile = "article.tile[data-ns='/s01']"
     bad = ex.block("ros_call_service_stmt", {"SERVICE": "/no_such_service", "TYPE": "std_srvs/srv/Empty"}, id="bad")
     bo.js("(p) => rosgateIde.loadProgram(p)", program(bad, name="broken"))

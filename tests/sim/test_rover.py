@@ -11,7 +11,8 @@ import pytest
 import roslibpy
 from PIL import Image
 
-from tests.support.ros import Inbox, call, client, stream, twist
+from tests.support.fixtures import client_of
+from tests.support.ros import Inbox, call, stream, twist
 from tests.support.wait import wait_for
 
 RADIUS = 0.18
@@ -33,10 +34,7 @@ TOPICS = {
 }
 
 
-@pytest.fixture(scope='module')
-def ros(rover_gw):
-    with client(rover_gw) as ros:
-        yield ros
+ros = client_of('rover_gw', 'module')
 
 
 @pytest.fixture
@@ -137,10 +135,9 @@ def test_odometry_integrates_the_motion(fresh):
 
 def test_battery_drains_and_motors_warm_up(fresh):
     ros = fresh
-    battery = Inbox(ros, '/battery_state', 'sensor_msgs/msg/BatteryState')
-    left = Inbox(ros, '/motor/left/temperature', 'sensor_msgs/msg/Temperature')
     pub = roslibpy.Topic(ros, '/cmd_vel', 'geometry_msgs/msg/Twist')
-    try:
+    with (Inbox(ros, '/battery_state', 'sensor_msgs/msg/BatteryState') as battery,
+          Inbox(ros, '/motor/left/temperature', 'sensor_msgs/msg/Temperature') as left):
         full = battery.wait()
         assert full['percentage'] == pytest.approx(1.0, abs=1e-4) and full['present'] is True
         cold = left.wait()['temperature']
@@ -155,22 +152,16 @@ def test_battery_drains_and_motors_warm_up(fresh):
         assert (idle - driven['percentage']) > 2 * (1.0 - idle)   # motion drains faster than idling
         assert driven['voltage'] < full['voltage']
         assert warm > cold + 0.1      # a first-order rise towards a load-dependent temperature
-    finally:
-        battery.close()
-        left.close()
 
 
 def test_camera_publishes_a_decodable_jpeg(fresh):
     ros = fresh
-    camera = Inbox(ros, '/camera/image_raw/compressed', 'sensor_msgs/msg/CompressedImage')
-    try:
+    with Inbox(ros, '/camera/image_raw/compressed', 'sensor_msgs/msg/CompressedImage') as camera:
         first = camera.wait()
         start = time.monotonic()
         wait_for(lambda: len(camera.since(start)) >= 5, timeout=3)
         rate = (len(camera.since(start)) - 1) / (time.monotonic() - start)
         assert 3 < rate < 8
-    finally:
-        camera.close()
     assert 'jpeg' in first['format']
     image = Image.open(io.BytesIO(base64.b64decode(first['data'])))
     assert image.format == 'JPEG' and image.size == (160, 120)
@@ -181,9 +172,8 @@ def test_camera_publishes_a_decodable_jpeg(fresh):
 def test_reset_world_restores_everything(fresh):
     ros = fresh
     pub = roslibpy.Topic(ros, '/cmd_vel', 'geometry_msgs/msg/Twist')
-    odom = Inbox(ros, '/odom', 'nav_msgs/msg/Odometry')
-    battery = Inbox(ros, '/battery_state', 'sensor_msgs/msg/BatteryState')
-    try:
+    with (Inbox(ros, '/odom', 'nav_msgs/msg/Odometry') as odom,
+          Inbox(ros, '/battery_state', 'sensor_msgs/msg/BatteryState') as battery):
         stream(pub, twist(0.5, 1.0), 0.6)
         odom.wait(lambda m: m['pose']['pose']['position']['x'] > 0.1)
         battery.wait(lambda m: m['percentage'] < 1.0)
@@ -194,15 +184,11 @@ def test_reset_world_restores_everything(fresh):
         assert battery.wait(lambda m: m['percentage'] == 1.0, after=t)['voltage'] > 12.5
         t = time.monotonic()
         assert odom.wait(after=t)['pose']['pose']['position'] == origin   # and it stays there
-    finally:
-        odom.close()
-        battery.close()
 
 
 def test_rover_world_markers(fresh):
     ros = fresh
-    markers = Inbox(ros, '/world/markers', 'visualization_msgs/msg/MarkerArray')
-    try:
+    with Inbox(ros, '/world/markers', 'visualization_msgs/msg/MarkerArray') as markers:
         snapshot = markers.wait()
         by_ns = {}
         for m in snapshot['markers']:
@@ -217,8 +203,6 @@ def test_rover_world_markers(fresh):
         points = next(x for x in scan['markers'] if x['ns'] == 'scan')['points']
         assert len(points) == 360
         assert all(-1e-6 <= p['x'] <= 6 + 1e-6 and -1e-6 <= p['y'] <= 4 + 1e-6 for p in points)
-    finally:
-        markers.close()
 
 
 def test_a_still_rovers_scan_marker_is_sent_once_and_again_when_it_moves(fresh):

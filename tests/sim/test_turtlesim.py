@@ -8,6 +8,7 @@ import time
 import pytest
 import roslibpy
 
+from tests.support.fixtures import client_of
 from tests.support.ros import Inbox, call, cancelled, client, stream, twist
 from tests.support.wait import wait_for
 
@@ -35,10 +36,7 @@ REAL_SERVICES = {
 REAL_ACTIONS = {'/turtle1/rotate_absolute': 'turtlesim/action/RotateAbsolute'}
 
 
-@pytest.fixture(scope='module')
-def ros(turtle_gw):
-    with client(turtle_gw) as ros:
-        yield ros
+ros = client_of('turtle_gw', 'module')
 
 
 @pytest.fixture
@@ -82,8 +80,7 @@ def test_interfaces_match_real_turtlesim(fresh):
 
 
 def test_starts_at_the_centre_and_publishes_pose_every_16_ms(fresh):
-    poses = Inbox(fresh, '/turtle1/pose', 'turtlesim/msg/Pose')
-    try:
+    with Inbox(fresh, '/turtle1/pose', 'turtlesim/msg/Pose') as poses:
         first = poses.wait()
         assert first['x'] == pytest.approx(CENTRE, abs=1e-4)
         assert first['y'] == pytest.approx(CENTRE, abs=1e-4)
@@ -92,8 +89,6 @@ def test_starts_at_the_centre_and_publishes_pose_every_16_ms(fresh):
         wait_for(lambda: len(poses.since(start)) >= 60, timeout=5)
         rate = len(poses.since(start)) / (time.monotonic() - start)
         assert 45 < rate < 75   # 62.5 Hz nominal
-    finally:
-        poses.close()
 
 
 def test_drive_one_metre_per_second_for_two_seconds(fresh):
@@ -122,9 +117,8 @@ def test_drive_one_metre_per_second_for_two_seconds(fresh):
 def test_one_command_moves_for_one_second(fresh):
     ros = fresh
     assert spawn(ros, 'single', 1.0, 2.0) == 'single'
-    poses = Inbox(ros, '/single/pose', 'turtlesim/msg/Pose')
     pub = roslibpy.Topic(ros, '/single/cmd_vel', 'geometry_msgs/msg/Twist')
-    try:
+    with Inbox(ros, '/single/pose', 'turtlesim/msg/Pose') as poses:
         poses.wait()
         pub.publish(roslibpy.Message(twist(1.0, 0.5)))
         moving = poses.wait(lambda m: m['linear_velocity'] > 0)
@@ -135,8 +129,6 @@ def test_one_command_moves_for_one_second(fresh):
         assert stopped['theta'] == pytest.approx(0.5, abs=0.02)
         time.sleep(0.3)
         assert poses.last['x'] == stopped['x']
-    finally:
-        poses.close()
 
 
 def test_sideways_motion_only_when_holonomic(fresh):
@@ -162,9 +154,8 @@ def test_sideways_motion_only_when_holonomic(fresh):
 
 def test_walls_clamp_the_pose_and_log_the_warning(fresh):
     ros = fresh
-    log = Inbox(ros, '/rosout', 'rcl_interfaces/msg/Log')
-    poses = Inbox(ros, '/turtle1/pose', 'turtlesim/msg/Pose')
-    try:
+    with (Inbox(ros, '/rosout', 'rcl_interfaces/msg/Log') as log,
+          Inbox(ros, '/turtle1/pose', 'turtlesim/msg/Pose') as poses):
         call(ros, '/turtle1/teleport_absolute', 'turtlesim/srv/TeleportAbsolute', {'x': 10.8, 'y': 3.0, 'theta': 0.0})
         poses.wait(lambda m: m['x'] == pytest.approx(10.8, abs=1e-3))
         pub = roslibpy.Topic(ros, '/turtle1/cmd_vel', 'geometry_msgs/msg/Twist')
@@ -176,15 +167,11 @@ def test_walls_clamp_the_pose_and_log_the_warning(fresh):
         assert 'Clamping from [x=' in warning['msg']
         time.sleep(0.1)
         assert poses.last['x'] == pytest.approx(SIZE, abs=1e-4)
-    finally:
-        log.close()
-        poses.close()
 
 
 def test_rotate_absolute_reaches_its_target_with_feedback(fresh):
     ros = fresh
-    poses = Inbox(ros, '/turtle1/pose', 'turtlesim/msg/Pose')
-    try:
+    with Inbox(ros, '/turtle1/pose', 'turtlesim/msg/Pose') as poses:
         poses.wait()
         action = roslibpy.ActionClient(ros, '/turtle1/rotate_absolute', 'turtlesim/action/RotateAbsolute')
         results, feedback = [], []
@@ -197,8 +184,6 @@ def test_rotate_absolute_reaches_its_target_with_feedback(fresh):
         assert remaining == sorted(remaining, reverse=True) and remaining[-1] < 0.03
         settled = poses.wait(lambda m: m['angular_velocity'] == 0.0 and m['theta'] > 1.0)
         assert settled['theta'] == pytest.approx(1.2, abs=0.02)
-    finally:
-        poses.close()
 
 
 def test_rotate_absolute_cancel_and_preemption(fresh):
@@ -236,8 +221,7 @@ def test_spawn_kill_and_teleport(fresh):
     wait_for(lambda: '/turtle2/pose' in ros.get_topics())
     assert ros.get_service_type('/turtle2/teleport_absolute') == 'turtlesim/srv/TeleportAbsolute'
 
-    poses = Inbox(ros, '/turtle2/pose', 'turtlesim/msg/Pose')
-    try:
+    with Inbox(ros, '/turtle2/pose', 'turtlesim/msg/Pose') as poses:
         first = poses.wait()
         assert (first['x'], first['y'], first['theta']) == pytest.approx((1.0, 2.0, 0.5), abs=1e-5)
         call(ros, '/turtle2/teleport_absolute', 'turtlesim/srv/TeleportAbsolute', {'x': 4.0, 'y': 7.0, 'theta': 1.0})
@@ -246,8 +230,6 @@ def test_spawn_kill_and_teleport(fresh):
              {'linear': 2.0, 'angular': math.pi / 2 - 1.0})
         moved = poses.wait(lambda m: m['y'] > 8.0)
         assert (moved['x'], moved['y'], moved['theta']) == pytest.approx((4.0, 9.0, math.pi / 2), abs=1e-4)
-    finally:
-        poses.close()
 
     call(ros, '/kill', 'turtlesim/srv/Kill', {'name': 'turtle2'})
     wait_for(lambda: '/turtle2/pose' not in ros.get_topics())
@@ -258,9 +240,8 @@ def test_spawn_kill_and_teleport(fresh):
 
 def test_set_pen_colour_sensor_and_clear(fresh):
     ros = fresh
-    colours = Inbox(ros, '/turtle1/color_sensor', 'turtlesim/msg/Color')
-    markers = Inbox(ros, '/world/markers', 'visualization_msgs/msg/MarkerArray')
-    try:
+    with (Inbox(ros, '/turtle1/color_sensor', 'turtlesim/msg/Color') as colours,
+          Inbox(ros, '/world/markers', 'visualization_msgs/msg/MarkerArray') as markers):
         colours.wait(lambda m: m == UNPAINTED)     # nothing drawn until the turtle moves
         call(ros, '/turtle1/set_pen', 'turtlesim/srv/SetPen', {'r': 255, 'g': 0, 'b': 0, 'width': 9, 'off': 0})
         call(ros, '/turtle1/teleport_relative', 'turtlesim/srv/TeleportRelative', {'linear': 1.0, 'angular': 0.0})
@@ -283,9 +264,6 @@ def test_set_pen_colour_sensor_and_clear(fresh):
         call(ros, '/turtle1/teleport_absolute', 'turtlesim/srv/TeleportAbsolute',
              {'x': CENTRE + 0.5, 'y': CENTRE, 'theta': 0.0})
         colours.wait(lambda m: m == UNPAINTED, after=time.monotonic())   # the red trail is gone
-    finally:
-        colours.close()
-        markers.close()
 
 
 def _red_pen(m: dict) -> bool:
@@ -316,8 +294,7 @@ def test_world_markers_snapshot_and_updates(fresh):
     ros = fresh
     call(ros, '/turtle1/teleport_absolute', 'turtlesim/srv/TeleportAbsolute', {'x': 3.0, 'y': 4.0, 'theta': 0.3})
     assert spawn(ros, 'viewed', 8.0, 8.0) == 'viewed'
-    markers = Inbox(ros, '/world/markers', 'visualization_msgs/msg/MarkerArray')
-    try:
+    with Inbox(ros, '/world/markers', 'visualization_msgs/msg/MarkerArray') as markers:
         view = {}
 
         def apply():
@@ -348,8 +325,6 @@ def test_world_markers_snapshot_and_updates(fresh):
         assert any(ns == 'pen' for ns, _ in view)
         call(ros, '/kill', 'turtlesim/srv/Kill', {'name': 'viewed'})
         wait_for(lambda: 'viewed' not in turtles())
-    finally:
-        markers.close()
 
 
 def test_reset_restores_the_start(fresh):
@@ -358,20 +333,16 @@ def test_reset_restores_the_start(fresh):
     call(ros, '/turtle1/teleport_absolute', 'turtlesim/srv/TeleportAbsolute', {'x': 1.0, 'y': 1.0, 'theta': 2.0})
     call(ros, '/reset', 'std_srvs/srv/Empty')
     wait_for(lambda: '/turtle2/pose' not in ros.get_topics())
-    poses = Inbox(ros, '/turtle1/pose', 'turtlesim/msg/Pose')
-    try:
+    with Inbox(ros, '/turtle1/pose', 'turtlesim/msg/Pose') as poses:
         pose = poses.wait()
         assert (pose['x'], pose['y'], pose['theta']) == pytest.approx((CENTRE, CENTRE, 0.0), abs=1e-4)
-    finally:
-        poses.close()
     assert spawn(ros, '', 1.0, 1.0) == 'turtle2'   # the counter starts over
 
 
 def test_a_viewer_joining_late_gets_the_whole_world(fresh, turtle_gw):
     """Two viewers share the gateway's subscription; the second still gets bounds, trails, turtles."""
     ros = fresh
-    first = Inbox(ros, '/world/markers', 'visualization_msgs/msg/MarkerArray')
-    try:
+    with Inbox(ros, '/world/markers', 'visualization_msgs/msg/MarkerArray') as first:
         first.wait(lambda m: any(x['ns'] == 'bounds' for x in m['markers']))
         call(ros, '/turtle1/teleport_relative', 'turtlesim/srv/TeleportRelative', {'linear': 1.0, 'angular': 0.0})
         first.wait(lambda m: any(x['ns'] == 'pen' and x['action'] == 0 for x in m['markers']))
@@ -381,8 +352,6 @@ def test_a_viewer_joining_late_gets_the_whole_world(fresh, turtle_gw):
             snapshot = late.wait()
             kinds = {x['ns'] for x in snapshot['markers']}
             assert {'bounds', 'pen', 'robots'} <= kinds
-    finally:
-        first.close()
 
 
 def test_non_finite_and_huge_commands_leave_turtlesim_working(fresh):

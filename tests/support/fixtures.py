@@ -31,10 +31,18 @@ def gateway(start_gateway):
     return start_gateway('--fibonacci-interval', '0.05', '--unregister-timeout', '0.5')
 
 
-@pytest.fixture
-def ros(gateway):
-    with client(gateway) as ros:
-        yield ros
+def client_of(gateway: str, scope: str = 'function', kind=client, doc: str = ''):
+    """A fixture: a roslibpy connection (``kind``: ``ros.client``, or ``ros.RosClient`` with its
+    watches) to the gateway the fixture named ``gateway`` gives, kept for ``scope``."""
+    @pytest.fixture(scope=scope)
+    def connected(request):
+        with kind(request.getfixturevalue(gateway)) as ros:
+            yield ros
+    connected.__doc__ = doc or f'A roslibpy client of {gateway}.'
+    return connected
+
+
+ros = client_of('gateway')
 
 
 @pytest.fixture(scope="module")

@@ -84,7 +84,8 @@ class RosClient:
 
 
 class Inbox:
-    """Messages of one topic with their arrival times (monotonic)."""
+    """Messages of one topic with their arrival times (monotonic); as a context, unsubscribed on
+    leaving it."""
 
     def __init__(self, ros, topic: str, type: str, **kwargs):
         import roslibpy
@@ -119,6 +120,12 @@ class Inbox:
 
     def close(self) -> None:
         self.topic.unsubscribe()
+
+    def __enter__(self) -> Inbox:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
 
 
 def call(ros, name: str, type: str, request: dict | None = None, timeout: float = 5.0) -> dict:

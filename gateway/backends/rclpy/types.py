@@ -108,6 +108,10 @@ def import_type(full: str, kind: str):
     return cls
 
 
+# the parts of a service's and an action's definition, in the order SrvDef and ActionDef take them
+PARTS = {'srv': ('Request', 'Response'), 'action': ('Goal', 'Result', 'Feedback')}
+
+
 class RosDefinitions(Definitions):
     """Definitions resolved on demand from the installed generated classes, and (once the backend
     has a node) message types the install lacks from the graph (``graph``: graphtypes.GraphTypes)."""
@@ -159,33 +163,26 @@ class RosDefinitions(Definitions):
                     self.msg(f.type)
 
     def srv(self, name: str) -> SrvDef:
-        try:
-            return super().srv(name)
-        except UnknownType:
-            full = normalize(name, 'srv')
-        try:
-            cls = self.srv_class(full)
-        except UnknownType:
-            return self._from_text(full, 'srv')
-        srv = SrvDef(full, self._part(f'{full}_Request', cls.Request),
-                     self._part(f'{full}_Response', cls.Response))
-        self._srvs[full] = srv
-        return srv
+        return self._interface(name, 'srv', super().srv)
 
     def action(self, name: str) -> ActionDef:
+        return self._interface(name, 'action', super().action)
+
+    def _interface(self, name: str, kind: str, known):
+        """A service or action: known already (``known``), else from its installed classes, else
+        from its text."""
         try:
-            return super().action(name)
+            return known(name)
         except UnknownType:
-            full = normalize(name, 'action')
+            full = normalize(name, kind)
         try:
-            cls = self.action_class(full)
+            cls = getattr(self, f'{kind}_class')(full)
         except UnknownType:
-            return self._from_text(full, 'action')
-        action = ActionDef(full, self._part(f'{full}_Goal', cls.Goal),
-                           self._part(f'{full}_Result', cls.Result),
-                           self._part(f'{full}_Feedback', cls.Feedback))
-        self._actions[full] = action
-        return action
+            return self._from_text(full, kind)
+        make = SrvDef if kind == 'srv' else ActionDef
+        whole = make(full, *(self._part(f'{full}_{part}', getattr(cls, part)) for part in PARTS[kind]))
+        (self._srvs if kind == 'srv' else self._actions)[full] = whole
+        return whole
 
     def text(self, full: str, kind: str) -> str | None:
         """The text of an interface from the text directories, or None."""
