@@ -84,9 +84,15 @@ def origin_parts(origin: str) -> tuple[str, str, int] | None:
 
 
 class Policy:
+    """The open gateway's rules (the name globs alone); ``SecurePolicy`` adds sign-in, limits,
+    the driver lease and stations. Every reader asks ``policy.auth``, ``.sessions``, ``.lease``
+    and ``.stations`` the same way: None where this gateway has none."""
+
     def __init__(self, settings, *, reads: Callable[[str], bool] = lambda name: False):
         self.auth: Authenticator | None = None
         self.sessions: Sessions | None = None
+        self.lease = None       # rules.lease.Lease with --exclusive-control
+        self.stations = None    # rules.stations.Stations on a fleet
         self.reads = reads     # the gateway's own read-only services (rosapi)
         self.allowed_origins = parse_globs(settings.allowed_origins)
         self.allowed_hosts = parse_globs(settings.allowed_hosts)

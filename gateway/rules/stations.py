@@ -160,7 +160,7 @@ class Stations(Hook):
     def free_for(self, key: str) -> str | None:
         """The lowest station person ``key`` may walk into now: nobody owns it, has it booked, or
         drives it (but them), and no slot of theirs just ended there."""
-        lease = getattr(self.gateway.policy, 'lease', None)
+        lease = self.gateway.policy.lease
         for ns in self.stations():
             held = lease.holders.get(ns) if lease is not None else None
             if (ns not in self.owners and not self.in_use(ns, key) and (held is None or person(held) == key)
@@ -296,7 +296,7 @@ class Stations(Hook):
     def _free_lease(self, session, station: str) -> None:
         """The station's driver lease and stop go with its claim, in the same step: a page of the
         old owner must not find it held by nobody and owned by nobody in between."""
-        lease = getattr(self.gateway.policy, 'lease', None)
+        lease = self.gateway.policy.lease
         if lease is not None:
             lease.free(station, session)
 

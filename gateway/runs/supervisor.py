@@ -147,7 +147,7 @@ class RunManager(Hook):
         """With --exclusive-control a run takes its namespace's driver lease (from its starter's own
         page quietly, and gives it back when it ends): refuse at once a run that could not (another
         person's station or lease, or a stop that holds until Take)."""
-        lease = getattr(self.gateway.policy, 'lease', None)
+        lease = self.gateway.policy.lease
         why = lease.run_refusal(person, role, ns) if lease is not None else None
         if why is not None:
             raise RunError(409, why)
@@ -318,7 +318,7 @@ class RunManager(Hook):
         if run.role is not None:
             session.attrs['role'] = run.role
             session.attrs.pop('auth_error', None)
-        lease = getattr(self.gateway.policy, 'lease', None)
+        lease = self.gateway.policy.lease
         if lease is not None:
             try:
                 lease.take(session, run.ns)
@@ -329,7 +329,7 @@ class RunManager(Hook):
         """A run's output and state topics are its starter's and the admins', as GET is."""
         found = RUN_TOPIC.fullmatch(op.topic) if isinstance(op, ops.Subscribe) else None
         run = self.runs.get(found.group(1)) if found else None
-        if run is None or getattr(self.gateway.policy, 'auth', None) is None:
+        if run is None or self.gateway.policy.auth is None:
             return
         attrs = session.attrs
         if owns(session, attrs.get('run') == run.id or (run.owner is not None and attrs.get('person') == run.person)):

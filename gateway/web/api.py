@@ -52,7 +52,7 @@ def caller(handler: tornado.web.RequestHandler, gateway, *, change: bool = False
     policy = gateway.policy
     if change:
         check_origin(handler, policy)
-    if getattr(policy, 'auth', None) is None:
+    if policy.auth is None:
         return None
     identity = require(handler, policy, 'read')
     if roles is not None and identity.role not in roles:

@@ -119,7 +119,7 @@ class BookingListHandler(_Handler):
     def behalf(self, who: str) -> tuple[str, str]:
         """(person key, name) of whom "for" names: someone who signed in here (by id or name), else
         a name of the tokens file (whose key is the name itself)."""
-        sessions = getattr(self.gateway.policy, 'sessions', None)
+        sessions = self.gateway.policy.sessions
         found = sessions.people(who) if sessions is not None else []
         if len(found) > 1:
             ids = ', '.join(f'{p.owner} ({p.kind}, {p.role})' for p in found[:5])
@@ -135,7 +135,7 @@ class PeopleHandler(_Handler):
 
     def get(self) -> None:
         self.who(roles=ADMINS)
-        sessions = getattr(self.gateway.policy, 'sessions', None)
+        sessions = self.gateway.policy.sessions
         self.finish({'people': [p.json() for p in sessions.people()] if sessions is not None else []})
 
 

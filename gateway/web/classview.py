@@ -21,7 +21,7 @@ class ClassHandler(Handler):
 
     def get(self) -> None:
         policy = self.gateway.policy
-        if getattr(policy, 'auth', None) is not None:
+        if policy.auth is not None:
             try:
                 identity = require(self, policy, 'read')
             except tornado.web.HTTPError as e:

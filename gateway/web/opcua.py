@@ -83,7 +83,7 @@ class Twin(Hook):
 
     def on_point(self, topic: str, field: str, t: float, v: float) -> None:
         """On the gateway's loop, from the history."""
-        stations = getattr(self.gateway.policy, 'stations', None)
+        stations = self.gateway.policy.stations
         if stations is not None:
             self.stations = tuple(stations.stations())
         with self.lock:

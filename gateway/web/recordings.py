@@ -315,7 +315,7 @@ class RecordingManager(Hook):
     def _may_play(self, playback: Playback, name: str, role: str | None, person: str | None) -> None:
         policy = self.gateway.policy
         probe = Sender(name, role, person=person)   # not opened: only asked about
-        lease = getattr(policy, 'lease', None)
+        lease = policy.lease
         for topic, type in playback.targets():
             why = may(policy, probe, 'publish', topic)
             if why is not None:

@@ -231,7 +231,7 @@ class VideoHandler(Handler):
     @property
     def open_cors(self) -> bool:
         """web_video_server lets every origin read its images; only without --auth here."""
-        return getattr(self.video.gateway.policy, 'auth', None) is None
+        return self.video.gateway.policy.auth is None
 
     def allowed(self, topic: str | None = None) -> None:
         """The rules of a subscribe: a token and a role that may subscribe (with --auth), and
