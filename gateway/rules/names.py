@@ -25,6 +25,15 @@ ACTION_KINDS = {
 }
 
 
+HIDDEN_ACTION = '/_action/'    # an action's own services and topics: NAME/_action/send_goal, .../feedback
+
+
+def action_of(name: str) -> str | None:
+    """The action whose hidden service or topic ``name`` is (``/fib/_action/send_goal`` -> ``/fib``), else None."""
+    base, found, _ = name.partition(HIDDEN_ACTION)
+    return base if found and base else None
+
+
 def parse_globs(value: str | None) -> tuple[str, ...] | None:
     """rosbridge style: "['/turtle1/*', '/rosout']" or a plain comma/space separated list."""
     if value is None:

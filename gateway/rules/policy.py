@@ -17,7 +17,7 @@ from protocol import ops
 from protocol.errors import ProtocolError
 
 from .stations import person_of
-from .names import ACTION_KINDS, LOCAL_HOSTS, host_name, is_ip, own_names, parse_globs, parse_networks, refuse, target
+from .names import ACTION_KINDS, LOCAL_HOSTS, action_of, host_name, is_ip, own_names, parse_globs, parse_networks, refuse, target
 from .sessions import SESSION_COOKIE, Sessions
 from ..settings import SecuritySettings
 from .access import role_of
@@ -110,6 +110,9 @@ class Policy:
     def allows(self, session, action: str, name: str) -> bool:
         if action == 'publish' and name.startswith(OWN_PREFIX) and name != CONTROL_TOPIC:
             return False   # the gateway's own announcements: only the gateway publishes there
+        base = action_of(name)     # an action's hidden services and topics follow its actions glob too
+        if base is not None and not self.matches('actions', base):
+            return False
         return all(self.matches(kind, name) for kind in ACTION_KINDS[action])
 
     def admit(self, session, op) -> bool:

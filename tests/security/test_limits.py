@@ -69,6 +69,22 @@ def test_globs_refuse_every_op(globbed):
         assert setp['result'] is False and 'not allowed' in setp['values']
 
 
+def test_an_actions_glob_also_closes_the_actions_hidden_services_and_topics(launch):
+    """Every service allowed, actions limited: a goal sent through /fibonacci/_action/send_goal, a
+    cancel, or a look at its status is refused as send_action_goal is; an allowed action's are not."""
+    gw = launch('--actions-glob', "['/open/*']")
+    with Client(gw.ws_url) as c:
+        for name in ('send_goal', 'cancel_goal', 'get_result'):
+            reply = c.call(f'/fibonacci/_action/{name}')
+            assert reply['result'] is False and 'is not allowed' in reply['values'], (name, reply)
+        op = {'op': 'subscribe', 'topic': '/fibonacci/_action/status', 'id': c.next_id('subscribe')}
+        assert refused_for(c, op), op
+        assert c.call('/add_two_ints', {'a': 1, 'b': 2})['values'] == {'sum': 3}
+        c.send({'op': 'advertise_action', 'action': '/open/act', 'type': FIB, 'id': 'adv'})
+        op = {'op': 'subscribe', 'topic': '/open/act/_action/status', 'id': c.next_id('subscribe')}
+        assert not refused_for(c, op), op
+
+
 def test_globs_hide_in_rosapi(globbed):
     with Client(globbed.ws_url) as c:
         c.subscribe('/open/a', 'std_msgs/msg/String')
