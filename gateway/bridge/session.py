@@ -17,7 +17,7 @@ from . import encode
 from .capabilities import HANDLERS
 from ..backends.base import BackendError
 from .outbox import Outbox
-from ..rules.freshness import ClientClock
+from ..rules.freshness import ClientClock, Fence
 
 if TYPE_CHECKING:
     from .gateway import Gateway
@@ -29,7 +29,8 @@ _session_ids = itertools.count(1)
 class ClientSession:
     def __init__(self, gateway: Gateway, send: Callable[[bytes, bool], Any],
                  send_many: Callable[[list[tuple[bytes, bool]]], Any],
-                 close: Callable[[int, str], None], remote: str = ''):
+                 close: Callable[[int, str], None], remote: str = '',
+                 ping: Callable[[bytes], Any] | None = None):
         settings = gateway.settings
         self.id = next(_session_ids)
         self.gateway, self.backend, self.remote = gateway, gateway.backend, remote
@@ -48,6 +49,7 @@ class ClientSession:
         self.tasks: set[asyncio.Task] = set()
         self.attrs: dict[str, Any] = {}                # role, lease, ... for policy hooks
         self.clock = ClientClock()                     # the client's clock, from its stamped ops
+        self.fence = Fence(ping)                       # after a stop, moving commands wait for a pong
         self.closed = False
         self.closing = False   # the server is closing the connection: later ops are not handled
         self.connected_at = gateway.backend.now()

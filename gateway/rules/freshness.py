@@ -16,6 +16,12 @@ a stalled link. The base may rise only ``DRIFT`` (1 ms per second) between sampl
 two clocks that drift apart without a stall being mistaken for one. Pings every fraction of a
 second (the pages') keep it fresh before the first command.
 
+A client that does not stamp (roslibpy, roslibjs's ``Topic.publish``, any plain rosbridge client)
+gets the coarser rule of ``Fence``: when the gateway stops its stream it sends that connection a
+websocket ping, and drops its moving commands until the pong comes back. TCP keeps the order of
+what the client sends, so every command it sent before it read the ping (a stalled link's backlog
+among them) arrives before the pong; browsers and client libraries answer pings by themselves.
+
 A link that stalls and comes back may deliver its backlog sooner than ``cmd_max_age`` after the
 last commands of the stall were made, so age alone would let those through. A client that pings
 (the pages, every 250 ms) is never silent for long while its link works; when a frame from it
@@ -66,3 +72,39 @@ class ClientClock:
             self.base = min(offset, self.base + DRIFT * max(0.0, now - self.at))
         self.at = now
         return t + self.base
+
+
+class Fence:
+    """After a stop, a connection's moving commands wait for its answer to a ping.
+
+    ``raise_()`` at a stop sends a websocket ping carrying a new token; until the pong with that
+    token comes back (``pong``), ``up`` is true and the safety rules drop the connection's moving
+    unstamped commands: what the client sent before it saw the ping. An older pong (a ping of an
+    earlier stop, the transport's keep-alive) does not lower it. A client that never answers
+    pings cannot move the robot again on that connection. ``ping`` is None for a transport
+    without pings: no fence."""
+
+    __slots__ = ('ping', 'token', 'raised')
+
+    def __init__(self, ping=None) -> None:
+        self.ping = ping           # ping(data: bytes): a websocket ping on the connection
+        self.token: bytes | None = None
+        self.raised = 0
+
+    @property
+    def up(self) -> bool:
+        return self.token is not None
+
+    def raise_(self) -> None:
+        if self.ping is None:
+            return
+        self.raised += 1
+        self.token = b'rosgate-stop-%d' % self.raised
+        try:
+            self.ping(self.token)
+        except Exception:      # the connection is closing: nothing more comes from it anyway
+            pass
+
+    def pong(self, data: bytes) -> None:
+        if self.token is not None and data == self.token:
+            self.token = None

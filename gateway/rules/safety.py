@@ -13,8 +13,11 @@ A command is fresh or it is dropped. A client that stamps its commands (``"t"`` 
 beyond the fastest trip seen on its link, when it was made while its link was stalled (a client
 that pings), or when it was made before the last stop of its stream (a dead-man stop, the lease's
 release or the teacher's Stop): after a stop, motion resumes only with a command made after it.
-A zero command always passes. Commands that carry no stamp (plain rosbridge clients) pass as they
-always did, unless ``require_stamp`` refuses their moving ones.
+A zero command always passes. Commands that carry no stamp (plain rosbridge clients) pass, unless
+``require_stamp`` refuses their moving ones, except after a stop of their stream (the dead-man's, a
+release, the teacher's Stop): the gateway pings that connection, and its moving commands are
+dropped until the pong comes back (``freshness.Fence``): what it sent before it saw the ping,
+a stalled link's backlog among them, never moves the robot.
 """
 
 from __future__ import annotations
@@ -156,13 +159,18 @@ class Safety(Hook):
         return msg
 
     def _fresh(self, session, pub, issued: float | None) -> bool:
-        """Whether a moving command may pass: made after its stream's last stop and not stale."""
+        """Whether a moving command may pass: made after its stream's last stop and not stale
+        (stamped), or sent after the client saw the last stop (unstamped: ``freshness.Fence``)."""
+        now = asyncio.get_running_loop().time()
+        fence = getattr(session, 'fence', None)
         if issued is None:
             if self.require_stamp:
                 raise ProtocolError(f'{pub.topic}: this gateway takes only stamped velocity commands '
                                     '(a "t" on publish: docs/protocol.md; --require-cmd-stamp)')
-            return True
-        now = asyncio.get_running_loop().time()
+            if fence is None or not fence.up:
+                return True
+            why = 'it was sent before the client saw the robot stop (the gateway waits for its pong)'
+            return self._drop(session, pub, why, now)
         stream = self.streams.get(session.id, {}).get(pub.topic)
         clock = getattr(session, 'clock', None)
         if stream is not None and issued <= stream.floor:
@@ -173,6 +181,10 @@ class Safety(Hook):
             why = f'it waited {now - issued:.2f} s on the way (--cmd-max-age {self.cmd_max_age:g})'
         else:
             return True
+        return self._drop(session, pub, why, now)
+
+    def _drop(self, session, pub, why: str, now: float) -> bool:
+        """A moving command dropped: counted, and the client told why (once per STALE_TELL)."""
         self.stale += 1
         told = session.attrs.get('stale_told', -math.inf)
         if now - told >= STALE_TELL:
@@ -212,6 +224,7 @@ class Safety(Hook):
             return
         log.info('no command on %s for %.3g s from client %d: stopping', topic, self.cmd_timeout, session.id)
         self._stop(topic, stream)
+        self._fence(session)
 
     # --- stopping -----------------------------------------------------------------------------
 
@@ -253,7 +266,16 @@ class Safety(Hook):
                 self._stop(topic, stream)
                 count += 1
             stream.floor = now   # what it sent before the stop, still on the way, does not move
+        if count and not session.closed:
+            self._fence(session)
         return count
+
+    def _fence(self, session) -> None:
+        """After a stop of its stream: the connection's unstamped moving commands wait for its
+        pong (``freshness.Fence``); a stamped client's keep the finer rule of their stamps."""
+        fence, clock = getattr(session, 'fence', None), getattr(session, 'clock', None)
+        if fence is not None and (clock is None or clock.base is None):
+            fence.raise_()
 
     # --- gateway hooks ------------------------------------------------------------------------
 

@@ -167,7 +167,7 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
         self.set_nodelay(True)   # without it Nagle's algorithm stalls small messages
         bound_unsent(self.ws_connection.stream)
         self.session = ClientSession(self.gateway, self._send, self._send_many, self.close,
-                                     self.request.remote_ip or '')
+                                     self.request.remote_ip or '', ping=self.ping)
         self.session.attrs.update(self.gateway.policy.connect_attrs(self.request))
         self.session.open()
         self.gateway.hooks.connect(self.session, self.request)   # e.g. a robot-side run knowing its own connection
@@ -230,6 +230,10 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
         client is told why first; tornado reads no further frame while this runs."""
         self.session.status('error', f'text frame is not valid UTF-8 ({problem}); closing the connection (1007)')
         await self.session.hang_up(1007, 'text frame is not valid UTF-8', FLUSH_BEFORE_CLOSE)
+
+    def on_pong(self, data: bytes) -> None:
+        if self.session is not None:
+            self.session.fence.pong(data)
 
     def on_close(self) -> None:
         if self.auth_deadline is not None:

@@ -1,7 +1,8 @@
 """A lesson over an emulated home link (tests/netlink.py): clients and Chromium in one network
 namespace, the gateway in another, 150 ms ± 50 ms each way between them.
 
-- After a 2 s freeze, nothing made during it moves the turtle (stamped commands, ``rules.freshness``).
+- After a 2 s freeze, nothing made during it moves the turtle: stamped commands (``rules.freshness``),
+  and a plain client's (roslibpy, npm roslib), which wait for the pong of the stop's ping.
 - Jitter: a released key stops the turtle within the cmd timeout + 0.5 s.
 - The teleop page says "connection lost — robot stopped" within about a second of silence and
   connects again by itself within 2 s of the link's return, on the same station.
@@ -12,6 +13,10 @@ namespace, the gateway in another, 150 ms ± 50 ms each way between them.
 from __future__ import annotations
 
 import math
+import os
+import select
+import subprocess
+import sys
 import threading
 import time
 from contextlib import nullcontext
@@ -20,6 +25,7 @@ import pytest
 
 from tests.support import netlink
 from tests.support.ide import CHROMIUM, CHROMIUM_ARGS
+from tests.support.process import ROOT
 from tests.support.rawclient import Raw
 from tests.support.wait import wait_for
 
@@ -30,12 +36,13 @@ TWIST = 'geometry_msgs/msg/Twist'
 
 
 class Poses:
-    """The turtle's pose as seen next to the gateway (its own namespace: no link in between)."""
+    """The turtle's pose (or another topic's messages) as seen next to the gateway (its own
+    namespace: no link in between)."""
 
-    def __init__(self, link, gw, topic: str):
+    def __init__(self, link, gw, topic: str, type: str = 'turtlesim/msg/Pose'):
         with link.inside('server'):
             self.raw = Raw(gw.ws_url)
-        self.raw.send({'op': 'subscribe', 'topic': topic, 'type': 'turtlesim/msg/Pose'})
+        self.raw.send({'op': 'subscribe', 'topic': topic, 'type': type})
         self.samples: list[tuple[float, float, float]] = []
         self.lock = threading.Lock()
         self.done = False
@@ -46,7 +53,7 @@ class Poses:
         for m in self.raw.incoming(lambda: self.done):
             if m.get('op') == 'publish':
                 with self.lock:
-                    self.samples.append((time.monotonic(), m['msg']['x'], m['msg']['y']))
+                    self.samples.append((time.monotonic(), m['msg'].get('x'), m['msg'].get('y')))
 
     def at(self, t: float) -> tuple[float, float]:
         """The last pose received at or before t."""
@@ -147,6 +154,75 @@ def test_nothing_made_during_a_2_s_freeze_moves_the_turtle():
             poses.close()
         log = gw.log_text()
     print(f'\nafter the link returned the turtle moved {moved(end, at_return) * 1000:.1f} mm')
+    assert moved(end, at_return) < 0.005, log[-2000:]
+
+
+class PlainDriver:
+    """A plain rosbridge teleop in the client's namespace (tests/support/plain_driver.py with
+    roslibpy, or tests/node/plain-driver.mjs with npm roslib): no stamps, no pings of its own,
+    10 Hz while a key is held, nothing on release."""
+
+    def __init__(self, link, gw, topic: str, kind: str):
+        if kind == 'roslibpy':
+            cmd = [sys.executable, '-m', 'tests.support.plain_driver', gw.host, gw.port, topic]
+        else:
+            cmd = ['node', ROOT / 'tests' / 'node' / 'plain-driver.mjs', gw.ws_url, topic]
+        self.proc = subprocess.Popen(link.command('client', *cmd), cwd=ROOT, text=True, stdin=subprocess.PIPE,
+                                     stdout=subprocess.PIPE, env={**os.environ, 'PYTHONPATH': str(ROOT)})
+        self.expect('ready')
+
+    def say(self, line: str) -> None:
+        self.proc.stdin.write(line + '\n')
+        self.proc.stdin.flush()
+
+    def expect(self, word: str, timeout: float = 30) -> None:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if select.select([self.proc.stdout], [], [], 0.2)[0]:
+                line = self.proc.stdout.readline()
+                assert line, f'the driver ended (exit {self.proc.poll()}) before saying {word}'
+                if line.strip() == word:
+                    return
+        raise AssertionError(f'the driver did not say {word} within {timeout:g} s')
+
+    def close(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.kill()
+        self.proc.wait(5)
+
+
+@pytest.mark.parametrize('kind', ['roslibpy', 'roslib'])
+def test_nothing_a_plain_client_sent_during_a_2_s_freeze_moves_the_turtle(kind):
+    """A teleop that stamps nothing (roslibpy, npm roslib's Topic.publish): after the dead-man's
+    stop the gateway pings the connection and drops its moving commands until the pong, so the
+    backlog the link delivers on its return moves nothing."""
+    with netlink.NetLink(delay=DELAY, jitter=JITTER) as link:
+        gw = link.start_gateway('--robot', 'turtlesim')
+        poses = Poses(link, gw, '/turtle1/pose')
+        commands = Poses(link, gw, '/turtle1/cmd_vel', TWIST)      # what reaches the gateway
+        driver = PlainDriver(link, gw, '/turtle1/cmd_vel', kind)
+        try:
+            wait_for(lambda: poses.samples, what='a pose')
+            driver.say('hold 0.6')
+            # a stream (3 commands in a row, rules.safety), which the dead-man stops when it falls silent
+            wait_for(lambda: len(commands.samples) >= 5, what='the commands of a drive')
+            back = link.freeze(2.0)
+            time.sleep(1.5)
+            driver.say('release')         # let go late in the outage: nothing more is sent
+            wait_for(lambda: time.monotonic() > back, timeout=5, what='the link back')
+            at_return = poses.latest()
+            driver.say('sync')
+            driver.expect('synced')       # the backlog has arrived and been handled before this
+            synced = time.monotonic()
+            # a replayed command would drive the turtle for its 1 s command timeout from its arrival
+            wait_for(lambda: poses.samples[-1][0] > synced + 1.2, what='poses past a replayed command')
+            end = poses.latest()
+        finally:
+            driver.close()
+            poses.close()
+            commands.close()
+        log = gw.log_text()
+    print(f'\n{kind}: after the link returned the turtle moved {moved(end, at_return) * 1000:.1f} mm')
     assert moved(end, at_return) < 0.005, log[-2000:]
 
 

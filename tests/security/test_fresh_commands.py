@@ -3,11 +3,13 @@ made before a stop, or that waited too long on the way, never move the robot."""
 
 from __future__ import annotations
 
+import json
 import time
 
 import pytest
 
 from gateway.rules.freshness import DRIFT, ClientClock
+from tests.support.rawsocket import ServerFrames, client_frame, raw_websocket
 from tests.support.wsclient import TWIST, Client, is_zero_twist, twist
 
 TOPIC = '/fresh/cmd_vel'
@@ -95,11 +97,47 @@ def test_stamped_backlog_after_a_dead_man_stop_does_not_move(quick):
     assert [m['linear']['x'] for m in fresh] == [0.3]   # motion resumes with a command made after the stop
 
 
-def test_plain_clients_backlog_passes_as_before(quick):
-    """A client that stamps nothing keeps rosbridge's behaviour (no flag)."""
-    after_stop, fresh = drive_then_stall(quick, '/plain/cmd_vel', stamped=False)
-    assert len([m for m in after_stop if not is_zero_twist(m)]) >= 5
-    assert [m['linear']['x'] for m in fresh] == [0.3]
+PING, PONG, TEXT = 0x9, 0xA, 0x1
+
+
+def test_a_plain_clients_backlog_waits_for_its_pong(quick):
+    """A client that stamps nothing (roslibpy, roslibjs's Topic.publish): after the dead-man's
+    stop the gateway pings it, and drops its moving commands until the pong; TCP's order puts the
+    backlog of a stalled link before the pong. An older pong does not count; after the right one,
+    a command moves the robot again."""
+    topic = '/plain/cmd_vel'
+    with Client(quick.ws_url) as watcher:
+        watcher.subscribe(topic, TWIST)
+        sock, rest = raw_websocket(quick.host, quick.port)
+        frames = ServerFrames(sock, rest)
+
+        def send(op: dict, opcode: int = TEXT) -> None:
+            sock.sendall(client_frame(opcode, json.dumps(op).encode()))
+
+        def barrier(id: str) -> None:     # every op sent before has been handled
+            send({'op': 'call_service', 'service': '/rosapi/get_time', 'id': id})
+            frames.until(TEXT, lambda p: json.loads(p).get('id') == id)
+
+        try:
+            send({'op': 'advertise', 'topic': topic, 'type': TWIST})
+            for _ in range(4):
+                send(command(topic, 0.5, None))
+            watcher.expect(lambda m: m.get('topic') == topic and not is_zero_twist(m['msg']))
+            # silence: the dead-man zeroes the stream, and pings the client (which reads nothing yet)
+            watcher.expect(lambda m: m.get('topic') == topic and is_zero_twist(m['msg']), timeout=3)
+            token = frames.until(PING, lambda p: p.startswith(b'rosgate-stop-'))
+            watcher.seen = []
+            for _ in range(5):       # the backlog: sent before the client read the ping
+                send(command(topic, 0.5, None))
+            sock.sendall(client_frame(PONG, b''))      # a keep-alive's pong: not the one
+            barrier('b1')
+            assert [m for m in received(watcher, topic) if not is_zero_twist(m)] == []
+            sock.sendall(client_frame(PONG, token))    # it read the ping: what it sends now is fresh
+            send(command(topic, 0.3, None))
+            barrier('b2')
+            assert [m['linear']['x'] for m in received(watcher, topic)] == [0.3]
+        finally:
+            sock.close()
 
 
 def test_a_command_that_waited_too_long_is_dropped_with_a_warning(quick):

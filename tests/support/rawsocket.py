@@ -43,3 +43,36 @@ def client_frame(opcode: int, payload: bytes) -> bytes:
         header = struct.pack('!BBQ', 0x80 | opcode, 0x80 | 127, size)
     mask = os.urandom(4)
     return header + mask + bytes(b ^ mask[i % 4] for i, b in enumerate(payload))
+
+
+class ServerFrames:
+    """The frames a server sends on a raw websocket (unmasked, RFC 6455 5.2), read by hand: a
+    client that answers a ping only when the test says so (a stalled link reads nothing)."""
+
+    def __init__(self, sock: socket.socket, rest: bytes = b''):
+        self.sock, self.buffer = sock, rest
+
+    def _take(self, n: int) -> bytes:
+        while len(self.buffer) < n:
+            chunk = self.sock.recv(65536)
+            assert chunk, 'the server closed the connection'
+            self.buffer += chunk
+        data, self.buffer = self.buffer[:n], self.buffer[n:]
+        return data
+
+    def next(self) -> tuple[int, bytes]:
+        """(opcode, payload) of the next frame (final frames only: the gateway does not fragment)."""
+        first, second = self._take(2)
+        size = second & 0x7F
+        if size == 126:
+            size = struct.unpack('!H', self._take(2))[0]
+        elif size == 127:
+            size = struct.unpack('!Q', self._take(8))[0]
+        return first & 0x0F, self._take(size)
+
+    def until(self, opcode: int, where=lambda payload: True) -> bytes:
+        """The payload of the next frame of ``opcode`` that ``where`` accepts (others passed over)."""
+        while True:
+            op, payload = self.next()
+            if op == opcode and where(payload):
+                return payload
