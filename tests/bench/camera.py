@@ -37,6 +37,8 @@ import threading
 import time
 from pathlib import Path
 
+from tests.support.rawsocket import server_frame
+
 REPO = Path(__file__).resolve().parents[2]
 LINE = re.compile(r'websocket ws://([^:/]+):(\d+)')
 BURST = 8192   # bytes a paced reader may take at once after being idle
@@ -164,14 +166,8 @@ def ws_client(port: int, rate: float | None, subscribe: dict) -> Paced:
 def ws_stamps(c: Paced):
     """Header stamps of the publish ops the client reads (seconds)."""
     while True:
-        b0, b1 = c.take(2)
-        n = b1 & 0x7F
-        if n == 126:
-            n = struct.unpack('!H', c.take(2))[0]
-        elif n == 127:
-            n = struct.unpack('!Q', c.take(8))[0]
-        data = c.take(n)
-        if b0 & 0x0F not in (1, 2):
+        opcode, data = server_frame(c.take)
+        if opcode not in (1, 2):
             continue
         op = json.loads(data)
         if op.get('op') == 'publish':

@@ -45,6 +45,18 @@ def client_frame(opcode: int, payload: bytes) -> bytes:
     return header + mask + bytes(b ^ mask[i % 4] for i, b in enumerate(payload))
 
 
+def server_frame(take) -> tuple[int, bytes]:
+    """(opcode, payload) of the next frame a server sends (unmasked, RFC 6455 5.2; final frames
+    only: the gateway does not fragment), its bytes read with ``take(n)``."""
+    first, second = take(2)
+    size = second & 0x7F
+    if size == 126:
+        size = struct.unpack('!H', take(2))[0]
+    elif size == 127:
+        size = struct.unpack('!Q', take(8))[0]
+    return first & 0x0F, take(size)
+
+
 class ServerFrames:
     """The frames a server sends on a raw websocket (unmasked, RFC 6455 5.2), read by hand: a
     client that answers a ping only when the test says so (a stalled link reads nothing)."""
@@ -61,14 +73,8 @@ class ServerFrames:
         return data
 
     def next(self) -> tuple[int, bytes]:
-        """(opcode, payload) of the next frame (final frames only: the gateway does not fragment)."""
-        first, second = self._take(2)
-        size = second & 0x7F
-        if size == 126:
-            size = struct.unpack('!H', self._take(2))[0]
-        elif size == 127:
-            size = struct.unpack('!Q', self._take(8))[0]
-        return first & 0x0F, self._take(size)
+        """(opcode, payload) of the next frame."""
+        return server_frame(self._take)
 
     def until(self, opcode: int, where=lambda payload: True) -> bytes:
         """The payload of the next frame of ``opcode`` that ``where`` accepts (others passed over)."""
