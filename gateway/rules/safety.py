@@ -272,9 +272,9 @@ class Safety(Hook):
 
     def _fence(self, session) -> None:
         """After a stop of its stream: the connection's unstamped moving commands wait for its
-        pong (``freshness.Fence``); a stamped client's keep the finer rule of their stamps."""
-        fence, clock = getattr(session, 'fence', None), getattr(session, 'clock', None)
-        if fence is not None and (clock is None or clock.base is None):
+        pong (``freshness.Fence``); stamped ones keep the finer rule of their stamps."""
+        fence = getattr(session, 'fence', None)
+        if fence is not None:
             fence.raise_()
 
     # --- gateway hooks ------------------------------------------------------------------------
