@@ -30,7 +30,7 @@ from ..runs import Run, RunManager
 from ..runs.archive import Archive
 from .api import JsonHandler, body_json, caller
 from .programs import space_owner, stored_program
-from .recordings import RecordingManager
+from .recordings import RecordingManager, send_file
 
 MAX_SOURCE = 1024 * 1024
 NAMESPACE = re.compile(r'(/[A-Za-z_][A-Za-z0-9_]{0,63}){0,8}')   # ROS names, ASCII, a few levels
@@ -241,14 +241,7 @@ class RunFileHandler(_Handler):
             raise tornado.web.HTTPError(409, f'run {row["id"]} is still going; its recording is there once it ends')
         if not path.is_file():
             raise tornado.web.HTTPError(404, f'the recording of run {row["id"]} was deleted')
-        self.set_header('Content-Type', 'application/octet-stream')
-        self.set_header('Content-Disposition', f'attachment; filename="{base}.mcap"')
-        self.set_header('Content-Length', str(path.stat().st_size))
-        with open(path, 'rb') as f:
-            while chunk := f.read(256 * 1024):
-                self.write(chunk)
-                await self.flush()
-        self.finish()
+        await send_file(self, path, f'{base}.mcap')
 
 
 def run_routes(manager: RunManager, recordings: RecordingManager) -> list:
