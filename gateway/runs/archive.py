@@ -10,7 +10,7 @@ kept but a line saying where the output was cut; the row keeps how much came in 
 
 Retention (``--runs-keep-days``, ``--runs-keep-count`` a person, ``--runs-keep-bytes`` in all)
 deletes the oldest ended runs, their output and their recording, at the gateway's start, at each
-run's start and hourly. A run is refused (507) when it could not fit: the runs going now, each
+run's start and hourly (a run its gateway never ended, having died, is ``interrupted`` then). A run is refused (507) when it could not fit: the runs going now, each
 counted at its cap, would pass ``--runs-keep-bytes``, or the disk has less than a run's cap and
 ``DISK_RESERVE`` free. Only this module writes these tables.
 
@@ -34,6 +34,7 @@ log = logging.getLogger('rosgate.runs')
 FLUSH = 0.5                   # s between batches of output to the store
 DISK_RESERVE = 256 * 2**20    # free space left on the store's disk besides a run's cap
 PRUNE_EVERY = 3600.0          # s between retention passes besides those at a run's start
+LOST_AFTER = 2 * 3600.0       # s: a run not ended this long after its start ended with a gateway that died
 NOTE_ROOM = 128               # bytes of the cap left for the line that says where the output was cut
 
 RUNS = sa.Table(
@@ -204,6 +205,9 @@ class Archive:
         runs going may take)."""
         now = time.time() if now is None else now
         budget = self.keep_bytes if budget is None else budget
+        # no run lasts LOST_AFTER (--max-timeout is at most an hour): one that never ended went with its gateway
+        conn.execute(RUNS.update().where(RUNS.c.ended.is_(None), RUNS.c.started < now - LOST_AFTER).values(
+            state='interrupted', ended=RUNS.c.started, reason='the gateway stopped before the run ended'))
         size = (sa.func.length(RUNS.c.source) + RUNS.c.output_bytes + RUNS.c.recording_bytes).label('size')
         rows = conn.execute(sa.select(RUNS.c.id, RUNS.c.owner, RUNS.c.started, size)
                             .where(RUNS.c.ended.is_not(None)).order_by(RUNS.c.started.desc())).all()

@@ -5,6 +5,7 @@ the retention flags. Real gateway processes, real runs, the MCAP read back with 
 from __future__ import annotations
 
 import tempfile
+import time
 
 import pytest
 
@@ -145,3 +146,30 @@ def test_bad_bodies_are_refused(start_gateway):
     status, body = api(gw, 'DELETE', '/api/runs')
     assert status == 400 and 'person' in body['error'], body
     assert http(gw, '/api/runs/r00000000/output').status == 404
+
+
+def test_retention_by_size_keeps_the_newest_that_fit_and_ends_runs_a_dead_gateway_left(tmp_path):
+    """The archive on a real SQLite store, in this process: rows as the supervisor leaves them."""
+    import sqlalchemy as sa
+
+    from gateway.runs.archive import OUTPUT, RUNS, Archive
+    from gateway.store import Store
+
+    store = Store(f'sqlite:///{tmp_path}/rosgate.db')
+    now = time.time()
+
+    def row(i: int, started: float, output: int, ended: bool = True) -> dict:
+        return dict(id=f'r{i:08x}', name=f'run {i}', kind='python', owner='ada', who='ada', ns='', started=started,
+                    ended=started + 1 if ended else None, state='finished' if ended else 'running', source='x' * 100,
+                    output_bytes=output, output_seen=output, cut=False, recording_bytes=0)
+    rows = [row(i, now - 1000 + i, 10_000) for i in range(10)] + [row(99, now - 3 * 3600, 0, ended=False)]
+    store.run_now(lambda c: (c.execute(RUNS.insert(), rows),
+                             c.execute(OUTPUT.insert(), [{'run': r['id'], 'seq': 0, 'text': 'out\n'} for r in rows])))
+    Archive(store, cap=2**20, keep_days=1, keep_count=100, keep_bytes=35_000)   # prunes as it opens
+    left = store.run_now(lambda c: {r.id: r.state for r in c.execute(sa.select(RUNS.c.id, RUNS.c.state))})
+    # 10,100 bytes a run: the newest three fit in 35,000 (with the interrupted one, 100 bytes)
+    assert left == {'r00000009': 'finished', 'r00000008': 'finished', 'r00000007': 'finished',
+                    'r00000063': 'interrupted'}, left
+    outputs = store.run_now(lambda c: set(c.execute(sa.select(OUTPUT.c.run)).scalars()))
+    assert outputs == set(left)
+    store.close()
