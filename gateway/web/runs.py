@@ -154,7 +154,7 @@ class RunListHandler(_Handler):
         taken, no room) stops the run at once: a run asked to be recorded is not run unrecorded."""
         recordings = self.recordings
         try:
-            rec = recordings.start((f'{run.ns}/*' if run.ns else '/*',), run.timeout + RECORD_SLACK, owner)
+            rec = recordings.start(self._station_globs(run.ns), run.timeout + RECORD_SLACK, owner)
         except tornado.web.HTTPError as e:
             self.manager.stop(run, 'stopped')
             raise tornado.web.HTTPError(e.status_code, f'run {run.id} stopped: its recording was refused: '
@@ -164,6 +164,14 @@ class RunListHandler(_Handler):
             recordings.stop(rec, f'run {run.id} ended')
             return str(rec.file), rec.bytes
         run.recorder = finish
+
+    def _station_globs(self, ns: str) -> tuple[str, ...]:
+        """NS/*; in the root, the graph's names but the gateway's own (/rosgate/...: other runs'
+        output and state are not the starter's to record): /turtle1/* for /turtle1/pose, and so on."""
+        if ns:
+            return (f'{ns}/*',)
+        names = [t for t, _ in self.manager.gateway.backend.topics() if not t.startswith('/rosgate/')]
+        return tuple(sorted({t if t.count('/') == 1 else f"/{t.split('/')[1]}/*" for t in names}))
 
     def _library(self, name: str, identity, owner) -> str:
         """The Python stored with a library program, from the space the library would open for
@@ -234,11 +242,12 @@ class RunFileHandler(_Handler):
         self.finish(text.encode())
 
     async def _recording(self, row: dict, base: str) -> None:
+        run = self.manager.runs.get(row['id'])
+        if row['ended'] is None and run is not None and run.recorder is not None:
+            raise tornado.web.HTTPError(409, f'run {row["id"]} is still going; its recording is there once it ends')
         path = Path(row['recording']) if row['recording'] else None
         if path is None:
             raise tornado.web.HTTPError(404, f'run {row["id"]} was not recorded (start it with "record": true)')
-        if row['ended'] is None:
-            raise tornado.web.HTTPError(409, f'run {row["id"]} is still going; its recording is there once it ends')
         if not path.is_file():
             raise tornado.web.HTTPError(404, f'the recording of run {row["id"]} was deleted')
         await send_file(self, path, f'{base}.mcap')

@@ -173,3 +173,22 @@ def test_retention_by_size_keeps_the_newest_that_fit_and_ends_runs_a_dead_gatewa
     outputs = store.run_now(lambda c: set(c.execute(sa.select(OUTPUT.c.run)).scalars()))
     assert outputs == set(left)
     store.close()
+
+
+def test_a_run_in_the_root_records_the_graph_but_not_the_gateways_own_topics(start_gateway, tmp_path):
+    gw = start_gateway('--robot', 'turtlesim', '--allow-runs')
+    run_id = start_run(gw, {'source': program('rt.log("recorded")\nrt.sleep(1.0)'), 'record': True})
+    status, body = api(gw, 'GET', f'/api/runs/{run_id}/recording.mcap')
+    assert status in (404, 409), body            # not before it ends
+    assert ended(gw, run_id)['state'] == 'finished'
+    mcap = http(gw, f'/api/runs/{run_id}/recording.mcap')
+    assert mcap.status == 200 and mcap.headers['Content-Disposition'].endswith(f'-{run_id}.mcap"')
+    (tmp_path / 'root.mcap').write_bytes(mcap.body)
+    from rosbags.highlevel import AnyReader
+    with AnyReader([tmp_path / 'root.mcap']) as reader:
+        topics = {c.topic for c in reader.connections}
+        counts = {t: 0 for t in topics}
+        for c, _, _ in reader.messages():
+            counts[c.topic] += 1
+    assert counts.get('/turtle1/pose', 0) > 10, counts
+    assert not any(t.startswith('/rosgate/') for t in topics), topics   # no run's output, not even its own
