@@ -47,8 +47,18 @@ rt.drive("/s01/turtle1/cmd_vel", "{TWIST}", {{"linear": {{"x": 1.0}}}}, 1.0)
     status, body = api(gw, 'GET', f'/api/runs/{run_id}', token=BOB)
     assert status == 403 and 'alice' in body['error'], body
 
+    # bob's run is still going when the gateway stops: it is stopped, and kept as such
+    going = start_run(gw, {'source': program('print("before the restart")\n'
+                                             'rt.wait_for_message("/archive_test/go", "std_msgs/msg/String")'),
+                           'ns': '/s02'}, BOB)
+    wait_for(lambda: 'before the restart' in api(gw, 'GET', f'/api/runs/{going}', token=BOB)[1]['output'], 60, 0.1)
+
     gw.stop()
     gw = start_gateway(*flags, env=env)       # the same store, a new process
+
+    bobs = kept(gw, BOB)
+    assert [(r['id'], r['state'], r['owner']) for r in bobs] == [(going, 'stopped', 'bob')], bobs
+    assert http(gw, f'/api/runs/{going}/output', token=BOB).body.decode().startswith('before the restart\n')
 
     mine = [r for r in kept(gw, ALICE) if r['id'] == run_id]
     assert len(mine) == 1, kept(gw, ALICE)
@@ -80,7 +90,6 @@ rt.drive("/s01/turtle1/cmd_vel", "{TWIST}", {{"linear": {{"x": 1.0}}}}, 1.0)
     assert len(poses) > 10 and poses[-1].x > poses[0].x + 0.5     # the run drove it, and it was recorded
 
     # another person: not listed, every read refused; an admin sees and reads it
-    assert run_id not in {r['id'] for r in kept(gw, BOB)}
     for path in ('', '/output', '/source', '/recording.mcap'):
         reply = http(gw, f'/api/runs/{run_id}{path}', token=BOB)
         assert reply.status == 403, (path, reply)
