@@ -99,6 +99,16 @@ def build_parser() -> argparse.ArgumentParser:
                    help='runs going at once [%(default)s]')
     r.add_argument('--max-runs-per-person', dest='runs.max_runs_per_person', type=_at_least_one, metavar='N',
                    help='runs going at once for one signed-in person, admins excepted (with --auth) [%(default)s]')
+    r.add_argument('--run-output-cap', dest='runs.run_output_cap', type=_size, metavar='BYTES',
+                   help='output of a run kept in the store (1M, 512K ...); past it a line says where it was cut '
+                        '[%(default)s]')
+    r.add_argument('--runs-keep-days', dest='runs.runs_keep_days', type=float, metavar='DAYS',
+                   help='kept runs (source, output, recording) older than this are deleted [%(default)s]')
+    r.add_argument('--runs-keep-count', dest='runs.runs_keep_count', type=_at_least_one, metavar='N',
+                   help='each person\'s newest N runs are kept, older ones deleted [%(default)s]')
+    r.add_argument('--runs-keep-bytes', dest='runs.runs_keep_bytes', type=_size, metavar='BYTES',
+                   help='the kept runs in all (2G, 500M ...): the oldest go past it, and a run that could not '
+                        'fit is refused (507) [%(default)s]')
     r.add_argument('--recordings-dir', dest='storage.recordings_dir', type=Path, metavar='DIR',
                    help='where recordings made from the pages and /api/recordings go '
                         '[--record\'s DIR, else $XDG_DATA_HOME/rosgate/recordings]')
@@ -139,6 +149,19 @@ def _at_least_one(text: str) -> int:
     value = int(text)
     if value < 1:
         raise argparse.ArgumentTypeError(f'at least 1, not {value}')
+    return value
+
+
+def _size(text: str) -> int:
+    """Bytes, with K, M or G (powers of 1024) after the number if wished."""
+    units = {'K': 2**10, 'M': 2**20, 'G': 2**30}
+    text = text.strip().upper().removesuffix('B').removesuffix('I')
+    try:
+        value = int(float(text[:-1]) * units[text[-1]]) if text[-1:] in units else int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f'a number of bytes like 1048576, 512K, 1M or 2G, not {text!r}') from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f'at least 1 byte, not {value}')
     return value
 
 

@@ -124,6 +124,10 @@ class RunSettings:
     runs_dir: Path | None = None               # runs' working directories (None: the XDG data dir)
     max_runs: int = 4                          # runs going at once
     max_runs_per_person: int = 2               # of those, one signed-in non-admin's
+    run_output_cap: int = 2**20                # bytes of a run's output kept in the store
+    runs_keep_days: float = 180.0              # kept runs older than this are deleted
+    runs_keep_count: int = 500                 # each person's newest kept runs
+    runs_keep_bytes: int = 2 * 2**30           # the kept runs' output, sources and recordings in all
 
 
 @dataclass(frozen=True)

@@ -56,13 +56,16 @@ class Run:
         self.memory_error = False
         self.role: str | None = None         # the starter's role, given to the run's connection
         self.person: str | None = None       # who started it: the run drives for them (rules.stations)
-        self.owner: str | None = None        # the starter's name (None: auth is off)
+        self.owner: str | None = None        # the starter's key (None: auth is off)
+        self.who: str | None = None          # the starter's name, as pages show it
+        self.recorder = None                 # () -> (MCAP path, bytes): finishes the run's recording
         self.cgroup: RunCgroup | None = None
 
     def summary(self) -> dict:
         return {'id': self.id, 'name': self.name, 'ns': self.ns, 'state': self.state,
                 'exit_code': self.exit_code, 'reason': self.reason, 'started': self.started,
-                'ended': self.ended, 'timeout': self.timeout}
+                'ended': self.ended, 'timeout': self.timeout, 'owner': self.who,
+                'recorded': self.recorder is not None}
 
     def detail(self) -> dict:
         return {**self.summary(), 'output': ''.join(self.tail)}

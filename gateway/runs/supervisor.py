@@ -47,6 +47,7 @@ from ..rules.hooks import Hook
 from ..rules.safety import Safety, moving_command
 from ..settings import Refused, RunSettings, data_dir
 from . import launcher
+from .archive import Archive
 from .cgroups import Cgroups, RunCgroup, limits_in_force
 from .process import Run, RunLimits, RunOutput
 from .sandbox import HOME, SOCKET, Sandbox, SandboxUnavailable, exit_code, kill_box, run_user
@@ -67,8 +68,9 @@ class RunError(Refusal):
 class RunManager(Hook):
     def __init__(self, gateway, *, allowed: bool, runs_dir: Path | None, limits: RunLimits = RunLimits(),
                  box: Sandbox | None = None, cgroups: Cgroups | None = None, max_runs: int = RunSettings.max_runs,
-                 max_per_person: int = RunSettings.max_runs_per_person):
+                 max_per_person: int = RunSettings.max_runs_per_person, archive: Archive | None = None):
         self.gateway, self.allowed, self.limits = gateway, allowed, limits
+        self.archive = archive
         self.runs_dir = runs_dir
         self.box, self.cgroups = box, cgroups
         self.max_runs, self.max_per_person = max_runs, max_per_person
@@ -87,11 +89,13 @@ class RunManager(Hook):
     # --- starting -----------------------------------------------------------------------------
 
     def start(self, source: str, name: str, ns: str, timeout: float, role: str | None, port: tuple[str, int, bool],
-              person: str | None = None):
+              person: str | None = None, *, owner: str | None = None, who: str | None = None,
+              kind: str = 'python', record_bytes: int = 0):
         """A new Run, its process being started; raises RunError 404 for a namespace the graph does
         not have, 409 when the namespace is busy or its lease is not the starter's, 429 past the
-        limits on runs going at once. person: who starts it (rules.stations.person_of), for whom
-        the run drives."""
+        limits on runs going at once, 507 when the archive could not keep it. person: who starts it
+        (rules.stations.person_of), for whom the run drives; owner and who: the starter's key and
+        name (None: auth off); kind: what the source is; record_bytes: what its recording may take."""
         self._known(ns)
         going = [r for r in self.runs.values() if r.state in ('starting', 'running')]
         busy = next((r for r in going if r.ns == ns), None)
@@ -106,6 +110,8 @@ class RunManager(Hook):
         if role not in ADMINS and len(mine) >= self.max_per_person:
             raise RunError(429, f'{person} has {len(mine)} runs going ({", ".join(r.id for r in mine)}), '
                                              'the most one person may (--max-runs-per-person); stop one first')
+        if self.archive is not None:
+            self.archive.room(record_bytes)
         run_id = 'r' + secrets.token_hex(4)
         person = person or f'run {run_id}'
         self._lease_free_for(person, role, ns)
@@ -116,12 +122,14 @@ class RunManager(Hook):
         except OSError as e:
             raise RunError(500, f'cannot prepare the run directory: {e}') from None
         run = Run(run_id, name, ns, timeout, workdir)
-        run.role, run.person = role, person
+        run.role, run.person, run.owner, run.who = role, person, owner, who
         latched = QoS(depth=1, transient_local=True)
         gateway = self.gateway
         run.state_pub = gateway.own_topic(f'/rosgate/runs/{run_id}/state', STRING, latched)
         run.output_pub = gateway.own_topic(f'/rosgate/runs/{run_id}/output', STRING, QoS(depth=100))
         self.runs[run_id] = run
+        if self.archive is not None:
+            self.archive.begin(run, source, kind)
         self._forget_old()
         self._announce(run)
         task = asyncio.ensure_future(self._supervise(run, port))
@@ -213,6 +221,8 @@ class RunManager(Hook):
         if 'MemoryError' in line and not ours:
             run.memory_error = True
         run.keep(line)
+        if self.archive is not None:
+            self.archive.line(run.id, line)
         run.output_pub.publish({'data': line.rstrip('\n')})
 
     def _limit_reached(self, run: Run) -> None:
@@ -263,11 +273,24 @@ class RunManager(Hook):
             reason = reason or self._why(run, code)
         run.reason = reason
         self._line(run, f'[run {run.state}{f": {reason}" if reason else ""}]\n', ours=True)
+        if self.archive is not None:
+            self.archive.end(run, self._recorded(run))
         self._announce(run)
         run.done.set_result(run.state)
         log.info('run %s (%s) %s%s', run.id, run.name, run.state, f': {reason}' if reason else '')
         if run.cgroup is not None:
             self._remove_cgroup(run.cgroup, time.monotonic() + CGROUP_GONE)
+
+    @staticmethod
+    def _recorded(run: Run) -> tuple[str, int] | None:
+        """The run's recording finished now: (its file, its bytes), or None (not recorded, or it failed)."""
+        if run.recorder is None:
+            return None
+        try:
+            return run.recorder()
+        except Exception:
+            log.exception('run %s: its recording could not be finished', run.id)
+            return None
 
     def _remove_cgroup(self, cgroup: RunCgroup, until: float) -> None:
         """A cgroup goes once the kernel has emptied it (its last processes may take a moment)."""
@@ -379,6 +402,8 @@ class RunManager(Hook):
             await self.server.close_all_connections()
         if self.home is not None:
             shutil.rmtree(self.home, ignore_errors=True)
+        if self.archive is not None:
+            self.archive.close()
         left = [r.cgroup for r in self.runs.values() if r.cgroup is not None]
         deadline = time.monotonic() + 1.0
         while left and time.monotonic() < deadline:     # each goes once the kernel has emptied it
@@ -426,8 +451,10 @@ def start_runs(gateway) -> tuple[RunManager, socket.socket | None]:
         log.info('runs: in a bwrap sandbox; %s', limits_in_force(
             cgroups, how, memory_mb=lim.memory_mb, processes=lim.processes, cpus=lim.cpus,
             cpu_seconds=lim.cpu_seconds, open_files=lim.open_files))
+    archive = Archive(gateway.store, cap=flags.run_output_cap, keep_days=flags.runs_keep_days,
+                      keep_count=flags.runs_keep_count, keep_bytes=flags.runs_keep_bytes)
     manager = RunManager(gateway, allowed=flags.allow_runs, runs_dir=runs_dir, box=box, cgroups=cgroups,
-                         max_runs=flags.max_runs, max_per_person=flags.max_runs_per_person)
+                         max_runs=flags.max_runs, max_per_person=flags.max_runs_per_person, archive=archive)
     manager.home = home          # removed at shutdown
     return manager, sock
 

@@ -101,7 +101,7 @@ def make_app(gateway: Gateway, parts) -> tornado.web.Application:
         routes += lti_routes(parts.lti, policy, settings.examples_dir, texts)
     if settings.storage.programs_dir is not None:
         routes += program_routes(settings.storage.programs_dir, policy)
-    routes += run_routes(parts.runs) + recording_routes(parts.recordings)
+    routes += run_routes(parts.runs, parts.recordings) + recording_routes(parts.recordings)
     routes += booking_routes(gateway) + video_routes(gateway) + history_routes(parts.history)
     routes += package_routes(gateway)
     routes.append((r'/(.*)', PublicFileHandler, {'path': str(settings.ide_dir), 'default_filename': 'index.html'}))

@@ -2,25 +2,40 @@
 
 POST   /api/runs       {"source": "<python>", "name", "ns", "timeout"} or {"program": "<library name>", "owner", ...}
                        -> 201 {"id"}; 409 naming the run already going in that namespace
-GET    /api/runs       -> {"allowed": bool, "runs": [summary, ...]}
+                       "kind": what the source is ("python" by default); "record": true records the
+                       station's topics (NS/*, or every topic in the root) for the run's length
+GET    /api/runs       -> {"allowed": bool, "runs": [summary, ...]} (the runs of this gateway's life)
+GET    /api/runs?all=1 -> {"allowed", "runs": [kept run, ...]}: every kept run the caller may see, newest
+                       first (an admin's: everyone's; ``person=NAME`` narrows it)
 GET    /api/runs/ID    -> {"id", "name", "ns", "state", "exit_code", "reason", "started", "ended", "output"}
+GET    /api/runs/ID/output, /source, /recording.mcap -> the kept output (text), source, recording
 DELETE /api/runs/ID    -> stops it: zero on every velocity topic it drove, SIGINT, SIGKILL after 2 s
+DELETE /api/runs?person=NAME -> an admin deletes every kept run of a person (their key or name)
+
+A kept run (``runs.archive``) and its recording are its starter's and the admins', never anyone
+else's (403), before a restart and after it.
 """
 
 from __future__ import annotations
 
 import re
+import time
+from pathlib import Path
 
 import tornado.web
 
-from ..rules.access import OPERATORS, owns
+from ..rules.access import ADMINS, OPERATORS, acts_as_admin, owns
 from ..rules.stations import person_of
 from ..runs import Run, RunManager
+from ..runs.archive import Archive
 from .api import JsonHandler, body_json, caller
 from .programs import space_owner, stored_program
+from .recordings import RecordingManager, send_file
 
 MAX_SOURCE = 1024 * 1024
 NAMESPACE = re.compile(r'(/[A-Za-z_][A-Za-z0-9_]{0,63}){0,8}')   # ROS names, ASCII, a few levels
+KIND = re.compile(r'[a-z][a-z0-9_]{0,31}')
+RECORD_SLACK = 5.0          # s a run's recording may outlast its timeout (it stops when the run ends)
 
 
 def _local_address(handler) -> tuple[str, int, bool]:
@@ -32,19 +47,66 @@ def _local_address(handler) -> tuple[str, int, bool]:
     return host, port, handler.request.protocol == 'https'
 
 
-def may_see(identity, run: Run) -> bool:
-    """A run's state and output are its starter's and the admins' (everyone's with auth off)."""
-    return owns(identity, identity is not None and run.owner == identity.owner)
+def may_see(identity, run: Run | dict) -> bool:
+    """A run's state, output and recording are its starter's and the admins' (everyone's with auth off)."""
+    owner = run['owner'] if isinstance(run, dict) else run.owner
+    return owns(identity, identity is not None and owner == identity.owner)
 
 
-class RunListHandler(JsonHandler):
-    def initialize(self, manager: RunManager) -> None:
-        self.manager = manager
+def refuse(identity, run_id: str, who: str | None, what: str = 'its state and output are') -> None:
+    raise tornado.web.HTTPError(403, f'run {run_id} was started by {who or "someone else"}; {what} '
+                                     f'for them and admins, not {identity.name}')
 
-    def get(self) -> None:
+
+def kept(row: dict) -> dict:
+    """A kept run as GET /api/runs?all=1 lists it."""
+    out = {k: row[k] for k in ('id', 'name', 'kind', 'ns', 'state', 'exit_code', 'reason', 'started', 'ended',
+                               'output_bytes', 'output_seen', 'cut', 'recording_bytes')}
+    return {**out, 'owner': row['who'], 'recorded': bool(row['recording'])}
+
+
+class _Handler(JsonHandler):
+    def initialize(self, manager: RunManager, recordings: RecordingManager | None = None) -> None:
+        self.manager, self.recordings = manager, recordings
+
+    @property
+    def archive(self) -> Archive:
+        if self.manager.archive is None:
+            raise tornado.web.HTTPError(404, 'runs are not kept on this gateway')
+        return self.manager.archive
+
+    async def row(self, run_id: str, identity, what: str) -> dict:
+        """A kept run the caller may see (404, 403 else)."""
+        row = await self.archive.store.run(lambda c: Archive.row(c, run_id))
+        if row is None:
+            raise tornado.web.HTTPError(404, f'no run {run_id!r}')
+        if not may_see(identity, row):
+            refuse(identity, run_id, row['who'], what)
+        return row
+
+
+class RunListHandler(_Handler):
+    async def get(self) -> None:
         identity = caller(self, self.manager.gateway)
-        runs = [r.summary() for r in self.manager.runs.values() if may_see(identity, r)]
+        if self.get_argument('all', '') not in ('', '0'):
+            everyone = acts_as_admin(identity)
+            owner = identity.owner if identity is not None else None
+            rows = await self.archive.store.run(lambda c: Archive.rows(c, owner, everyone))
+            person = self.get_argument('person', None)
+            runs = [kept(r) for r in rows if person is None or person in (r['owner'], r['who'])]
+        else:
+            runs = [r.summary() for r in self.manager.runs.values() if may_see(identity, r)]
         self.finish({'allowed': self.manager.allowed, 'runs': runs})
+
+    async def delete(self) -> None:
+        """An admin deletes every kept run of a person (there is no other way a person leaves)."""
+        identity = caller(self, self.manager.gateway, change=True, roles=ADMINS)
+        person = self.get_argument('person', '')
+        if not person:
+            raise tornado.web.HTTPError(400, 'give ?person=NAME: whose kept runs to delete')
+        archive = self.archive
+        gone = await archive.store.run(lambda c: archive.delete_person(c, person))
+        self.finish({'deleted': gone, 'person': person, 'by': identity.name if identity is not None else None})
 
     def post(self) -> None:
         m = self.manager
@@ -70,12 +132,46 @@ class RunListHandler(JsonHandler):
         timeout = body.get('timeout', m.limits.timeout)
         if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not 0 < timeout <= m.limits.max_timeout:
             raise tornado.web.HTTPError(400, f'"timeout" is a number of seconds, 0 < timeout <= {m.limits.max_timeout:g}')
+        kind = body.get('kind', 'python')
+        if not isinstance(kind, str) or not KIND.fullmatch(kind):
+            raise tornado.web.HTTPError(400, '"kind" is a short lower-case word like "python"')
+        record = body.get('record', False)
+        if not isinstance(record, bool):
+            raise tornado.web.HTTPError(400, '"record" is true or false')
         role = identity.role if identity is not None else None
+        owner, who = (identity.owner, identity.name) if identity is not None else (None, None)
         run = m.start(source, name, ns, float(timeout), role, _local_address(self),
-                      person_of(identity, self.request.cookies))
-        run.owner = identity.owner if identity is not None else None
+                      person_of(identity, self.request.cookies), owner=owner, who=who, kind=kind,
+                      record_bytes=self.recordings.limits.max_bytes if record else 0)
+        if record:
+            self._record(run, owner)
         self.set_status(201)
         self.finish({'id': run.id, **run.summary()})
+
+    def _record(self, run: Run, owner: str | None) -> None:
+        """The station's topics recorded by the recorder of /api/recordings, under the starter's
+        name, until the run ends (``Run.recorder`` finishes it). A recording refused (all slots
+        taken, no room) stops the run at once: a run asked to be recorded is not run unrecorded."""
+        recordings = self.recordings
+        try:
+            rec = recordings.start(self._station_globs(run.ns), run.timeout + RECORD_SLACK, owner)
+        except tornado.web.HTTPError as e:
+            self.manager.stop(run, 'stopped')
+            raise tornado.web.HTTPError(e.status_code, f'run {run.id} stopped: its recording was refused: '
+                                                       f'{e.log_message}') from None
+
+        def finish() -> tuple[str, int]:
+            recordings.stop(rec, f'run {run.id} ended')
+            return str(rec.file), rec.bytes
+        run.recorder = finish
+
+    def _station_globs(self, ns: str) -> tuple[str, ...]:
+        """NS/*; in the root, the graph's names but the gateway's own (/rosgate/...: other runs'
+        output and state are not the starter's to record): /turtle1/* for /turtle1/pose, and so on."""
+        if ns:
+            return (f'{ns}/*',)
+        names = [t for t, _ in self.manager.gateway.backend.topics() if not t.startswith('/rosgate/')]
+        return tuple(sorted({t if t.count('/') == 1 else f"/{t.split('/')[1]}/*" for t in names}))
 
     def _library(self, name: str, identity, owner) -> str:
         """The Python stored with a library program, from the space the library would open for
@@ -96,36 +192,69 @@ class RunListHandler(JsonHandler):
         return source
 
 
-class RunHandler(JsonHandler):
-    def initialize(self, manager: RunManager) -> None:
-        self.manager = manager
-
+class RunHandler(_Handler):
     def _run(self, run_id: str) -> Run:
         run = self.manager.runs.get(run_id)
         if run is None:
             raise tornado.web.HTTPError(404, f'no run {run_id!r}')
         return run
 
-    def get(self, run_id: str) -> None:
+    async def get(self, run_id: str) -> None:
         identity = caller(self, self.manager.gateway)
-        run = self._run(run_id)
+        run = self.manager.runs.get(run_id)
+        if run is None:     # a run of before the last restart, or one no longer in memory
+            row = await self.row(run_id, identity, 'its state and output are')
+            self.finish(kept(row))
+            return
         if not may_see(identity, run):
-            raise tornado.web.HTTPError(403, f'run {run.id} was started by {run.owner or "someone else"}; its state '
-                                             f'and output are for them and admins, not {identity.name}')
+            refuse(identity, run.id, run.who)
         self.finish(run.detail())
 
     def delete(self, run_id: str) -> None:
         identity = caller(self, self.manager.gateway, change=True, roles=OPERATORS)
         run = self._run(run_id)
         if not may_see(identity, run):
-            raise tornado.web.HTTPError(403, f'run {run.id} was started by {run.owner or "someone else"}; '
-                                             f'{identity.name} may not stop it')
+            refuse(identity, run.id, run.who, 'stopping it is')
         self.manager.stop(run)
         self.set_status(202 if run.ended is None else 200)
         self.finish(run.summary())
 
 
-def run_routes(manager: RunManager) -> list:
-    kw = {'manager': manager}
-    return [(r'/api/runs/?', RunListHandler, kw), (r'/api/runs/(r[0-9a-f]{8})/?', RunHandler, kw),
-            (r'/api/runs/([^/]+)', RunHandler, kw)]
+class RunFileHandler(_Handler):
+    """A kept run's output, source or recording, as a file to download."""
+
+    async def get(self, run_id: str, what: str) -> None:
+        identity = caller(self, self.manager.gateway)
+        row = await self.row(run_id, identity, 'its source, output and recording are')
+        stamp = time.strftime('%Y%m%d-%H%M%S', time.localtime(row['started']))
+        base = f"{re.sub(r'[^A-Za-z0-9_.-]+', '_', row['name'])}-{stamp}-{run_id}"
+        if what == 'recording.mcap':
+            await self._recording(row, base)
+            return
+        archive = self.archive
+        if what == 'output':
+            text = await archive.store.run(lambda c: Archive.output(c, run_id)) + archive.pending(run_id)
+            kind, name = 'text/plain; charset=utf-8', f'{base}.txt'
+        else:
+            text, kind, name = row['source'], 'text/x-python; charset=utf-8', f'{base}.py'
+        self.set_header('Content-Type', kind)
+        self.set_header('Content-Disposition', f'attachment; filename="{name}"')
+        self.finish(text.encode())
+
+    async def _recording(self, row: dict, base: str) -> None:
+        run = self.manager.runs.get(row['id'])
+        if row['ended'] is None and run is not None and run.recorder is not None:
+            raise tornado.web.HTTPError(409, f'run {row["id"]} is still going; its recording is there once it ends')
+        path = Path(row['recording']) if row['recording'] else None
+        if path is None:
+            raise tornado.web.HTTPError(404, f'run {row["id"]} was not recorded (start it with "record": true)')
+        if not path.is_file():
+            raise tornado.web.HTTPError(404, f'the recording of run {row["id"]} was deleted')
+        await send_file(self, path, f'{base}.mcap')
+
+
+def run_routes(manager: RunManager, recordings: RecordingManager) -> list:
+    kw = {'manager': manager, 'recordings': recordings}
+    return [(r'/api/runs/?', RunListHandler, kw),
+            (r'/api/runs/(r[0-9a-f]{8})/(output|source|recording\.mcap)', RunFileHandler, kw),
+            (r'/api/runs/(r[0-9a-f]{8})/?', RunHandler, kw), (r'/api/runs/([^/]+)', RunHandler, kw)]

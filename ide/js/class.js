@@ -2,6 +2,8 @@
 // is and who drives it, whether its program runs, the last error — with Stop, Release and the
 // student's program (read-only). Owners come from the gateway's /rosgate/stations. Stations are the gateway's (the driver lease's list, else the fleet's, else the
 // namespaces of the graph), so a real multi-robot graph shows the same way as the sim's fleet.
+// Beside each student's tile, their newest kept runs (GET api/runs?all=1, an admin's: the class's)
+// with their program, output and recording to download.
 import { WorldView } from './worldview.js';
 import { DriverLease, DRIVER_TOPIC } from './driver.js';
 import { isVelocityType, zeroVelocity, withNamespace } from '../runtime/util.js';
@@ -10,13 +12,15 @@ import { STATIONS_TOPIC } from './robotns.js';
 import { Link } from './link.js';
 import { mountBooking } from './booking.js';
 import { t, tn } from './i18n.js';
+import { keptRuns, runItem } from './runhistory.js';
 
 const $ = (s) => document.querySelector(s);
-const REFRESH = 10000;   // ms between looks at the graph for new stations
+const REFRESH = 10000;   // ms between looks at the graph for new stations (and at the kept runs)
+const TILE_RUNS = 3;     // a student's newest kept runs shown on their tile
 // A tile's world at 2 Hz: the gateway merges the markers of each half second (newest of each wins,
 // no change lost), so ten tiles fit a home line (docs/teacher.md)
 const TILE_STREAM = { throttle_rate: 500, queue_length: 4 };
-const view = { ros: null, lease: new DriverLease(), tiles: new Map(), topics: [], types: [], services: [], owners: {}, seq: 0 };
+const view = { ros: null, lease: new DriverLease(), tiles: new Map(), topics: [], types: [], services: [], owners: {}, seq: 0, runs: [] };
 window.classView = view;
 
 function setStatus(s, text) { const el = $('#status'); el.dataset.state = s; el.textContent = text; document.body.dataset.connection = s; }
@@ -156,7 +160,24 @@ class Tile {
     err.hidden = !r?.error;
     this.el.toggleAttribute('data-error', Boolean(r?.error));
     this.el.querySelector('.open').disabled = !r?.program;
+    this.showRuns(owner);
   }
+
+  // the owner's newest kept runs (a free station: none)
+  showRuns(owner) {
+    const runs = owner ? view.runs.filter((run) => run.owner === owner).slice(0, TILE_RUNS) : [];
+    const list = this.el.querySelector('.runs');
+    list.replaceChildren(...runs.map(runItem));
+    list.hidden = !runs.length;
+    list.setAttribute('aria-label', t('class.runs'));
+    this.el.dataset.runs = String(runs.length);
+  }
+}
+
+// The kept runs this page's person may see (an admin: everyone's), newest first.
+async function refreshRuns() {
+  try { view.runs = await keptRuns(); } catch { return; }   // runs off, or not signed in: no list
+  for (const tile of view.tiles.values()) tile.showRuns(view.owners[tile.ns]?.name);
 }
 
 // Stop: the gateway zeroes the station's commands, frees it and tells its pages to stop their
@@ -201,6 +222,8 @@ function setup() {
     else if (view.lease.available) for (const ns of view.tiles.keys()) view.lease.command(`release ${ns}`);
   };
   setInterval(() => { if (view.ros?.isConnected) refresh(); }, REFRESH);
+  setInterval(refreshRuns, REFRESH);
+  refreshRuns();
 }
 
 setup();

@@ -2,9 +2,11 @@
 // (POST /api/runs), so it keeps going when this tab sleeps or the Wi-Fi drops. Its output
 // streams into the console from /rosgate/runs/ID/output; Stop ends it (DELETE /api/runs/ID).
 // The button only appears when the gateway allows runs (--allow-runs). Reopening the page
-// re-attaches to the runs in progress.
+// re-attaches to the runs in progress. "Record" beside it records the station's topics for the
+// run's length (an MCAP kept with the run); "Runs" lists every kept run (js/runhistory.js).
 import { Topic } from 'roslib';
 import { t } from './i18n.js';
+import { RunHistory } from './runhistory.js';
 
 const STRING = 'std_msgs/msg/String';
 const ACTIVE = new Set(['starting', 'running']);
@@ -29,6 +31,10 @@ export class RobotRuns extends EventTarget {
       title: t('robot.run.title'),
     });
     document.querySelector('#run')?.after(this.button);
+    this.record = Object.assign(document.createElement('label'), { id: 'run-record', hidden: true, title: t('robot.record.title') });
+    this.record.append(Object.assign(document.createElement('input'), { type: 'checkbox' }), ` ${t('robot.record')}`);
+    this.button.after(this.record);
+    this.history = new RunHistory(this.record);
     this.button.onclick = () => this.start();
     document.querySelector('#stop')?.addEventListener('click', () => this.stop());
     this._setState();
@@ -40,6 +46,8 @@ export class RobotRuns extends EventTarget {
     try { listing = await api(); } catch { return; }
     this.allowed = Boolean(listing.allowed);
     this.button.hidden = !this.allowed;
+    this.record.hidden = !this.allowed;
+    this.history.show(this.allowed);
     document.body.dataset.robotRuns = this.allowed ? 'allowed' : 'off';
     const active = listing.runs.filter((r) => ACTIVE.has(r.state));
     for (const run of active) this.ide.console.info(t(run.ns ? 'robot.running.in' : 'robot.running', { id: run.id, name: run.name, ns: run.ns }));
@@ -61,7 +69,10 @@ export class RobotRuns extends EventTarget {
     try {
       const run = await api('', {
         method: 'POST',
-        body: JSON.stringify({ source, name: this.ide.programName, ns: this.ide.ns || '', timeout: 600 }),
+        body: JSON.stringify({
+          source, name: this.ide.programName, ns: this.ide.ns || '', timeout: 600,
+          record: this.record.querySelector('input').checked,
+        }),
       });
       await this.attach(run, { replay: false });
     } catch (e) { this.ide.console.error(t('robot.run.failed', { why: e.message })); }

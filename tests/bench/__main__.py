@@ -12,6 +12,9 @@ if __name__ == "__main__":
     if sys.argv[1:2] == ["history"]:   # the history's cost and reads (tests/bench/history.py)
         from .history import main as history
         sys.exit(history(sys.argv[2:]))
+    if sys.argv[1:2] == ["runs"]:   # the run archive's write cost (tests/bench/run_archive.py)
+        from .run_archive import main as runs
+        sys.exit(runs(sys.argv[2:]))
     if sys.argv[1:2] == ["pyodide"]:   # Python in the IDE page (tests/bench/pyodide.py)
         from .pyodide import main as pyodide
         sys.exit(pyodide(sys.argv[2:]))

@@ -246,3 +246,21 @@ def test_history_bench_gives_its_figures(tmp_path):
     assert read["points"] == read["http_points"] == 86_400
     assert read["http_raw"]["p50_ms"] > 0 and read["http_step60"]["p50_ms"] > 0
     assert "history read: one field over a day" in res.stdout
+
+
+def test_run_archive_bench_keeps_every_line_and_gives_its_cost(tmp_path):
+    """`python -m tests.bench runs` in a short run: the output read back is what was printed, and
+    past a small cap it is cut where the archive says."""
+    out = tmp_path / "runs.json"
+    res = subprocess.run([sys.executable, "-m", "tests.bench", "runs", "--seconds", "2", "--runs", "3",
+                          "--out", str(out)], cwd=REPO, capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr[-2000:]
+    w = json.loads(out.read_text())
+    assert w["lines_per_run"] >= 1000 and w["kept_lines_first_run"] == w["lines_per_run"] and not w["cut"]
+    assert w["cpu_pct_of_core"] > 0 and w["db_bytes"] > 3 * 1000 * 30
+    assert "run archive write: 3 runs printing at 1000 Hz" in res.stdout
+    res = subprocess.run([sys.executable, "-m", "tests.bench", "runs", "--seconds", "1", "--runs", "2",
+                          "--cap", "4096", "--out", str(out)], cwd=REPO, capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr[-2000:]
+    w = json.loads(out.read_text())
+    assert w["cut"] and w["kept_lines_first_run"] < 4096 // 30 and "(cut at the cap)" in res.stdout
