@@ -21,7 +21,7 @@ const svg = (tag, attrs) => {
  * A half-circle gauge in el. Levels: 'ok', 'warn', 'danger' (el.dataset.level), by `warn` and
  * `danger` thresholds, rising (temperatures) or falling (`low: true`, a battery).
  */
-export function gauge(el, { label, unit, min, max, warn, danger, low = false, digits = 0 }) {
+export function gauge(el, { label, unit, min, max, warn, danger, low = false, digits = 0, auto = false }) {
   const path = 'M12 60 A48 48 0 0 1 108 60';
   const back = svg('path', { d: path, class: 'g-back' });
   const fill = svg('path', { d: path, class: 'g-fill', 'stroke-dasharray': `0 ${ARC}` });
@@ -35,12 +35,14 @@ export function gauge(el, { label, unit, min, max, warn, danger, low = false, di
   el.replaceChildren(box);
   el.dataset.level = '';
   return {
-    set(v) {
+    // level: the robot's own word over the thresholds (a battery's health, its charging)
+    set(v, level = null) {
       if (!Number.isFinite(v)) { text.textContent = '?'; el.dataset.level = ''; return; }
+      if (auto && Math.abs(v) > max) max = Math.abs(v) * 1.25;   // a scale with no limit given: the largest seen
       const f = Math.max(0, Math.min(1, (v - min) / (max - min)));
       fill.setAttribute('stroke-dasharray', `${f * ARC} ${ARC}`);
       text.textContent = `${num(v, digits)}${unit}`;
-      el.dataset.level = (low ? v <= danger : v >= danger) ? 'danger' : (low ? v <= warn : v >= warn) ? 'warn' : 'ok';
+      el.dataset.level = level ?? ((low ? v <= danger : v >= danger) ? 'danger' : (low ? v <= warn : v >= warn) ? 'warn' : 'ok');
       el.dataset.value = String(v);
       box.setAttribute('aria-label', `${label} ${text.textContent}`);
     },
