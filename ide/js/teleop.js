@@ -433,7 +433,9 @@ function setupDashboard() {
   addSeries({ id: 'right', label: t('teleop.motor.right'), unit: '°C', topic: ns('/motor/right/temperature'), path: 'temperature', type: 'sensor_msgs/msg/Temperature' });
   addSeries({ id: 'speed', label: t('teleop.speed.label'), unit: 'm/s', topic: ns('/odom'), path: 'twist.twist.linear.x', type: 'nav_msgs/msg/Odometry' });
   addSeries({ id: 'battery', label: t('teleop.battery'), unit: '%' });
-  const loadSpan = bindSpan($('#plot-span'), dash.history, () => [
+  dash.history.bindPinch();
+  const loadSpan = bindSpan({ select: $('#plot-span'), range: $('#plot-range'), day: $('#plot-day'), from: $('#plot-from'),
+    to: $('#plot-to'), show: $('#plot-show'), csv: $('#plot-csv'), png: $('#plot-png') }, dash.history, () => [
     ...dash.history.series.filter((s) => s.topic && s.path).map((s) => ({ id: s.id, topic: s.topic, field: s.path })),
     { id: 'battery', topic: $('#battery-topic').value, field: 'percentage', scale: 100 }]);
   loadSpan();
