@@ -5,11 +5,11 @@
 // block a program uses is saved with the program, as the person's own made blocks are, so the
 // program opens where the library is not.
 import { t } from './i18n.js';
+import { nameGlob } from './graph.js';
 
 /** A set's robot glob (`/husky*`, `/`, `*`) against a robot namespace ('' : the one robot, '/'). */
 export function robotMatches(glob, ns) {
-  const re = new RegExp(`^${String(glob || '*').replace(/[.+^${}()|[\]\\]/g, '\\$&').replace(/\*/g, '.*').replace(/\?/g, '.')}$`);
-  return re.test(ns || '/');
+  return !glob || glob === '*' || nameGlob(glob).test(ns || '/');
 }
 
 export class BlockSets {

@@ -7,7 +7,7 @@
 // field, the rover's motors) is not drawn twice.
 import { gauge } from './dashboard.js';
 import { withNamespace } from '../runtime/util.js';
-import { normType } from './graph.js';
+import { normType, nameGlob } from './graph.js';
 
 export const KINDS = {
   'sensor_msgs/msg/BatteryState': 'battery',
@@ -24,14 +24,12 @@ const MAX_JOINTS = 12;                // gauges per JointState topic (a humanoid
 const UNHEALTHY = new Set([3, 4, 5, 6, 7, 8, 9]);
 const CHARGING = 1, FULL = 4;          // power_supply_status
 
-const globRe = (g) => new RegExp(`^${g.replace(/[.+^${}()|[\]\\]/g, '\\$&').replace(/\*/g, '[^/]*').replace(/\?/g, '[^/]')}$`);
-
 /** The limits the --gauges file gives a topic ({} when none): its exact name first, then a glob. */
 export function fileLimits(limits, topic, ns) {
   const names = Object.keys(limits).map((k) => [k, k.startsWith('/') ? k : withNamespace(ns, `/${k}`)]);
   const exact = names.find(([, n]) => n === topic);
   if (exact) return limits[exact[0]];
-  const glob = names.find(([, n]) => /[*?]/.test(n) && globRe(n).test(topic));
+  const glob = names.find(([, n]) => /[*?]/.test(n) && nameGlob(n).test(topic));
   return glob ? limits[glob[0]] : {};
 }
 

@@ -72,7 +72,10 @@ def test_gauges_found_on_the_graph_with_the_files_limits(chromium, start_gateway
                      timeout=15, what="every gauge's first value")
             got = levels()
             # named by topic, each with its value
-            assert page.text_content(sel("/arm/wrist/temperature") + " .g-label") == "/arm/wrist/temperature"
+            label = page.text_content(sel("/arm/wrist/temperature") + " .g-label")   # its tail, when long
+            assert label.lstrip("…") and "/arm/wrist/temperature".endswith(label.lstrip("…")), label
+            assert page.get_attribute(sel("/arm/wrist/temperature"), "title") == "/arm/wrist/temperature"
+            assert page.text_content(sel("/pack2/battery") + " .g-label") == "/pack2/battery"
             assert float(got["/pack2/battery"][1]) == 70
             # the file's limits: 70 % is below its warn (80, the page's own: 50); 35 °C above its 30
             assert got["/pack2/battery"][0] == "warn"
