@@ -146,12 +146,14 @@ async function start() {
     onState: () => banner(),
     onChange: (ns) => {
       ide.ns = ns;
+      workspace.updateToolbox(buildToolbox(base));   // the block sets for this robot
       world.setTopic(withNamespace(ns, '/world/markers'));
       updateCode();
       consoleView.info(t('ide.ns.changed', { ns: ns || t('ide.ns.none') }));
     },
   });
   ide.ns = robotNs.get();
+  if (ide.ns) workspace.updateToolbox(buildToolbox(base));   // the block sets for this robot
   ide.robotNs = robotNs;
   const world = new WorldView($('#world'), withNamespace(ide.ns, '/world/markers'));
   ide.world = world;

@@ -95,3 +95,16 @@ def test_block_sets_and_the_class_library(start_gateway, tablets, tmp_path):
     assert json.loads((blocks / "shared.json").read_text()) == stored
     expected = "status of 403"   # the refused publish above, as the browser logs it
     assert not teacher.errors and not [e for e in ada.errors if expected not in e], (teacher.errors, ada.errors)
+
+
+def test_a_set_is_listed_for_the_station_its_glob_names(start_gateway, ide_factory, tmp_path):
+    for ns in ("/s01", "/s02"):
+        (tmp_path / f"set{ns[1:]}.json").write_text(json.dumps(
+            {"name": f"Blocks of {ns}", "robot": ns, "blocks": [{"type": f"only_{ns[1:]}", "message0": ns}]}))
+    (tmp_path / "every.json").write_text(json.dumps({"name": "Every robot", "blocks": [{"type": "every_one", "message0": "x"}]}))
+    gw = start_gateway("--robot", "turtlesim", "--fleet", "2", "--blocks-dir", str(tmp_path))
+    ide = ide_factory(gw, gw.http_url + "?ns=/s02")
+    ide.page.wait_for_function("rosgateIde.ns === '/s02'")
+    names = categories(ide)
+    assert "Blocks of /s02" in names and "Every robot" in names and "Blocks of /s01" not in names, names
+    assert not ide.errors, ide.errors
