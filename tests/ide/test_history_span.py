@@ -94,6 +94,16 @@ def test_a_custom_span_zoomed_and_saved_as_csv_and_png(chromium, rover):
         lo, hi = page.evaluate("teleop.history.zoom")
         assert start < lo < hi < end and abs((hi - lo) - (end - start) / 4) < 0.5, (lo, hi)
         page.screenshot(path=str(ARTIFACTS / "teleop-history-span.png"))
+
+        # a day: midnight to midnight of the browser's time, the rows of that day in it
+        day = page.evaluate("(t) => { const d = new Date(t * 1000); return [d.getFullYear(), d.getMonth() + 1, d.getDate()]"
+                            ".map((n) => String(n).padStart(2, '0')).join('-'); }", start)
+        page.fill("#plot-day", day)
+        page.wait_for_function(f"document.querySelector('#plot-span').dataset.to !== '{end}' && "
+                               "!document.querySelector('#plot-span').dataset.loading")
+        lo, hi = page.evaluate("teleop.history.fixed")
+        assert hi - lo in (86400, 82800, 90000) and page.evaluate(f"new Date({lo} * 1000).getHours()") == 0
+        assert lo <= start < hi and page.evaluate("teleop.history.rows.t.length") > 0
         assert not errors, errors
     finally:
         ctx.close()
