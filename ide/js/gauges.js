@@ -95,6 +95,14 @@ export class Gauges {
     return g;
   }
 
+  /** The history plots of the gauges' topics: a battery's percentage (in %), a temperature. */
+  plots() {
+    return this.topics.filter((t) => t.kind !== 'joints').map((t) => ({
+      id: t.topic, label: this.name(t, ''), topic: t.topic, type: t.type, unit: DEFAULTS[t.kind].unit,
+      ...(t.kind === 'battery' ? { path: 'percentage', scale: 100 } : { path: 'temperature' }),
+    }));
+  }
+
   /** Subscribes (through the page's subscribe) to every topic shown. */
   subscribe(subscribe) {
     for (const t of this.topics) {

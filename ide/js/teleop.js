@@ -107,6 +107,7 @@ async function onConnected() {
     await dash.board.ready;
     fixedGauges(ns);
     const found = dash.board.show(topics, types, ns);   // every gauge the robot's graph has
+    for (const spec of dash.board.plots()) if (!dash.series[spec.id]) addSeries(spec);   // and its history
     if (found) $('#battery-card').hidden = false;
     showCameras({ ros: state.ros, topics, types, ns, main: $('#camera-topic').value.trim(), after: $('#camera-card') });
     if (fleet && !ns) {
@@ -406,6 +407,7 @@ async function subscribePlot(s) {
     let v;
     try { v = Number(field(msg, s.path)); } catch { return; }
     if (!Number.isFinite(v)) return;
+    v *= s.scale ?? 1;
     s.last = v;
     dash.gauges[s.id]?.set(v);
   }, { throttle_rate: 100, queue_length: 1 });
@@ -436,7 +438,7 @@ function setupDashboard() {
   dash.history.bindPinch();
   const loadSpan = bindSpan({ select: $('#plot-span'), range: $('#plot-range'), day: $('#plot-day'), from: $('#plot-from'),
     to: $('#plot-to'), show: $('#plot-show'), csv: $('#plot-csv'), png: $('#plot-png') }, dash.history, () => [
-    ...dash.history.series.filter((s) => s.topic && s.path).map((s) => ({ id: s.id, topic: s.topic, field: s.path })),
+    ...dash.history.series.filter((s) => s.topic && s.path).map((s) => ({ id: s.id, topic: s.topic, field: s.path, scale: s.scale })),
     { id: 'battery', topic: $('#battery-topic').value, field: 'percentage', scale: 100 }]);
   loadSpan();
   setInterval(() => dash.history.sample(), SAMPLE_EVERY);

@@ -88,6 +88,12 @@ def test_gauges_found_on_the_graph_with_the_files_limits(chromium, start_gateway
             assert got["/pack3/battery"] == ["danger", "90"]
             # the rover's own battery and motors keep their gauges, not drawn twice
             assert page.eval_on_selector_all('#gauges [data-topic="/battery_state"]', "(gs) => gs.length") == 1
+            # each battery and temperature plotted by its topic too, in its unit's chart
+            wait_for(lambda: keep_publishing() is None and page.evaluate(
+                "[35, 70].every((v, i) => teleop.history.rows[['/arm/wrist/temperature', '/pack2/battery'][i]]"
+                ".some((x) => Math.abs(x - v) < 1e-6))"), timeout=10, what="the plots of the found topics")
+            legends = page.eval_on_selector_all("#plot .legend span", "(ss) => ss.map((s) => s.dataset.id)")
+            assert {"/arm/wrist/temperature", "/pack2/battery", "/pack3/battery"} <= set(legends), legends
             page.screenshot(path=str(ARTIFACTS / "teleop-gauges-by-type.png"))
             assert not errors, errors
         finally:

@@ -26,6 +26,7 @@ def test_a_custom_span_zoomed_and_saved_as_csv_and_png(chromium, rover):
 
     ctx, page, errors = open_teleop(chromium, gw, viewport=TABLET, has_touch=True, accept_downloads=True)
     try:
+        assert not page.is_visible("#plot-from")   # the dates only for a span of one's own
         page.select_option("#plot-span", "custom")
         assert page.is_visible("#plot-from")
         page.wait_for_function("!document.querySelector('#plot-span').dataset.loading")
