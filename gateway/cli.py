@@ -22,6 +22,7 @@ from .backends.sim import SimBackend, robots
 from .server import serve
 from .settings import Refused, Settings, flat, from_flat
 from .web import logs
+from .web.gauges import read_limits
 from .web.history import history_globs
 
 log = logging.getLogger('rosgate')
@@ -84,6 +85,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help='sim: seconds between /fibonacci steps [%(default)s]')
     b.add_argument('--programs-dir', dest='storage.programs_dir', type=Path,
                    help='where the IDE program library is stored [%(default)s]')
+    b.add_argument('--blocks-dir', dest='storage.blocks_dir', type=Path, metavar='DIR',
+                   help='a folder of block sets (JSON files, each listed in the IDE\'s toolbox for its robot); '
+                        'blocks an admin publishes from the IDE are kept there too (shared.json)')
     r = p.add_argument_group('robot-side runs and recordings')
     r.add_argument('--allow-runs', dest='runs.allow_runs', action='store_true',
                    help='let operators run programs as processes on this machine (POST /api/runs): '
@@ -135,6 +139,9 @@ def build_parser() -> argparse.ArgumentParser:
     h.add_argument('--mesh-path', dest='twin.mesh_path', type=Path, action='append', metavar='DIR',
                    help='a folder of description packages (DIR/PKG/meshes/...) whose files the twin loads '
                         'as package://PKG/..., besides AMENT_PREFIX_PATH\'s share folders (repeatable)')
+    h.add_argument('--gauges', dest='twin.gauges', type=Path, metavar='FILE',
+                   help='the dashboard\'s gauge limits, once per robot: a JSON or TOML table of topic names or '
+                        'globs to {min, max, warn, danger, low} (served at /api/gauges)')
     b.add_argument('--log-level', choices=('debug', 'info', 'warning', 'error'))
     robots.add_arguments(p)
     rules.add_arguments(p)
@@ -216,6 +223,11 @@ def check(settings: Settings) -> Start:
     if runs.trusted_runs and not runs.allow_runs:
         raise Refused('--trusted-runs', 'it is a kind of run: give --allow-runs too')
     twin = settings.twin
+    if twin.gauges is not None:
+        try:
+            read_limits(twin.gauges)
+        except (OSError, ValueError) as e:
+            raise Refused('--gauges', str(e)) from None
     if twin.opcua is not None:
         if history_globs(twin.history) is False:
             raise Refused('--opcua, --history', '--opcua serves the history, and --history none keeps none')

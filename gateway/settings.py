@@ -133,6 +133,7 @@ class RunSettings:
 @dataclass(frozen=True)
 class StorageSettings:
     programs_dir: Path | None = field(default_factory=lambda: data_dir('programs'))   # the IDE's library
+    blocks_dir: Path | None = None             # robots' block sets and the class's published blocks (JSON)
     recordings_dir: Path | None = None         # where recordings go (None: --record's, else the XDG data dir)
     record: Path | None = None                 # record from start-up into this directory
     record_topics: str | None = None           # globs of the topics --record takes
@@ -147,6 +148,7 @@ class TwinSettings:
     opcua: int | None = None                   # OPC UA server on this port (0: any free one)
     urdf: Path | None = None                   # the twin's robot description when not from the graph
     mesh_path: tuple = ()                      # folders of description packages served at /package/
+    gauges: Path | None = None                 # the dashboard's gauge limits per robot (JSON or TOML), at /api/gauges
 
 
 GROUPS = {'backend': BackendSettings, 'sim': SimSettings, 'security': SecuritySettings, 'safety': SafetySettings,

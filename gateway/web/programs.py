@@ -65,6 +65,20 @@ def stored_program(programs_dir: pathlib.Path, name: str, owner: str | None) -> 
     return program
 
 
+def write_whole(path: pathlib.Path, data: bytes) -> None:
+    """``data`` as the file at ``path``, whole or not at all: written beside it, then renamed over
+    it, so a reader never sees half a file and a full disk leaves the old one."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".json")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        os.unlink(tmp)
+        raise
+
+
 def space_owner(identity, asked: str | None, verb: str = "open") -> str | None:
     """Whose space a request is about: an admin (or anyone, with auth off) names it (None: the
     shared space); anyone else gets their own and may not name someone else's."""
@@ -146,15 +160,7 @@ class ProgramHandler(_Base):
         if used + len(data) > MAX_SPACE_BYTES:
             raise tornado.web.HTTPError(507, "this space holds %d bytes of programs; %d more would pass its "
                                              "%d bytes: delete some first" % (used, len(data), MAX_SPACE_BYTES))
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".json")
-        try:
-            with os.fdopen(fd, "wb") as f:
-                f.write(data)
-            os.replace(tmp, path)
-        except BaseException:
-            os.unlink(tmp)
-            raise
+        write_whole(path, data)
         self.finish(json.dumps({"name": name, "size": len(data)}))
 
     post = put

@@ -21,7 +21,7 @@ const svg = (tag, attrs) => {
  * A half-circle gauge in el. Levels: 'ok', 'warn', 'danger' (el.dataset.level), by `warn` and
  * `danger` thresholds, rising (temperatures) or falling (`low: true`, a battery).
  */
-export function gauge(el, { label, unit, min, max, warn, danger, low = false, digits = 0 }) {
+export function gauge(el, { label, unit, min, max, warn, danger, low = false, digits = 0, auto = false }) {
   const path = 'M12 60 A48 48 0 0 1 108 60';
   const back = svg('path', { d: path, class: 'g-back' });
   const fill = svg('path', { d: path, class: 'g-fill', 'stroke-dasharray': `0 ${ARC}` });
@@ -35,12 +35,14 @@ export function gauge(el, { label, unit, min, max, warn, danger, low = false, di
   el.replaceChildren(box);
   el.dataset.level = '';
   return {
-    set(v) {
+    // level: the robot's own word over the thresholds (a battery's health, its charging)
+    set(v, level = null) {
       if (!Number.isFinite(v)) { text.textContent = '?'; el.dataset.level = ''; return; }
+      if (auto && Math.abs(v) > max) max = Math.abs(v) * 1.25;   // a scale with no limit given: the largest seen
       const f = Math.max(0, Math.min(1, (v - min) / (max - min)));
       fill.setAttribute('stroke-dasharray', `${f * ARC} ${ARC}`);
       text.textContent = `${num(v, digits)}${unit}`;
-      el.dataset.level = (low ? v <= danger : v >= danger) ? 'danger' : (low ? v <= warn : v >= warn) ? 'warn' : 'ok';
+      el.dataset.level = level ?? ((low ? v <= danger : v >= danger) ? 'danger' : (low ? v <= warn : v >= warn) ? 'warn' : 'ok');
       el.dataset.value = String(v);
       box.setAttribute('aria-label', `${label} ${text.textContent}`);
     },
@@ -58,6 +60,8 @@ export class History {
     this.series = [];
     this.charts = new Map();   // unit -> {div, readout, chart, series: [...]}
     this.window = WINDOW;      // s of rows kept (a longer span chosen: as long as that)
+    this.fixed = null;         // [from, to] of a span chosen by its dates: no live samples join it
+    this.zoom = null;          // [from, to] of a drag or a pinch, over whatever the span
     this.rows = this.load();   // {t: [...], [id]: [...]}
   }
 
@@ -70,6 +74,7 @@ export class History {
   }
 
   save() {
+    if (this.fixed) return;   // a span of the past is not this browser's own recent history
     try { localStorage.setItem(this.key, JSON.stringify(this.rows)); } catch { /* storage full or off */ }
   }
 
@@ -106,7 +111,8 @@ export class History {
       width: Math.max(220, this.el.clientWidth),
       height: 110,
       legend: { show: false },
-      cursor: { drag: { x: false, y: false } },
+      cursor: { drag: { x: true, y: false, setScale: false } },
+      hooks: { setSelect: [(u) => this.selected(u)] },
       scales: { x: { time: true, range: () => this.span() },
       y: unit === '%' ? { range: [0, 100] } : {} },
       axes: [
@@ -121,7 +127,89 @@ export class History {
         series: [1 + c.series.length + 2 * i, 2 + c.series.length + 2 * i], fill: `${this.colour(s)}33` })),
     }, this.data(c), c.div);
     c.bands = banded.map((s) => s.id).join(' ');
+    c.div.ondblclick = () => this.setZoom(null);
     this.legend(c);
+  }
+
+  // A drag across a chart: every chart shows that span (a double-click shows the whole again)
+  selected(u) {
+    const { left, width } = u.select;
+    if (width < 3) return;
+    u.setSelect({ left: 0, top: 0, width: 0, height: 0 }, false);
+    this.setZoom([u.posToVal(left, 'x'), u.posToVal(left + width, 'x')]);
+  }
+
+  setZoom(range) {
+    this.zoom = range && range[1] > range[0] ? range : null;
+    this.el.dataset.zoom = this.zoom ? this.zoom.map((v) => v.toFixed(3)).join(' ') : '';
+    for (const c of this.charts.values()) this.draw(c);
+  }
+
+  // Two fingers apart or together on a chart: the span shown narrows or widens around them
+  bindPinch() {
+    let start = null;
+    const apart = (e) => Math.abs(e.touches[0].clientX - e.touches[1].clientX) || 1;
+    this.el.addEventListener('touchstart', (e) => {
+      if (e.touches.length !== 2) { start = null; return; }
+      const [lo, hi] = this.span();
+      const box = this.el.getBoundingClientRect();
+      const mid = ((e.touches[0].clientX + e.touches[1].clientX) / 2 - box.left) / box.width;
+      start = { d: apart(e), lo, hi, at: lo + (hi - lo) * Math.max(0, Math.min(1, mid)) };
+    }, { passive: true });
+    this.el.addEventListener('touchmove', (e) => {
+      if (!start || e.touches.length !== 2) return;
+      e.preventDefault();
+      const f = start.d / apart(e);   // fingers apart: a shorter span
+      this.setZoom([start.at - (start.at - start.lo) * f, start.at + (start.hi - start.at) * f]);
+    }, { passive: false });
+    this.el.addEventListener('touchend', () => { start = null; });
+  }
+
+  /** The rows of the span shown as CSV: UTC time, seconds since 1970, then a column per series. */
+  csv() {
+    const [lo, hi] = this.span();
+    const cols = this.series.filter((s) => this.rows[s.id]);
+    const head = ['time', 'unix', ...cols.map((s) => (s.unit ? `${s.label} (${s.unit})` : s.label))];
+    const quote = (v) => (/[",\n]/.test(v) ? `"${v.replaceAll('"', '""')}"` : v);
+    const lines = [head.map(quote).join(',')];
+    this.rows.t.forEach((t, i) => {
+      if (t < lo || t > hi) return;
+      lines.push([new Date(t * 1000).toISOString(), String(t), ...cols.map((s) => {
+        const v = this.rows[s.id][i];
+        return v === null || v === undefined ? '' : String(v);
+      })].join(','));
+    });
+    return `${lines.join('\n')}\n`;
+  }
+
+  /** The charts as one PNG (a Blob): each chart's canvas with its axes, and its legend under it. */
+  png() {
+    const scale = devicePixelRatio || 1;
+    const parts = [...this.charts.values()].map((c) => ({ canvas: c.div.querySelector('canvas'), legend: c.readout.textContent ? [...c.readout.children] : [] }));
+    const width = Math.max(...parts.map((p) => p.canvas.width));
+    const line = 16 * scale;
+    const height = parts.reduce((h, p) => h + p.canvas.height + line * (p.legend.length + 0.5), 0);
+    const out = document.createElement('canvas');
+    out.width = width;
+    out.height = Math.ceil(height);
+    const g = out.getContext('2d');
+    g.fillStyle = '#1b2030';
+    g.fillRect(0, 0, out.width, out.height);
+    g.font = `${12 * scale}px system-ui, sans-serif`;
+    let y = 0;
+    for (const p of parts) {
+      g.drawImage(p.canvas, 0, y);
+      y += p.canvas.height;
+      for (const span of p.legend) {
+        y += line;
+        g.fillStyle = span.style.getPropertyValue('--c') || '#aab3cc';
+        g.fillRect(8 * scale, y - 7 * scale, 10 * scale, 3 * scale);
+        g.fillStyle = '#e9ecf5';
+        g.fillText(span.textContent, 24 * scale, y - 2 * scale);
+      }
+      y += line / 2;
+    }
+    return new Promise((resolve) => out.toBlob(resolve, 'image/png'));
   }
 
   data(c) {
@@ -137,6 +225,8 @@ export class History {
   // The time shown: the samples' own, and at least the last minute (uPlot alone would widen one
   // sample to a thousand days).
   span() {
+    if (this.zoom) return this.zoom;
+    if (this.fixed) return this.fixed;
     const t = this.rows.t;
     const hi = t.length ? t[t.length - 1] : Date.now() / 1000;
     return [Math.min(t.length ? t[0] : hi, hi - 60), hi];
@@ -162,6 +252,7 @@ export class History {
   }
 
   sample(now = Date.now() / 1000) {
+    if (this.fixed) return;   // a span of the past: it stays as the gateway gave it
     this.rows.t.push(now);
     for (const s of this.series) this.rows[s.id].push(Number.isFinite(s.last) ? s.last : null);
     for (const k of Object.keys(this.rows)) {   // series no longer shown stay aligned
@@ -172,8 +263,11 @@ export class History {
   }
 
   // Rows from elsewhere (the gateway's history over `window` seconds); live samples follow them.
-  replace(rows, window) {
+  replace(rows, window, fixed = null) {
     this.window = window;
+    this.fixed = fixed;
+    this.zoom = null;
+    this.el.dataset.zoom = '';
     for (const k of Object.keys(this.rows)) if (!rows[k] && !/:(min|max)$/.test(k)) rows[k] = rows.t.map(() => null);
     this.rows = rows;
     for (const c of this.charts.values()) {

@@ -7,6 +7,11 @@ export function normType(t) {
   return p.length === 2 ? `${p[0]}/msg/${p[1]}` : String(t || '');
 }
 
+/** A glob of ROS names as a RegExp: `*` any characters but `/`, `?` one of them. */
+export function nameGlob(glob) {
+  return new RegExp(`^${String(glob).replace(/[.+^${}()|[\]\\]/g, '\\$&').replace(/\*/g, '[^/]*').replace(/\?/g, '[^/]')}$`);
+}
+
 export class RosGraph extends EventTarget {
   constructor() {
     super();

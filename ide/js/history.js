@@ -1,10 +1,15 @@
-// The dashboard's plots over a chosen span (10 min, 1 h, 1 day, 7 days), from the gateway's own
+// The dashboard's plots over a chosen span (10 min, 1 h, 1 day, 7 days, or a day or any span of
+// dates and times, shown as it was: no live samples join a span of the past), from the gateway's own
 // history (GET api/history: kept whether or not a page was open, see docs/teacher.md), with the
 // live samples appended by the dashboard as before. A gateway that keeps no history of a series
 // leaves that series as this browser saw it; only the series it lists are asked for.
 
 // span (s) -> the step (s) asked of the gateway: at most ~1000 points a series
 export const SPANS = new Map([[600, 1], [3600, 5], [86400, 90], [604800, 600]]);
+const POINTS = 1000;   // a chosen span's points a series, at most
+
+/** The step (s) for a span of seconds: a preset's, else whole seconds giving at most POINTS. */
+export const stepFor = (span) => SPANS.get(span) ?? Math.max(1, Math.ceil(span / POINTS));
 
 async function fetchSeries(src, from, to, step) {
   const q = new URLSearchParams({ topic: src.topic, field: src.field, from: String(from), to: String(to), step: String(step) });
@@ -35,12 +40,18 @@ async function keptSeries() {
  * sources: [{id, topic, field, scale}].
  */
 export async function loadSpan(history, sources, span, now = Date.now() / 1000, current = () => true) {
-  const step = SPANS.get(span) ?? 1;
+  return loadRange(history, sources, now - span, now, current, false);
+}
+
+/** As loadSpan, from `from` to `to` (s since 1970); fixed: the chart shows that span alone. */
+export async function loadRange(history, sources, from, to, current = () => true, fixed = true) {
+  const span = to - from;
+  const step = stepFor(span);
   const kept = await keptSeries();
   const wanted = sources.filter((s) => kept.get(s.topic)?.includes(s.field));
-  const got = (await Promise.all(wanted.map((s) => fetchSeries(s, now - span, now, step).catch(() => null))))
+  const got = (await Promise.all(wanted.map((s) => fetchSeries(s, from, to, step).catch(() => null))))
     .filter(Boolean);
-  if (!got.length) return 0;   // no history on the gateway: the browser's own stays
+  if (!got.length && !fixed) return 0;   // no history on the gateway: the browser's own stays
   const keys = new Set();
   for (const r of got) for (const t of r.t) keys.add(Math.floor(t / step));
   const sorted = [...keys].sort((a, b) => a - b);
@@ -58,22 +69,77 @@ export async function loadSpan(history, sources, span, now = Date.now() / 1000, 
     });
   }
   if (!current()) return 0;   // a newer choice of span was made meanwhile: it draws, not this one
-  history.replace(rows, span);
+  history.replace(rows, span, fixed ? [from, to] : null);
   return got.length;
 }
 
-/** The span chooser (a <select> of seconds): each choice loads that span from the gateway. */
-export function bindSpan(select, history, sources) {
+// <input type=datetime-local> <-> s since 1970 (the page's local time, to the second)
+const pad = (n) => String(n).padStart(2, '0');
+export function localInput(t) {
+  const d = new Date(t * 1000);
+  return `${d.getFullYear()}-${pad(d.getMonth() + 1)}-${pad(d.getDate())}T${pad(d.getHours())}:${pad(d.getMinutes())}:${pad(d.getSeconds())}`;
+}
+const fromInput = (v) => new Date(v).getTime() / 1000;
+
+function download(blob, name) {
+  const a = document.createElement('a');
+  a.href = URL.createObjectURL(blob);
+  a.download = name;
+  document.body.append(a);
+  a.click();
+  a.remove();
+  setTimeout(() => URL.revokeObjectURL(a.href), 10000);
+}
+
+/**
+ * The span chooser: a <select> of seconds, or "custom" with a day and from/to inputs (els: {select,
+ * range, day, from, to, show, csv, png}); each choice loads its span from the gateway. The CSV and
+ * PNG buttons save the span shown (after a zoom: the zoomed one).
+ */
+export function bindSpan(els, history, sources) {
+  const { select } = els;
   let latest = 0;   // the newest load: an older one finishing later (the page's first) is dropped
-  const load = () => {
-    const span = Number(select.value);
+  const run = (loading) => {
     const mine = ++latest;
     const current = () => mine === latest;
     select.dataset.loading = 'true';
-    return loadSpan(history, sources(), span, undefined, current)
+    return loading(current)
       .then((n) => { if (current()) select.dataset.loaded = String(n); })
       .finally(() => { if (current()) delete select.dataset.loading; });
   };
+  const load = () => {
+    const custom = select.value === 'custom';
+    if (els.range) els.range.hidden = !custom;
+    if (custom) {
+      if (!els.from.value) {   // at first: the last hour, to be changed
+        const now = Math.floor(Date.now() / 1000);
+        els.from.value = localInput(now - 3600);
+        els.to.value = localInput(now);
+      }
+      return showRange();
+    }
+    return run((current) => loadSpan(history, sources(), Number(select.value), undefined, current));
+  };
+  const showRange = () => {
+    const from = fromInput(els.from.value), to = fromInput(els.to.value);
+    if (!(to > from)) { els.from.setCustomValidity('from < to'); els.from.reportValidity(); return Promise.resolve(); }
+    els.from.setCustomValidity('');
+    select.dataset.from = String(from);
+    select.dataset.to = String(to);
+    return run((current) => loadRange(history, sources(), from, to, current));
+  };
   select.addEventListener('change', load);
+  els.show?.addEventListener('click', showRange);
+  els.day?.addEventListener('change', () => {   // a whole day, midnight to midnight
+    if (!els.day.value) return;
+    const day = new Date(`${els.day.value}T00:00:00`);
+    els.from.value = localInput(day.getTime() / 1000);
+    day.setDate(day.getDate() + 1);
+    els.to.value = localInput(day.getTime() / 1000);
+    showRange();
+  });
+  const stamp = () => localInput(history.span()[0]).replace(/[:T]/g, '-');
+  els.csv?.addEventListener('click', () => download(new Blob([history.csv()], { type: 'text/csv' }), `history-${stamp()}.csv`));
+  els.png?.addEventListener('click', async () => download(await history.png(), `history-${stamp()}.png`));
   return load;
 }

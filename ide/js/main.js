@@ -18,6 +18,7 @@ import { DriverLease, bindDriverBadge, DRIVER_TOPIC } from './driver.js';
 import { bindNamespace, CLAIM_SERVICE } from './robotns.js';
 import { reportProgram } from './report.js';
 import { RobotRuns } from './robotruns.js';
+import { BlockSets } from './blocksets.js';
 import { withNamespace } from '../runtime/util.js';
 import { NameScope } from '../generators/scope.js';
 import { markLooseBlocks } from './loose.js';
@@ -56,6 +57,7 @@ function toolboxEntries(set) {
 
 const ide = {
   sets: {},
+  blockSets: new BlockSets(),   // the gateway's --blocks-dir: robots' sets, the class's shared blocks
   custom: [],            // "make a block" definitions saved with the program
   programName: 'my program',
   robot: 'any',
@@ -68,10 +70,13 @@ function buildToolbox(base) {
     const set = ide.sets[key];
     contents.push({ kind: 'category', name: set.name, colour: String(set.colour), contents: toolboxEntries(set) });
   }
+  contents.push(...ide.blockSets.categories(ide.ns, toolboxEntries));
   const mine = ide.custom.map((c) => ({ kind: 'block', type: c.json.type, inputs: c.toolboxInputs ?? {} }));
+  const publish = ide.blockSets.publishable && ide.custom.length
+    ? [{ kind: 'button', text: t('ide.blocks.publish'), callbackKey: 'publishBlocks' }] : [];
   contents.push({
     kind: 'category', name: t('ide.myblocks'), colour: '330',
-    contents: [{ kind: 'button', text: t('ide.makeblock'), callbackKey: 'makeBlock' }, ...mine],
+    contents: [{ kind: 'button', text: t('ide.makeblock'), callbackKey: 'makeBlock' }, ...publish, ...mine],
   });
   return { kind: 'categoryToolbox', contents };
 }
@@ -102,6 +107,7 @@ async function start() {
   setRuntimeSource(runtimePy);
   registerMakeBlock();
   for (const set of Object.values(ide.sets)) for (const def of set.blocks) defineBlock(def, set.colour, set.namespaced);
+  await ide.blockSets.load(defineBlock);
 
   const phone = matchMedia(PHONE).matches;    // categories along the top: the blocks get the width
   const workspace = Blockly.inject($('#blockly'), {
@@ -140,12 +146,14 @@ async function start() {
     onState: () => banner(),
     onChange: (ns) => {
       ide.ns = ns;
+      workspace.updateToolbox(buildToolbox(base));   // the block sets for this robot
       world.setTopic(withNamespace(ns, '/world/markers'));
       updateCode();
       consoleView.info(t('ide.ns.changed', { ns: ns || t('ide.ns.none') }));
     },
   });
   ide.ns = robotNs.get();
+  if (ide.ns) workspace.updateToolbox(buildToolbox(base));   // the block sets for this robot
   ide.robotNs = robotNs;
   const world = new WorldView($('#world'), withNamespace(ide.ns, '/world/markers'));
   ide.world = world;
@@ -371,6 +379,17 @@ async function start() {
   await setupExamples();
   const maker = new MakeBlockDialog($('#dlg-make'), graph, addCustomBlock);
   workspace.registerButtonCallback('makeBlock', () => maker.open());
+  ide.publishBlocks = () => ide.blockSets.publish(ide.custom).then(
+    (n) => { consoleView.info(t('ide.blocks.published', { n })); workspace.updateToolbox(buildToolbox(ide.baseToolbox)); return n; },
+    (e) => { consoleView.error(t('ide.blocks.publish.failed', { error: e.message })); throw e; });
+  workspace.registerButtonCallback('publishBlocks', () => ide.publishBlocks().catch(() => {}));
+  workspace.addChangeListener((e) => {   // a shared block in the program: saved with it
+    if (e.type !== Blockly.Events.BLOCK_CREATE) return;
+    for (const id of e.ids ?? []) {
+      const made = ide.blockSets.sharedOf(workspace.getBlockById(id)?.type);
+      if (made && !ide.custom.some((c) => c.json.type === made.json.type)) ide.custom.push(made);
+    }
+  });
   ide.makeBlock = maker;
 
   // the first program: a share link, else ?program= (an LMS activity's: NAME of the library,

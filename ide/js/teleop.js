@@ -10,6 +10,7 @@ import { showCameras } from './cameras.js';
 import { DriverLease, bindDriverBadge, DRIVER_TOPIC } from './driver.js';
 import { bindNamespace, CLAIM_SERVICE, STOPPED } from './robotns.js';
 import { gauge, History, SAMPLE_EVERY } from './dashboard.js';
+import { Gauges, batteryPercent, batteryLevel, fileLimits } from './gauges.js';
 import { WorldView } from './worldview.js';
 import { bindSpan } from './history.js';
 import { HomeEstimate } from './gohome.js';
@@ -103,6 +104,11 @@ async function onConnected() {
     await claiming;                          // its answer, not this notice, has the last word
     const ns = state.robotNs.get();
     showWhatTheRobotHas(topics, ns);
+    await dash.board.ready;
+    fixedGauges(ns);
+    const found = dash.board.show(topics, types, ns);   // every gauge the robot's graph has
+    for (const spec of dash.board.plots()) if (!dash.series[spec.id]) addSeries(spec);   // and its history
+    if (found) $('#battery-card').hidden = false;
     showCameras({ ros: state.ros, topics, types, ns, main: $('#camera-topic').value.trim(), after: $('#camera-card') });
     if (fleet && !ns) {
       block(state.robotNs.whyNot());
@@ -140,10 +146,14 @@ function showWhatTheRobotHas(topics, ns) {
     state.world.attach(state.ros);
   }
   $('#camera-card').hidden = !camera;
-  const gauges = { '#g-battery': $('#battery-topic').value.trim(), '#g-left': withNamespace(ns, '/motor/left/temperature'),
+  for (const [el, topic] of Object.entries(fixedTopics(ns))) $(el).hidden = !has(topic);
+  $('#battery-card').hidden = !Object.values(fixedTopics(ns)).some(has);
+}
+
+// The page's own gauges (the battery topic field, the rover's motors), by element
+function fixedTopics(ns) {
+  return { '#g-battery': $('#battery-topic').value.trim(), '#g-left': withNamespace(ns, '/motor/left/temperature'),
     '#g-right': withNamespace(ns, '/motor/right/temperature') };
-  for (const [el, topic] of Object.entries(gauges)) $(el).hidden = !has(topic);
-  $('#battery-card').hidden = !Object.values(gauges).some(has);
 }
 
 // ---- the robot's limits: the node that takes the velocity topic says them ------------------
@@ -313,6 +323,7 @@ function resubscribe() {
   for (const s of state.subs) s.close();
   state.subs = [];
   subscribe($('#battery-topic').value, 'sensor_msgs/msg/BatteryState', showBattery, { throttle_rate: 500, queue_length: 1 });
+  dash.board.subscribe(subscribe);
   cam.sub = null;
   subscribeCamera();
   for (const s of dash.history.series) if (s.topic) subscribePlot(s);
@@ -358,8 +369,8 @@ function frameAge(msg) {
 function showBattery(msg) {
   state.battery = msg;
   home.battery(msg);
-  const pct = Number.isFinite(msg.percentage) ? msg.percentage * 100 : null;
-  dash.gauges.battery.set(pct ?? NaN);
+  const pct = Number.isFinite(batteryPercent(msg)) ? batteryPercent(msg) : null;
+  dash.gauges.battery.set(pct ?? NaN, batteryLevel(msg));
   dash.series.battery.last = pct;
   $('#battery-text').textContent = pct === null ? '?' : `${num(pct, 0)} %`;
   const v = Number.isFinite(msg.voltage) ? `${num(msg.voltage, 2)} V` : '';
@@ -396,25 +407,38 @@ async function subscribePlot(s) {
     let v;
     try { v = Number(field(msg, s.path)); } catch { return; }
     if (!Number.isFinite(v)) return;
+    v *= s.scale ?? 1;
     s.last = v;
     dash.gauges[s.id]?.set(v);
   }, { throttle_rate: 100, queue_length: 1 });
 }
 
+// The page's own gauges, with the limits the gateway's --gauges file gives their topics
+function fixedGauges(ns) {
+  const topics = fixedTopics(ns);
+  const limits = (el) => fileLimits(dash.board.limits, topics[el], ns);
+  dash.gauges.battery = gauge($('#g-battery'), { label: t('teleop.battery'), unit: '%', min: 0, max: 100, warn: 50, danger: 20, low: true, ...limits('#g-battery') });
+  const temp = { unit: '°C', min: 20, max: 90, warn: 50, danger: 65, digits: 1 };
+  dash.gauges.left = gauge($('#g-left'), { label: t('teleop.motor.left'), ...temp, ...limits('#g-left') });
+  dash.gauges.right = gauge($('#g-right'), { label: t('teleop.motor.right'), ...temp, ...limits('#g-right') });
+  for (const [el, topic] of Object.entries(topics)) $(el).dataset.topic = topic;
+}
+
 function setupDashboard() {
   const ns = (name) => withNamespace(state.robotNs.get(), name);
-  dash.gauges.battery = gauge($('#g-battery'), { label: t('teleop.battery'), unit: '%', min: 0, max: 100, warn: 50, danger: 20, low: true });
-  const temp = { unit: '°C', min: 20, max: 90, warn: 50, danger: 65, digits: 1 };
-  dash.gauges.left = gauge($('#g-left'), { label: t('teleop.motor.left'), ...temp });
-  dash.gauges.right = gauge($('#g-right'), { label: t('teleop.motor.right'), ...temp });
+  dash.board = new Gauges($('#gauges'), () => Object.values(fixedTopics(state.robotNs.get())));
+  state.gauges = dash.board;
+  fixedGauges(state.robotNs.get());
   dash.history = new History($('#plot'), `rosgate.history:${state.robotNs.get() || '/'}`);
   state.history = dash.history;
   addSeries({ id: 'left', label: t('teleop.motor.left'), unit: '°C', topic: ns('/motor/left/temperature'), path: 'temperature', type: 'sensor_msgs/msg/Temperature' });
   addSeries({ id: 'right', label: t('teleop.motor.right'), unit: '°C', topic: ns('/motor/right/temperature'), path: 'temperature', type: 'sensor_msgs/msg/Temperature' });
   addSeries({ id: 'speed', label: t('teleop.speed.label'), unit: 'm/s', topic: ns('/odom'), path: 'twist.twist.linear.x', type: 'nav_msgs/msg/Odometry' });
   addSeries({ id: 'battery', label: t('teleop.battery'), unit: '%' });
-  const loadSpan = bindSpan($('#plot-span'), dash.history, () => [
-    ...dash.history.series.filter((s) => s.topic && s.path).map((s) => ({ id: s.id, topic: s.topic, field: s.path })),
+  dash.history.bindPinch();
+  const loadSpan = bindSpan({ select: $('#plot-span'), range: $('#plot-range'), day: $('#plot-day'), from: $('#plot-from'),
+    to: $('#plot-to'), show: $('#plot-show'), csv: $('#plot-csv'), png: $('#plot-png') }, dash.history, () => [
+    ...dash.history.series.filter((s) => s.topic && s.path).map((s) => ({ id: s.id, topic: s.topic, field: s.path, scale: s.scale })),
     { id: 'battery', topic: $('#battery-topic').value, field: 'percentage', scale: 100 }]);
   loadSpan();
   setInterval(() => dash.history.sample(), SAMPLE_EVERY);

@@ -52,6 +52,8 @@ def refused(*flags: str, prelude: str = '') -> subprocess.CompletedProcess:
     (['--auth', '/no/such/tokens.toml'], '', 'rosgate: --auth: '),
     (['--trusted-proxies', 'not-an-address'], '', 'rosgate: --trusted-proxies: '),
     (['--sim-speed', '0'], '', 'rosgate: --sim-speed: must be positive'),
+    (['--gauges', '/no/such/gauges.toml'], '', 'rosgate: --gauges: '),
+    (['--gauges', str(ROOT / 'pyproject.toml')], '', "rosgate: --gauges: "),   # TOML, but not of limits
 ])
 def test_a_refusal_names_the_flags_and_exits_2(flags, prelude, said):
     done = refused(*flags, prelude=prelude)
