@@ -32,7 +32,7 @@ export class BlockSets {
     this.publishable = !!body.publish;
     for (const set of this.sets) {
       for (const def of set.blocks) {
-        try { define(def, set.colour, set.namespaced); } catch (e) { console.warn(`block set ${set.file}: ${e.message}`); }
+        try { define(def, set.colour, set.namespaced); } catch (e) { console.warn(set.file, e);   /* the developer's console: which set, and why */ }
       }
     }
     for (const made of this.shared) define({ ...made.json, rosgate: made.spec }, 330);
