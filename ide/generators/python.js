@@ -41,7 +41,7 @@ export const lang = {
 let runtimeSource = '# the rosgate runtime was not loaded\n';
 export function setRuntimeSource(text) { runtimeSource = text; }
 
-class RosPythonGenerator extends python.PythonGenerator {
+export class RosPythonGenerator extends python.PythonGenerator {
   constructor() {
     super('Python');
     Object.assign(this.forBlock, python.pythonGenerator.forBlock);

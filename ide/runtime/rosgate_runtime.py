@@ -12,7 +12,10 @@ import threading
 import time
 import traceback
 
-import roslibpy
+try:
+    import roslibpy
+except ImportError:   # a ROS 2 node made from blocks (rosgate_node.py) uses the helpers alone
+    roslibpy = None
 
 # In the IDE page (Pyodide, ide/js/pyrun.js) the program has one thread: roslibpy is the page's
 # (ide/runtime/browser/roslibpy.py), waits deliver the messages, handlers run while the program waits.
@@ -196,6 +199,8 @@ def check_roslibpy():
     refused publish has to end the program: the runtime puts its own handler in that table,
     roslibpy's private RosBridgeProtocol._message_handlers. If a roslibpy release renames it,
     refused publishes would silently stop ending programs; the program stops at start instead."""
+    if roslibpy is None:
+        raise RuntimeError("this program needs roslibpy: pip install '%s'" % ROSLIBPY_TESTED)
     proto = roslibpy.comm.RosBridgeProtocol()
     handlers = getattr(proto, "_message_handlers", None)
     if not isinstance(handlers, dict) or "status" not in handlers:
