@@ -19,11 +19,12 @@ import time
 import traceback
 
 import rclpy
-from rclpy.action import ActionClient
+from rclpy.action import ActionClient, ActionServer
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.duration import Duration
 from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
+from rclpy.task import Future
 from rclpy.signals import SignalHandlerOptions
 
 from .rosgate_runtime import Event, RosError, Runtime, StopProgram, _Sub, is_velocity_type, zero_velocity
@@ -104,6 +105,7 @@ class BlockNode(Node):
     drive = Runtime.drive
     move = Runtime.move
     turn = Runtime.turn
+    _served = Runtime._served
 
     def __init__(self, name, namespace=""):
         super().__init__(name, namespace=namespace or "")
@@ -241,6 +243,47 @@ class BlockNode(Node):
         for name, handle in list(self._goals.values()):
             if action is None or name == action:
                 handle.cancel_goal_async()
+
+    # ---- servers: the program's own services and actions
+    async def _in_thread(self, fn, *args):
+        """fn(*args) in a thread of its own, awaited by the executor's callback (a coroutine): a
+        server whose blocks wait holds no executor thread. (answer, True) or (None, False)."""
+        future = Future(executor=self.executor)
+        threading.Thread(target=lambda: future.set_result(self._served(fn, *args)), daemon=True).start()
+        return await future
+
+    def serve_service(self, service, t, handler):
+        self._check()
+        cls = interface(t)
+
+        async def callback(request, response):
+            values, ok = await self._in_thread(handler, to_dict(request))
+            return to_message(cls.Response, values) if ok else response
+
+        self.handlers += 1
+        self.create_service(cls, service, callback, callback_group=self.group)
+
+    def serve_action(self, action, t, handler):
+        self._check()
+        cls = interface(t)
+
+        async def execute(goal_handle):
+            values, ok = await self._in_thread(handler, to_dict(goal_handle.request), (goal_handle, cls))
+            if not ok:
+                goal_handle.abort()
+                return cls.Result()
+            goal_handle.succeed()
+            return to_message(cls.Result, values)
+
+        self.handlers += 1
+        ActionServer(self, cls, action, execute_callback=execute, callback_group=self.group)
+
+    def action_feedback(self, goal_handle, values):
+        if goal_handle is None:
+            raise RosError("'send feedback' works inside 'serve action' only")
+        self._check()
+        handle, cls = goal_handle
+        handle.publish_feedback(to_message(cls.Feedback, values))
 
     # ---- the robot
     def stop_robot(self):

@@ -237,6 +237,11 @@ class Runtime:
         # roslibpy drops rosbridge status ops; a refused publish has to end the program
         # (check_roslibpy made sure at start that this table is there)
         proto._message_handlers["status"] = self._on_status
+        # roslibpy has no action server: goals for the program's served actions (serve_action) go to
+        # its listeners by action name, as roslibpy does with service calls; a cancel is not honoured
+        # (the goal runs to its result)
+        proto._message_handlers["send_action_goal"] = lambda m: self.ros.factory.emit(m["action"], m)
+        proto._message_handlers["cancel_action_goal"] = lambda m: None
 
     def _on_status(self, message):
         # a status error about a publish or advertise of one of the program's topics ends it
@@ -475,6 +480,44 @@ class Runtime:
             thread.join(0.05)
             self._check()
         return dict(res.get("values") or {})
+
+    # ---- servers: services and actions the program serves through the gateway
+    def _served(self, handler, *args):
+        """(handler's answer, True), or (None, False) when it failed (the program ends) or stopped."""
+        out = {}
+        ok = self._handled(lambda _: out.setdefault("answer", handler(*args)), None)
+        return out.get("answer"), ok
+
+    def _serve(self, op, name, t, answer):
+        """Advertises; each request (a service call, a goal) is answered by answer(message) in a
+        thread of its own, so a slow one holds up neither the connection nor the others."""
+        if BROWSER:
+            raise RosError("serving a service or an action needs the script or the blocks' Run, not Python in the page")
+        self._check()
+        self.handlers += 1
+        self.ros.on(name, lambda m: self.stopped.is_set() or threading.Thread(target=answer, args=(m,), daemon=True).start())
+        self.ros.send_on_ready(roslibpy.Message({"op": op, "type": t, op.split("_")[1]: name}))
+
+    def serve_service(self, service, t, handler):
+        def answer(m):
+            values, ok = self._served(handler, dict(m.get("args") or {}))
+            self.ros.send_on_ready(roslibpy.Message({"op": "service_response", "service": service, "id": m.get("id"),
+                                                     "values": (values or {}) if ok else "the program failed", "result": ok}))
+        self._serve("advertise_service", service, t, answer)
+
+    def serve_action(self, action, t, handler):
+        def answer(m):
+            values, ok = self._served(handler, dict(m.get("args") or {}), {"action": action, "id": m.get("id")})
+            self.ros.send_on_ready(roslibpy.Message({"op": "action_result", "action": action, "id": m.get("id"),
+                                                     "values": (values or {}) if ok else {}, "status": 4 if ok else 6, "result": ok}))
+        self._serve("advertise_action", action, t, answer)
+
+    def action_feedback(self, goal_handle, values):
+        if goal_handle is None:
+            raise RosError("'send feedback' works inside 'serve action' only")
+        self._check()
+        self.ros.send_on_ready(roslibpy.Message({"op": "action_feedback", "action": goal_handle["action"],
+                                                 "id": goal_handle["id"], "values": values or {}}))
 
     def cancel(self, action=None):
         for goal_id, client in list(self._goals.items()):
