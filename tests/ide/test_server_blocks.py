@@ -10,7 +10,9 @@ import sys
 import pytest
 
 from tests.support.ros import client
-from tests.support.servers import ADD, COUNT, PROGRAM, check_served
+from tests.support.servers import ADD, COUNT, check_served, program
+
+PROGRAM = program()
 
 
 @pytest.fixture(scope='module')

@@ -9,8 +9,11 @@ import roslibpy
 
 from tests.support.wait import wait_for
 
-ADD, ADD_TYPE = '/add_served', 'example_interfaces/srv/AddTwoInts'
-COUNT, COUNT_TYPE = '/count_served', 'example_interfaces/action/Fibonacci'
+ADD, COUNT = '/add_served', '/count_served'
+# the adder's type and its fields (a, b, sum); where example_interfaces is not installed (the
+# Jazzy wheels) test_msgs stands in, as in tests/backends/rclpy_nodes.py
+ADDERS = {'example_interfaces/srv/AddTwoInts': ('a', 'b', 'sum'),
+          'test_msgs/srv/BasicTypes': ('int64_value', 'int32_value', 'int64_value')}
 
 
 def _num(n):
@@ -35,28 +38,35 @@ def _list(*items):
                       'inputs': {f'ADD{i}': item for i, item in enumerate(items)}}}
 
 
-# /add_served answers a + b after a 0.2 s sleep (its wait holds up nothing else); /count_served
-# sends feedback [1], [2] ... [order] (0.05 s apart) and the result [order, 10 * order].
-PROGRAM = {
+def program(add_type: str = 'example_interfaces/srv/AddTwoInts',
+            count_type: str = 'example_interfaces/action/Fibonacci') -> dict:
+    """/add_served answers a + b after a 0.2 s sleep (its wait holds up nothing else); /count_served
+    sends feedback [1], [2] ... [order] (0.05 s apart) and the result [order, 10 * order]."""
+    a, b, total = ADDERS[add_type]
+    return _program(add_type, count_type, a, b, total)
+
+
+def _program(add_type, count_type, a, b, total):
+    return {
     'format': 'rosgate-program', 'version': 1, 'name': 'served', 'robot': 'turtlesim', 'blocks': [],
     'workspace': {'blocks': {'languageVersion': 0, 'blocks': [
         {'type': 'ros_serve_service', 'x': 20, 'y': 20,
-         'fields': {'SERVICE': ADD, 'TYPE': ADD_TYPE, 'VAR': {'id': 'var-request'}},
+         'fields': {'SERVICE': ADD, 'TYPE': add_type, 'VAR': {'id': 'var-request'}},
          'inputs': {
              'DO': {'block': {'type': 'ros_sleep', 'inputs': {'SECONDS': _num(0.2)}}},
-             'RESPONSE': _message(ADD_TYPE, {'sum': ('int64', False, {'block': {
+             'RESPONSE': _message(add_type, {total: ('int64', False, {'block': {
                  'type': 'math_arithmetic', 'fields': {'OP': 'ADD'},
-                 'inputs': {'A': _field('a', 'var-request'), 'B': _field('b', 'var-request')}}})})}},
+                 'inputs': {'A': _field(a, 'var-request'), 'B': _field(b, 'var-request')}}})})}},
         {'type': 'ros_serve_action', 'x': 20, 'y': 300,
-         'fields': {'ACTION': COUNT, 'TYPE': COUNT_TYPE, 'VAR': {'id': 'var-goal'}},
+         'fields': {'ACTION': COUNT, 'TYPE': count_type, 'VAR': {'id': 'var-goal'}},
          'inputs': {
              'DO': {'block': {'type': 'controls_for', 'fields': {'VAR': {'id': 'var-i'}},
                               'inputs': {'FROM': _num(1), 'TO': _field('order', 'var-goal'), 'BY': _num(1),
                                          'DO': {'block': {'type': 'ros_action_feedback', 'inputs': {'VALUE': _message(
-                                             COUNT_TYPE, {'sequence': ('int32', True, _list(
+                                             count_type, {'sequence': ('int32', True, _list(
                                                  {'block': {'type': 'variables_get', 'fields': {'VAR': {'id': 'var-i'}}}}))})},
                                              'next': {'block': {'type': 'ros_sleep', 'inputs': {'SECONDS': _num(0.05)}}}}}}}},
-             'RESULT': _message(COUNT_TYPE, {'sequence': ('int32', True, _list(
+             'RESULT': _message(count_type, {'sequence': ('int32', True, _list(
                  _field('order', 'var-goal'),
                  {'block': {'type': 'math_arithmetic', 'fields': {'OP': 'MULTIPLY'},
                             'inputs': {'A': _num(10), 'B': _field('order', 'var-goal')}}}))})}},
@@ -65,29 +75,31 @@ PROGRAM = {
 }
 
 
-def _answers(service) -> bool:
+def _answers(service, a, b, total) -> bool:
     try:
-        return service.call(roslibpy.ServiceRequest({'a': 1, 'b': 1}), timeout=5)['sum'] == 2
+        return service.call(roslibpy.ServiceRequest({a: 1, b: 1}), timeout=5)[total] == 2
     except Exception:   # roslibpy's ServiceException: no server (yet)
         return False
 
 
-def check_served(ros: roslibpy.Ros, timeout: float = 20.0) -> None:
+def check_served(ros: roslibpy.Ros, add_type: str = 'example_interfaces/srv/AddTwoInts',
+                 count_type: str = 'example_interfaces/action/Fibonacci', timeout: float = 20.0) -> None:
     """The program's service answers 2 + 40 (twice at once: 0.2 s each, both within 0.2 s of the
     other) and its action counts to 3 with feedback, through the roslibpy client ``ros``."""
-    service = roslibpy.Service(ros, ADD, ADD_TYPE)
+    a, b, total = ADDERS[add_type]
+    service = roslibpy.Service(ros, ADD, add_type)
     # the program advertises once it has started: the first call may find no server yet
-    wait_for(lambda: _answers(service), timeout, 0.1)
+    wait_for(lambda: _answers(service, a, b, total), timeout, 0.1)
     answers, errors = [], []
-    calls = [threading.Thread(target=lambda: answers.append(service.call(roslibpy.ServiceRequest({'a': 2, 'b': 40}),
-                                                                         timeout=timeout)['sum'])) for _ in range(2)]
+    calls = [threading.Thread(target=lambda: answers.append(service.call(roslibpy.ServiceRequest({a: 2, b: 40}),
+                                                                         timeout=timeout)[total])) for _ in range(2)]
     for c in calls:
         c.start()
     for c in calls:
         c.join(timeout)
     assert answers == [42, 42], (answers, errors)
 
-    client = roslibpy.ActionClient(ros, COUNT, COUNT_TYPE)
+    client = roslibpy.ActionClient(ros, COUNT, count_type)
     done = threading.Event()
     feedback, result = [], {}
 
