@@ -27,7 +27,7 @@ from rclpy.node import Node
 from rclpy.task import Future
 from rclpy.signals import SignalHandlerOptions
 
-from .rosgate_runtime import Event, RosError, Runtime, StopProgram, _Sub, is_velocity_type, zero_velocity
+from .rosgate_runtime import Event, RosError, Runtime, StopProgram, is_velocity_type, zero_velocity
 from .rosgate_runtime import *  # noqa: F401,F403 -- the blocks' helpers: field, pick, yaw, range_at ...
 
 DEPTH = 10            # the queue depth of every publisher and subscription
@@ -106,17 +106,13 @@ class BlockNode(Node):
     move = Runtime.move
     turn = Runtime.turn
     _served = Runtime._served
+    _deliver = Runtime._deliver
+    _program_state = Runtime._program_state
+    _subscribe = Runtime._subscribe
 
     def __init__(self, name, namespace=""):
         super().__init__(name, namespace=namespace or "")
-        self.stopped = Event()
-        self.error = None
-        self.t0 = time.monotonic()
-        self.handlers = 0
-        self._lock = threading.Lock()
-        self._subs = {}
-        self._velocity = {}
-        self._goals = {}
+        self._program_state()
         self._rg_pubs = {}
         self._rg_clients = {}
         self._rg_actions = {}
@@ -155,29 +151,13 @@ class BlockNode(Node):
     def publish(self, topic, t, msg):
         self._check()
         pub, cls = self.publisher(topic, t)
-        if is_velocity_type(t if isinstance(t, str) else "%s/%s" % (cls.__module__.split(".")[0], cls.__name__)):
+        if is_velocity_type(t):
             self._velocity[topic] = t
         pub.publish(to_message(cls, msg))
 
-    def _subscribe(self, topic, t):
-        with self._lock:
-            sub = self._subs.get(topic)
-            if sub is not None:
-                return sub
-            sub = self._subs[topic] = _Sub(topic)
-
-        def deliver(message):
-            if self.stopped.is_set():
-                return
-            msg = to_dict(message)
-            with sub.cond:
-                sub.latest = msg
-                sub.cond.notify_all()
-            for h in list(sub.handlers):
-                h(msg)
-
-        self.create_subscription(interface(t), topic, deliver, DEPTH, callback_group=self.group)
-        return sub
+    def _listen(self, topic, t, sub):
+        self.create_subscription(interface(t), topic, lambda m: self._deliver(sub, to_dict(m)), DEPTH,
+                                 callback_group=self.group)
 
     # ---- services and actions
     def _ready(self, is_ready, what):

@@ -216,18 +216,23 @@ class Runtime:
         self.namespace = norm_namespace(namespace)
         self.ros = roslibpy.Ros(url)
         self.ros.run(timeout=10)
+        self._program_state()
+        self._topics = {}
+        self._actions = {}
+        self._settled = Event()
+        self.ros.factory.on_ready(self._take_status)
+
+    def _program_state(self):
+        """What the program control (sleep, latest, on_message, drive ...) keeps; the ROS 2 node's
+        runtime (rosgate_node.py) keeps the same."""
         self.stopped = Event()
         self.error = None
         self.t0 = time.monotonic()
+        self.handlers = 0
         self._lock = threading.Lock()
         self._subs = {}
-        self._topics = {}
         self._velocity = {}
-        self._actions = {}
         self._goals = {}
-        self.handlers = 0
-        self._settled = Event()
-        self.ros.factory.on_ready(self._take_status)
 
     def ns(self, name):
         """A robot block's name in the robot namespace (--ns)."""
@@ -322,18 +327,21 @@ class Runtime:
             if sub is not None:
                 return sub
             sub = self._subs[topic] = _Sub(topic)
-
-        def deliver(msg):
-            if self.stopped.is_set():
-                return
-            with sub.cond:
-                sub.latest = msg
-                sub.cond.notify_all()
-            for h in list(sub.handlers):
-                h(msg)
-
-        roslibpy.Topic(self.ros, topic, t).subscribe(deliver)
+        self._listen(topic, t, sub)
         return sub
+
+    def _listen(self, topic, t, sub):
+        roslibpy.Topic(self.ros, topic, t).subscribe(lambda msg: self._deliver(sub, msg))
+
+    def _deliver(self, sub, msg):
+        """A message to its waiters (latest, wait_for_message) and its handlers (on_message)."""
+        if self.stopped.is_set():
+            return
+        with sub.cond:
+            sub.latest = msg
+            sub.cond.notify_all()
+        for h in list(sub.handlers):
+            h(msg)
 
     def on_message(self, topic, t, handler):
         """Runs handler(msg) in its own thread; while it is busy only the newest message waits."""

@@ -15,7 +15,6 @@ import os
 import signal
 import subprocess
 import sys
-import threading
 import zipfile
 from pathlib import Path
 
@@ -26,6 +25,8 @@ from tests.support.ide import IdePage
 from tests.support.ros import client
 from tests.support.servers import check_served, program
 from tests.support.wait import wait_for
+
+from .rclpy_nodes import OwnContextNode
 
 pytestmark = [pytest.mark.skipif(rclpy_missing() is not None, reason=f'rclpy does not import: {rclpy_missing()}'),
               pytest.mark.timeout(400)]
@@ -40,22 +41,16 @@ def env() -> dict:
     return {**os.environ, 'PATH': f'{BIN}{os.pathsep}{os.environ.get("PATH", "/usr/bin")}'}
 
 
-class Rover:
+class Rover(OwnContextNode):
     """A rover driver in a context of its own: a 360-ray /scan with a wall on the right (0.6 m),
     and, once it has heard PHASE Twists, a wall ahead (0.5 m) too; records each Twist heard."""
 
     def __init__(self):
-        import rclpy
         from geometry_msgs.msg import Twist
-        from rclpy.context import Context
-        from rclpy.executors import SingleThreadedExecutor
-        from rclpy.signals import SignalHandlerOptions
         from sensor_msgs.msg import LaserScan
-        self.context = Context()
-        rclpy.init(args=[], context=self.context, signal_handler_options=SignalHandlerOptions.NO)
-        self.node = rclpy.create_node('rover', context=self.context)
+        super().__init__('rover')
         self.heard: list[tuple[float, float]] = []
-        self.start = 0
+        self.start_at = 0
         self.node.create_subscription(Twist, '/cmd_vel', lambda m: self.heard.append(
             (round(m.linear.x, 6), round(m.angular.z, 6))), 100)
         scan_pub = self.node.create_publisher(LaserScan, '/scan', 10)
@@ -66,40 +61,25 @@ class Rover:
             ranges = [5.0] * 360
             for i in range(75, 106):                # -105..-75 degrees: the wall on the right
                 ranges[i] = 0.6
-            if len(self.heard) - self.start >= PHASE:
+            if len(self.heard) - self.start_at >= PHASE:
                 for i in range(165, 196):           # -15..15 degrees: a wall ahead
                     ranges[i] = 0.5
             msg.ranges = ranges
             scan_pub.publish(msg)
 
         self.node.create_timer(0.02, scan)
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self.thread = threading.Thread(target=self._spin, daemon=True)
-        self.thread.start()
-
-    def _spin(self):
-        try:
-            self.executor.spin()
-        except Exception:     # the context shut down under it
-            pass
+        self.start()
 
     def begin(self):
-        self.start = len(self.heard)
+        self.start_at = len(self.heard)
 
     def sequence(self) -> list[tuple[float, float]]:
         """The Twists heard since begin(), repeats collapsed."""
         out = []
-        for tw in self.heard[self.start:]:
+        for tw in self.heard[self.start_at:]:
             if not out or out[-1] != tw:
                 out.append(tw)
         return out
-
-    def stop(self):
-        self.executor.shutdown()
-        self.node.destroy_node()
-        self.context.try_shutdown()
-        self.thread.join(5)
 
 
 @pytest.fixture(scope='module')
@@ -164,7 +144,7 @@ def drive(rover, proc: subprocess.Popen) -> tuple[list, str]:
     """Lets the program drive through both phases, then Ctrl-C; the Twists the rover heard."""
     enough = True
     try:
-        wait_for(lambda: len(rover.heard) - rover.start >= 2 * PHASE + 3, 60)
+        wait_for(lambda: len(rover.heard) - rover.start_at >= 2 * PHASE + 3, 60)
     except AssertionError:
         enough = False
     proc.send_signal(signal.SIGINT)
