@@ -148,6 +148,12 @@ function serveBlock(block, g, { method, nameField, answerInput, params }) {
     `rt.${method}(${g.topicArgs(block, nameField)}, async (${params}) => {\n${g.INDENT}${v} = message;\n${body}${g.INDENT}return ${answer};\n});`;
   return '';
 }
+F.ros_every = (block, g) => {
+  block.suppressPrefixSuffix = true;
+  g.definitions_[`%every_${block.id}`] =
+    `rt.every(${g.valueToCode(block, 'SECONDS', Order.COMMA) || '1'}, async () => {\n${g.statementToCode(block, 'DO')}});`;
+  return '';
+};
 F.ros_serve_service = (block, g) => serveBlock(block, g, { method: 'serveService', nameField: 'SERVICE', answerInput: 'RESPONSE', params: 'message' });
 F.ros_serve_action = (block, g) => serveBlock(block, g, { method: 'serveAction', nameField: 'ACTION', answerInput: 'RESULT', params: 'message, goalHandle' });
 F.ros_action_feedback = (block, g) =>

@@ -180,6 +180,12 @@ function serveBlock(block, g, { method, prefix, nameField, answerInput, params }
   g.handlers_.push(`rt.${method}(${g.topicArgs(block, nameField)}, ${name})`);
   return '';
 }
+F.ros_every = (block, g) => {
+  const name = g.nameDB_.getDistinctName('every_tick', Blockly.Names.NameType.PROCEDURE);
+  g.definitions_[`%${name}`] = `def ${name}():\n${g.globalLine()}${g.statementToCode(block, 'DO') || g.PASS}`;
+  g.handlers_.push(`rt.every(${g.valueToCode(block, 'SECONDS', Order.NONE) || '1'}, ${name})`);
+  return '';
+};
 F.ros_serve_service = (block, g) =>
   serveBlock(block, g, { method: 'serve_service', prefix: 'on_call', nameField: 'SERVICE', answerInput: 'RESPONSE', params: 'message' });
 F.ros_serve_action = (block, g) =>

@@ -224,6 +224,22 @@ class BlockNode(Node):
             if action is None or name == action:
                 handle.cancel_goal_async()
 
+    # ---- "every N s": a ROS timer
+    def every(self, seconds, handler):
+        """A timer of the node: its callback only wakes a thread of the block's own, which runs
+        handler() (a tick that comes while it still runs is skipped)."""
+        tick = Event()
+
+        def worker():
+            while not self.stopped.is_set():
+                if tick.wait(0.1):
+                    tick.clear()
+                    if not self._handled(lambda _: handler(), None):
+                        return
+        self.handlers += 1
+        self.create_timer(max(0.01, float(seconds or 0)), tick.set, callback_group=self.group)
+        threading.Thread(target=worker, daemon=True).start()
+
     # ---- servers: the program's own services and actions
     async def _in_thread(self, fn, *args):
         """fn(*args) in a thread of its own, awaited by the executor's callback (a coroutine): a

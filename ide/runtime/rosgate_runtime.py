@@ -489,6 +489,23 @@ class Runtime:
             self._check()
         return dict(res.get("values") or {})
 
+    # ---- "every N s"
+    def every(self, seconds, handler):
+        """handler() every `seconds` in a thread of its own (a tick that comes while it still runs is
+        skipped), until the program stops."""
+        if BROWSER:
+            raise RosError("'every N s' needs the script or the blocks' Run, not Python in the page")
+        period = max(0.01, float(seconds or 0))
+        self.handlers += 1
+
+        def worker():
+            due = time.monotonic() + period
+            while not self.stopped.wait(max(0.0, due - time.monotonic())):
+                if not self._handled(lambda _: handler(), None):
+                    return
+                due = max(due + period, time.monotonic())
+        threading.Thread(target=worker, daemon=True).start()
+
     # ---- servers: services and actions the program serves through the gateway
     def _served(self, handler, *args):
         """(handler's answer, True), or (None, False) when it failed (the program ends) or stopped."""

@@ -44,6 +44,7 @@ export class Runtime {
     this.velocityTopics = new Map();
     this.goals = new Map();       // goal id -> action
     this.servers = [];            // {event, listener, unadvertise}: the services and actions it serves
+    this.timers = [];             // setInterval ids of its 'every N s' blocks
     this.owned = new Map();       // op|name|block -> {id, unwatch}: ids of ops no promise waits on
     this.lastYield = performance.now();
     this._gates = new Set();      // resolvers of the parts (main, handlers) held while paused
@@ -292,6 +293,23 @@ export class Runtime {
     });
   }
 
+  // "every N s": handler() every `seconds`; a tick that comes while it still runs is skipped.
+  every(seconds, handler) {
+    const blockId = this.current;
+    let busy = false;
+    const timer = setInterval(async () => {
+      if (busy || this.stopped) return;
+      busy = true;
+      try {
+        await handler();
+      } catch (e) {
+        clearInterval(timer);
+        if (!(e instanceof StopSignal)) this._fail(e, this.current ?? blockId);
+      } finally { busy = false; }
+    }, Math.max(0.01, Number(seconds) || 0) * 1000);
+    this.timers.push(timer);
+  }
+
   // ---- servers: services and actions the program serves through the gateway ---------
   // handler(request) answers each call; several calls may run at once, each in its own turn.
   serveService(service, type, handler) {
@@ -333,9 +351,9 @@ export class Runtime {
     }
   }
 
-  // Message handlers or servers keep the program running after its main blocks.
+  // Message handlers, timers or servers keep the program running after its main blocks.
   listening() {
-    return this.servers.length > 0 || [...this.subs.values()].some((s) => s.handlers.length);
+    return this.servers.length > 0 || this.timers.length > 0 || [...this.subs.values()].some((s) => s.handlers.length);
   }
 
   cancel(action) {
@@ -468,6 +486,8 @@ export class Runtime {
       this._send(unadvertise);
     }
     this.servers = [];
+    for (const timer of this.timers) clearInterval(timer);
+    this.timers = [];
     const signal = new StopSignal();
     for (const p of this.pending) p.reject(signal);
     this.pending.clear();

@@ -198,6 +198,7 @@ def test_the_nodes_servers_answer_roslibpy_through_the_gateway(rclpy_helpers, ch
     name, data, _, code = from_ide(chromium, ide_gateway, program(add_type, fib_type))
     assert name == 'served.zip'
     assert f"rt.serve_service('/add_served', '{add_type}', on_call)" in code
+    assert "self.publisher('/served_ticks', String)" in code and 'rt.every(0.1, every_tick)' in code
     build(data, tmp_path)
     proc = start_node(tmp_path, 'served', 'served_node')
     try:

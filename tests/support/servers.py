@@ -9,7 +9,7 @@ import roslibpy
 
 from tests.support.wait import wait_for
 
-ADD, COUNT = '/add_served', '/count_served'
+ADD, COUNT, TICKS = '/add_served', '/count_served', '/served_ticks'
 # the adder's type and its fields (a, b, sum); where example_interfaces is not installed (the
 # Jazzy wheels) test_msgs stands in, as in tests/backends/rclpy_nodes.py
 ADDERS = {'example_interfaces/srv/AddTwoInts': ('a', 'b', 'sum'),
@@ -41,7 +41,8 @@ def _list(*items):
 def program(add_type: str = 'example_interfaces/srv/AddTwoInts',
             count_type: str = 'example_interfaces/action/Fibonacci') -> dict:
     """/add_served answers a + b after a 0.2 s sleep (its wait holds up nothing else); /count_served
-    sends feedback [1], [2] ... [order] (0.05 s apart) and the result [order, 10 * order]."""
+    sends feedback [1], [2] ... [order] (0.05 s apart) and the result [order, 10 * order]; every
+    0.1 s the program publishes 'tick' on /served_ticks."""
     a, b, total = ADDERS[add_type]
     return _program(add_type, count_type, a, b, total)
 
@@ -57,6 +58,11 @@ def _program(add_type, count_type, a, b, total):
              'RESPONSE': _message(add_type, {total: ('int64', False, {'block': {
                  'type': 'math_arithmetic', 'fields': {'OP': 'ADD'},
                  'inputs': {'A': _field(a, 'var-request'), 'B': _field(b, 'var-request')}}})})}},
+        {'type': 'ros_every', 'x': 400, 'y': 20, 'inputs': {
+            'SECONDS': _num(0.1),
+            'DO': {'block': {'type': 'ros_publish', 'fields': {'TOPIC': TICKS, 'TYPE': 'std_msgs/msg/String'},
+                             'inputs': {'MSG': _message('std_msgs/msg/String', {'data': ('string', False, {
+                                 'shadow': {'type': 'text', 'fields': {'TEXT': 'tick'}}})})}}}}},
         {'type': 'ros_serve_action', 'x': 20, 'y': 300,
          'fields': {'ACTION': COUNT, 'TYPE': count_type, 'VAR': {'id': 'var-goal'}},
          'inputs': {
@@ -86,6 +92,9 @@ def check_served(ros: roslibpy.Ros, add_type: str = 'example_interfaces/srv/AddT
                  count_type: str = 'example_interfaces/action/Fibonacci', timeout: float = 20.0) -> None:
     """The program's service answers 2 + 40 (twice at once: 0.2 s each, both within 0.2 s of the
     other) and its action counts to 3 with feedback, through the roslibpy client ``ros``."""
+    ticks = []
+    topic = roslibpy.Topic(ros, TICKS, 'std_msgs/msg/String')
+    topic.subscribe(lambda m: ticks.append(m['data']))
     a, b, total = ADDERS[add_type]
     service = roslibpy.Service(ros, ADD, add_type)
     # the program advertises once it has started: the first call may find no server yet
@@ -117,3 +126,6 @@ def check_served(ros: roslibpy.Ros, add_type: str = 'example_interfaces/srv/AddT
     assert int(getattr(result.get('status'), 'value', result.get('status'))) == 4, result
     assert list(result['values']['sequence']) == [3, 30], result
     assert feedback == [[1], [2], [3]], feedback
+    wait_for(lambda: len(ticks) >= 3, timeout, 0.05, "3 ticks of 'every 0.1 s'")
+    topic.unsubscribe()
+    assert set(ticks) == {'tick'}, ticks
