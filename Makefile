@@ -68,7 +68,7 @@ $(ROSVENV)/.installed: pyproject.toml Makefile
 # run by root) has no unprivileged uid to give the robot-side runs, which would be root outside.
 NETNS := $(if $(filter 0,$(shell id -u)),unshare -n,unshare -rn)
 
-test-rclpy: $(ROSVENV)/.installed
+test-rclpy: $(ROSVENV)/.installed ide
 	$(NETNS) sh -c 'ip link set lo up && $(ROSVENV)/bin/python -m pytest -q tests/backends tests/install/test_ros_extra.py'
 
 bench: install-test $(if $(findstring rclpy,$(ARGS)),$(ROSVENV)/.installed-bench)

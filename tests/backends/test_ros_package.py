@@ -15,6 +15,7 @@ import os
 import signal
 import subprocess
 import sys
+import time
 import zipfile
 from pathlib import Path
 
@@ -50,9 +51,13 @@ class Rover(OwnContextNode):
         from sensor_msgs.msg import LaserScan
         super().__init__('rover')
         self.heard: list[tuple[float, float]] = []
+        self.when: list[float] = []                 # time.monotonic() of each Twist heard
         self.start_at = 0
-        self.node.create_subscription(Twist, '/cmd_vel', lambda m: self.heard.append(
-            (round(m.linear.x, 6), round(m.angular.z, 6))), 100)
+
+        def hear(m):
+            self.when.append(time.monotonic())
+            self.heard.append((round(m.linear.x, 6), round(m.angular.z, 6)))
+        self.node.create_subscription(Twist, '/cmd_vel', hear, 100)
         scan_pub = self.node.create_publisher(LaserScan, '/scan', 10)
 
         def scan():
@@ -126,8 +131,10 @@ def build(data: bytes, folder: Path) -> zipfile.ZipFile:
     archive = zipfile.ZipFile(io.BytesIO(data))
     (folder / 'src').mkdir()
     archive.extractall(folder / 'src')
+    started = time.monotonic()
     built = subprocess.run([str(BIN / 'colcon'), 'build'], cwd=folder, env=env(), capture_output=True, text=True, timeout=300)
     assert built.returncode == 0, built.stdout[-3000:] + built.stderr[-3000:]
+    print(f'colcon build: {time.monotonic() - started:.1f} s')
     return archive
 
 
@@ -147,10 +154,12 @@ def drive(rover, proc: subprocess.Popen) -> tuple[list, str]:
         wait_for(lambda: len(rover.heard) - rover.start_at >= 2 * PHASE + 3, 60)
     except AssertionError:
         enough = False
+    interrupted = time.monotonic()
     proc.send_signal(signal.SIGINT)
     out, _ = proc.communicate(timeout=30)
     assert enough, f'the rover heard {rover.sequence()}; the program said: {out[-3000:]}'
     wait_for(lambda: rover.heard[-1] == (0.0, 0.0), 10)
+    print(f'Ctrl-C to the zero Twist at the rover: {1000 * (rover.when[-1] - interrupted):.0f} ms')
     return rover.sequence(), out
 
 
