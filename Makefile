@@ -13,8 +13,10 @@ VENV_FLAGS := $(if $(ROS_DISTRO),--system-site-packages,)
 ROSVENV  := .venv-ros
 # What the suite needs besides the project's [ros] and [ros-build] extras (rclpy with Fast DDS,
 # common_interfaces; the generators that build the test robot's interfaces and types on first use),
-# and a robot on Cyclone DDS for the cross-vendor test.
-ROS_TEST_PKGS := ros-jazzy-test-msgs==2.0.3 cyclonedds==11.0.1 pytest pytest-asyncio pytest-timeout hypothesis
+# and a robot on Cyclone DDS for the cross-vendor test; colcon builds the IDE's ROS 2 package download,
+# which Chromium (Playwright; websockets for tests/support) fetches from the IDE (test_ros_package.py).
+ROS_TEST_PKGS := ros-jazzy-test-msgs==2.0.3 cyclonedds==11.0.1 pytest pytest-asyncio pytest-timeout hypothesis \
+                 colcon-core==0.21.3 colcon-ros==0.5.0 playwright==1.65.2 websockets==17.4
 
 system:
 	@tools/system-packages run
@@ -66,7 +68,7 @@ $(ROSVENV)/.installed: pyproject.toml Makefile
 # run by root) has no unprivileged uid to give the robot-side runs, which would be root outside.
 NETNS := $(if $(filter 0,$(shell id -u)),unshare -n,unshare -rn)
 
-test-rclpy: $(ROSVENV)/.installed
+test-rclpy: $(ROSVENV)/.installed ide
 	$(NETNS) sh -c 'ip link set lo up && $(ROSVENV)/bin/python -m pytest -q tests/backends tests/install/test_ros_extra.py'
 
 bench: install-test $(if $(findstring rclpy,$(ARGS)),$(ROSVENV)/.installed-bench)

@@ -3,7 +3,7 @@
 // every statement, for highlighting, Pause/Step and Stop.
 /* global Blockly, javascript */
 import { specToCode } from './spec.js';
-import { isLoose, NameScope, NAME_KINDS } from './scope.js';
+import { inServeAction, isLoose, NameScope, NAME_KINDS } from './scope.js';
 
 const { Order } = javascript;
 
@@ -38,7 +38,7 @@ class RosJavascriptGenerator extends javascript.JavascriptGenerator {
   constructor() {
     super('JavaScript');
     Object.assign(this.forBlock, javascript.javascriptGenerator.forBlock);
-    this.addReservedWords('rt,await,async');
+    this.addReservedWords('rt,await,async,goalHandle');
     this.scope = new NameScope();   // the page shares one with the Python generator
   }
 
@@ -137,6 +137,27 @@ F.ros_send_goal = (block, g) => {
   return `${resVar} = await rt.sendGoal(${g.topicArgs(block, 'ACTION')}, ${g.msgArg(block, 'GOAL')}, ${onFeedback});\n` +
     g.statementToCode(block, 'RESULT').replace(new RegExp(`^${g.INDENT}`, 'gm'), '');
 };
+
+// Server blocks: registered before the main blocks run, as message handlers are.
+function serveBlock(block, g, { method, nameField, answerInput, params }) {
+  block.suppressPrefixSuffix = true;
+  const v = g.getVariableName(block.getFieldValue('VAR'));
+  const body = g.statementToCode(block, 'DO');
+  const answer = g.valueToCode(block, answerInput, Order.NONE) || '{}';
+  g.definitions_[`%${method}_${block.id}`] =
+    `rt.${method}(${g.topicArgs(block, nameField)}, async (${params}) => {\n${g.INDENT}${v} = message;\n${body}${g.INDENT}return ${answer};\n});`;
+  return '';
+}
+F.ros_every = (block, g) => {
+  block.suppressPrefixSuffix = true;
+  g.definitions_[`%every_${block.id}`] =
+    `rt.every(${g.valueToCode(block, 'SECONDS', Order.COMMA) || '1'}, async () => {\n${g.statementToCode(block, 'DO')}});`;
+  return '';
+};
+F.ros_serve_service = (block, g) => serveBlock(block, g, { method: 'serveService', nameField: 'SERVICE', answerInput: 'RESPONSE', params: 'message' });
+F.ros_serve_action = (block, g) => serveBlock(block, g, { method: 'serveAction', nameField: 'ACTION', answerInput: 'RESULT', params: 'message, goalHandle' });
+F.ros_action_feedback = (block, g) =>
+  `rt.actionFeedback(${inServeAction(block) ? 'goalHandle' : 'null'}, ${g.valueToCode(block, 'VALUE', Order.COMMA) || '{}'});\n`;
 
 F.ros_cancel = (block, g) => `rt.cancel(${g.nameArg(block, 'ACTION')});\n`;
 

@@ -3,7 +3,7 @@
 //   pip install roslibpy && python3 program.py --url ws://HOST:9090/
 /* global Blockly, python */
 import { specToCode } from './spec.js';
-import { isLoose, NameScope, NAME_KINDS } from './scope.js';
+import { inServeAction, isLoose, NameScope, NAME_KINDS } from './scope.js';
 
 const { Order } = python;
 
@@ -41,13 +41,13 @@ export const lang = {
 let runtimeSource = '# the rosgate runtime was not loaded\n';
 export function setRuntimeSource(text) { runtimeSource = text; }
 
-class RosPythonGenerator extends python.PythonGenerator {
+export class RosPythonGenerator extends python.PythonGenerator {
   constructor() {
     super('Python');
     Object.assign(this.forBlock, python.pythonGenerator.forBlock);
     this.addReservedWords('rt,run,main,field,fmt,pick,yaw,range_at,angle_diff,pose_of,roslibpy,Runtime,' +
       'StopProgram,RosError,argparse,json,math,os,random,signal,sys,threading,time,traceback,message,queue,GAIN,SETTLE_SERVICE,is_velocity_type,zero_velocity,' +
-      'norm_namespace,with_namespace,re');
+      'norm_namespace,with_namespace,re,goal_handle');
     this.programName = 'program';
     this.namespace = '';      // the robot namespace the file runs in unless --ns says otherwise
     this.importRuntime = false;   // true: the text program imports the runtime (js/textmode.js)
@@ -168,6 +168,30 @@ F.ros_send_goal = (block, g) => {
   return `${resVar} = rt.send_goal(${g.topicArgs(block, 'ACTION')}, ${g.msgArg(block, 'GOAL')}, ${onFeedback})\n` +
     g.statementToCode(block, 'RESULT').replace(new RegExp(`^${g.INDENT}`, 'gm'), '');
 };
+
+// Server blocks: a function per block, served from the start of main().
+function serveBlock(block, g, { method, prefix, nameField, answerInput, params }) {
+  const v = g.getVariableName(block.getFieldValue('VAR'));
+  const body = g.statementToCode(block, 'DO');
+  const answer = g.valueToCode(block, answerInput, Order.NONE) || '{}';
+  const name = g.nameDB_.getDistinctName(prefix, Blockly.Names.NameType.PROCEDURE);
+  g.definitions_[`%${name}`] =
+    `def ${name}(${params}):\n${g.globalLine()}${g.INDENT}${v} = message\n${body}${g.INDENT}return ${answer}`;
+  g.handlers_.push(`rt.${method}(${g.topicArgs(block, nameField)}, ${name})`);
+  return '';
+}
+F.ros_every = (block, g) => {
+  const name = g.nameDB_.getDistinctName('every_tick', Blockly.Names.NameType.PROCEDURE);
+  g.definitions_[`%${name}`] = `def ${name}():\n${g.globalLine()}${g.statementToCode(block, 'DO') || g.PASS}`;
+  g.handlers_.push(`rt.every(${g.valueToCode(block, 'SECONDS', Order.NONE) || '1'}, ${name})`);
+  return '';
+};
+F.ros_serve_service = (block, g) =>
+  serveBlock(block, g, { method: 'serve_service', prefix: 'on_call', nameField: 'SERVICE', answerInput: 'RESPONSE', params: 'message' });
+F.ros_serve_action = (block, g) =>
+  serveBlock(block, g, { method: 'serve_action', prefix: 'on_goal', nameField: 'ACTION', answerInput: 'RESULT', params: 'message, goal_handle' });
+F.ros_action_feedback = (block, g) =>
+  `rt.action_feedback(${inServeAction(block) ? 'goal_handle' : 'None'}, ${g.valueToCode(block, 'VALUE', Order.NONE) || '{}'})\n`;
 
 F.ros_cancel = (block, g) => `rt.cancel(${g.nameArg(block, 'ACTION')})\n`;
 

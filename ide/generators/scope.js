@@ -38,3 +38,9 @@ export class NameScope {
 
 // The name fields of the generic ROS blocks and what they name.
 export const NAME_KINDS = { TOPIC: 'topic', SERVICE: 'service', ACTION: 'action' };
+
+// "send feedback" speaks for the goal of the 'serve action' block it is in (none outside one).
+export function inServeAction(block) {
+  for (let b = block.getSurroundParent(); b; b = b.getSurroundParent()) if (b.type === 'ros_serve_action') return true;
+  return false;
+}

@@ -31,6 +31,10 @@ const RT = {
     ['yaw', '(q)', 'the heading of a quaternion (radians)'],
     ['rangeAt', '(scan, degrees = 0, window = 20)', 'the nearest range of a LaserScan around an angle'],
     ['ns', '(name)', 'a name in the robot namespace'],
+    ['every', '(seconds, async () => {…})', 'run a function every so many seconds'],
+    ['serveService', '(service, type, async (request) => answer)', 'serve a service: answer every call'],
+    ['serveAction', '(action, type, async (goal, goalHandle) => result)', 'serve an action: run every goal'],
+    ['actionFeedback', '(goalHandle, values)', "send a served goal's feedback"],
   ],
   python: [
     ['publish', '(topic, t, msg)', 'publish one message'],
@@ -48,6 +52,10 @@ const RT = {
     ['stop_robot', '()', 'zero every velocity topic the program drove'],
     ['elapsed', '()', 'seconds since the program started'],
     ['ns', '(name)', 'a name in the robot namespace'],
+    ['every', '(seconds, handler)', 'call handler() every so many seconds'],
+    ['serve_service', '(service, t, handler)', 'serve a service: handler(request) returns the answer'],
+    ['serve_action', '(action, t, handler)', 'serve an action: handler(goal, goal_handle) returns the result'],
+    ['action_feedback', '(goal_handle, values)', "send a served goal's feedback"],
   ],
 };
 // The Python runtime's functions outside rt (from rosgate_runtime import *).

@@ -7,6 +7,8 @@ import './fields.js';
 import './msgblock.js';
 import { gen as jsGen, registerSpec as registerJs } from '../generators/javascript.js';
 import { gen as pyGen, registerSpec as registerPy, setRuntimeSource } from '../generators/python.js';
+import { rosPackage } from '../generators/package.js';
+import { zipSync, strToU8 } from '../vendor/fflate.mjs';
 import { Runner } from './runner.js';
 import { Console } from './console.js';
 import { WorldView } from './worldview.js';
@@ -102,6 +104,7 @@ async function start() {
     getJson('blocks/ros.json'), getJson('blocks/turtlesim.json'), getJson('blocks/rover.json'),
     getJson('toolbox.json'), fetch('runtime/rosgate_runtime.py').then((r) => r.text()),
   ]);
+  const nodeRuntime = fetch('runtime/rosgate_node.py').then((r) => r.text());
   ide.sets = { ros: ros_, turtlesim, rover };
   ide.baseToolbox = base;
   setRuntimeSource(runtimePy);
@@ -255,7 +258,10 @@ async function start() {
     pyGen.namespace = ide.ns;
     try { $('#code-python').textContent = foldRuntime(pyGen.workspaceToCode(workspace)); } catch (e) { $('#code-python').textContent = `# ${e.message}`; }
     try { $('#code-js').textContent = jsGen.generate(workspace); } catch (e) { $('#code-js').textContent = `// ${e.message}`; }
+    try { $('#code-node').textContent = ide.rosPackage({ 'rosgate_node.py': '', 'rosgate_runtime.py': '' }).code; } catch (e) { $('#code-node').textContent = `# ${e.message}`; }
   };
+  // the block program as a ROS 2 package: {pkg, node, code, files}
+  ide.rosPackage = (runtime) => rosPackage(workspace, { programName: ide.programName, namespace: ide.ns, runtime });
   const blocksPython = () => {
     pyGen.programName = ide.programName;
     pyGen.namespace = ide.ns;
@@ -361,6 +367,11 @@ async function start() {
   $('#download-py').onclick = () => {
     if (textMode.active) { textMode.download(ide.programName, runtimePy); return; }
     storage.download(`${storage.safeName(ide.programName).replace(/\W+/g, '_')}.py`, ide.generatePython(), 'text/x-python');
+  };
+  $('#download-ros2').onclick = async () => {
+    const { files } = ide.rosPackage({ 'rosgate_runtime.py': runtimePy, 'rosgate_node.py': await nodeRuntime });
+    const zip = zipSync(Object.fromEntries(Object.entries(files).map(([p, text]) => [p, strToU8(text)])));
+    storage.download(`${storage.safeName(ide.programName)}.zip`, zip, 'application/zip');
   };
   $('#upload').onclick = async () => {
     const text = await storage.pickFile();

@@ -76,7 +76,7 @@ export class Runner extends EventTarget {
     try {
       await fn(rt);
       if (this.rt !== rt || rt.stopped) return;
-      if (rt.subs.size && [...rt.subs.values()].some((s) => s.handlers.length)) {
+      if (rt.listening()) {
         this.console.info(t('run.handlers'));
         return;
       }

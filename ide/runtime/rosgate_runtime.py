@@ -12,7 +12,10 @@ import threading
 import time
 import traceback
 
-import roslibpy
+try:
+    import roslibpy
+except ImportError:   # a ROS 2 node made from blocks (rosgate_node.py) uses the helpers alone
+    roslibpy = None
 
 # In the IDE page (Pyodide, ide/js/pyrun.js) the program has one thread: roslibpy is the page's
 # (ide/runtime/browser/roslibpy.py), waits deliver the messages, handlers run while the program waits.
@@ -196,6 +199,8 @@ def check_roslibpy():
     refused publish has to end the program: the runtime puts its own handler in that table,
     roslibpy's private RosBridgeProtocol._message_handlers. If a roslibpy release renames it,
     refused publishes would silently stop ending programs; the program stops at start instead."""
+    if roslibpy is None:
+        raise RuntimeError("this program needs roslibpy: pip install '%s'" % ROSLIBPY_TESTED)
     proto = roslibpy.comm.RosBridgeProtocol()
     handlers = getattr(proto, "_message_handlers", None)
     if not isinstance(handlers, dict) or "status" not in handlers:
@@ -211,18 +216,23 @@ class Runtime:
         self.namespace = norm_namespace(namespace)
         self.ros = roslibpy.Ros(url)
         self.ros.run(timeout=10)
+        self._program_state()
+        self._topics = {}
+        self._actions = {}
+        self._settled = Event()
+        self.ros.factory.on_ready(self._take_status)
+
+    def _program_state(self):
+        """What the program control (sleep, latest, on_message, drive ...) keeps; the ROS 2 node's
+        runtime (rosgate_node.py) keeps the same."""
         self.stopped = Event()
         self.error = None
         self.t0 = time.monotonic()
+        self.handlers = 0
         self._lock = threading.Lock()
         self._subs = {}
-        self._topics = {}
         self._velocity = {}
-        self._actions = {}
         self._goals = {}
-        self.handlers = 0
-        self._settled = Event()
-        self.ros.factory.on_ready(self._take_status)
 
     def ns(self, name):
         """A robot block's name in the robot namespace (--ns)."""
@@ -232,6 +242,11 @@ class Runtime:
         # roslibpy drops rosbridge status ops; a refused publish has to end the program
         # (check_roslibpy made sure at start that this table is there)
         proto._message_handlers["status"] = self._on_status
+        # roslibpy has no action server: goals for the program's served actions (serve_action) go to
+        # its listeners by action name, as roslibpy does with service calls; a cancel is not honoured
+        # (the goal runs to its result)
+        proto._message_handlers["send_action_goal"] = lambda m: self.ros.factory.emit(m["action"], m)
+        proto._message_handlers["cancel_action_goal"] = lambda m: None
 
     def _on_status(self, message):
         # a status error about a publish or advertise of one of the program's topics ends it
@@ -312,18 +327,21 @@ class Runtime:
             if sub is not None:
                 return sub
             sub = self._subs[topic] = _Sub(topic)
-
-        def deliver(msg):
-            if self.stopped.is_set():
-                return
-            with sub.cond:
-                sub.latest = msg
-                sub.cond.notify_all()
-            for h in list(sub.handlers):
-                h(msg)
-
-        roslibpy.Topic(self.ros, topic, t).subscribe(deliver)
+        self._listen(topic, t, sub)
         return sub
+
+    def _listen(self, topic, t, sub):
+        roslibpy.Topic(self.ros, topic, t).subscribe(lambda msg: self._deliver(sub, msg))
+
+    def _deliver(self, sub, msg):
+        """A message to its waiters (latest, wait_for_message) and its handlers (on_message)."""
+        if self.stopped.is_set():
+            return
+        with sub.cond:
+            sub.latest = msg
+            sub.cond.notify_all()
+        for h in list(sub.handlers):
+            h(msg)
 
     def on_message(self, topic, t, handler):
         """Runs handler(msg) in its own thread; while it is busy only the newest message waits."""
@@ -470,6 +488,61 @@ class Runtime:
             thread.join(0.05)
             self._check()
         return dict(res.get("values") or {})
+
+    # ---- "every N s"
+    def every(self, seconds, handler):
+        """handler() every `seconds` in a thread of its own (a tick that comes while it still runs is
+        skipped), until the program stops."""
+        if BROWSER:
+            raise RosError("'every N s' needs the script or the blocks' Run, not Python in the page")
+        period = max(0.01, float(seconds or 0))
+        self.handlers += 1
+
+        def worker():
+            due = time.monotonic() + period
+            while not self.stopped.wait(max(0.0, due - time.monotonic())):
+                if not self._handled(lambda _: handler(), None):
+                    return
+                due = max(due + period, time.monotonic())
+        threading.Thread(target=worker, daemon=True).start()
+
+    # ---- servers: services and actions the program serves through the gateway
+    def _served(self, handler, *args):
+        """(handler's answer, True), or (None, False) when it failed (the program ends) or stopped."""
+        out = {}
+        ok = self._handled(lambda _: out.setdefault("answer", handler(*args)), None)
+        return out.get("answer"), ok
+
+    def _serve(self, op, name, t, answer):
+        """Advertises; each request (a service call, a goal) is answered by answer(message) in a
+        thread of its own, so a slow one holds up neither the connection nor the others."""
+        if BROWSER:
+            raise RosError("serving a service or an action needs the script or the blocks' Run, not Python in the page")
+        self._check()
+        self.handlers += 1
+        self.ros.on(name, lambda m: self.stopped.is_set() or threading.Thread(target=answer, args=(m,), daemon=True).start())
+        self.ros.send_on_ready(roslibpy.Message({"op": op, "type": t, op.split("_")[1]: name}))
+
+    def serve_service(self, service, t, handler):
+        def answer(m):
+            values, ok = self._served(handler, dict(m.get("args") or {}))
+            self.ros.send_on_ready(roslibpy.Message({"op": "service_response", "service": service, "id": m.get("id"),
+                                                     "values": (values or {}) if ok else "the program failed", "result": ok}))
+        self._serve("advertise_service", service, t, answer)
+
+    def serve_action(self, action, t, handler):
+        def answer(m):
+            values, ok = self._served(handler, dict(m.get("args") or {}), {"action": action, "id": m.get("id")})
+            self.ros.send_on_ready(roslibpy.Message({"op": "action_result", "action": action, "id": m.get("id"),
+                                                     "values": (values or {}) if ok else {}, "status": 4 if ok else 6, "result": ok}))
+        self._serve("advertise_action", action, t, answer)
+
+    def action_feedback(self, goal_handle, values):
+        if goal_handle is None:
+            raise RosError("'send feedback' works inside 'serve action' only")
+        self._check()
+        self.ros.send_on_ready(roslibpy.Message({"op": "action_feedback", "action": goal_handle["action"],
+                                                 "id": goal_handle["id"], "values": values or {}}))
 
     def cancel(self, action=None):
         for goal_id, client in list(self._goals.items()):

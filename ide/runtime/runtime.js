@@ -43,6 +43,8 @@ export class Runtime {
     this.advertised = new Map();  // topic -> type
     this.velocityTopics = new Map();
     this.goals = new Map();       // goal id -> action
+    this.servers = [];            // {event, listener, unadvertise}: the services and actions it serves
+    this.timers = [];             // setInterval ids of its 'every N s' blocks
     this.owned = new Map();       // op|name|block -> {id, unwatch}: ids of ops no promise waits on
     this.lastYield = performance.now();
     this._gates = new Set();      // resolvers of the parts (main, handlers) held while paused
@@ -291,6 +293,69 @@ export class Runtime {
     });
   }
 
+  // "every N s": handler() every `seconds`; a tick that comes while it still runs is skipped.
+  every(seconds, handler) {
+    const blockId = this.current;
+    let busy = false;
+    const timer = setInterval(async () => {
+      if (busy || this.stopped) return;
+      busy = true;
+      try {
+        await handler();
+      } catch (e) {
+        clearInterval(timer);
+        if (!(e instanceof StopSignal)) this._fail(e, this.current ?? blockId);
+      } finally { busy = false; }
+    }, Math.max(0.01, Number(seconds) || 0) * 1000);
+    this.timers.push(timer);
+  }
+
+  // ---- servers: services and actions the program serves through the gateway ---------
+  // handler(request) answers each call; several calls may run at once, each in its own turn.
+  serveService(service, type, handler) {
+    this._serve('advertise_service', { service, type }, service, 'call_service', async (m, blockId) => {
+      const [values, ok] = await this._served(handler, [m.args ?? {}], blockId);
+      this._send({ op: 'service_response', service, id: m.id, values: ok ? values ?? {} : 'the program failed', result: ok });
+    }, { op: 'unadvertise_service', service });
+  }
+
+  // handler(goal, goalHandle) runs each goal; actionFeedback(goalHandle, values) sends its feedback.
+  serveAction(action, type, handler) {
+    this._serve('advertise_action', { action, type }, action, 'send_action_goal', async (m, blockId) => {
+      const [values, ok] = await this._served(handler, [m.args ?? {}, { action, id: m.id }], blockId);
+      this._send({ op: 'action_result', action, id: m.id, values: ok ? values ?? {} : {}, status: ok ? 4 : 6, result: ok });
+    }, { op: 'unadvertise_action', action });
+  }
+
+  actionFeedback(goalHandle, values) {
+    if (!goalHandle) throw new RosError("'send feedback' works inside 'serve action' only");
+    if (this.stopped) throw new StopSignal();
+    this._send({ op: 'action_feedback', action: goalHandle.action, id: goalHandle.id, values: values ?? {} });
+  }
+
+  _serve(op, fields, event, requestOp, answer, unadvertise) {
+    const blockId = this.current;
+    const listener = (m) => { if (m.op === requestOp && !this.stopped) answer(m, blockId); };
+    this.ros.on(event, listener);
+    this.servers.push({ event, listener, unadvertise });
+    this._send({ op, id: this._owned(op, event, blockId), ...fields });
+  }
+
+  // [handler's answer, true], or [undefined, false] when it failed (the program ends) or stopped.
+  async _served(handler, args, blockId) {
+    try {
+      return [await handler(...args), true];
+    } catch (e) {
+      if (!(e instanceof StopSignal)) this._fail(e, this.current ?? blockId);
+      return [undefined, false];
+    }
+  }
+
+  // Message handlers, timers or servers keep the program running after its main blocks.
+  listening() {
+    return this.servers.length > 0 || this.timers.length > 0 || [...this.subs.values()].some((s) => s.handlers.length);
+  }
+
   cancel(action) {
     for (const [id, a] of this.goals) {
       if (!action || a === action) this._send({ op: 'cancel_action_goal', id, action: a });
@@ -416,6 +481,13 @@ export class Runtime {
     this.subs.clear();
     for (const topic of this.advertised.keys()) this._send({ op: 'unadvertise', topic });
     this.advertised.clear();
+    for (const { event, listener, unadvertise } of this.servers) {
+      this.ros.off(event, listener);
+      this._send(unadvertise);
+    }
+    this.servers = [];
+    for (const timer of this.timers) clearInterval(timer);
+    this.timers = [];
     const signal = new StopSignal();
     for (const p of this.pending) p.reject(signal);
     this.pending.clear();

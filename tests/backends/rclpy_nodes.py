@@ -32,6 +32,38 @@ def find(kind: str):
     raise RuntimeError(f'none of {CHOICES[kind]} is installed')
 
 
+class OwnContextNode:
+    """A node in an rclpy context of its own (its own DDS participant, as another process would
+    be): make its endpoints on ``self.node``, then start() spins it in a thread until stop()."""
+
+    def __init__(self, name: str):
+        import rclpy
+        from rclpy.context import Context
+        from rclpy.signals import SignalHandlerOptions
+        self.context = Context()
+        rclpy.init(args=[], context=self.context, signal_handler_options=SignalHandlerOptions.NO)
+        self.node = rclpy.create_node(name, context=self.context)
+
+    def start(self) -> None:
+        from rclpy.executors import SingleThreadedExecutor
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self.thread = threading.Thread(target=self._spin, daemon=True)
+        self.thread.start()
+
+    def _spin(self) -> None:
+        try:
+            self.executor.spin()
+        except Exception:     # the context shut down under it
+            pass
+
+    def stop(self) -> None:
+        self.executor.shutdown()
+        self.node.destroy_node()
+        self.context.try_shutdown()
+        self.thread.join(5)
+
+
 class HelperNodes:
     def __init__(self, step_interval: float = 0.05):
         self.add_type, self._add = find('add')

@@ -12,7 +12,6 @@ import os
 import socket
 import subprocess
 import sys
-import threading
 from pathlib import Path
 
 import pytest
@@ -22,6 +21,8 @@ from tests.support.contract import rclpy_missing
 from tests.support.http import api
 from tests.support.process import descendants, uids
 from tests.support.wait import wait_for
+
+from .rclpy_nodes import OwnContextNode
 
 ROOT = Path(__file__).resolve().parents[2]
 RUNTIME = (ROOT / 'ide' / 'runtime' / 'rosgate_runtime.py').read_text()
@@ -62,36 +63,15 @@ TRANSPORTS = {
 }
 
 
-class Robot:
+class Robot(OwnContextNode):
     """A robot driver in a context of its own: counts the Twists it hears on /turtle1/cmd_vel."""
 
     def __init__(self):
-        import rclpy
         from geometry_msgs.msg import Twist
-        from rclpy.context import Context
-        from rclpy.executors import SingleThreadedExecutor
-        from rclpy.signals import SignalHandlerOptions
-        self.context = Context()
-        rclpy.init(args=[], context=self.context, signal_handler_options=SignalHandlerOptions.NO)
-        self.node = rclpy.create_node('turtlesim', context=self.context)
+        super().__init__('turtlesim')
         self.heard: list[float] = []
         self.node.create_subscription(Twist, '/turtle1/cmd_vel', lambda m: self.heard.append(m.linear.x), 10)
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self.thread = threading.Thread(target=self._spin, daemon=True)
-        self.thread.start()
-
-    def _spin(self):
-        try:
-            self.executor.spin()
-        except Exception:     # the context shut down under it
-            pass
-
-    def stop(self):
-        self.executor.shutdown()
-        self.node.destroy_node()
-        self.context.try_shutdown()
-        self.thread.join(5)
+        self.start()
 
 
 @pytest.fixture(scope='module')
