@@ -80,6 +80,7 @@ class Fleet:
         self.store, self.id = store, secrets.token_hex(6)
         self.mine: dict[tuple[str, str], tuple[str, str]] = {}   # (kind, name) -> (person, who)
         self.others: dict[tuple[str, str], Hold] = {}
+        self.heard: dict[tuple[str, str], float] = {}   # when an event last changed a hold (monotonic)
         self.handlers: dict[str, list[Callable[[dict], None]]] = {}
         self.lost: dict[str, Callable[[str, Hold], None]] = {}   # kind -> fn(name, holder) on a hold lost
         self.timekeeper = False
@@ -95,7 +96,7 @@ class Fleet:
 
     def start(self, loop: asyncio.AbstractEventLoop) -> None:
         self._loop = loop
-        self._read_holds(self.store.run_now(self._live_holds))
+        self._read_holds(self.store.run_now(self._live_holds), time.monotonic())
         for target, name in ((self._listen, 'rosgate-fleet-listen'), (self._work, 'rosgate-fleet')):
             t = threading.Thread(target=target, name=name, daemon=True)
             t.start()
@@ -135,6 +136,8 @@ class Fleet:
         if event.get('gw') == self.id:
             return
         what = event.get('ev')
+        if what in ('hold', 'drop'):
+            self.heard[(event['k'], event['name'])] = time.monotonic()
         if what == 'hold':
             key = (event['k'], event['name'])
             self.others[key] = Hold(event['person'], event['who'], event['gw'], time.monotonic() + HOLD)
@@ -164,12 +167,20 @@ class Fleet:
             del self.mine[(kind, name)]
             self._lose((kind, name), holder)
 
-    def _read_holds(self, rows) -> None:
+    def _read_holds(self, rows, read_at: float) -> None:
+        """The beat's read of every live hold; what an event changed since the read began stays."""
         now = time.monotonic()
         seen = {}
         for r in rows:
             if r.gateway != self.id:
                 seen[(r.kind, r.name)] = Hold(r.person, r.who, r.gateway, now + r.left)
+        for key, at in list(self.heard.items()):
+            if at >= read_at:
+                seen.pop(key, None)
+                if key in self.others:
+                    seen[key] = self.others[key]
+            elif at < now - 60:
+                del self.heard[key]
         self.others = seen
 
     def close(self) -> None:
@@ -227,8 +238,9 @@ class Fleet:
                                                             (TIMEKEEPER_KEY,)).fetchone()[0])
                         if self.timekeeper:
                             log.info('fleet: this gateway keeps time (slot resets, history)')
+                    read_at = time.monotonic()
                     rows = self.store.run_now(self._beat)
-                    self._post(self._read_holds, rows)
+                    self._post(self._read_holds, rows, read_at)
             except Exception as e:
                 log.warning('fleet: %s', e)
                 self.timekeeper = False
