@@ -17,6 +17,12 @@ robot-side runs in the station end (hooks' ``on_slot_ended``), the ``--station-r
 called in the station's namespace, and the next booking takes over. Until the next booking, or
 one slot length after hers, the booker may not walk back in (a slot cannot be stretched).
 
+In a fleet of gateways on one PostgreSQL (``store.fleet``) a booking made through one is known to
+the others at once (an event, then the timetable read again), two gateways booking one time are
+serialized by a transaction lock, and every gateway seats and ends each slot on its own timer: a
+slot ends on time when the gateway it was booked through has died. The --station-reset call is
+the fleet's timekeeper's alone (one call per slot's end).
+
 The timer sleeps until the next boundary (start or end of any booking), never more than
 MAX_SLEEP: the wall clock decides, and a clock that jumps is caught at the next wake-up.
 """

@@ -39,8 +39,12 @@ def join(fleet, *, lease, stations, sessions, timetable) -> FleetPart:
     stations.fleet = fleet
     fleet.lost['claim'] = stations.lost_elsewhere
     fleet.on('free', lambda e: stations.freed_elsewhere(e['station'], e['by'], e['person'], e.get('barred')))
+    fleet.on('hold', lambda e: stations.refresh())
+    fleet.on('drop', lambda e: stations.refresh())
     if lease is not None:
         lease.fleet = fleet
+        fleet.on('hold', lambda e: lease.refresh())
+        fleet.on('drop', lambda e: lease.refresh())
         fleet.lost['lease'] = lease.lost_elsewhere
         fleet.on('stop', lambda e: lease.stopped_elsewhere(e['group'], e['by']))
         fleet.on('release', lambda e: lease.released_elsewhere(e['group'], e['by']))

@@ -28,7 +28,8 @@ that robot. Leaving releases everything. Who drives is published, latched, on /r
 JSON: {"driver": <holder of "/"> | null, "drivers": {group: holder | null}, "stations": [...],
 "stopped": {group: unix time}, "halted": {group: who stopped it, while the stop holds}}, a holder
 being {"client", "name", "role", "remote", "since", "owner": whether it is the station's owner's,
-"run": its run id or null}.
+"run": its run id or null; in a fleet of gateways, one driving through another gateway has
+"elsewhere": true and only "name" and "owner"}.
 """
 
 from __future__ import annotations
@@ -439,9 +440,18 @@ class Lease(Hook):
             'remote': h.remote, 'since': round(self.since.get(group, 0.0), 3),
             'owner': self.owners.is_owner(h, group), 'run': h.attrs.get('run')}
 
+    def refresh(self) -> None:
+        """Announce again (another gateway's driver came or went)."""
+        self._announce()
+
     def _announce(self) -> None:
         stations = self.stations()
         drivers = {g: None for g in stations}
+        if self.fleet is not None:   # who drives through the fleet's other gateways
+            drivers.update({g: {'client': None, 'name': h.who, 'role': None, 'remote': None, 'since': None,
+                                'owner': self.owners.owner(g) is not None and self.owners.owner(g).person == h.person,
+                                'run': None, 'elsewhere': True}
+                            for g in stations if (h := self.fleet.held('lease', g)) is not None})
         drivers.update({g: self._info(g) for g in self.holders})
         text = json.dumps({'driver': self._info(ROOT), 'drivers': drivers, 'stations': list(stations),
                            'stopped': self.stopped, 'halted': self.halted})

@@ -36,13 +36,14 @@ def pair(launch, tokens_file, postgres, tmp_path_factory):
     return [launch(*FLAGS, '--auth', tokens_file, '--db', postgres, env=env) for _ in range(2)]
 
 
-def stations(c: Client) -> dict:
+def stations(c: Client) -> None:
+    """Follow the gateway's /rosgate/stations (latched: its state now, then each change)."""
     c.subscribe('/rosgate/stations', 'std_msgs/msg/String')
-    return json.loads(c.next_message('/rosgate/stations', timeout=10)['data'])
 
 
 def owner_on(c: Client, ns: str) -> str | None:
-    """Who the gateway of ``c`` announces as the station's owner (it announces each second)."""
+    """Who the next announcement of the gateway of ``c`` names as the station's owner (each change
+    is announced: wait_for(owner_on ...) reads them in order until one matches)."""
     msg = c.next_message('/rosgate/stations', timeout=10)
     return json.loads(msg['data'])['owners'].get(ns, {}).get('name')
 
@@ -63,6 +64,10 @@ def test_one_station_one_person_whichever_gateway(pair):
         assert refusal is not None and 'alice' in refusal['msg'], refusal
         # the lease too: alice drives through A, bob may not take it on B
         assert drive(alice, '/s01') is None
+        bob.subscribe('/rosgate/driver', 'std_msgs/msg/String')   # B's class page shows who drives through A
+        driver = lambda m: (json.loads(m['data'])['drivers'].get('/s01') or {})   # noqa: E731
+        shown = driver(bob.next_message('/rosgate/driver', lambda m: driver(m).get('elsewhere'), timeout=5))
+        assert shown['name'].startswith('alice') and shown['owner'] is True, shown
         assert bob.call('/fleet/claim')['values'] == {'success': True, 'message': '/s02'}
         refusal = drive(bob, '/s01')
         assert refusal is not None and 'alice' in refusal['msg'], refusal
