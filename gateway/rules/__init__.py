@@ -28,6 +28,7 @@ from typing import NamedTuple
 
 from .access import ADMINS
 from .bookings import BookingLimits, Slots, Timetable
+from .fleet import join as join_fleet
 from .hooks import Hook, Hooks  # noqa: F401 (for the bridge and web)
 from .lease import Lease
 from .names import parse_globs, parse_networks
@@ -39,6 +40,7 @@ from .sessions import Sessions, cookie_secret
 from .stations import Stations
 from .tokens import Authenticator, Brake, TokenStore
 from ..settings import SafetySettings
+from ..store.fleet import Fleet
 
 log = logging.getLogger('rosgate.security')
 
@@ -173,6 +175,7 @@ class Rules:
     lease: Lease | None = None
     slots: Slots | None = None
     lti: LtiConfig | None = None
+    fleet: Fleet | None = None    # with --db on PostgreSQL: the other gateways (store.fleet)
 
 
 def compose(gateway, files: Files = Files(), *, reads=lambda name: False, runs=None) -> Rules:
@@ -242,12 +245,17 @@ def compose(gateway, files: Files = Files(), *, reads=lambda name: False, runs=N
                         'nothing keeps others\' commands off a booked robot')
         slots = Slots(gateway, timetable, stations=stations, lease=lease, stop_group=stop_group,
                       reset=lab.station_reset, queue=queue)
+    fleet = part = None
+    db = settings.storage.db_url or ''
+    if db.startswith('postgresql'):
+        fleet = Fleet.of(gateway.store)
+        part = join_fleet(fleet, lease=lease, stations=stations, sessions=sessions, timetable=timetable)
     publish = (*((runs.publish_hook,) if runs is not None else ()),
                *((lease.publish_hook,) if lease is not None else ()), safety.publish_hook)
     guards = (runs.subscribe_guard,) if runs is not None else ()
-    hooks = tuple(h for h in (stations, lease, safety, slots, runs) if h is not None)
+    hooks = tuple(h for h in (stations, lease, safety, slots, runs, part) if h is not None)
     log.info('security: auth %s, exclusive control %s, stop on disconnect %s, cmd timeout %s s, '
              'cmd max age %s s%s', 'on' if auth else 'off', 'on' if lease else 'off', safety.stop_on_disconnect,
              safety.cmd_timeout, safety.cmd_max_age, ', stamps required' if safety.require_stamp else '')
     return Rules(policy=policy, publish=publish, guards=guards, hooks=hooks, safety=safety, stations=stations,
-                 lease=lease, slots=slots, lti=files.lti)
+                 lease=lease, slots=slots, lti=files.lti, fleet=fleet)

@@ -17,6 +17,12 @@ robot-side runs in the station end (hooks' ``on_slot_ended``), the ``--station-r
 called in the station's namespace, and the next booking takes over. Until the next booking, or
 one slot length after hers, the booker may not walk back in (a slot cannot be stretched).
 
+In a fleet of gateways on one PostgreSQL (``store.fleet``) a booking made through one is known to
+the others at once (an event, then the timetable read again), two gateways booking one time are
+serialized by a transaction lock, and every gateway seats and ends each slot on its own timer: a
+slot ends on time when the gateway it was booked through has died. The --station-reset call is
+the fleet's timekeeper's alone (one call per slot's end).
+
 The timer sleeps until the next boundary (start or end of any booking), never more than
 MAX_SLEEP: the wall clock decides, and a clock that jumps is caught at the next wake-up.
 """
@@ -100,12 +106,23 @@ class Timetable:
         self.bookings: list[Booking] = []
         self.changed: Callable[[], None] = lambda: None   # Slots wakes up
         self.ended: dict[str, tuple[str, float]] = {}       # station -> (its last booker, barred until)
-        since = now() - 8 * 86400.0   # the past that quotas still count
-        rows = store.run_now(lambda c: c.execute(sa.select(TABLE).where(TABLE.c.end_at > since)
-                                                 .order_by(TABLE.c.start_at)).all())
-        for r in rows:
-            self.bookings.append(Booking(r.station, r.person, r.name, r.start_at, r.end_at, r.id, r.created_at))
+        self.fleet = None    # store.fleet.Fleet: bookings made through other gateways (rules.fleet)
+        self.bookings = store.run_now(self._load)
         log.info('bookings: %d loaded from %s', len(self.bookings), store.url)
+
+    def _load(self, c: sa.Connection) -> list[Booking]:
+        since = self.now() - 8 * 86400.0   # the past that quotas still count
+        rows = c.execute(sa.select(TABLE).where(TABLE.c.end_at > since).order_by(TABLE.c.start_at)).all()
+        return [Booking(r.station, r.person, r.name, r.start_at, r.end_at, r.id, r.created_at) for r in rows]
+
+    async def reload(self) -> None:
+        """Another gateway of the fleet booked or removed a slot: the timetable read again, the
+        same Booking kept for a booking already known (Slots compares them by identity)."""
+        rows = await self.store.run(self._load)
+        known = {b.id: b for b in self.bookings if b.id is not None}
+        self.bookings = [known.get(b.id, b) for b in rows] + [b for b in self.bookings if b.id is None]
+        self.bookings.sort(key=lambda b: b.start)
+        self.changed()
 
     # --- questions the rules ask ------------------------------------------------------------------
 
@@ -188,13 +205,24 @@ class Timetable:
         bisect.insort(self.bookings, booking, key=lambda b: b.start)
         row = {'station': station, 'person': person, 'name': name, 'start_at': booking.start,
                'end_at': booking.end, 'created_at': booking.created}
+        def insert(c: sa.Connection) -> int:
+            if self.fleet is not None:   # another gateway may book the same time now: PostgreSQL decides
+                c.execute(sa.select(sa.func.pg_advisory_xact_lock(self.fleet.booking_key)))
+                clash = c.execute(sa.select(TABLE.c.name).where(
+                    TABLE.c.start_at < booking.end, TABLE.c.end_at > booking.start,
+                    (TABLE.c.station == station) | (TABLE.c.person == person))).first()
+                if clash is not None:
+                    raise BookingError(409, f'{clash.name} booked {station} or you that time through another '
+                                            'gateway a moment ago; pick another time or station')
+            return c.execute(sa.insert(TABLE).values(**row)).inserted_primary_key[0]
         try:
-            booking.id = await self.store.run(
-                lambda c: c.execute(sa.insert(TABLE).values(**row)).inserted_primary_key[0])
+            booking.id = await self.store.run(insert)
         except Exception:
             self.bookings.remove(booking)
             raise
         self.changed()
+        if self.fleet is not None:
+            self.fleet.notify('bookings')
         return booking
 
     async def remove(self, booking: Booking) -> None:
@@ -202,6 +230,8 @@ class Timetable:
         if booking in self.bookings:
             self.bookings.remove(booking)
         self.changed()
+        if self.fleet is not None:
+            self.fleet.notify('bookings')
 
     def forget_old(self) -> None:
         """Bookings older than the quotas look are dropped from memory (the store keeps them)."""
@@ -276,7 +306,8 @@ class Slots(Hook):
         self.stations.unseat(station, booking.person, why)
         nxt = self.timetable.next(station, now)
         self.timetable.ended[station] = (booking.person, nxt.start if nxt is not None else now + self.timetable.limits.slot)
-        if self.reset:
+        fleet = self.timetable.fleet
+        if self.reset and (fleet is None or fleet.timekeeper):   # one call per fleet: the timekeeper's
             task = asyncio.ensure_future(self._reset(station))
             self.resets.add(task)
             task.add_done_callback(self.resets.discard)

@@ -28,7 +28,8 @@ that robot. Leaving releases everything. Who drives is published, latched, on /r
 JSON: {"driver": <holder of "/"> | null, "drivers": {group: holder | null}, "stations": [...],
 "stopped": {group: unix time}, "halted": {group: who stopped it, while the stop holds}}, a holder
 being {"client", "name", "role", "remote", "since", "owner": whether it is the station's owner's,
-"run": its run id or null}.
+"run": its run id or null; in a fleet of gateways, one driving through another gateway has
+"elsewhere": true and only "name" and "owner"}.
 """
 
 from __future__ import annotations
@@ -75,6 +76,7 @@ class Lease(Hook):
         self.stopped: dict[str, float] = {}      # group -> when an admin last stopped it
         self.halted: dict[str, str] = {}         # group -> who stopped it, until "take" by its owner
         self.lent: dict[str, object] = {}        # group -> the session a run of the same person took it from
+        self.fleet = None                        # store.fleet.Fleet: the other gateways' leases (rules.fleet)
         backend = gateway.backend
         self._driver = gateway.own_topic(DRIVER_TOPIC, STRING, QoS(depth=1, transient_local=True))
         # declares the control topic so clients may publish to it without a type
@@ -137,6 +139,13 @@ class Lease(Hook):
                 self._grant(group, session, quiet=True)
             return
         if holder is None:
+            elsewhere = self.elsewhere(group, key)
+            if elsewhere is not None:
+                if not moving:
+                    return
+                where = '' if group == ROOT else f' {group}'
+                raise ProtocolError(f'{name}: {elsewhere} is driving{where} through another gateway (exclusive '
+                                    f'control); {self._way_out(session, group)}')
             owner = self.owners.owner(group)
             barred = self._walk_in_refusal(group, key) if owner is None else None
             if barred is None and (owner is None or owner.person == key):
@@ -151,6 +160,12 @@ class Lease(Hook):
         where = '' if group == ROOT else f' {group}'
         raise ProtocolError(f'{name}: {who(holder)} is driving{where} (exclusive control); '
                             f'{self._way_out(session, group)}')
+
+    def elsewhere(self, group: str, key: str | None) -> str | None:
+        """Who drives group through another gateway of the fleet, if not person ``key``: a dict
+        lookup (the fleet's mirror, kept current by its events), never a database round trip."""
+        held = self.fleet.held('lease', group) if self.fleet is not None else None
+        return held.who if held is not None and held.person != key else None
 
     def _walk_in_refusal(self, group: str, key: str) -> str | None:
         """Why person ``key`` may not take a station nobody owns: the teacher released it from her,
@@ -254,7 +269,7 @@ class Lease(Hook):
                 return
             raise ProtocolError(ended)
         if verb == 'take-if-free':   # a page on its own station: never a stopped one, never another's
-            if holder is None and mine and group not in self.halted:
+            if holder is None and mine and group not in self.halted and self.elsewhere(group, person(session)) is None:
                 self._grant(group, session)
             return
         if verb == 'stop':
@@ -266,6 +281,7 @@ class Lease(Hook):
                 self._grant(group, None, by=session, why='stopped the robot and freed')
             self.stop_group(group)
             self._announce()
+            self._tell('stop', group=group, by=who(session))
             return
         if verb == 'release':
             if holder is session:
@@ -275,6 +291,7 @@ class Lease(Hook):
                 if holder is not None:
                     self._grant(group, None, by=session, why='released')
                 self._announce()
+                self._tell('release', group=group, by=who(session))
             elif holder is not None:
                 raise ProtocolError(f'{who(holder)} is driving{"" if group == ROOT else " " + group}; '
                                     'only an admin can release it')
@@ -289,12 +306,18 @@ class Lease(Hook):
         if not mine and not self._may_override(session):
             raise ProtocolError(f'{group} is {owner.name}\'s station; only they or an admin can take it: press '
                                 '"Claim a robot" for your own')
+        elsewhere = self.elsewhere(group, person(session))
+        if holder is None and elsewhere is not None and not self._may_override(session):
+            raise ProtocolError(f'{elsewhere} is driving {group} through another gateway; only an admin can take '
+                                f'over: {self._way_out(session, group)}')
+        if group in self.halted:
+            self._tell('unhalt', group=group)
         if holder is session:
             self.halted.pop(group, None)
             self._announce()
         elif holder is None:
             self.halted.pop(group, None)
-            self._grant(group, session)
+            self._grant(group, session, by=session if elsewhere is not None else None)
         elif person(holder) == person(session):   # her run, or another tab of hers: quietly
             self.halted.pop(group, None)
             self._grant(group, session)
@@ -346,6 +369,11 @@ class Lease(Hook):
         if session is not None:
             session.status('info', f'you hold the driver lease as client {session.id}{where}'
                                    + (' (from another page of yours)' if quiet else ''))
+        if self.fleet is not None:   # the others hear it; an admin's takeover wins over theirs
+            if session is None:
+                self.fleet.drop('lease', group)
+            else:
+                self.fleet.hold('lease', group, person(session), who(session), force=by is session)
         self._announce()
 
     def on_close(self, session) -> None:
@@ -355,10 +383,48 @@ class Lease(Hook):
         for group in held:
             lender = self.lent.pop(group, None)
             del self.holders[group]
+            if self.fleet is not None:
+                self.fleet.drop('lease', group)
             if lender is not None and not lender.closed and group not in self.halted:
                 self._grant(group, lender)   # a run ended: its person's page drives again
         if held:
             self._announce()
+
+    # --- what other gateways of the fleet did (rules.fleet hands their events in) ------------------
+
+    def _tell(self, kind: str, **event) -> None:
+        if self.fleet is not None:
+            self.fleet.notify(kind, **event)
+
+    def _drop_holder(self, group: str, why: str) -> None:
+        holder = self.holders.get(group)
+        if holder is not None:
+            self._grant(group, None)
+            if not holder.closed:
+                holder.status('warning', f'{why}; your commands were stopped')
+
+    def stopped_elsewhere(self, group: str, by: str) -> None:
+        """The teacher's Stop on another gateway: the same stop here, at once."""
+        self.stopped[group] = round(time.time(), 3)
+        self.halted[group] = by
+        self._drop_holder(group, f'{by} stopped the robot and freed the driver lease for {group}')
+        self.stop_group(group)
+        self._announce()
+
+    def released_elsewhere(self, group: str, by: str) -> None:
+        """An admin's release (or the teacher's Release of the station) on another gateway."""
+        self.halted.pop(group, None)
+        self._drop_holder(group, f'{by} released the driver lease for {group}')
+        self._announce()
+
+    def unhalted_elsewhere(self, group: str) -> None:
+        self.halted.pop(group, None)
+        self._announce()
+
+    def lost_elsewhere(self, group: str, hold) -> None:
+        """Another gateway's client holds the lease now (an admin took over, or both took it at once
+        and PostgreSQL gave it to them): ours stops."""
+        self._drop_holder(group, f'{hold.who} holds the driver lease for {group} through another gateway')
 
     def on_shutdown(self) -> None:
         if self._timer is not None:
@@ -374,9 +440,18 @@ class Lease(Hook):
             'remote': h.remote, 'since': round(self.since.get(group, 0.0), 3),
             'owner': self.owners.is_owner(h, group), 'run': h.attrs.get('run')}
 
+    def refresh(self) -> None:
+        """Announce again (another gateway's driver came or went)."""
+        self._announce()
+
     def _announce(self) -> None:
         stations = self.stations()
         drivers = {g: None for g in stations}
+        if self.fleet is not None:   # who drives through the fleet's other gateways
+            drivers.update({g: {'client': None, 'name': h.who, 'role': None, 'remote': None, 'since': None,
+                                'owner': self.owners.owner(g) is not None and self.owners.owner(g).person == h.person,
+                                'run': None, 'elsewhere': True}
+                            for g in stations if (h := self.fleet.held('lease', g)) is not None})
         drivers.update({g: self._info(g) for g in self.holders})
         text = json.dumps({'driver': self._info(ROOT), 'drivers': drivers, 'stations': list(stations),
                            'stopped': self.stopped, 'halted': self.halted})

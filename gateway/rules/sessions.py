@@ -15,8 +15,9 @@ their sessions end: a teacher books a slot "for" a student who launched from the
 
 Lookups run on every request and websocket upgrade, on the event loop: the live sessions are held
 in memory (loaded once at start-up, written through to the store on its own thread), so no
-lookup waits on a disk. With several gateways on one ``--db``, a session begun on one is known to
-another after that one's next start.
+lookup waits on a disk. With several gateways on one PostgreSQL (a fleet, ``store.fleet``), each
+tells the others of a sign-in and a sign-out at once (NOTIFY): a cookie from gateway A works on B
+behind a proxy that is not sticky, and a logout on A ends the session on B in the same moment.
 """
 
 from __future__ import annotations
@@ -113,6 +114,7 @@ class Sessions:
         self.store, self.secret, self.seconds = store, secret, hours * 3600
         self.live: dict[str, Session] = {}
         self.known: dict[str, Person] = {}
+        self.fleet = None        # store.fleet.Fleet (rules.fleet): the other gateways hear sign-ins and outs
         if store is not None:
             now = time.time()
             self.known = {r.owner: Person(r.owner, r.name, r.role, r.kind, r.seen)
@@ -144,6 +146,8 @@ class Sessions:
             row = dict(id_hash=key, name=identity.name[:200], role=identity.role, owner=identity.owner[:100],
                        kind=kind, created=now, expires=s.expires)
             self.store.submit(lambda c: c.execute(TABLE.insert().values(**row)))
+            if self.fleet is not None:
+                self.fleet.notify('login', **row)
         self._seen(Person(identity.owner[:100], identity.name[:200], identity.role, kind, now))
         return tornado.web.create_signed_value(self.secret, SESSION_COOKIE, session_id).decode()
 
@@ -190,7 +194,17 @@ class Sessions:
             return found
         return [p for p in found if p.owner == who or p.name.casefold() == who.casefold()]
 
+    def heard_login(self, row: dict) -> None:
+        """A sign-in on another gateway of the fleet."""
+        self.live[row['id_hash']] = Session(Identity(row['name'], row['role'], row['owner']), row['kind'],
+                                            row['expires'])
+
+    def heard_logout(self, key: str) -> None:
+        self.live.pop(key, None)
+
     def _drop(self, key: str) -> None:
         self.live.pop(key, None)
+        if self.fleet is not None:
+            self.fleet.notify('logout', key=key)
         if self.store is not None:
             self.store.submit(lambda c: c.execute(TABLE.delete().where(TABLE.c.id_hash == key)))

@@ -120,6 +120,7 @@ class Stations(Hook):
         self.owners: dict[str, Owner] = {}
         self.released: dict[str, dict] = {}
         self.barred: dict[str, str] = {}      # station -> the person the teacher released it from
+        self.fleet = None                     # store.fleet.Fleet: claims made through other gateways
         self._stations: tuple[str, ...] = ()
         self._stations_at = -float('inf')
         self._served: set[str] = set()
@@ -137,10 +138,16 @@ class Stations(Hook):
         return self._stations
 
     def owner(self, station: str) -> Owner | None:
-        return self.owners.get(station)
+        """Who owns the station: claimed here, or through another gateway of the fleet (a dict lookup)."""
+        o = self.owners.get(station)
+        if o is None and self.fleet is not None:
+            held = self.fleet.held('claim', station)
+            if held is not None:
+                return Owner(held.person, held.who, 0.0, time.monotonic())
+        return o
 
     def is_owner(self, session, station: str) -> bool:
-        o = self.owners.get(station)
+        o = self.owner(station)
         return o is not None and o.person == person(session)
 
     def is_barred(self, station: str, key: str) -> bool:
@@ -163,7 +170,8 @@ class Stations(Hook):
         lease = self.gateway.policy.lease
         for ns in self.stations():
             held = lease.holders.get(ns) if lease is not None else None
-            if (ns not in self.owners and not self.in_use(ns, key) and (held is None or person(held) == key)
+            if (self.owner(ns) is None and not self.in_use(ns, key) and (held is None or person(held) == key)
+                    and (lease is None or lease.elsewhere(ns, key) is None)
                     and self.booked(ns) is None and self.walk_in_refusal(ns, key) is None):
                 return ns
         return None
@@ -205,7 +213,7 @@ class Stations(Hook):
             n = len(self.stations())
             also = '; or join the queue (Booking, then Queue)' if self.queue is not None else ''
             return {'success': False, 'message': f'all {n} stations are taken; ask the teacher to release one{also}'}
-        o = self.owners.get(station)
+        o = self.owner(station)
         if o is not None and o.person != key:
             held = f' until {_clock(o.until)} (booked)' if o.until is not None else ''
             return {'success': False, 'message': f'{station} is {o.name}\'s station{held}; ask the teacher, or '
@@ -264,7 +272,7 @@ class Stations(Hook):
         self._announce()
 
     def release(self, session, station: str) -> dict:
-        o = self.owners.get(station)
+        o = self.owner(station)
         if o is None:
             if self._may_release(session):
                 self._free_lease(session, station)
@@ -278,16 +286,20 @@ class Stations(Hook):
             for s in self._clients_of(o.person):
                 s.status('warning', f'{by} released {station}: it is not your robot any more; press '
                                     '"Claim a robot" for one')
-        del self.owners[station]
+        self.owners.pop(station, None)
         self._announce()                     # first: her pages learn it is not hers before it is free
         self._free_lease(session, station)
+        if self.fleet is not None:           # her pages on the other gateways learn it too
+            barred = self.barred.get(station) if o.person != person(session) else None
+            self.fleet.notify('free', station=station, by=session.attrs.get('name') or f'client {session.id}',
+                              person=o.person, barred=barred)
         return {'success': True, 'message': station}
 
     def release_all(self, session) -> dict:
         if not self._may_release(session):
             raise ProtocolError('only an admin can release every station')
         for station in self.stations():
-            if station in self.owners:
+            if self.owner(station) is not None:
                 self.release(session, station)
             else:
                 self._free_lease(session, station)
@@ -323,10 +335,49 @@ class Stations(Hook):
             self.gateway.own_service(name, type, answer)
         self._served = set(wanted)
 
+    def freed_elsewhere(self, station: str, by: str, key: str, barred: str | None) -> None:
+        """A station given back through another gateway (its owner, or the teacher's Release)."""
+        o = self.owners.get(station)
+        if o is not None and o.person == key:
+            del self.owners[station]
+        if barred is not None:
+            self.released[station] = {'by': by, 'at': round(time.time(), 3)}
+            self.barred[station] = barred
+            for s in self._clients_of(barred):
+                s.status('warning', f'{by} released {station}: it is not your robot any more; press '
+                                    '"Claim a robot" for one')
+        self._announce()
+        lease = self.gateway.policy.lease
+        if lease is not None:
+            lease.released_elsewhere(station, by)
+
+    def lost_elsewhere(self, station: str, hold) -> None:
+        """Two gateways claimed one station at once; PostgreSQL gave it to the other one's."""
+        o = self.owners.pop(station, None)
+        if o is not None:
+            for s in self._clients_of(o.person):
+                s.status('warning', f'{station} is {hold.who}\'s station (claimed through another gateway at '
+                                    'the same moment); press "Claim a robot" for another')
+        self._announce()
+
+    def _share(self) -> None:
+        """This gateway's claims held in the fleet's table (no-op when unchanged), the given-back dropped."""
+        for ns, o in self.owners.items():
+            self.fleet.hold('claim', ns, o.person, o.name)
+        for kind, ns in [k for k in self.fleet.mine if k[0] == 'claim' and k[1] not in self.owners]:
+            self.fleet.drop(kind, ns)
+
+    def _all_owners(self) -> dict[str, Owner]:
+        """This gateway's claims and, in a fleet, the others' (so every page shows who has what)."""
+        found = {ns: o for ns in self.stations() if (o := self.owner(ns)) is not None}
+        return {**found, **self.owners}
+
     def _announce(self) -> None:
+        if self.fleet is not None:
+            self._share()
         info = {'stations': list(self.stations()),
                 'owners': {ns: {'name': o.name, 'since': o.since, 'until': o.until}
-                           for ns, o in sorted(self.owners.items())},
+                           for ns, o in sorted(self._all_owners().items())},
                 'released': self.released}
         if self.timetable is not None:
             slot = lambda b: {'name': b.name, 'start': b.start, 'end': b.end}   # noqa: E731

@@ -3,7 +3,8 @@
 SQLAlchemy Core serves both kinds of place a school keeps things: SQLite in the gateway's data
 directory by default (``$XDG_DATA_HOME/rosgate/rosgate.db``, WAL journal so that readers never
 wait for the writer), or any URL SQLAlchemy speaks (``--db postgresql+psycopg://user@host/rosgate``)
-for a fleet of gateways that keeps its history in one place.
+for a fleet of gateways that shares one place (``fleet``: leases, claims, stops, sign-ins, the
+timetable and one history, across gateways).
 
 Features declare their tables on ``METADATA`` (the schema, not state) where they live, and reach
 the database only through ``Store.run(fn)``: ``fn(connection)`` runs inside a transaction on the

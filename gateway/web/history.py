@@ -211,7 +211,16 @@ class History(Hook):
                 except Exception:
                     log.exception('history listener failed')
 
+    def writes(self) -> bool:
+        """Whether this gateway writes the history: alone, yes; in a fleet of gateways on one
+        PostgreSQL (store.fleet) only its timekeeper does, so each series is written once."""
+        fleet = getattr(self.gateway.ruleset, 'fleet', None)
+        return fleet is None or fleet.timekeeper
+
     def flush(self) -> None:
+        if not self.writes():
+            self.pending = []   # the points stay live here (latest, listeners); the timekeeper keeps them
+            return
         if self.pending:
             batch, self.pending = self.pending, []
             self.store.submit(lambda conn: self._write(conn, batch))
@@ -301,7 +310,7 @@ class History(Hook):
         self.store   # opened now: a bad --db fails at start, not at the first batch
         self.match()
         for every, job in ((POLL, self.match), (FLUSH, self.flush),
-                           (COMPACT_EVERY, lambda: self.store.submit(self.compact)),
+                           (COMPACT_EVERY, lambda: self.writes() and self.store.submit(self.compact)),
                            (REPORT_EVERY, self.report)):
             self.tasks.append(asyncio.ensure_future(_every(every, job)))
 
