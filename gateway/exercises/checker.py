@@ -14,12 +14,14 @@ import asyncio
 import logging
 import secrets
 import time
+from collections import OrderedDict
 from dataclasses import dataclass, field
 
 from . import store as results
 from .goals import Evaluation, topics_of
 
 log = logging.getLogger('rosgate.exercises')
+RECENT = 256   # ended attempts answered from memory: a poll right after the end finds it before the store does
 
 
 @dataclass(frozen=True)
@@ -108,6 +110,7 @@ class Checker:
         self.gateway = gateway
         self.attempts: dict[str, Attempt] = {}        # attempt id -> Attempt
         self.on_result: list = []                     # fn(identity, exercise, attempt_result)
+        self.ended: OrderedDict[str, AttemptResult] = OrderedDict()   # the newest, while the store writes
 
     def topic(self, station: str, name: str) -> str:
         return name if name.startswith('/') else f"/{station.strip('/')}/{name}"
@@ -154,6 +157,9 @@ class Checker:
             except Exception:
                 log.exception('cannot leave %s', fan.topic)
         attempt.taps.clear()
+        self.ended[attempt.id] = attempt.result
+        while len(self.ended) > RECENT:
+            self.ended.popitem(last=False)
         row = attempt.result.row()
         self.gateway.store.submit(lambda conn: results.insert(conn, row))
         for fn in list(self.on_result):

@@ -112,7 +112,9 @@ class AttemptHandler(JsonHandler):
             self.finish({'live': True, 'attempt': attempt_id, 'exercise': live.exercise.id,
                          'outcome': live.evaluation.outcome()})
             return
-        rows = await self.gateway.store.run(lambda c: results.select(c, attempt=attempt_id))
+        ended = self.checker.ended.get(attempt_id)
+        rows = [ended.row()] if ended is not None else \
+            await self.gateway.store.run(lambda c: results.select(c, attempt=attempt_id))
         if not rows:
             raise tornado.web.HTTPError(404, f'no attempt {attempt_id[:64]!r}')
         self._own(identity, rows[0]['person'])
