@@ -113,7 +113,11 @@ class Checker:
         self.ended: OrderedDict[str, AttemptResult] = OrderedDict()   # the newest, while the store writes
 
     def topic(self, station: str, name: str) -> str:
-        return name if name.startswith('/') else f"/{station.strip('/')}/{name}"
+        """A relative name under the station's namespace ('' is the root: ``turtle1/pose`` -> ``/turtle1/pose``)."""
+        if name.startswith('/'):
+            return name
+        ns = station.strip('/')
+        return f'/{ns}/{name}' if ns else f'/{name}'
 
     def start(self, exercise: Exercise, identity, station: str, program: str) -> Attempt:
         for live in self.attempts.values():
