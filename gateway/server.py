@@ -22,6 +22,7 @@ import tornado.httpserver
 from . import rules
 from .bridge import rosapi
 from .bridge.gateway import Gateway
+from .exercises import Checker, Library
 from .runs import RunManager, start_runs
 from .settings import Settings
 from .web.app import make_app, socket_app
@@ -40,6 +41,8 @@ class Parts:
     recordings: RecordingManager
     history: History | None
     lti: object = None        # rules.lti.LtiConfig with --lti
+    exercises: Library | None = None
+    checker: Checker | None = None   # its ``on_result`` list: fn(identity, exercise, attempt_result)
 
 
 def start(gateway: Gateway, files: rules.Files) -> Parts:
@@ -51,7 +54,8 @@ def start(gateway: Gateway, files: rules.Files) -> Parts:
     start_twin(gateway, history, settings.twin.opcua)
     if runs_socket is not None:   # runs reach the websocket alone, on a unix socket bound into their box
         runs.serve(socket_app(gateway), runs_socket)
-    return Parts(runs=runs, recordings=recordings, history=history, lti=files.lti)
+    return Parts(runs=runs, recordings=recordings, history=history, lti=files.lti,
+                 exercises=Library(settings.lab.exercises_dir), checker=Checker(gateway))
 
 
 def pages_box(base: str) -> str:
@@ -107,6 +111,8 @@ async def serve(settings: Settings, files: rules.Files, backend, sockets: list[s
     await stop.wait()
     log.info('shutting down')
     server.stop()
+    if parts.checker is not None:
+        parts.checker.stop_all()
     await gateway.shutdown()
     await backend.stop()
     await server.close_all_connections()
