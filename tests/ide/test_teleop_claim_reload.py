@@ -19,9 +19,9 @@ def test_claim_and_reload_sends_nothing_to_the_root_cmd_vel(start_gateway, chrom
     ctx = None
     try:
         ctx, page, errors = open_teleop(chromium, gw)
-        wait_for(lambda: page.evaluate("teleop.robotNs?.get?.() || ''").startswith("/s0")
-                 and page.evaluate("document.body.dataset.connection") == "connected", timeout=30,
-                 what="the page on its station")
+        # the page reloads into its station: wait_for_function outlives the reload (and has a deadline)
+        page.wait_for_function("(window.teleop?.robotNs?.get?.() || '').startsWith('/s0')"
+                               " && document.body.dataset.connection === 'connected'", timeout=60000)
         ns = page.evaluate("teleop.robotNs.get()")
         station = ros.watch(f"{ns}/turtle1/cmd_vel", TWIST)
         page.wait_for_function("/turtle1\\/cmd_vel$/.test(document.querySelector('#topic').value)")

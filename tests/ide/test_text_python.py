@@ -80,8 +80,12 @@ def test_python_drives_the_turtle_and_stop_zeroes_it(ide, turtle):
     ide.page.click("#run")
     ide.page.wait_for_function("document.body.dataset.run === 'running'")
     # Pyodide loads at the first Python run of the page
-    wait_for(lambda: (p := pose.latest()) and abs(p["x"] - start["x"]) + abs(p["y"] - start["y"]) > 0.3,
-             timeout=PYODIDE_START, what="turtle1 moving under the Python program")
+    try:
+        wait_for(lambda: (p := pose.latest()) and abs(p["x"] - start["x"]) + abs(p["y"] - start["y"]) > 0.3,
+                 timeout=PYODIDE_START, what="turtle1 moving under the Python program")
+    except AssertionError as e:
+        raise AssertionError(f"{e}; run {ide.js('document.body.dataset.run')}; console:\n{ide.console_text()}"
+                             f"\npage errors: {ide.errors}\nlast pose {pose.latest()}, {len(cmd.messages)} commands") from e
     assert "driving 6" in ide.logs()
     assert ide.js("document.body.dataset.run") == "running"
     # the running line: one of the loop's lines, marked in the editor

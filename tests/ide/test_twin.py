@@ -11,9 +11,10 @@ import roslibpy
 
 from tests.support.ide import ARTIFACTS, PHONE
 
+PIXEL_POLL = 250   # ms between reads of the whole canvas (each is a full readPixels)
 WAIT = 60000   # ms: a busy machine compiles the shaders slowly
 # the rover's body colour (0xf08c1a, lit): red well above blue, green between
-ORANGE = "(p) => p[0] > 150 && p[2] < 90 && p[1] > 60 && p[1] < 200 && p[0] - p[2] > 110"
+ORANGE = "(r, g, b) => r > 150 && b < 90 && g > 60 && g < 200 && r - b > 110"
 PIXELS = """() => {
   const gl = twin.renderer.getContext();
   const w = gl.drawingBufferWidth, h = gl.drawingBufferHeight;
@@ -21,7 +22,7 @@ PIXELS = """() => {
   gl.readPixels(0, 0, w, h, gl.RGBA, gl.UNSIGNED_BYTE, px);
   const orange = (%s);
   const mask = [];
-  for (let i = 0; i < w * h; i++) if (orange(px.subarray(i * 4, i * 4 + 3))) mask.push(i);
+  for (let i = 0; i < w * h; i++) if (orange(px[4 * i], px[4 * i + 1], px[4 * i + 2])) mask.push(i);
   return { w, h, mask, webgl: gl instanceof WebGLRenderingContext || gl instanceof WebGL2RenderingContext };
 }""" % ORANGE
 
@@ -57,7 +58,7 @@ def test_twin_draws_the_rover_and_it_turns_on_the_canvas(chromium, rover):
         page.wait_for_function("twin.state.model === 'urdf' && twin.state.pose !== null && twin.state.frames > 5", timeout=WAIT)
         page.wait_for_function("twin.state.markers >= 4 && twin.state.scanPoints > 100 && twin.state.battery > 0", timeout=WAIT)
         page.wait_for_function("Number.isFinite(twin.state.temps.left)", timeout=WAIT)
-        page.wait_for_function(f"({PIXELS})().mask.length > 200", timeout=WAIT)
+        page.wait_for_function(f"({PIXELS})().mask.length > 200", timeout=WAIT, polling=PIXEL_POLL)
         before = page.evaluate(PIXELS)
         yaw0 = page.evaluate("twin.robot.rotation.z")
         assert before["webgl"] and len(before["mask"]) > 200, len(before["mask"])   # the robot is on the canvas
@@ -96,7 +97,7 @@ def test_twin_of_a_fleet_station_and_the_teleop_link(chromium, start_gateway):
         page.wait_for_function("window.twin && twin.state.model === 'urdf' && twin.state.pose !== null", timeout=WAIT)
         page.wait_for_function("twin.state.markers >= 4 && twin.state.scanPoints > 100", timeout=WAIT)
         assert page.input_value("#ns") == "/s02"
-        page.wait_for_function(f"({PIXELS})().mask.length > 200", timeout=WAIT)   # drawn once it is framed
+        page.wait_for_function(f"({PIXELS})().mask.length > 200", timeout=WAIT, polling=PIXEL_POLL)   # drawn once it is framed
         assert not errors, errors
 
 
@@ -115,7 +116,7 @@ def test_the_teleop_pages_3d_panel_draws_its_station_only_while_shown(chromium, 
         frame = next(f for f in page.frames if f.url.endswith("twin?embed=1&ns=%2Fs02"))
         frame.wait_for_function("twin.state.pose !== null && twin.state.scanPoints > 100 && twin.state.frames > 5",
                                 timeout=WAIT)
-        frame.wait_for_function(f"({PIXELS})().mask.length > 200", timeout=WAIT)   # s02's rover, drawn in the panel
+        frame.wait_for_function(f"({PIXELS})().mask.length > 200", timeout=WAIT, polling=PIXEL_POLL)   # s02's rover, drawn in the panel
         assert twin.locator("#battery").is_visible() and twin.locator("#ns").is_hidden()   # the page names the robot
         box = page.locator("#twin-frame").bounding_box()
         assert box["width"] > 300 and box["height"] > 200, box
