@@ -13,7 +13,7 @@ import time
 import pytest
 
 from tests.support.ide import ARTIFACTS
-from tests.support.ros import START, reset_turtlesim
+from tests.support.ros import LOOP_HEADING as HEADING, LOOP_REACH as REACH, START, reset_turtlesim
 from tests.support.wait import wait_for
 
 
@@ -47,12 +47,6 @@ def run_in_ide(ide, timeout: float = 60):
     text = ide.console_text()
     assert "finished" in text, text
     return ide.logs()
-
-
-# move and turn stop on the pose they last saw: the last command (at least 0.1 m/s or 0.1 rad/s)
-# runs on for the round trip to the page, which a loaded machine stretches to most of a second
-REACH = 0.15               # m
-HEADING = math.radians(6)
 
 
 def angle_close(a: float, b: float, tol: float) -> bool:

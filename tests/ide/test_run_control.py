@@ -9,6 +9,7 @@ import sys
 import time
 
 from tests.support.ide import ARTIFACTS, bool_message, ex, program
+from tests.support.ros import LOOP_HEADING, LOOP_REACH
 from tests.support.wait import wait_for
 
 
@@ -115,12 +116,12 @@ def test_step_runs_one_whole_block_then_holds(turtle_gateway, turtle_ros, ide_fa
     wait_for(lambda: (pose.latest() or {}).get("linear_velocity", 1) == 0, what="the turtle halted")
     end = pose_xy(pose)
     moved = math.hypot(end[0] - start[0], end[1] - start[1])
-    assert abs(moved - 3) < 0.1, f"one Step moved the turtle {moved:.3f} m, not 3"
+    assert abs(moved - 3) < LOOP_REACH, f"one Step moved the turtle {moved:.3f} m, not 3"
     assert any(m["linear"]["x"] == 0 and m["angular"]["z"] == 0 for t, m in cmd.since(t0))
     theta0 = pose.latest()["theta"]
     step_to(ids["move"])                 # the whole turn: 90 degrees, then the next round's move holds
     turned = (pose.latest()["theta"] - theta0 + math.pi) % (2 * math.pi) - math.pi
-    assert abs(math.degrees(turned) - 90) < 2, math.degrees(turned)
+    assert abs(turned - math.pi / 2) < LOOP_HEADING, math.degrees(turned)
     assert math.hypot(pose_xy(pose)[0] - end[0], pose_xy(pose)[1] - end[1]) < 0.01
     ide.page.click("#stop")
     ide.wait_idle()
@@ -146,7 +147,7 @@ def test_step_runs_a_whole_block_while_a_handler_runs(turtle_gateway, turtle_ros
              timeout=30, what="one Step moving the turtle the whole 2 m")
     wait_for(lambda: (pose.latest() or {}).get("linear_velocity", 1) == 0, what="the turtle halted")
     moved = math.hypot(pose_xy(pose)[0] - start[0], pose_xy(pose)[1] - start[1])
-    assert abs(moved - 2) < 0.1, moved
+    assert abs(moved - 2) < LOOP_REACH, moved
     assert ide.logs() == [] and ide.js("document.body.dataset.run") == "paused"
     ide.page.click("#run")                          # Resume: every held part goes on
     ide.page.wait_for_function("rosgateIde.console.logs().includes('moved')", timeout=10000)
