@@ -57,6 +57,7 @@ class Registration:
     key_set_url: str | None
     key_set: dict | None
     deployment_ids: tuple[str, ...]
+    auth_token_url: str | None = None   # the platform's OAuth 2 token endpoint (AGS, NRPS)
 
 
 def _key_id(public_key) -> str:
@@ -114,7 +115,7 @@ class LtiConfig:
                     raise ValueError(f'{where}: deployment_ids is a list of the platform\'s deployment ids')
                 regs.append(Registration(issuer, str(item['client_id']), item['auth_login_url'],
                                          item.get('key_set_url'), item.get('key_set'),
-                                         tuple(str(d) for d in deployments)))
+                                         tuple(str(d) for d in deployments), item.get('auth_token_url')))
                 if item.get('private_key_file'):
                     key_files.add(path.parent / item['private_key_file'])
         try:

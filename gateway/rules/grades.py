@@ -1,0 +1,173 @@
+"""Grades back to the LMS (LTI Advantage, Assignment and Grade Services): one score per attempt.
+
+A launch whose id_token carries the AGS endpoint claim is remembered (``remember_launch``): the
+line item URL per (person, resource link), with the platform that issued it. ``post_result`` is
+the one door to a score; it is called by the gateway (an exercise's result hook), never by a
+page, so no browser request can post or replay a score. It refuses a person who did not launch
+from that line item, and it puts the score in a persisted outbox keyed by the attempt id: a
+second call for the same attempt is a no-op, so the LMS's gradebook gets one score per attempt.
+
+``Outbox.flush`` posts what is due with the tool's own client-credentials token (RFC 7523: a JWT
+assertion signed with the tool's key by PyJWT, POSTed to the platform's token endpoint); a failure
+(the LMS down, a 5xx) leaves the row and sets its next try with exponential backoff (10 s doubling
+to an hour), so a score reaches the LMS when it comes back, also across gateway restarts.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import secrets
+import time
+import urllib.parse
+from datetime import datetime, timezone
+
+import jwt
+import sqlalchemy as sa
+from tornado.httpclient import AsyncHTTPClient, HTTPClientError, HTTPRequest
+
+from ..store import METADATA, Store
+from .lti import CLAIM, LtiConfig, Registration
+
+log = logging.getLogger('rosgate.grades')
+AGS_CLAIM = 'https://purl.imsglobal.org/spec/lti-ags/claim/endpoint'
+SCOPE_SCORE = 'https://purl.imsglobal.org/spec/lti-ags/scope/score'
+SCOPE_LINEITEM = 'https://purl.imsglobal.org/spec/lti-ags/scope/lineitem'
+BACKOFF_FIRST, BACKOFF_MAX = 10.0, 3600.0
+
+LINKS = sa.Table(
+    'ags_links', METADATA,
+    sa.Column('person', sa.String(64), primary_key=True),
+    sa.Column('resource_link', sa.String(255), primary_key=True),
+    sa.Column('issuer', sa.String(255), nullable=False),
+    sa.Column('client_id', sa.String(255), nullable=False),
+    sa.Column('subject', sa.String(255), nullable=False),   # the LMS's userId for the score
+    sa.Column('lineitem', sa.String(1000), nullable=False),
+)
+OUTBOX = sa.Table(
+    'ags_outbox', METADATA,
+    sa.Column('attempt_id', sa.String(128), primary_key=True),   # one score per attempt, ever
+    sa.Column('person', sa.String(64), nullable=False),
+    sa.Column('resource_link', sa.String(255), nullable=False),
+    sa.Column('score', sa.Float, nullable=False),
+    sa.Column('created', sa.Float, nullable=False),
+    sa.Column('tries', sa.Integer, nullable=False, default=0),
+    sa.Column('next_try', sa.Float, nullable=False),
+    sa.Column('posted', sa.Float, nullable=True),
+    sa.Column('last_error', sa.String(500), nullable=True),
+)
+
+
+class GradeError(Exception):
+    """A score that may not be posted (no launch from that line item, a score out of range)."""
+
+
+def remember_launch(store: Store, person: str, claims: dict) -> bool:
+    """Keep the line item of a resource link launch that carries the AGS claim; True if kept."""
+    lineitem = (claims.get(AGS_CLAIM) or {}).get('lineitem')
+    link = (claims.get(CLAIM + 'resource_link') or {}).get('id')
+    if not isinstance(lineitem, str) or not isinstance(link, str):
+        return False
+    aud = claims.get('aud')
+    client_id = aud[0] if isinstance(aud, list) else aud
+    row = dict(person=person, resource_link=link[:255], issuer=claims['iss'], client_id=str(client_id),
+               subject=str(claims['sub']), lineitem=lineitem[:1000])
+
+    def write(conn):
+        conn.execute(LINKS.delete().where(LINKS.c.person == person, LINKS.c.resource_link == row['resource_link']))
+        conn.execute(LINKS.insert().values(**row))
+    store.run_now(write)
+    return True
+
+
+def post_result(store: Store, person: str, line_item_key: str, score: float, attempt_id: str,
+                now: float | None = None) -> bool:
+    """Queue the score (0..1) of one attempt for the LMS. True if queued now, False if this attempt
+    was queued before (never twice). GradeError if the person did not launch from that line item."""
+    if not 0.0 <= float(score) <= 1.0:
+        raise GradeError(f'score {score!r} is outside 0..1')
+    now = time.time() if now is None else now
+
+    def write(conn):
+        link = conn.execute(sa.select(LINKS.c.lineitem).where(
+            LINKS.c.person == person, LINKS.c.resource_link == line_item_key)).first()
+        if link is None:
+            raise GradeError(f'{person} did not launch from line item {line_item_key!r}: no score is posted')
+        if conn.execute(sa.select(OUTBOX.c.attempt_id).where(OUTBOX.c.attempt_id == attempt_id)).first():
+            return False
+        conn.execute(OUTBOX.insert().values(attempt_id=attempt_id, person=person, resource_link=line_item_key,
+                                            score=float(score), created=now, tries=0, next_try=now))
+        return True
+    return store.run_now(write)
+
+
+def client_assertion(config: LtiConfig, reg: Registration, now: float | None = None) -> str:
+    """The RFC 7523 JWT the tool proves itself with at the platform's token endpoint."""
+    now = int(time.time() if now is None else now)
+    kid, key = config.signing_key()
+    payload = {'iss': reg.client_id, 'sub': reg.client_id, 'aud': reg.auth_token_url,
+               'iat': now, 'exp': now + 300, 'jti': secrets.token_urlsafe(16)}
+    return jwt.encode(payload, key, algorithm='RS256', headers={'kid': kid})
+
+
+async def access_token(config: LtiConfig, reg: Registration, scopes: list[str]) -> str:
+    if not reg.auth_token_url:
+        raise GradeError(f'{reg.issuer}: auth_token_url (the platform\'s token endpoint) is not configured')
+    body = urllib.parse.urlencode({
+        'grant_type': 'client_credentials',
+        'client_assertion_type': 'urn:ietf:params:oauth:client-assertion-type:jwt-bearer',
+        'client_assertion': client_assertion(config, reg), 'scope': ' '.join(scopes)})
+    resp = await AsyncHTTPClient().fetch(HTTPRequest(
+        reg.auth_token_url, method='POST', body=body, request_timeout=20,
+        headers={'Content-Type': 'application/x-www-form-urlencoded', 'Accept': 'application/json'}))
+    return json.loads(resp.body)['access_token']
+
+
+def _scores_url(lineitem: str) -> str:
+    parts = urllib.parse.urlsplit(lineitem)
+    return urllib.parse.urlunsplit(parts._replace(path=parts.path.rstrip('/') + '/scores'))
+
+
+class Outbox:
+    """Posts due scores; call ``flush`` periodically (and after ``post_result``)."""
+
+    def __init__(self, store: Store, config: LtiConfig):
+        self.store, self.config = store, config
+
+    async def flush(self, now: float | None = None) -> int:
+        """Post every due score; the number posted."""
+        now = time.time() if now is None else now
+        due = await self.store.run(lambda c: c.execute(
+            sa.select(OUTBOX, LINKS.c.issuer, LINKS.c.client_id, LINKS.c.subject, LINKS.c.lineitem)
+            .join(LINKS, sa.and_(LINKS.c.person == OUTBOX.c.person, LINKS.c.resource_link == OUTBOX.c.resource_link))
+            .where(OUTBOX.c.posted.is_(None), OUTBOX.c.next_try <= now)).mappings().all())
+        posted = 0
+        for row in due:
+            try:
+                await self._post(row)
+            except (OSError, HTTPClientError, GradeError, KeyError, ValueError) as e:
+                delay = min(BACKOFF_MAX, BACKOFF_FIRST * 2 ** row['tries'])
+                log.warning('score for attempt %s not posted (%s); next try in %.0f s', row['attempt_id'], e, delay)
+                await self.store.run(lambda c, r=row, d=delay, e=e: c.execute(
+                    OUTBOX.update().where(OUTBOX.c.attempt_id == r['attempt_id'])
+                    .values(tries=r['tries'] + 1, next_try=now + d, last_error=str(e)[:500])))
+                continue
+            await self.store.run(lambda c, r=row: c.execute(
+                OUTBOX.update().where(OUTBOX.c.attempt_id == r['attempt_id']).values(posted=time.time())))
+            posted += 1
+        return posted
+
+    async def _post(self, row) -> None:
+        reg = self.config.find(row['issuer'], row['client_id'])
+        if reg is None:
+            raise GradeError(f'{row["issuer"]} is no longer registered')
+        token = await access_token(self.config, reg, [SCOPE_SCORE])
+        score = {
+            'userId': row['subject'], 'scoreGiven': row['score'], 'scoreMaximum': 1.0,
+            'activityProgress': 'Completed', 'gradingProgress': 'FullyGraded',
+            'timestamp': datetime.fromtimestamp(row['created'], timezone.utc).isoformat(),
+            'comment': f'attempt {row["attempt_id"]}',
+        }
+        await AsyncHTTPClient().fetch(HTTPRequest(
+            _scores_url(row['lineitem']), method='POST', body=json.dumps(score), request_timeout=20,
+            headers={'Content-Type': 'application/vnd.ims.lis.v1.score+json', 'Authorization': f'Bearer {token}'}))

@@ -1,0 +1,114 @@
+"""Scores reach a platform over real HTTP once per attempt, after the LMS comes back, and only for a launch."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import socket
+
+import jwt
+import pytest
+from cryptography.hazmat.primitives.asymmetric import rsa
+from tornado import httpserver, web
+
+from gateway.rules import grades
+from gateway.rules.lti import CLAIM, LtiConfig, Registration
+from gateway.store import Store
+
+ISS = 'https://lms.test'
+
+
+class Platform:
+    """A platform's token and score endpoints on loopback: checks the tool's signed assertion."""
+
+    def __init__(self, tool_public):
+        self.scores, self.tokens, self.public = [], set(), tool_public
+        plat = self
+
+        class Token(web.RequestHandler):
+            def post(self):
+                a = self.get_body_argument('client_assertion')
+                claims = jwt.decode(a, plat.public, algorithms=['RS256'], audience=plat.url('/token'))
+                assert claims['sub'] == 'tool' and self.get_body_argument('grant_type') == 'client_credentials'
+                assert grades.SCOPE_SCORE in self.get_body_argument('scope').split()
+                tok = 'tok-' + claims['jti']
+                plat.tokens.add(tok)
+                self.write({'access_token': tok, 'token_type': 'Bearer', 'expires_in': 300})
+
+        class Scores(web.RequestHandler):
+            def post(self, item):
+                if self.request.headers.get('Authorization', '')[7:] not in plat.tokens:
+                    raise web.HTTPError(401)
+                plat.scores.append((item, json.loads(self.request.body)))
+
+        self.app = web.Application([(r'/token', Token), (r'/lineitems/(\w+)/scores', Scores)])
+        sock = socket.socket()
+        sock.bind(('127.0.0.1', 0))
+        self.port = sock.getsockname()[1]
+        sock.close()
+        self.server = None
+
+    def url(self, path):
+        return f'http://127.0.0.1:{self.port}{path}'
+
+    def start(self):
+        self.server = httpserver.HTTPServer(self.app)
+        self.server.listen(self.port, '127.0.0.1')
+
+    def stop(self):
+        self.server.stop()
+
+
+@pytest.fixture
+def setup(tmp_path):
+    key = rsa.generate_private_key(public_exponent=65537, key_size=2048)
+    plat = Platform(key.public_key())
+    reg = Registration(ISS, 'tool', plat.url('/auth'), None, {'keys': []}, ('d1',), plat.url('/token'))
+    config = LtiConfig([reg], {'k1': key})
+    store = Store(f'sqlite:///{tmp_path / "g.db"}')
+    yield plat, config, store
+    store.close()
+
+
+def launch(sub, link, item):
+    return {'iss': ISS, 'aud': 'tool', 'sub': sub, CLAIM + 'resource_link': {'id': link},
+            grades.AGS_CLAIM: {'scope': [grades.SCOPE_SCORE], 'lineitem': item}}
+
+
+def test_one_score_per_attempt_and_only_after_a_launch(setup):
+    asyncio.run(_one_score(*setup))
+
+
+async def _one_score(plat, config, store):
+    plat.start()
+    assert grades.remember_launch(store, 'p1', launch('s1', 'rl1', plat.url('/lineitems/li1')))
+    assert grades.post_result(store, 'p1', 'rl1', 0.75, 'att-1') is True
+    assert grades.post_result(store, 'p1', 'rl1', 0.75, 'att-1') is False
+    with pytest.raises(grades.GradeError, match='did not launch'):
+        grades.post_result(store, 'p2', 'rl1', 1.0, 'att-2')
+    with pytest.raises(grades.GradeError, match='did not launch'):
+        grades.post_result(store, 'p1', 'rl-other', 1.0, 'att-3')
+    outbox = grades.Outbox(store, config)
+    assert await outbox.flush() == 1
+    assert await outbox.flush() == 0
+    assert len(plat.scores) == 1
+    item, score = plat.scores[0]
+    assert item == 'li1' and score['userId'] == 's1' and score['scoreGiven'] == 0.75
+    assert score['scoreMaximum'] == 1.0 and score['gradingProgress'] == 'FullyGraded'
+    plat.stop()
+
+
+def test_lms_down_then_back(setup):
+    asyncio.run(_down_then_back(*setup))
+
+
+async def _down_then_back(plat, config, store):
+    grades.remember_launch(store, 'p1', launch('s1', 'rl1', plat.url('/lineitems/li1')))
+    grades.post_result(store, 'p1', 'rl1', 1.0, 'att-9', now=1000.0)
+    outbox = grades.Outbox(store, config)
+    assert await outbox.flush(now=1000.0) == 0          # the LMS is down
+    assert await outbox.flush(now=1001.0) == 0          # backing off
+    plat.start()
+    assert await outbox.flush(now=1000.0 + grades.BACKOFF_FIRST) == 1
+    assert [s['scoreGiven'] for _, s in plat.scores] == [1.0]
+    plat.stop()
