@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import tornado.httpserver
 
 from . import rules
+from .rules import grades
 from .bridge import rosapi
 from .bridge.gateway import Gateway
 from .runs import RunManager, start_runs
@@ -40,6 +41,7 @@ class Parts:
     recordings: RecordingManager
     history: History | None
     lti: object = None        # rules.lti.LtiConfig with --lti
+    grades: object = None     # rules.grades.Outbox with --lti: posts queued scores to the LMS
 
 
 def start(gateway: Gateway, files: rules.Files) -> Parts:
@@ -51,7 +53,11 @@ def start(gateway: Gateway, files: rules.Files) -> Parts:
     start_twin(gateway, history, settings.twin.opcua)
     if runs_socket is not None:   # runs reach the websocket alone, on a unix socket bound into their box
         runs.serve(socket_app(gateway), runs_socket)
-    return Parts(runs=runs, recordings=recordings, history=history, lti=files.lti)
+    outbox = None
+    if files.lti is not None:
+        outbox = grades.Outbox(gateway.store, files.lti)
+        outbox.start()
+    return Parts(runs=runs, recordings=recordings, history=history, lti=files.lti, grades=outbox)
 
 
 def pages_box(base: str) -> str:

@@ -25,6 +25,7 @@ from datetime import datetime, timezone
 import jwt
 import sqlalchemy as sa
 from tornado.httpclient import AsyncHTTPClient, HTTPClientError, HTTPRequest
+from tornado.ioloop import PeriodicCallback
 
 from ..store import METADATA, Store
 from .lti import CLAIM, LtiConfig, Registration
@@ -62,7 +63,7 @@ class GradeError(Exception):
     """A score that may not be posted (no launch from that line item, a score out of range)."""
 
 
-def remember_launch(store: Store, person: str, claims: dict) -> bool:
+async def remember_launch(store: Store, person: str, claims: dict) -> bool:
     """Keep the line item of a resource link launch that carries the AGS claim; True if kept."""
     lineitem = (claims.get(AGS_CLAIM) or {}).get('lineitem')
     link = (claims.get(CLAIM + 'resource_link') or {}).get('id')
@@ -76,11 +77,11 @@ def remember_launch(store: Store, person: str, claims: dict) -> bool:
     def write(conn):
         conn.execute(LINKS.delete().where(LINKS.c.person == person, LINKS.c.resource_link == row['resource_link']))
         conn.execute(LINKS.insert().values(**row))
-    store.run_now(write)
+    await store.run(write)
     return True
 
 
-def post_result(store: Store, person: str, line_item_key: str, score: float, attempt_id: str,
+async def post_result(store: Store, person: str, line_item_key: str, score: float, attempt_id: str,
                 now: float | None = None) -> bool:
     """Queue the score (0..1) of one attempt for the LMS. True if queued now, False if this attempt
     was queued before (never twice). GradeError if the person did not launch from that line item."""
@@ -98,7 +99,7 @@ def post_result(store: Store, person: str, line_item_key: str, score: float, att
         conn.execute(OUTBOX.insert().values(attempt_id=attempt_id, person=person, resource_link=line_item_key,
                                             score=float(score), created=now, tries=0, next_try=now))
         return True
-    return store.run_now(write)
+    return await store.run(write)
 
 
 def client_assertion(config: LtiConfig, reg: Registration, now: float | None = None) -> str:
@@ -129,10 +130,19 @@ def _scores_url(lineitem: str) -> str:
 
 
 class Outbox:
-    """Posts due scores; call ``flush`` periodically (and after ``post_result``)."""
+    """Posts due scores: ``start`` flushes every ``period`` seconds on the running loop."""
 
     def __init__(self, store: Store, config: LtiConfig):
         self.store, self.config = store, config
+        self._timer = None
+
+    def start(self, period: float = BACKOFF_FIRST) -> None:
+        self._timer = PeriodicCallback(self.flush, period * 1000)
+        self._timer.start()
+
+    def stop(self) -> None:
+        if self._timer is not None:
+            self._timer.stop()
 
     async def flush(self, now: float | None = None) -> int:
         """Post every due score; the number posted."""

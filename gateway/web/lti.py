@@ -34,7 +34,7 @@ import jwt
 import tornado.httpclient
 import tornado.web
 
-from ..rules import lti
+from ..rules import grades, lti
 from ..rules.access import is_admin
 from ..rules.lti import LaunchError
 from .api import Handler, check_origin
@@ -128,8 +128,9 @@ class KeySets:
 class Lti:
     """What the routes share: the configuration, logins in flight, used states, keys."""
 
-    def __init__(self, config: lti.LtiConfig, policy, examples_dir, texts: Texts):
+    def __init__(self, config: lti.LtiConfig, policy, examples_dir, texts: Texts, store=None):
         self.config, self.policy, self.examples_dir = config, policy, examples_dir
+        self.store = store                         # where launches' AGS line items are kept (grades)
         self.texts = texts                         # the pages' words, in the reader's language
         self.pending = Expiring(PENDING_TTL)
         self.used = Expiring(PENDING_TTL)          # states already launched: a replay is told so
@@ -260,6 +261,8 @@ class LaunchHandler(_Base):
         if claims[lti.CLAIM + 'message_type'] == lti.DEEP_LINKING:
             self._picker(identity, reg, claims)
             return
+        if self.lti.store is not None:
+            await grades.remember_launch(self.lti.store, identity.key, claims)
         begin_session(self, self.lti.policy, identity, 'lti', framed=framed)
         self.set_header('X-Rosgate-Role', identity.role)
         landing = landing_of(claims)
@@ -413,8 +416,8 @@ class ConfigHandler(_Base):
                   f'<h2>Platforms registered (--lti {html.escape(self.lti.config.path)})</h2><ul>{regs}</ul>')
 
 
-def lti_routes(config, policy, examples_dir, texts: Texts) -> list:
-    shared = {'lti_': Lti(config, policy, examples_dir, texts)}
+def lti_routes(config, policy, examples_dir, texts: Texts, store=None) -> list:
+    shared = {'lti_': Lti(config, policy, examples_dir, texts, store)}
     return [(r'/lti/login', LoginInitHandler, shared), (r'/lti/launch', LaunchHandler, shared),
             (r'/lti/deeplink', DeepLinkHandler, shared), (r'/lti/resume', ResumeHandler, shared),
             (r'/lti/jwks', JwksHandler, shared), (r'/lti/config', ConfigHandler, shared)]

@@ -81,13 +81,13 @@ def test_one_score_per_attempt_and_only_after_a_launch(setup):
 
 async def _one_score(plat, config, store):
     plat.start()
-    assert grades.remember_launch(store, 'p1', launch('s1', 'rl1', plat.url('/lineitems/li1')))
-    assert grades.post_result(store, 'p1', 'rl1', 0.75, 'att-1') is True
-    assert grades.post_result(store, 'p1', 'rl1', 0.75, 'att-1') is False
+    assert await grades.remember_launch(store, 'p1', launch('s1', 'rl1', plat.url('/lineitems/li1')))
+    assert await grades.post_result(store, 'p1', 'rl1', 0.75, 'att-1') is True
+    assert await grades.post_result(store, 'p1', 'rl1', 0.75, 'att-1') is False
     with pytest.raises(grades.GradeError, match='did not launch'):
-        grades.post_result(store, 'p2', 'rl1', 1.0, 'att-2')
+        await grades.post_result(store, 'p2', 'rl1', 1.0, 'att-2')
     with pytest.raises(grades.GradeError, match='did not launch'):
-        grades.post_result(store, 'p1', 'rl-other', 1.0, 'att-3')
+        await grades.post_result(store, 'p1', 'rl-other', 1.0, 'att-3')
     outbox = grades.Outbox(store, config)
     assert await outbox.flush() == 1
     assert await outbox.flush() == 0
@@ -103,8 +103,8 @@ def test_lms_down_then_back(setup):
 
 
 async def _down_then_back(plat, config, store):
-    grades.remember_launch(store, 'p1', launch('s1', 'rl1', plat.url('/lineitems/li1')))
-    grades.post_result(store, 'p1', 'rl1', 1.0, 'att-9', now=1000.0)
+    await grades.remember_launch(store, 'p1', launch('s1', 'rl1', plat.url('/lineitems/li1')))
+    await grades.post_result(store, 'p1', 'rl1', 1.0, 'att-9', now=1000.0)
     outbox = grades.Outbox(store, config)
     assert await outbox.flush(now=1000.0) == 0          # the LMS is down
     assert await outbox.flush(now=1001.0) == 0          # backing off
