@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import json
 import socket
+import time
 
 import jwt
 import pytest
@@ -112,3 +113,47 @@ async def _down_then_back(plat, config, store):
     assert await outbox.flush(now=1000.0 + grades.BACKOFF_FIRST) == 1
     assert [s['scoreGiven'] for _, s in plat.scores] == [1.0]
     plat.stop()
+
+
+def test_roster_and_a_student_who_left_cannot_book(setup):
+    asyncio.run(_roster(*setup))
+
+
+async def _roster(plat, config, store):
+    from gateway.rules import roster
+    from gateway.rules.bookings import BookingError, BookingLimits, Timetable
+    from gateway.rules.lti import identity_of
+    listed = [{'user_id': 's1', 'name': 'Ada', 'roles': ['Learner'], 'status': 'Active'},
+              {'user_id': 's2', 'name': 'Bob', 'roles': ['Learner'], 'status': 'Active'}]
+
+    class Members(web.RequestHandler):
+        def get(self):
+            if self.request.headers.get('Authorization', '')[7:] not in plat.tokens:
+                raise web.HTTPError(401)
+            self.set_header('Content-Type', roster.MEMBERSHIPS)
+            self.write(json.dumps({'context': {'id': 'c1'}, 'members': listed}))
+    plat.app.add_handlers(r'.*', [(r'/members', Members)])
+    original = grades.SCOPE_SCORE
+    plat.start()
+    grades.SCOPE_SCORE = roster.SCOPE_MEMBERSHIPS   # the test platform checks this scope is asked for
+    try:
+        assert await roster.fetch(store, config, config.registrations[0], plat.url('/members')) == 2
+        assert sorted(m['name'] for m in await roster.members(store)) == ['Ada', 'Bob']
+        bob = identity_of({'iss': ISS, 'sub': 's2'}).key
+        assert not await roster.has_left(store, bob)
+        listed[1]['status'] = 'Inactive'
+        await roster.fetch(store, config, config.registrations[0], plat.url('/members'))
+        assert await roster.has_left(store, bob)
+        del listed[1]
+        await roster.fetch(store, config, config.registrations[0], plat.url('/members'))
+        assert await roster.has_left(store, bob)
+        timetable = Timetable(store, BookingLimits())
+        start = time.time() + 600
+        with pytest.raises(BookingError) as refused:
+            await timetable.add('s01', bob, 'Bob', start, start + 900)
+        assert refused.value.status == 403 and 'no longer a member of this course' in refused.value.message
+        ada = identity_of({'iss': ISS, 'sub': 's1'}).key
+        assert (await timetable.add('s01', ada, 'Ada', start, start + 900)).id is not None
+    finally:
+        grades.SCOPE_SCORE = original
+        plat.stop()
