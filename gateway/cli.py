@@ -88,6 +88,9 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument('--blocks-dir', dest='storage.blocks_dir', type=Path, metavar='DIR',
                    help='a folder of block sets (JSON files, each listed in the IDE\'s toolbox for its robot); '
                         'blocks an admin publishes from the IDE are kept there too (shared.json)')
+    b.add_argument('--exercises-dir', dest='lab.exercises_dir', type=Path, metavar='DIR',
+                   help='a folder of exercises (ID.json: start program, station kind, time limit, goal); '
+                        'those an admin makes with POST /api/exercises are kept there too [%(default)s]')
     r = p.add_argument_group('robot-side runs and recordings')
     r.add_argument('--allow-runs', dest='runs.allow_runs', action='store_true',
                    help='let operators run programs as processes on this machine (POST /api/runs): '

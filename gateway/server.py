@@ -23,6 +23,7 @@ from . import rules
 from .rules import grades
 from .bridge import rosapi
 from .bridge.gateway import Gateway
+from .exercises import Checker, Library
 from .runs import RunManager, start_runs
 from .settings import Settings
 from .web.app import make_app, socket_app
@@ -42,6 +43,8 @@ class Parts:
     history: History | None
     lti: object = None        # rules.lti.LtiConfig with --lti
     grades: object = None     # rules.grades.Outbox with --lti: posts queued scores to the LMS
+    exercises: Library | None = None
+    checker: Checker | None = None   # its ``on_result`` list: fn(identity, exercise, attempt_result)
 
 
 def start(gateway: Gateway, files: rules.Files) -> Parts:
@@ -57,7 +60,8 @@ def start(gateway: Gateway, files: rules.Files) -> Parts:
     if files.lti is not None:
         outbox = grades.Outbox(gateway.store, files.lti)
         outbox.start()
-    return Parts(runs=runs, recordings=recordings, history=history, lti=files.lti, grades=outbox)
+    return Parts(runs=runs, recordings=recordings, history=history, lti=files.lti, grades=outbox,
+                 exercises=Library(settings.lab.exercises_dir), checker=Checker(gateway))
 
 
 def pages_box(base: str) -> str:
@@ -113,6 +117,8 @@ async def serve(settings: Settings, files: rules.Files, backend, sockets: list[s
     await stop.wait()
     log.info('shutting down')
     server.stop()
+    if parts.checker is not None:
+        parts.checker.stop_all()
     await gateway.shutdown()
     await backend.stop()
     await server.close_all_connections()

@@ -115,6 +115,7 @@ class LabSettings:
     booking_per_week: int = 30                 # per ISO week (0: no limit)
     booking_ahead: float = 14.0                # days ahead a slot may begin (0: no limit)
     station_reset: str | None = None           # service called in the station's namespace at a slot's end
+    exercises_dir: Path | None = field(default_factory=lambda: data_dir('exercises'))   # exercises (JSON files)
 
 
 @dataclass(frozen=True)

@@ -60,6 +60,7 @@ class Run:
         self.who: str | None = None          # the starter's name, as pages show it
         self.recorder = None                 # () -> (MCAP path, bytes): finishes the run's recording
         self.cgroup: RunCgroup | None = None
+        self.kind = 'python'                 # what the source is: runs.node.KIND for a ROS 2 node
 
     def summary(self) -> dict:
         return {'id': self.id, 'name': self.name, 'ns': self.ns, 'state': self.state,

@@ -46,7 +46,7 @@ from ..rules.errors import Refusal
 from ..rules.hooks import Hook
 from ..rules.safety import Safety, moving_command
 from ..settings import Refused, RunSettings, data_dir
-from . import launcher
+from . import launcher, node
 from .archive import Archive
 from .cgroups import Cgroups, RunCgroup, limits_in_force
 from .process import Run, RunLimits, RunOutput
@@ -115,13 +115,15 @@ class RunManager(Hook):
         run_id = 'r' + secrets.token_hex(4)
         person = person or f'run {run_id}'
         self._lease_free_for(person, role, ns)
+        program = self._program(source, kind)
         workdir = self.runs_dir / run_id
         try:
             workdir.mkdir(parents=True, mode=0o700)
-            (workdir / 'program.py').write_text(source)
+            (workdir / 'program.py').write_text(program)
         except OSError as e:
             raise RunError(500, f'cannot prepare the run directory: {e}') from None
         run = Run(run_id, name, ns, timeout, workdir)
+        run.kind = kind
         run.role, run.person, run.owner, run.who = role, person, owner, who
         latched = QoS(depth=1, transient_local=True)
         gateway = self.gateway
@@ -136,6 +138,19 @@ class RunManager(Hook):
         task.add_done_callback(lambda t: t.cancelled() or t.exception() is None or log.error(
             'run %s: supervising it failed', run.id, exc_info=t.exception()))
         return run
+
+    def _program(self, source: str, kind: str) -> str:
+        """What the run's program.py holds: the source, or for a ROS 2 node (``runs.node``) the
+        node with the IDE's runtime; refused (400) where runs are not on the graph."""
+        if kind != node.KIND:
+            return source
+        if self.box is None or not self.box.graph:
+            raise RunError(400, 'a ROS 2 node joins the ROS graph itself: this gateway runs nodes only with '
+                                '--trusted-runs; run the program as a script (kind "python") instead')
+        try:
+            return node.node_program(source, self.gateway.settings.ide_dir / 'runtime')
+        except ValueError as e:
+            raise RunError(400, str(e)) from None
 
     def namespaces(self) -> set[str]:
         """The root and the namespaces of the graph's nodes (/s07 of /s07/turtlesim, and so on)."""
@@ -181,7 +196,9 @@ class RunManager(Hook):
         lim = self.limits
         limits = f'{lim.cpu_seconds},{lim.memory_mb * 2**20},{lim.open_files},{lim.processes}'
         command = [sys.executable, '-I', '-c', LAUNCHER, limits, str(number if relayed else 0), SOCKET, 'program.py']
-        if run.ns:
+        if run.kind == node.KIND:
+            command += node.node_arguments(run.ns)
+        elif run.ns:
             command += ['--ns', run.ns]
         if self.cgroups is not None:
             run.cgroup = self.cgroups.make(run.id, lim.memory_mb * 2**20, lim.processes, lim.cpus)

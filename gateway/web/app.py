@@ -6,7 +6,8 @@ API apps (``/api/programs``, ``/api/runs``, ``/api/recordings``, ``/api/history`
 the login pages and LTI's (``/lti/...``, with ``--lti``);
 web_video_server's camera URLs (``/stream``, ``/snapshot``, ``/stream_viewer``, ``/streams``: ``video``);
 the robot's description and meshes (``/urdf``, ``/package/PKG/PATH``: ``packages``); the gauges' limits
-(``/api/gauges``: ``gauges``); block sets and the class's shared blocks (``/api/blocks``: ``blocksets``);
+(``/api/gauges``: ``gauges``); block sets and the class's shared blocks (``/api/blocks``: ``blocksets``); exercises, their attempts and results (``/api/exercises``,
+``/api/attempts``, ``/api/exercise-results``: ``exercises``);
 the IDE's static files last. The parts behind the routes (runs, recordings, history, the OPC UA
 server) are started by the server's start (``gateway.server``), not here.
 """
@@ -22,6 +23,7 @@ from ..bridge.gateway import Gateway
 from .bookings import booking_routes
 from .classview import ClassHandler
 from .blocksets import block_routes
+from .exercises import exercise_routes
 from .gauges import gauge_routes
 from .history_api import history_routes
 from .language import Texts
@@ -107,5 +109,7 @@ def make_app(gateway: Gateway, parts) -> tornado.web.Application:
     routes += run_routes(parts.runs, parts.recordings) + recording_routes(parts.recordings)
     routes += booking_routes(gateway) + video_routes(gateway) + history_routes(parts.history)
     routes += package_routes(gateway) + gauge_routes(gateway) + block_routes(gateway)
+    if parts.checker is not None:
+        routes += exercise_routes(gateway, parts.exercises, parts.checker)
     routes.append((r'/(.*)', PublicFileHandler, {'path': str(settings.ide_dir), 'default_filename': 'index.html'}))
     return Application(gateway, routes, compress_response=True, **options(settings))

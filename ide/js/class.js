@@ -3,7 +3,8 @@
 // student's program (read-only). Owners come from the gateway's /rosgate/stations. Stations are the gateway's (the driver lease's list, else the fleet's, else the
 // namespaces of the graph), so a real multi-robot graph shows the same way as the sim's fleet.
 // Beside each student's tile, their newest kept runs (GET api/runs?all=1, an admin's: the class's)
-// with their program, output and recording to download.
+// with their program, output and recording to download; and their exercises' best and last
+// attempts with a "passed" mark (GET api/exercise-results: classexercises.js).
 import { WorldView } from './worldview.js';
 import { DriverLease, DRIVER_TOPIC } from './driver.js';
 import { isVelocityType, zeroVelocity, withNamespace } from '../runtime/util.js';
@@ -13,6 +14,7 @@ import { Link } from './link.js';
 import { mountBooking } from './booking.js';
 import { t, tn } from './i18n.js';
 import { keptRuns, runItem } from './runhistory.js';
+import { exerciseSummary, exerciseItem } from './classexercises.js';
 
 const $ = (s) => document.querySelector(s);
 const REFRESH = 10000;   // ms between looks at the graph for new stations (and at the kept runs)
@@ -20,7 +22,7 @@ const TILE_RUNS = 3;     // a student's newest kept runs shown on their tile
 // A tile's world at 2 Hz: the gateway merges the markers of each half second (newest of each wins,
 // no change lost), so ten tiles fit a home line (docs/teacher.md)
 const TILE_STREAM = { throttle_rate: 500, queue_length: 4 };
-const view = { ros: null, lease: new DriverLease(), tiles: new Map(), topics: [], types: [], services: [], owners: {}, seq: 0, runs: [] };
+const view = { ros: null, lease: new DriverLease(), tiles: new Map(), topics: [], types: [], services: [], owners: {}, seq: 0, runs: [], exercises: [] };
 window.classView = view;
 
 function setStatus(s, text) { const el = $('#status'); el.dataset.state = s; el.textContent = text; document.body.dataset.connection = s; }
@@ -171,12 +173,24 @@ class Tile {
     list.hidden = !runs.length;
     list.setAttribute('aria-label', t('class.runs'));
     this.el.dataset.runs = String(runs.length);
+    this.showExercises(owner);
+  }
+
+  // the owner's best and last attempt of each exercise
+  showExercises(owner) {
+    const entries = owner ? view.exercises.filter((e) => e.name === owner) : [];
+    const list = this.el.querySelector('.exercises');
+    list.replaceChildren(...entries.map(exerciseItem));
+    list.hidden = !entries.length;
+    list.setAttribute('aria-label', t('class.ex.label'));
+    this.el.dataset.passed = String(entries.filter((e) => e.best.passed).length);
   }
 }
 
 // The kept runs this page's person may see (an admin: everyone's), newest first.
 async function refreshRuns() {
-  try { view.runs = await keptRuns(); } catch { return; }   // runs off, or not signed in: no list
+  try { view.exercises = await exerciseSummary(); } catch { view.exercises = []; }   // not signed in: none
+  try { view.runs = await keptRuns(); } catch { view.runs = []; }   // runs off, or not signed in: no list
   for (const tile of view.tiles.values()) tile.showRuns(view.owners[tile.ns]?.name);
 }
 

@@ -29,6 +29,7 @@ import { mountBooking } from './booking.js';
 import { TextMode, blocksAsText, bundlePython, LANGS } from './textmode.js';
 import { TextRunner } from './textrun.js';
 import { t } from './i18n.js';
+import { mountExercise } from './exercise.js';
 
 const $ = (sel) => document.querySelector(sel);
 const getJson = async (url) => {
@@ -418,6 +419,9 @@ async function start() {
     } else if (query.get('mode') === 'text') await newText(lang);     // ?mode=text&lang=python|javascript
     else { const saved = storage.loadAutosave(); if (saved) await ide.loadProgram(saved); }
   } catch (e) { consoleView.error(t('ide.program.failed', { error: e.message })); }
+  // ?exercise=ID: its start program and the bar's "Start attempt" (the gateway checks the goal)
+  await mountExercise(ide, { runners: [runner, textRunner], runButton: $('#run'), say: (m) => consoleView.info(m) })
+    .catch((e) => consoleView.error(t('ide.program.failed', { error: e.message })));
   updateCode();
   // with --auth: who is signed in decides whether the page connects and what it offers
   const me = await whoami();

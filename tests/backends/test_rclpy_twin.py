@@ -77,6 +77,9 @@ def gateway(rclpy_helpers, start_gateway, tmp_path_factory):
 async def test_a_late_page_gets_the_description_the_parameter_and_the_map(gateway, robot):
     with client(gateway) as ros, client(gateway) as second:
         got, again = [], []
+        # a page that comes later than the robot: the gateway has discovered its publisher (and so
+        # its durability) before the page subscribes
+        wait_for(lambda: '/bot/robot_description' in ros.get_topics(), 20)
         roslibpy.Topic(ros, '/bot/robot_description', 'std_msgs/msg/String').subscribe(got.append)
         wait_for(lambda: got, 20)
         assert got[0]['data'] == URDF

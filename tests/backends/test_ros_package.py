@@ -22,8 +22,10 @@ from pathlib import Path
 import pytest
 
 from tests.support.contract import rclpy_missing
+from tests.support.http import api
 from tests.support.ide import IdePage
 from tests.support.ros import client
+from tests.support.runs import ended
 from tests.support.servers import check_served, program
 from tests.support.wait import wait_for
 
@@ -218,3 +220,37 @@ def test_the_nodes_servers_answer_roslibpy_through_the_gateway(rclpy_helpers, ch
         out, _ = proc.communicate(timeout=30)
     print(out[-2000:])
     assert proc.returncode == 0 and 'Traceback' not in out, out
+
+
+@pytest.fixture(scope='module')
+def trusted_gateway(start_gateway, tmp_path_factory):
+    """A gateway on the graph that runs programs as nodes of it (--trusted-runs), whose ROS variables
+    its runs take: over UDP, discovering the subnet's peers (a run is another user, who may not
+    open the robot's shared memory, as test_run_graph's trusted run)."""
+    folder = tmp_path_factory.mktemp('node-runs')
+    return start_gateway('--backend', 'rclpy', '--allow-runs', '--trusted-runs', '--runs-dir', str(folder / 'runs'),
+                         env={'FASTDDS_BUILTIN_TRANSPORTS': 'UDPv4', 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'SUBNET'})
+
+
+def test_with_trusted_runs_the_gateway_runs_the_node(rover, chromium, ide_gateway, trusted_gateway, graph_gateway):
+    """The node the code panel shows, sent as a run of kind ros2_node: the gateway starts it as a
+    node of the graph, the rover hears the script's Twists, and Stop (DELETE) ends it with zero
+    velocity. A source that is not such a node is refused, saying why."""
+    _name, _data, _script, node_code = from_ide(chromium, ide_gateway, EXAMPLE)
+    rover.begin()
+    status, body = api(trusted_gateway, 'POST', '/api/runs', {'source': node_code, 'name': 'wall follower',
+                                                              'kind': 'ros2_node'})
+    assert status == 201, body
+    run_id = body['id']
+    try:
+        wait_for(lambda: len(rover.heard) - rover.start_at >= 2 * PHASE + 3, 60)
+    except AssertionError:
+        raise AssertionError(f'the rover heard {rover.sequence()}; the run: {api(trusted_gateway, "GET", f"/api/runs/{run_id}")}') from None
+    finally:
+        api(trusted_gateway, 'DELETE', f'/api/runs/{run_id}')
+    final = ended(trusted_gateway, run_id)
+    wait_for(lambda: rover.heard[-1] == (0.0, 0.0), 10)
+    assert rover.sequence() == [(0.35, 0.0), (0.0, round(math.radians(60), 6)), (0.0, 0.0)], final['output'][-2000:]
+    # not a node of the IDE's generator: refused with the reason
+    status, body = api(trusted_gateway, 'POST', '/api/runs', {'source': 'print(1)\n', 'kind': 'ros2_node'})
+    assert status == 400 and 'rosgate_node' in body['error'], body

@@ -49,10 +49,12 @@ BAR_WRITE_PCT, BAR_READ_MS = 2.0, 100.0
 
 
 class _Gateway:
-    """What the history asks of a gateway when it only writes: its store."""
+    """What the history asks of a gateway when it only writes: its store, and its rules (no fleet
+    of gateways here: this one writes)."""
 
     def __init__(self, store: Store):
         self.store = store
+        self.ruleset = None
 
 
 def battery(i: int, t: float) -> dict:

@@ -23,8 +23,8 @@ import tempfile
 import threading
 import time
 
-from tests.conftest import GatewayProcess
-from tests.ide.conftest import CHROMIUM, CHROMIUM_ARGS
+from tests.support.process import GatewayProcess
+from tests.support.ide import CHROMIUM, CHROMIUM_ARGS
 
 RUN = """async ({source, ns}) => {
   const py = await import('/js/pyrun.js');

@@ -1,5 +1,6 @@
 """gateway/ by role, imports pointing one way: web -> bridge -> rules -> backends (-> protocol); runs
-(the run supervisor, its sandbox and cgroups) beside bridge, under web; server and cli on top.
+(the run supervisor, its sandbox and cgroups) beside bridge, under web; exercises (goals, attempts)
+under web, on the store alone; server and cli on top.
 
 Every import of a gateway module is found (relative or absolute, at the top, inside a function or
 under TYPE_CHECKING) and checked against what its role may use; the run-time imports (those at a
@@ -14,7 +15,8 @@ from pathlib import Path
 
 GATEWAY = Path(__file__).resolve().parents[2] / 'gateway'
 MAY_USE = {   # role -> the roles its modules may import
-    'web': {'web', 'bridge', 'runs', 'rules', 'store', 'backends', 'settings'},
+    'web': {'web', 'bridge', 'runs', 'exercises', 'rules', 'store', 'backends', 'settings'},
+    'exercises': {'exercises', 'store', 'settings'},
     'runs': {'runs', 'rules', 'store', 'backends', 'settings'},
     'bridge': {'bridge', 'rules', 'store', 'backends', 'settings'},
     'rules': {'rules', 'store', 'backends', 'settings'},
@@ -122,8 +124,8 @@ def circles(graph) -> list[list[str]]:
 def test_the_roles_are_the_packages():
     entries = {p.name for p in GATEWAY.iterdir() if not p.name.startswith(('_', '.')) or p.name == '__init__.py'}
     assert entries <= {'__init__.py', 'cli.py', 'server.py', 'settings.py', 'bridge', 'rules', 'runs', 'web', 'store',
-                       'backends'}, entries
-    for package in ('bridge', 'rules', 'runs', 'web', 'backends', 'backends/sim', 'backends/rclpy'):
+                       'backends', 'exercises'}, entries
+    for package in ('bridge', 'rules', 'runs', 'web', 'exercises', 'backends', 'backends/sim', 'backends/rclpy'):
         assert ast.get_docstring(ast.parse((GATEWAY / package / '__init__.py').read_text())), package
 
 

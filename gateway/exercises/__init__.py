@@ -1,0 +1,116 @@
+"""Exercises the gateway checks: a start program, a station kind, a time limit and a goal as data.
+
+An exercise is a JSON file ``ID.json`` in ``--exercises-dir`` (an admin's POST /api/exercises
+writes one there too)::
+
+    {"title": "Reach the corner", "station_kind": "turtlesim", "time_limit": 60,
+     "start": {"blocks": {...}} or {"text": "..."},
+     "pose_topic": "pose", "scan_topic": "scan",
+     "goal": {"all": [{"region": {"xmin": 8, "xmax": 11, "ymin": 8, "ymax": 11}}, {"within": 45}]}}
+
+``goals`` turns the goal into an evaluator (pure); ``checker`` watches the robot's own topics during
+an attempt and keeps each result (``store``: table ``exercise_attempts``), then calls the hook list
+``Checker.on_result``. Files are read on each request (a class has tens), so an edit needs no restart.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from pathlib import Path
+
+from .checker import AttemptResult, Checker, Exercise
+from .goals import GoalError, build
+
+__all__ = ['AttemptResult', 'Checker', 'Exercise', 'ExerciseError', 'Library', 'parse']
+
+ID = re.compile(r'^[A-Za-z0-9][A-Za-z0-9_-]{0,63}$')
+TOPIC = re.compile(r'^/?[A-Za-z_][A-Za-z0-9_/]{0,200}$')
+MAX_FILE = 256 * 1024
+MAX_TIME = 3600.0
+
+
+class ExerciseError(ValueError):
+    """The exercise's data is wrong; the message says which part."""
+
+
+def parse(ex_id: str, data) -> Exercise:
+    if not ID.match(ex_id or ''):
+        raise ExerciseError('an exercise id is letters, digits, _ and - (64 at most)')
+    if not isinstance(data, dict):
+        raise ExerciseError(f'{ex_id}: not a JSON object')
+    limit = data.get('time_limit', 60)
+    if isinstance(limit, bool) or not isinstance(limit, (int, float)) or not (0 < limit <= MAX_TIME) \
+            or not math.isfinite(limit):
+        raise ExerciseError(f'{ex_id}: time_limit is seconds, above 0 and at most {MAX_TIME:g}')
+    try:
+        build(data.get('goal'))
+    except GoalError as e:
+        raise ExerciseError(f'{ex_id}: goal: {e}') from None
+    start = data.get('start', {})
+    if not isinstance(start, dict) or not set(start) <= {'blocks', 'text'}:
+        raise ExerciseError(f'{ex_id}: start is {{"blocks": ...}} or {{"text": "..."}}')
+    topics = {}
+    for key, default in (('pose_topic', 'pose'), ('scan_topic', '')):
+        value = data.get(key, default)
+        if not isinstance(value, str) or (value and not TOPIC.match(value)):
+            raise ExerciseError(f'{ex_id}: {key} is a topic name')
+        topics[key] = value
+    title, kind = data.get('title', ex_id), data.get('station_kind', '')
+    if not isinstance(title, str) or not isinstance(kind, str):
+        raise ExerciseError(f'{ex_id}: title and station_kind are text')
+    return Exercise(id=ex_id, title=title[:200], goal=data['goal'], time_limit=float(limit),
+                    station_kind=kind[:100], start=start, **topics)
+
+
+def public(ex: Exercise) -> dict:
+    return {'id': ex.id, 'title': ex.title, 'station_kind': ex.station_kind, 'time_limit': ex.time_limit,
+            'start': ex.start, 'goal': ex.goal, 'pose_topic': ex.pose_topic, 'scan_topic': ex.scan_topic}
+
+
+class Library:
+    """The exercises of one folder."""
+
+    def __init__(self, folder: Path | None):
+        self.folder = Path(folder).expanduser() if folder else None
+
+    def get(self, ex_id: str) -> Exercise | None:
+        if self.folder is None or not ID.match(ex_id or ''):
+            return None
+        path = self.folder / f'{ex_id}.json'
+        try:
+            text = path.read_bytes()[:MAX_FILE + 1]
+        except OSError:
+            return None
+        if len(text) > MAX_FILE:
+            raise ExerciseError(f'{path}: larger than {MAX_FILE} bytes')
+        try:
+            return parse(ex_id, json.loads(text))
+        except ValueError as e:
+            raise ExerciseError(f'{path}: {e}') from None
+
+    def all(self) -> tuple[list[Exercise], list[str]]:
+        """(the exercises, what is wrong with the files that are not)."""
+        found, problems = [], []
+        if self.folder is None or not self.folder.is_dir():
+            return found, problems
+        for path in sorted(self.folder.glob('*.json')):
+            try:
+                ex = self.get(path.stem)
+            except ExerciseError as e:
+                problems.append(str(e))
+                continue
+            if ex is not None:
+                found.append(ex)
+        return found, problems
+
+    def save(self, ex_id: str, data: dict) -> Exercise:
+        ex = parse(ex_id, data)
+        if self.folder is None:
+            raise ExerciseError('no --exercises-dir to keep exercises in')
+        self.folder.mkdir(parents=True, exist_ok=True)
+        tmp = self.folder / f'.{ex_id}.json.tmp'
+        tmp.write_text(json.dumps({k: v for k, v in public(ex).items() if k != 'id'}, indent=1))
+        tmp.replace(self.folder / f'{ex_id}.json')
+        return ex

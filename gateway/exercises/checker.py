@@ -1,0 +1,173 @@
+"""A live attempt: the goal checked on the robot's own topics while the student's program runs.
+
+The checker watches the topic's shared fan-out (as a ``/stream`` camera source does: one backend
+subscription for all), so it reads what the backend delivers (turtlesim's ``/turtleN/pose``, a rover's ``odom``, its
+``scan``) and never what a page says. An attempt ends at the goal reached (or failed for good), at
+the exercise's time limit, or when the program stops (``stop``); its result is written to the store
+and handed to every callable in ``on_result(identity, exercise, attempt_result)``: the grades code
+subscribes there.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import secrets
+import time
+from collections import OrderedDict
+from dataclasses import dataclass, field
+
+from . import store as results
+from .goals import Evaluation, topics_of
+
+log = logging.getLogger('rosgate.exercises')
+RECENT = 256   # ended attempts answered from memory: a poll right after the end finds it before the store does
+
+
+@dataclass(frozen=True)
+class Exercise:
+    id: str
+    title: str
+    goal: dict
+    time_limit: float
+    station_kind: str = ''
+    start: dict = field(default_factory=dict)    # {"blocks": ...} or {"text": ...}
+    pose_topic: str = 'pose'                     # relative to the station's namespace
+    scan_topic: str = ''
+
+
+@dataclass(frozen=True)
+class AttemptResult:
+    attempt: str
+    exercise: str
+    person: str
+    name: str
+    station: str
+    passed: bool
+    score: float
+    why: str
+    started_at: float
+    ended_at: float
+    program: str
+    recording: str | None = None
+
+    def row(self) -> dict:
+        return dict(self.__dict__)
+
+
+class Attempt:
+    def __init__(self, checker: 'Checker', exercise: Exercise, identity, station: str, program: str):
+        self.checker, self.exercise, self.identity, self.station = checker, exercise, identity, station
+        self.id = secrets.token_hex(8)
+        self.program = program[:results.MAX_PROGRAM]
+        self.evaluation = Evaluation(exercise.goal)
+        self.started = time.time()
+        self.taps: list = []
+        self.result: AttemptResult | None = None
+        self.done = asyncio.get_running_loop().create_future()
+        self.timer = asyncio.get_running_loop().call_later(exercise.time_limit, self.end, 'time')
+
+    def feed(self, kind: str, topic: str, msg: dict) -> None:
+        """One message of a watched topic (on the fan-out's hot path: never raises into it)."""
+        try:
+            self._feed(kind, topic, msg)
+        except Exception:
+            log.exception('attempt %s cannot take a message of %s', self.id, topic)
+
+    def _feed(self, kind: str, topic: str, msg: dict) -> None:
+        if self.result is not None:
+            return
+        ev = self.evaluation
+        ev.time(time.time() - self.started)
+        getattr(ev, kind)(*((topic, msg) if kind == 'topic' else (msg,)))
+        outcome = ev.outcome()
+        if outcome is True:
+            self.end('goal')
+        elif outcome is False:
+            self.end('failed')
+
+    def end(self, why: str) -> AttemptResult | None:
+        if self.result is not None:
+            return self.result
+        self.timer.cancel()
+        self.evaluation.time(time.time() - self.started)
+        passed, score = self.evaluation.finish()
+        who = self.identity
+        self.result = AttemptResult(
+            attempt=self.id, exercise=self.exercise.id, person=(who.key or who.name) if who else 'anyone',
+            name=who.name if who else 'anyone', station=self.station, passed=passed, score=score,
+            why=why, started_at=self.started, ended_at=time.time(), program=self.program)
+        self.checker.finished(self)
+        if not self.done.done():
+            self.done.set_result(self.result)
+        return self.result
+
+
+class Checker:
+    """The live attempts (one per station at a time) and the ``on_result`` hook list."""
+
+    def __init__(self, gateway):
+        self.gateway = gateway
+        self.attempts: dict[str, Attempt] = {}        # attempt id -> Attempt
+        self.on_result: list = []                     # fn(identity, exercise, attempt_result)
+        self.ended: OrderedDict[str, AttemptResult] = OrderedDict()   # the newest, while the store writes
+
+    def topic(self, station: str, name: str) -> str:
+        """A relative name under the station's namespace ('' is the root: ``turtle1/pose`` -> ``/turtle1/pose``)."""
+        if name.startswith('/'):
+            return name
+        ns = station.strip('/')
+        return f'/{ns}/{name}' if ns else f'/{name}'
+
+    def start(self, exercise: Exercise, identity, station: str, program: str) -> Attempt:
+        for live in self.attempts.values():
+            if live.station == station:
+                live.end('stopped')
+                break
+        attempt = Attempt(self, exercise, identity, station, program)
+        watch = [(self.topic(station, exercise.pose_topic), 'pose')]
+        if exercise.scan_topic:
+            watch.append((self.topic(station, exercise.scan_topic), 'scan'))
+        watch += [(t, 'topic') for t in sorted(topics_of(attempt.evaluation.root))]
+        self.attempts[attempt.id] = attempt
+        try:
+            for topic, kind in watch:
+                self._tap(attempt, topic, kind)
+        except Exception:
+            attempt.end('failed')
+            raise
+        return attempt
+
+    def _tap(self, attempt: Attempt, topic: str, kind: str) -> None:
+        gw = self.gateway
+        type_ = gw.topic_type(topic)
+        if type_ is None:
+            raise LookupError(f'{topic} is not published: the station has no such topic')
+        fan = gw.fanout(topic, type_)
+        key = ('exercise', attempt.id, kind)
+        fan.watch(key, lambda msg, _image: attempt.feed(kind, topic, msg))
+        attempt.taps.append((fan, key))
+
+    def stop_all(self) -> None:
+        """The gateway is stopping: every live attempt ends as stopped (and is kept)."""
+        for attempt in list(self.attempts.values()):
+            attempt.end('stopped')
+
+    def finished(self, attempt: Attempt) -> None:
+        self.attempts.pop(attempt.id, None)
+        for fan, key in attempt.taps:
+            try:
+                fan.unwatch(key)
+            except Exception:
+                log.exception('cannot leave %s', fan.topic)
+        attempt.taps.clear()
+        self.ended[attempt.id] = attempt.result
+        while len(self.ended) > RECENT:
+            self.ended.popitem(last=False)
+        row = attempt.result.row()
+        self.gateway.store.submit(lambda conn: results.insert(conn, row))
+        for fn in list(self.on_result):
+            try:
+                fn(attempt.identity, attempt.exercise, attempt.result)
+            except Exception:
+                log.exception('on_result %r failed', fn)

@@ -1,0 +1,159 @@
+"""Exercises and their attempts over HTTP (``gateway.exercises`` does the checking):
+
+GET  /api/exercises                 -> {"exercises": [...], "problems": [...]}   (anyone who may read)
+GET  /api/exercises/ID              -> the exercise (its start program, goal, time limit)
+POST /api/exercises  {"id", ...}    -> saved into --exercises-dir (admins)
+POST /api/exercises/ID/attempts {"station": NS, "program": TEXT}
+                                    -> {"attempt": ATTEMPT_ID}: the goal is now watched on NS's topics
+GET  /api/attempts/ATTEMPT_ID       -> {"live": true} while it runs, else its result (the starter or an admin)
+POST /api/attempts/ATTEMPT_ID/stop  -> the attempt ends ("stopped"), its result
+GET  /api/exercise-results[?exercise=ID][&person=KEY]
+                                    -> {"results": [...], "summary": [{person, exercise, best, last, attempts}]}
+
+Results are private: a student reads only their own (another's ``person`` is a 403); an admin
+reads everyone's. An attempt may be started only on a station the caller could run a program on
+(the driver lease's ``run_refusal``: not another person's station), since it is graded for them.
+"""
+
+from __future__ import annotations
+
+import tornado.web
+
+from ..exercises import ExerciseError, Library, public
+from ..exercises import store as results
+from ..rules.stations import person_of
+from .api import JsonHandler, body_json, caller
+
+MAX_BODY = 512 * 1024
+
+
+def _admin(identity) -> bool:
+    return identity is None or identity.role == 'admin'
+
+
+def _key(identity) -> str:
+    return identity.owner if identity is not None else 'anyone'
+
+
+class ExercisesHandler(JsonHandler):
+    def initialize(self, gateway, library: Library) -> None:
+        self.gateway, self.library = gateway, library
+
+    def get(self, ex_id: str | None = None) -> None:
+        caller(self, self.gateway)
+        try:
+            if ex_id is None:
+                found, problems = self.library.all()
+                self.finish({'exercises': [public(e) for e in found], 'problems': problems})
+                return
+            ex = self.library.get(ex_id)
+        except ExerciseError as e:
+            raise tornado.web.HTTPError(500, str(e)) from None
+        if ex is None:
+            raise tornado.web.HTTPError(404, f'no exercise {ex_id[:64]!r}')
+        self.finish(public(ex))
+
+    def post(self, ex_id: str | None = None) -> None:
+        if ex_id is not None:
+            raise tornado.web.HTTPError(405, 'POST /api/exercises with the id in the body')
+        caller(self, self.gateway, change=True, roles=('admin',))
+        body = body_json(self, MAX_BODY)
+        try:
+            ex = self.library.save(str(body.get('id', '')), body)
+        except ExerciseError as e:
+            raise tornado.web.HTTPError(400, str(e)) from None
+        self.set_status(201)
+        self.finish(public(ex))
+
+
+class AttemptsHandler(JsonHandler):
+    def initialize(self, gateway, library: Library, checker) -> None:
+        self.gateway, self.library, self.checker = gateway, library, checker
+
+    def post(self, ex_id: str) -> None:
+        identity = caller(self, self.gateway, change=True)
+        body = body_json(self, MAX_BODY)
+        try:
+            ex = self.library.get(ex_id)
+        except ExerciseError as e:
+            raise tornado.web.HTTPError(500, str(e)) from None
+        if ex is None:
+            raise tornado.web.HTTPError(404, f'no exercise {ex_id[:64]!r}')
+        station, program = body.get('station', ''), body.get('program', '')
+        if not isinstance(station, str) or not isinstance(program, str):
+            raise tornado.web.HTTPError(400, '"station" is a namespace and "program" the program\'s text')
+        ns = '/' + station.strip('/') if station.strip('/') else ''
+        lease = self.gateway.policy.lease
+        person = person_of(identity, self.request.cookies) or ''
+        why = lease.run_refusal(person, identity.role if identity else None, ns) if lease is not None else None
+        if why is not None:
+            raise tornado.web.HTTPError(409, why)
+        try:
+            attempt = self.checker.start(ex, identity, ns, program)
+        except LookupError as e:
+            raise tornado.web.HTTPError(409, str(e.args[0])) from None
+        self.set_status(201)
+        self.finish({'attempt': attempt.id, 'exercise': ex.id, 'station': ns, 'time_limit': ex.time_limit})
+
+
+class AttemptHandler(JsonHandler):
+    def initialize(self, gateway, checker) -> None:
+        self.gateway, self.checker = gateway, checker
+
+    def _own(self, identity, person: str) -> None:
+        if not _admin(identity) and person != _key(identity):
+            raise tornado.web.HTTPError(403, 'another person\'s attempt')
+
+    async def get(self, attempt_id: str, stop: str | None = None) -> None:
+        identity = caller(self, self.gateway)
+        live = self.checker.attempts.get(attempt_id)
+        if live is not None:
+            self._own(identity, _key(live.identity))
+            self.finish({'live': True, 'attempt': attempt_id, 'exercise': live.exercise.id,
+                         'outcome': live.evaluation.outcome()})
+            return
+        ended = self.checker.ended.get(attempt_id)
+        rows = [ended.row()] if ended is not None else \
+            await self.gateway.store.run(lambda c: results.select(c, attempt=attempt_id))
+        if not rows:
+            raise tornado.web.HTTPError(404, f'no attempt {attempt_id[:64]!r}')
+        self._own(identity, rows[0]['person'])
+        self.finish({'live': False, **rows[0]})
+
+    def post(self, attempt_id: str, stop: str | None = None) -> None:
+        identity = caller(self, self.gateway, change=True)
+        live = self.checker.attempts.get(attempt_id)
+        if live is None:
+            raise tornado.web.HTTPError(404, f'no live attempt {attempt_id[:64]!r}')
+        self._own(identity, _key(live.identity))
+        self.finish({'live': False, **live.end('stopped').row()})
+
+
+class ResultsHandler(JsonHandler):
+    def initialize(self, gateway) -> None:
+        self.gateway = gateway
+
+    async def get(self) -> None:
+        identity = caller(self, self.gateway)
+        person = self.get_query_argument('person', None)
+        exercise = self.get_query_argument('exercise', None)
+        if not _admin(identity):
+            if person is not None and person != _key(identity):
+                raise tornado.web.HTTPError(403, 'another person\'s results: only an admin reads them')
+            person = _key(identity)
+        rows = await self.gateway.store.run(lambda c: results.select(c, person=person, exercise=exercise))
+        summary = [{'person': p, 'exercise': e, 'name': v['last']['name'], 'attempts': v['attempts'],
+                    'best': v['best'], 'last': v['last']}
+                   for (p, e), v in results.best_and_last(rows).items()]
+        self.finish({'results': rows, 'summary': summary})
+
+
+def exercise_routes(gateway, library: Library, checker) -> list:
+    return [
+        (r'/api/exercises/?', ExercisesHandler, {'gateway': gateway, 'library': library}),
+        (r'/api/exercises/([A-Za-z0-9_-]+)/attempts/?', AttemptsHandler,
+         {'gateway': gateway, 'library': library, 'checker': checker}),
+        (r'/api/exercises/([A-Za-z0-9_-]+)', ExercisesHandler, {'gateway': gateway, 'library': library}),
+        (r'/api/attempts/([0-9a-f]{1,64})(/stop)?', AttemptHandler, {'gateway': gateway, 'checker': checker}),
+        (r'/api/exercise-results', ResultsHandler, {'gateway': gateway}),
+    ]
