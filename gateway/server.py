@@ -56,12 +56,13 @@ def start(gateway: Gateway, files: rules.Files) -> Parts:
     start_twin(gateway, history, settings.twin.opcua)
     if runs_socket is not None:   # runs reach the websocket alone, on a unix socket bound into their box
         runs.serve(socket_app(gateway), runs_socket)
-    outbox = None
-    if files.lti is not None:
+    checker, outbox = Checker(gateway), None
+    if files.lti is not None:   # an ended attempt's score goes to the LMS of the learner's launch
         outbox = grades.Outbox(gateway.store, files.lti)
         outbox.start()
+        checker.on_result.append(outbox.result)
     return Parts(runs=runs, recordings=recordings, history=history, lti=files.lti, grades=outbox,
-                 exercises=Library(settings.lab.exercises_dir), checker=Checker(gateway))
+                 exercises=Library(settings.lab.exercises_dir), checker=checker)
 
 
 def pages_box(base: str) -> str:

@@ -1,20 +1,25 @@
 """Grades back to the LMS (LTI Advantage, Assignment and Grade Services): one score per attempt.
 
 A launch whose id_token carries the AGS endpoint claim is remembered (``remember_launch``): the
-line item URL per (person, resource link), with the platform that issued it. ``post_result`` is
-the one door to a score; it is called by the gateway (an exercise's result hook), never by a
-page, so no browser request can post or replay a score. It refuses a person who did not launch
-from that line item, and it puts the score in a persisted outbox keyed by the attempt id: a
-second call for the same attempt is a no-op, so the LMS's gradebook gets one score per attempt.
+line item URL per (person, resource link), with the platform that issued it and the exercise the
+link opens (its custom ``exercise``, which the deep link put there). ``Outbox.result`` is the
+exercises' ``Checker.on_result`` hook: when an attempt ends, passed or failed, its score (0..1,
+a failed attempt's partial score too) is queued for the newest launch of that person from a link
+of that exercise, and nothing is queued for someone who did not launch from one. ``post_result``
+is the one door to a score; only the gateway's checker calls it, no page or rosbridge op reaches
+it, so no browser request can post, forge or replay a score. The outbox is keyed by the attempt
+id: a second call for the same attempt is a no-op, so the LMS's gradebook gets one score per attempt.
 
 ``Outbox.flush`` posts what is due with the tool's own client-credentials token (RFC 7523: a JWT
 assertion signed with the tool's key by PyJWT, POSTed to the platform's token endpoint); a failure
 (the LMS down, a 5xx) leaves the row and sets its next try with exponential backoff (10 s doubling
-to an hour), so a score reaches the LMS when it comes back, also across gateway restarts.
+to an hour), so a score reaches the LMS when it comes back, also across gateway restarts. One
+flush runs at a time (a lock): a result's own flush and the timer's never post a row twice.
 """
 
 from __future__ import annotations
 
+import asyncio
 import json
 import logging
 import secrets
@@ -44,6 +49,8 @@ LINKS = sa.Table(
     sa.Column('client_id', sa.String(255), nullable=False),
     sa.Column('subject', sa.String(255), nullable=False),   # the LMS's userId for the score
     sa.Column('lineitem', sa.String(1000), nullable=False),
+    sa.Column('exercise', sa.String(100), nullable=True),   # the exercise the link opens (custom exercise)
+    sa.Column('launched', sa.Float, nullable=False, default=0.0),
 )
 OUTBOX = sa.Table(
     'ags_outbox', METADATA,
@@ -51,6 +58,7 @@ OUTBOX = sa.Table(
     sa.Column('person', sa.String(64), nullable=False),
     sa.Column('resource_link', sa.String(255), nullable=False),
     sa.Column('score', sa.Float, nullable=False),
+    sa.Column('comment', sa.String(200), nullable=True),     # passed or failed, and why it ended
     sa.Column('created', sa.Float, nullable=False),
     sa.Column('tries', sa.Integer, nullable=False, default=0),
     sa.Column('next_try', sa.Float, nullable=False),
@@ -71,8 +79,10 @@ async def remember_launch(store: Store, person: str, claims: dict) -> bool:
         return False
     aud = claims.get('aud')
     client_id = aud[0] if isinstance(aud, list) else aud
+    exercise = (claims.get(CLAIM + 'custom') or {}).get('exercise')
     row = dict(person=person, resource_link=link[:255], issuer=claims['iss'], client_id=str(client_id),
-               subject=str(claims['sub']), lineitem=lineitem[:1000])
+               subject=str(claims['sub']), lineitem=lineitem[:1000], launched=time.time(),
+               exercise=exercise[:100] if isinstance(exercise, str) and exercise else None)
 
     def write(conn):
         conn.execute(LINKS.delete().where(LINKS.c.person == person, LINKS.c.resource_link == row['resource_link']))
@@ -81,8 +91,15 @@ async def remember_launch(store: Store, person: str, claims: dict) -> bool:
     return True
 
 
+async def link_of(store: Store, person: str, exercise: str) -> str | None:
+    """The resource link of this person's newest launch of this exercise with a line item, or None."""
+    return await store.run(lambda c: c.execute(
+        sa.select(LINKS.c.resource_link).where(LINKS.c.person == person, LINKS.c.exercise == exercise)
+        .order_by(LINKS.c.launched.desc()).limit(1)).scalar())
+
+
 async def post_result(store: Store, person: str, line_item_key: str, score: float, attempt_id: str,
-                now: float | None = None) -> bool:
+                      now: float | None = None, comment: str | None = None) -> bool:
     """Queue the score (0..1) of one attempt for the LMS. True if queued now, False if this attempt
     was queued before (never twice). GradeError if the person did not launch from that line item."""
     if not 0.0 <= float(score) <= 1.0:
@@ -97,7 +114,8 @@ async def post_result(store: Store, person: str, line_item_key: str, score: floa
         if conn.execute(sa.select(OUTBOX.c.attempt_id).where(OUTBOX.c.attempt_id == attempt_id)).first():
             return False
         conn.execute(OUTBOX.insert().values(attempt_id=attempt_id, person=person, resource_link=line_item_key,
-                                            score=float(score), created=now, tries=0, next_try=now))
+                                            score=float(score), created=now, tries=0, next_try=now,
+                                            comment=(comment or '')[:200] or None))
         return True
     return await store.run(write)
 
@@ -130,11 +148,39 @@ def _scores_url(lineitem: str) -> str:
 
 
 class Outbox:
-    """Posts due scores: ``start`` flushes every ``period`` seconds on the running loop."""
+    """Posts due scores: ``start`` flushes every ``period`` seconds on the running loop; ``result``
+    (the checker's hook) queues an ended attempt's score and flushes at once."""
 
     def __init__(self, store: Store, config: LtiConfig):
         self.store, self.config = store, config
         self._timer = None
+        self._lock = asyncio.Lock()
+        self._tasks: set = set()
+
+    def result(self, identity, exercise, attempt) -> None:
+        """``Checker.on_result``: an attempt ended (on the loop; never raises into the checker)."""
+        if identity is None or not getattr(identity, 'key', None):
+            return   # no person (auth off, a token without a key): no LMS to tell
+        task = asyncio.get_running_loop().create_task(self.queue(identity.key, exercise.id, attempt))
+        self._tasks.add(task)
+        task.add_done_callback(self._tasks.discard)
+
+    async def queue(self, person: str, exercise: str, attempt) -> bool:
+        """Queue the attempt's score for the person's launch of the exercise, then flush; False
+        when they launched from no line item of it (nothing is posted) or it was queued before."""
+        try:
+            link = await link_of(self.store, person, exercise)
+            if link is None:
+                return False
+            comment = f'{"passed" if attempt.passed else "failed"} ({attempt.why}), attempt {attempt.attempt}'
+            queued = await post_result(self.store, person, link, attempt.score, attempt.attempt,
+                                       now=attempt.ended_at, comment=comment)
+        except Exception:
+            log.exception('score of attempt %s not queued', attempt.attempt)
+            return False
+        if queued:
+            await self.flush()
+        return queued
 
     def start(self, period: float = BACKOFF_FIRST) -> None:
         self._timer = PeriodicCallback(self.flush, period * 1000)
@@ -146,7 +192,10 @@ class Outbox:
 
     async def flush(self, now: float | None = None) -> int:
         """Post every due score; the number posted."""
-        now = time.time() if now is None else now
+        async with self._lock:
+            return await self._flush(time.time() if now is None else now)
+
+    async def _flush(self, now: float) -> int:
         due = await self.store.run(lambda c: c.execute(
             sa.select(OUTBOX, LINKS.c.issuer, LINKS.c.client_id, LINKS.c.subject, LINKS.c.lineitem)
             .join(LINKS, sa.and_(LINKS.c.person == OUTBOX.c.person, LINKS.c.resource_link == OUTBOX.c.resource_link))
@@ -176,7 +225,7 @@ class Outbox:
             'userId': row['subject'], 'scoreGiven': row['score'], 'scoreMaximum': 1.0,
             'activityProgress': 'Completed', 'gradingProgress': 'FullyGraded',
             'timestamp': datetime.fromtimestamp(row['created'], timezone.utc).isoformat(),
-            'comment': f'attempt {row["attempt_id"]}',
+            'comment': row['comment'] or f'attempt {row["attempt_id"]}',
         }
         await AsyncHTTPClient().fetch(HTTPRequest(
             _scores_url(row['lineitem']), method='POST', body=json.dumps(score), request_timeout=20,

@@ -71,9 +71,38 @@ def setup(tmp_path):
     store.close()
 
 
-def launch(sub, link, item):
-    return {'iss': ISS, 'aud': 'tool', 'sub': sub, CLAIM + 'resource_link': {'id': link},
-            grades.AGS_CLAIM: {'scope': [grades.SCOPE_SCORE], 'lineitem': item}}
+def launch(sub, link, item, exercise=None):
+    claims = {'iss': ISS, 'aud': 'tool', 'sub': sub, CLAIM + 'resource_link': {'id': link},
+              grades.AGS_CLAIM: {'scope': [grades.SCOPE_SCORE], 'lineitem': item}}
+    if exercise:
+        claims[CLAIM + 'custom'] = {'exercise': exercise}
+    return claims
+
+
+def ended(attempt, person, passed, score, why):
+    from gateway.exercises import AttemptResult
+    return AttemptResult(attempt=attempt, exercise='east', person=person, name=person, station='/turtle1',
+                         passed=passed, score=score, why=why, started_at=time.time() - 5, ended_at=time.time(),
+                         program='forward')
+
+
+def test_the_checkers_hook_posts_each_ended_attempt_once_for_its_launch(setup):
+    asyncio.run(_hook(*setup))
+
+
+async def _hook(plat, config, store):
+    plat.start()
+    outbox = grades.Outbox(store, config)
+    await grades.remember_launch(store, 'p1', launch('s1', 'rl-east', plat.url('/lineitems/east'), 'east'))
+    assert await outbox.queue('p1', 'east', ended('a1', 'p1', True, 1.0, 'goal')) is True
+    assert await outbox.queue('p1', 'east', ended('a1', 'p1', True, 1.0, 'goal')) is False     # never twice
+    assert await outbox.queue('p1', 'east', ended('a2', 'p1', False, 0.4, 'time')) is True     # failed: posted too
+    assert await outbox.queue('p2', 'east', ended('a3', 'p2', True, 1.0, 'goal')) is False     # never launched
+    assert await outbox.queue('p1', 'west', ended('a4', 'p1', True, 1.0, 'goal')) is False     # not this exercise
+    assert [(item, s['scoreGiven'], s['comment'].split(' (')[0]) for item, s in plat.scores] == \
+        [('east', 1.0, 'passed'), ('east', 0.4, 'failed')]
+    assert all(s['activityProgress'] == 'Completed' and s['gradingProgress'] == 'FullyGraded' for _, s in plat.scores)
+    plat.stop()
 
 
 def test_one_score_per_attempt_and_only_after_a_launch(setup):
