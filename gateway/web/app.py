@@ -103,7 +103,7 @@ def make_app(gateway: Gateway, parts) -> tornado.web.Application:
     texts = Texts(settings.ide_dir / 'i18n')    # the login and LTI pages' words, in the reader's language
     routes += login_routes(policy, texts)
     if parts.lti is not None:
-        routes += lti_routes(parts.lti, policy, settings.examples_dir, texts, gateway.store)
+        routes += lti_routes(parts.lti, policy, settings.examples_dir, texts, gateway.store, parts.exercises)
     if settings.storage.programs_dir is not None:
         routes += program_routes(settings.storage.programs_dir, policy)
     routes += run_routes(parts.runs, parts.recordings) + recording_routes(parts.recordings)

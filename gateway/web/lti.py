@@ -12,7 +12,10 @@
   and nobody is signed in. Otherwise the browser is signed in (the same session as ``/login``)
   and lands where the launch asks (``landing``); a deep linking request gets the picker.
 - ``POST /lti/deeplink``: the picker's choice, answered with a signed LtiDeepLinkingResponse
-  auto-posted to the platform.
+  auto-posted to the platform. An exercise picked (``--exercises-dir``) goes as a resource link
+  with a ``lineItem`` (scoreMaximum 1, its title as label, its id as resourceId), so the platform
+  makes the gradebook column its scores go to, and custom ``exercise=ID``, so a launch from it
+  lands in the IDE on that exercise and its AGS line item is kept for that exercise (``rules.grades``).
 - ``GET /lti/resume``: where a launch whose cookie the browser refused (Safari in an iframe)
   continues in a new window, with a ticket good for one use within ``RESUME_TTL`` s.
 - ``GET /lti/jwks``: the tool's public keys; ``GET /lti/config``: what to paste into the LMS.
@@ -34,6 +37,7 @@ import jwt
 import tornado.httpclient
 import tornado.web
 
+from ..exercises import ID as EXERCISE_ID, ExerciseError
 from ..rules import grades, lti
 from ..rules.access import is_admin
 from ..rules.lti import LaunchError
@@ -128,9 +132,10 @@ class KeySets:
 class Lti:
     """What the routes share: the configuration, logins in flight, used states, keys."""
 
-    def __init__(self, config: lti.LtiConfig, policy, examples_dir, texts: Texts, store=None):
+    def __init__(self, config: lti.LtiConfig, policy, examples_dir, texts: Texts, store=None, exercises=None):
         self.config, self.policy, self.examples_dir = config, policy, examples_dir
         self.store = store                         # where launches' AGS line items are kept (grades)
+        self.exercises = exercises                 # exercises.Library: what a deep link may pick to grade
         self.texts = texts                         # the pages' words, in the reader's language
         self.pending = Expiring(PENDING_TTL)
         self.used = Expiring(PENDING_TTL)          # states already launched: a replay is told so
@@ -281,6 +286,7 @@ class LaunchHandler(_Base):
         options = [('ide', 'Block IDE'), ('teleop', 'Teleop (drive a robot)'), ('class', 'Class view (teacher)')]
         examples = sorted(p.stem for p in self.lti.examples_dir.glob('*.json') if p.stem != 'index')
         options += [(f'example:{e}', f'IDE with the example {e}') for e in examples]
+        options += [(f'exercise:{e.id}', f'Exercise "{e.title}" (graded: a gradebook column)') for e in self._exercises()]
         radios = ''.join(f'<p><label><input type="radio" name="pick" value="{html.escape(v)}"{" checked" if i == 0 else ""}>'
                          f' {html.escape(t)}</label></p>' for i, (v, t) in enumerate(options))
         self.page('rosgate: choose an activity',
@@ -292,6 +298,15 @@ class LaunchHandler(_Base):
                   '<p><label>Station (optional, e.g. s03) <input name="station"></label></p>'
                   '<p><label>Title <input name="title" value="Robot lab"></label></p>'
                   '<button type="submit" id="add">Add to the course</button></form>')
+
+
+    def _exercises(self) -> list:
+        if self.lti.exercises is None:
+            return []
+        found, problems = self.lti.exercises.all()
+        for problem in problems:
+            log.warning('lti: exercise not offered: %s', problem)
+        return found
 
 
 def landing_of(claims: dict) -> str:
@@ -311,6 +326,9 @@ def landing_of(claims: dict) -> str:
     program = str(custom.get('program', '')).strip()
     if program and page == '/':
         query['program'] = program[:64]
+    exercise = str(custom.get('exercise', '')).strip()
+    if exercise and page == '/' and EXERCISE_ID.fullmatch(exercise):
+        query['exercise'] = exercise
     presentation = claims.get(lti.CLAIM + 'launch_presentation')
     locale = str(presentation.get('locale', '')) if isinstance(presentation, dict) else ''
     lang = str(custom.get('lang', '')).strip().lower()
@@ -359,8 +377,17 @@ class DeepLinkHandler(_Base):
                                              'again from the course')
         reg, claims = found
         pick = self.get_argument('pick', 'ide')
-        custom = {}
-        if pick.startswith('example:'):
+        custom, line_item = {}, None
+        if pick.startswith('exercise:'):
+            try:
+                ex = self.lti.exercises.get(pick.split(':', 1)[1]) if self.lti.exercises is not None else None
+            except ExerciseError as e:
+                raise tornado.web.HTTPError(400, str(e)) from None
+            if ex is None:
+                raise tornado.web.HTTPError(400, f'no exercise {pick.split(":", 1)[1][:64]!r} in --exercises-dir')
+            page, custom['exercise'] = '/', ex.id
+            line_item = {'scoreMaximum': 1, 'label': ex.title, 'resourceId': ex.id}
+        elif pick.startswith('example:'):
             page, custom['program'] = '/', 'example:' + pick.split(':', 1)[1][:64]
         else:
             page = PAGES.get(pick, '/')
@@ -372,10 +399,15 @@ class DeepLinkHandler(_Base):
             if not station.replace('_', '').isalnum():
                 raise tornado.web.HTTPError(400, f'a station is a name like s03, not {station[:40]!r}')
             custom['station'] = station
-        item = {'type': 'ltiResourceLink', 'title': self.get_argument('title', 'Robot lab')[:200] or 'Robot lab',
+        title = self.get_argument('title', '').strip()[:200]
+        if line_item is not None and title in ('', 'Robot lab'):
+            title = line_item['label']          # the gradebook column and the link read the same
+        item = {'type': 'ltiResourceLink', 'title': title or 'Robot lab',
                 'url': base_url(self) + page}
         if custom:
             item['custom'] = custom
+        if line_item is not None:   # the platform makes the gradebook column (AGS) the attempts' scores go to
+            item['lineItem'] = line_item
         token = lti.deep_linking_response(self.lti.config, reg, claims, [item])
         settings = claims[lti.DL_CLAIM + 'deep_linking_settings']
         self.auto_post(settings['deep_link_return_url'], {'JWT': token}, 'Sending your choice to the course…')
@@ -416,8 +448,8 @@ class ConfigHandler(_Base):
                   f'<h2>Platforms registered (--lti {html.escape(self.lti.config.path)})</h2><ul>{regs}</ul>')
 
 
-def lti_routes(config, policy, examples_dir, texts: Texts, store=None) -> list:
-    shared = {'lti_': Lti(config, policy, examples_dir, texts, store)}
+def lti_routes(config, policy, examples_dir, texts: Texts, store=None, exercises=None) -> list:
+    shared = {'lti_': Lti(config, policy, examples_dir, texts, store, exercises)}
     return [(r'/lti/login', LoginInitHandler, shared), (r'/lti/launch', LaunchHandler, shared),
             (r'/lti/deeplink', DeepLinkHandler, shared), (r'/lti/resume', ResumeHandler, shared),
             (r'/lti/jwks', JwksHandler, shared), (r'/lti/config', ConfigHandler, shared)]
