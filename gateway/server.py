@@ -18,9 +18,10 @@ import ssl
 from dataclasses import dataclass
 
 import tornado.httpserver
+import tornado.ioloop
 
 from . import rules
-from .rules import grades
+from .rules import grades, roster
 from .bridge import rosapi
 from .bridge.gateway import Gateway
 from .exercises import Checker, Library
@@ -61,6 +62,8 @@ def start(gateway: Gateway, files: rules.Files) -> Parts:
         outbox = grades.Outbox(gateway.store, files.lti)
         outbox.start()
         checker.on_result.append(outbox.result)
+        if any(reg.memberships_urls for reg in files.lti.registrations):   # rosters known before any launch
+            tornado.ioloop.IOLoop.current().spawn_callback(roster.refresh, gateway.store, files.lti)
     return Parts(runs=runs, recordings=recordings, history=history, lti=files.lti, grades=outbox,
                  exercises=Library(settings.lab.exercises_dir), checker=checker)
 

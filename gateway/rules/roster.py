@@ -6,11 +6,17 @@ each member's person key (the same ``lti-`` key a launch gives them), name, role
 member the LMS marks Inactive, or who is gone from the latest fetch, is kept as left; ``has_left``
 tells bookings so that a student who left the course can no longer book. A person the LMS never
 listed (a local account) is not judged here.
+
+Each course's memberships URL is kept (``lti_courses``), so ``refresh`` reads every known course
+again when the teacher asks (POST /api/roster); a launch of the course reads its own roster again
+beside the launch (``web.lti``). A registration's ``memberships_urls`` (the tool configuration)
+names courses to read at the gateway's start, before anyone launched.
 """
 
 from __future__ import annotations
 
 import json
+import logging
 import time
 
 import sqlalchemy as sa
@@ -18,7 +24,9 @@ from tornado.httpclient import AsyncHTTPClient, HTTPRequest
 
 from ..store import METADATA, Store
 from .grades import access_token
-from .lti import LtiConfig, Registration, identity_of
+from .lti import LtiConfig, Registration, identity_of, role_of
+
+log = logging.getLogger('rosgate.roster')
 
 NRPS_CLAIM = 'https://purl.imsglobal.org/spec/lti-nrps/claim/namesroleservice'
 SCOPE_MEMBERSHIPS = 'https://purl.imsglobal.org/spec/lti-nrps/scope/contextmembership.readonly'
@@ -35,6 +43,16 @@ ROSTER = sa.Table(
     sa.Column('fetched', sa.Float, nullable=False),
 )
 
+COURSES = sa.Table(
+    'lti_courses', METADATA,
+    sa.Column('url', sa.String(1000), primary_key=True),     # the course's context_memberships_url
+    sa.Column('issuer', sa.String(255), nullable=False),
+    sa.Column('client_id', sa.String(255), nullable=False),
+    sa.Column('context', sa.String(255), nullable=False),
+    sa.Column('title', sa.String(255), nullable=False),
+    sa.Column('fetched', sa.Float, nullable=False),
+)
+
 
 async def fetch(store: Store, config: LtiConfig, reg: Registration, url: str) -> int:
     """Read and keep the roster at ``url``; the number of members listed."""
@@ -42,7 +60,8 @@ async def fetch(store: Store, config: LtiConfig, reg: Registration, url: str) ->
     resp = await AsyncHTTPClient().fetch(HTTPRequest(
         url, request_timeout=20, headers={'Accept': MEMBERSHIPS, 'Authorization': f'Bearer {token}'}))
     body = json.loads(resp.body)
-    context = str((body.get('context') or {}).get('id') or url)[:255]
+    course = body.get('context') if isinstance(body.get('context'), dict) else {}
+    context = str(course.get('id') or url)[:255]
     now = time.time()
     rows = []
     for m in body.get('members') or []:
@@ -61,19 +80,50 @@ async def fetch(store: Store, config: LtiConfig, reg: Registration, url: str) ->
         for row in rows:
             conn.execute(ROSTER.delete().where(where & (ROSTER.c.person == row['person'])))
             conn.execute(ROSTER.insert().values(**row))
+        conn.execute(COURSES.delete().where(COURSES.c.url == url[:1000]))
+        conn.execute(COURSES.insert().values(url=url[:1000], issuer=reg.issuer, client_id=reg.client_id,
+                                             context=context, title=str(course.get('title') or context)[:255],
+                                             fetched=now))
     await store.run(write)
     return len(rows)
 
 
+async def refresh(store: Store, config: LtiConfig) -> dict[str, str]:
+    """Read every known course's roster again (and the configured ``memberships_urls``);
+    {url: what went wrong} for those not read (the LMS down: the last roster stays)."""
+    known = await store.run(lambda c: c.execute(sa.select(COURSES.c.url, COURSES.c.issuer, COURSES.c.client_id))
+                            .all())
+    urls = {url: (iss, client) for url, iss, client in known}
+    for reg in config.registrations:
+        for url in reg.memberships_urls:
+            urls.setdefault(url, (reg.issuer, reg.client_id))
+    failed = {}
+    for url, (issuer, client_id) in urls.items():
+        reg = config.find(issuer, client_id)
+        try:
+            if reg is None:
+                raise LookupError(f'{issuer} is no longer registered')
+            await fetch(store, config, reg, url)
+        except Exception as e:   # one course's LMS down leaves the others read
+            log.warning('roster at %s not read: %s', url[:200], e)
+            failed[url] = str(e)[:300]
+    return failed
+
+
 async def members(store: Store) -> list[dict]:
-    """Every course's members, for the class view and the booking panel."""
-    rows = await store.run(lambda c: c.execute(sa.select(ROSTER).order_by(ROSTER.c.context, ROSTER.c.name))
-                           .mappings().all())
-    return [dict(r) for r in rows]
+    """Every course's members, for the class view and the booking panel: each with ``role`` as the
+    gateway gives it at a launch (admin, operator, viewer) and the course's title."""
+    rows = await store.run(lambda c: c.execute(
+        sa.select(ROSTER, COURSES.c.title).outerjoin(COURSES, sa.and_(
+            COURSES.c.issuer == ROSTER.c.issuer, COURSES.c.context == ROSTER.c.context))
+        .order_by(ROSTER.c.context, ROSTER.c.name)).mappings().all())
+    return [{**r, 'title': r['title'] or r['context'], 'role': role_of(r['roles'].split())} for r in rows]
 
 
 async def has_left(store: Store, person: str) -> bool:
-    """True if the LMS listed this person and no course lists them active any more."""
+    """True if the LMS listed this person (their key, or a booking's ``user KEY``) and no course
+    lists them active any more."""
+    person = person.removeprefix('user ')
     statuses = await store.run(lambda c: c.execute(
         sa.select(ROSTER.c.status).where(ROSTER.c.person == person)).scalars().all())
     return bool(statuses) and 'Active' not in statuses

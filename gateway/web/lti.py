@@ -35,10 +35,11 @@ from urllib.parse import urlencode, urlsplit
 
 import jwt
 import tornado.httpclient
+import tornado.ioloop
 import tornado.web
 
 from ..exercises import ID as EXERCISE_ID, ExerciseError
-from ..rules import grades, lti
+from ..rules import grades, lti, roster
 from ..rules.access import is_admin
 from ..rules.lti import LaunchError
 from .api import Handler, check_origin
@@ -263,6 +264,9 @@ class LaunchHandler(_Base):
         identity = lti.identity_of(claims)
         framed = self.request.headers.get('Sec-Fetch-Dest', '').lower() == 'iframe'
         log.info('lti: %s (%s) launched from %s', identity.name, identity.role, reg.issuer)
+        url = (claims.get(roster.NRPS_CLAIM) or {}).get('context_memberships_url')
+        if self.lti.store is not None and isinstance(url, str) and url:   # the course's roster, read beside
+            tornado.ioloop.IOLoop.current().spawn_callback(self._roster, reg, url)   # the launch, not in its way
         if claims[lti.CLAIM + 'message_type'] == lti.DEEP_LINKING:
             self._picker(identity, reg, claims)
             return
@@ -276,6 +280,13 @@ class LaunchHandler(_Base):
         lang = best([urllib.parse.parse_qs(urlsplit(landing).query).get('lang', [''])[0]], self.lti.texts.offered())
         self.page('rosgate', landed_page(landing, ticket, identity, self.script_nonce,
                                          lambda key, **v: self.say(key, lang, **v)))
+
+    async def _roster(self, reg, url: str) -> None:
+        try:
+            count = await roster.fetch(self.lti.store, self.lti.config, reg, url)
+            log.info('lti: roster of %d members read from %s', count, reg.issuer)
+        except Exception as e:   # the LMS's roster is optional: the launch went on without it
+            log.warning('lti: roster at %s not read: %s', url[:200], e)
 
     def _picker(self, identity, reg, claims) -> None:
         if not is_admin(identity):
