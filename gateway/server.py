@@ -51,13 +51,14 @@ class Parts:
 def start(gateway: Gateway, files: rules.Files) -> Parts:
     settings = gateway.settings
     runs, runs_socket = start_runs(gateway)
-    gateway.install(rules.compose(gateway, files, reads=rosapi.handles, runs=runs))
+    checker = Checker(gateway)
+    gateway.install(rules.compose(gateway, files, reads=rosapi.handles, runs=runs, watched=checker.watching))
     recordings = start_recordings(gateway)
     history = start_history(gateway)
     start_twin(gateway, history, settings.twin.opcua)
     if runs_socket is not None:   # runs reach the websocket alone, on a unix socket bound into their box
         runs.serve(socket_app(gateway), runs_socket)
-    checker, outbox = Checker(gateway), None
+    outbox = None
     if files.lti is not None:   # an ended attempt's score goes to the LMS of the learner's launch
         outbox = grades.Outbox(gateway.store, files.lti)
         outbox.start()

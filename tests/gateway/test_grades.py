@@ -175,7 +175,7 @@ async def _roster(plat, config, store):
         assert await roster.has_left(store, bob)
         del listed[1]
         await roster.fetch(store, config, config.registrations[0], plat.url('/members'))
-        assert await roster.has_left(store, bob)
+        assert await roster.has_left(store, bob) and await roster.has_left(store, f"user {bob}")   # as bookings key it
         timetable = Timetable(store, BookingLimits())
         start = time.time() + 600
         with pytest.raises(BookingError) as refused:
