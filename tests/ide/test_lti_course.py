@@ -16,12 +16,11 @@ import types
 import urllib.parse
 
 import pytest
-from cryptography.hazmat.primitives import serialization
-from cryptography.hazmat.primitives.asymmetric import rsa
 
 from tests.support.auth import TOKENS, login, tokens_toml
 from tests.support.http import api, http
 from tests.support.lti1p3 import INSTRUCTOR, LEARNER, Platform, form_of
+from tests.support.lti_platform import write_tool_key
 from tests.support.wait import wait_for
 from tests.support.wsclient import Client, twist
 
@@ -47,9 +46,7 @@ course_state: dict = {}   # what a test leaves for the next (the tests of this m
 @pytest.fixture(scope='module')
 def course(start_gateway, tmp_path_factory):
     folder = tmp_path_factory.mktemp('lti1p3')
-    key = rsa.generate_private_key(public_exponent=65537, key_size=2048)
-    (folder / 'tool.pem').write_bytes(key.private_bytes(serialization.Encoding.PEM, serialization.PrivateFormat.PKCS8,
-                                                        serialization.NoEncryption()))
+    write_tool_key(folder / 'tool.pem')
     platform = Platform()
     platform.members = [dict(m) for m in MEMBERS]
     (folder / 'tool.json').write_text(json.dumps(platform.tool_config('tool.pem')))

@@ -18,12 +18,10 @@ leaves to its host (the course, its links, the gradebook, the members) is kept h
 
 from __future__ import annotations
 
-import asyncio
 import html
 import itertools
 import json
 import re
-import threading
 import typing as t
 from urllib.parse import urlencode
 
@@ -39,6 +37,8 @@ from lti1p3platform.registration import Registration
 from lti1p3platform.request import Request, TRequest
 from lti1p3platform.score import UpdateScoreStatus
 from lti1p3platform.service_connector import AssignmentsGradesService, NamesRoleProvisioningService
+
+from tests.support.lti_platform import Served
 
 LEARNER = 'http://purl.imsglobal.org/vocab/lis/v2/membership#Learner'
 INSTRUCTOR = 'http://purl.imsglobal.org/vocab/lis/v2/membership#Instructor'
@@ -170,32 +170,18 @@ class Platform:
         self.gradebook: list[tuple[str, dict]] = []
         self.members: list[dict] = []
         self.returned: list[list[dict]] = []     # content items of each deep linking response
-        self.loop = asyncio.new_event_loop()
-        ready = threading.Event()
-        self.thread = threading.Thread(target=self._run, args=(ready,), daemon=True)
-        self.thread.start()
-        ready.wait(10)
-        self.issuer = f'http://127.0.0.1:{self.port}'
+        self.served = Served([
+            (r'/jwks', Jwks), (r'/start', Start), (r'/auth', Auth), (r'/token', Token),
+            (r'/lineitems/?', LineItems), (r'/lineitems/([^/]+)', LineItem),
+            (r'/lineitems/([^/]+)/scores', Scores), (r'/lineitems/([^/]+)/results', Results),
+            (r'/memberships', Memberships), (r'/dl-return', DlReturn)], {'p': self})
+        self.issuer = f'http://127.0.0.1:{self.served.port}'
 
     def url(self, path: str) -> str:
         return self.issuer + path
 
-    def _run(self, ready) -> None:
-        asyncio.set_event_loop(self.loop)
-        kw = {'p': self}
-        app = tornado.web.Application([
-            (r'/jwks', Jwks, kw), (r'/start', Start, kw), (r'/auth', Auth, kw), (r'/token', Token, kw),
-            (r'/lineitems/?', LineItems, kw), (r'/lineitems/([^/]+)', LineItem, kw),
-            (r'/lineitems/([^/]+)/scores', Scores, kw), (r'/lineitems/([^/]+)/results', Results, kw),
-            (r'/memberships', Memberships, kw), (r'/dl-return', DlReturn, kw)])
-        server = app.listen(0, '127.0.0.1')
-        self.port = next(iter(server._sockets.values())).getsockname()[1]
-        ready.set()
-        self.loop.run_forever()
-
     def stop(self) -> None:
-        self.loop.call_soon_threadsafe(self.loop.stop)
-        self.thread.join(5)
+        self.served.stop()
 
     def conf(self) -> PlatformConf:
         reg = (Registration().set_iss(self.issuer).set_client_id(self.client_id).set_deployment_id(self.deployment)
