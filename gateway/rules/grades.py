@@ -2,7 +2,9 @@
 
 A launch whose id_token carries the AGS endpoint claim is remembered (``remember_launch``): the
 line item URL per (person, resource link), with the platform that issued it and the exercise the
-link opens (its custom ``exercise``, which the deep link put there). ``Outbox.result`` is the
+link opens (``exercise_of``: its custom ``exercise``, which the deep link put there, or ``?exercise=``
+in its target link; a platform that kept neither: the line item's ``resourceId``, read from the
+platform by ``resolve``, beside the launch and again when a result finds no link). ``Outbox.result`` is the
 exercises' ``Checker.on_result`` hook: when an attempt ends, passed or failed, its score (0..1,
 a failed attempt's partial score too) is queued for the newest launch of that person from a link
 of that exercise, and nothing is queued for someone who did not launch from one. ``post_result``
@@ -39,6 +41,8 @@ log = logging.getLogger('rosgate.grades')
 AGS_CLAIM = 'https://purl.imsglobal.org/spec/lti-ags/claim/endpoint'
 SCOPE_SCORE = 'https://purl.imsglobal.org/spec/lti-ags/scope/score'
 SCOPE_LINEITEM = 'https://purl.imsglobal.org/spec/lti-ags/scope/lineitem'
+SCOPE_LINEITEM_READ = SCOPE_LINEITEM + '.readonly'
+LINEITEM = 'application/vnd.ims.lis.v2.lineitem+json'
 BACKOFF_FIRST, BACKOFF_MAX = 10.0, 3600.0
 
 LINKS = sa.Table(
@@ -49,7 +53,8 @@ LINKS = sa.Table(
     sa.Column('client_id', sa.String(255), nullable=False),
     sa.Column('subject', sa.String(255), nullable=False),   # the LMS's userId for the score
     sa.Column('lineitem', sa.String(1000), nullable=False),
-    sa.Column('exercise', sa.String(100), nullable=True),   # the exercise the link opens (custom exercise)
+    sa.Column('exercise', sa.String(100), nullable=True),   # the exercise the link opens (exercise_of)
+    sa.Column('scopes', sa.String(1000), nullable=False, default=''),   # the AGS scopes the launch offered
     sa.Column('launched', sa.Float, nullable=False, default=0.0),
 )
 OUTBOX = sa.Table(
@@ -71,18 +76,29 @@ class GradeError(Exception):
     """A score that may not be posted (no launch from that line item, a score out of range)."""
 
 
+def exercise_of(claims: dict) -> str | None:
+    """The exercise a launch opens: its custom ``exercise``, else ``?exercise=`` in its target link."""
+    custom = claims.get(CLAIM + 'custom')
+    found = custom.get('exercise') if isinstance(custom, dict) else None
+    if not isinstance(found, str) or not found.strip():
+        query = urllib.parse.urlsplit(str(claims.get(CLAIM + 'target_link_uri', ''))).query
+        found = (urllib.parse.parse_qs(query).get('exercise') or [''])[0]
+    return found.strip()[:100] or None
+
+
 async def remember_launch(store: Store, person: str, claims: dict) -> bool:
     """Keep the line item of a resource link launch that carries the AGS claim; True if kept."""
-    lineitem = (claims.get(AGS_CLAIM) or {}).get('lineitem')
+    ags = claims.get(AGS_CLAIM) if isinstance(claims.get(AGS_CLAIM), dict) else {}
+    lineitem = ags.get('lineitem')
     link = (claims.get(CLAIM + 'resource_link') or {}).get('id')
     if not isinstance(lineitem, str) or not isinstance(link, str):
         return False
     aud = claims.get('aud')
     client_id = aud[0] if isinstance(aud, list) else aud
-    exercise = (claims.get(CLAIM + 'custom') or {}).get('exercise')
+    scopes = ags.get('scope') if isinstance(ags.get('scope'), list) else []
     row = dict(person=person, resource_link=link[:255], issuer=claims['iss'], client_id=str(client_id),
                subject=str(claims['sub']), lineitem=lineitem[:1000], launched=time.time(),
-               exercise=exercise[:100] if isinstance(exercise, str) and exercise else None)
+               exercise=exercise_of(claims), scopes=' '.join(str(x) for x in scopes)[:1000])
 
     def write(conn):
         conn.execute(LINKS.delete().where(LINKS.c.person == person, LINKS.c.resource_link == row['resource_link']))
@@ -96,6 +112,29 @@ async def link_of(store: Store, person: str, exercise: str) -> str | None:
     return await store.run(lambda c: c.execute(
         sa.select(LINKS.c.resource_link).where(LINKS.c.person == person, LINKS.c.exercise == exercise)
         .order_by(LINKS.c.launched.desc()).limit(1)).scalar())
+
+
+async def resolve(store: Store, config: LtiConfig, person: str) -> int:
+    """Name the exercise of this person's launches that named none, by their line item's
+    ``resourceId`` (what the deep link gave it), read from the platform; the number named."""
+    rows = await store.run(lambda c: c.execute(sa.select(LINKS).where(
+        LINKS.c.person == person, LINKS.c.exercise.is_(None))).mappings().all())
+    named = 0
+    for row in rows:
+        reg = config.find(row['issuer'], row['client_id'])
+        if reg is None:
+            continue
+        offered = row['scopes'].split()
+        scopes = [x for x in (SCOPE_LINEITEM_READ, SCOPE_LINEITEM) if x in offered] or [SCOPE_LINEITEM_READ]
+        token = await access_token(config, reg, scopes)
+        resp = await AsyncHTTPClient().fetch(HTTPRequest(
+            row['lineitem'], request_timeout=20, headers={'Accept': LINEITEM, 'Authorization': f'Bearer {token}'}))
+        found = json.loads(resp.body).get('resourceId')
+        if isinstance(found, str) and found.strip():
+            await store.run(lambda c, r=row, f=found.strip()[:100]: c.execute(LINKS.update().where(
+                LINKS.c.person == r['person'], LINKS.c.resource_link == r['resource_link']).values(exercise=f)))
+            named += 1
+    return named
 
 
 async def post_result(store: Store, person: str, line_item_key: str, score: float, attempt_id: str,
@@ -170,6 +209,8 @@ class Outbox:
         when they launched from no line item of it (nothing is posted) or it was queued before."""
         try:
             link = await link_of(self.store, person, exercise)
+            if link is None and await resolve(self.store, self.config, person):
+                link = await link_of(self.store, person, exercise)
             if link is None:
                 return False
             comment = f'{"passed" if attempt.passed else "failed"} ({attempt.why}), attempt {attempt.attempt}'

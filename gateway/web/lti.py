@@ -265,13 +265,14 @@ class LaunchHandler(_Base):
         framed = self.request.headers.get('Sec-Fetch-Dest', '').lower() == 'iframe'
         log.info('lti: %s (%s) launched from %s', identity.name, identity.role, reg.issuer)
         url = (claims.get(roster.NRPS_CLAIM) or {}).get('context_memberships_url')
-        if self.lti.store is not None and isinstance(url, str) and url:   # the course's roster, read beside
-            tornado.ioloop.IOLoop.current().spawn_callback(self._roster, reg, url)   # the launch, not in its way
+        if self.lti.store is not None and isinstance(url, str) and url:   # the course's roster
+            self._beside(roster.fetch(self.lti.store, self.lti.config, reg, url), f'roster at {url[:200]}')
         if claims[lti.CLAIM + 'message_type'] == lti.DEEP_LINKING:
             self._picker(identity, reg, claims)
             return
-        if self.lti.store is not None:
-            await grades.remember_launch(self.lti.store, identity.key, claims)
+        if self.lti.store is not None and await grades.remember_launch(self.lti.store, identity.key, claims) \
+                and grades.exercise_of(claims) is None:   # which exercise: the line item's resourceId
+            self._beside(grades.resolve(self.lti.store, self.lti.config, identity.key), 'the line item')
         begin_session(self, self.lti.policy, identity, 'lti', framed=framed)
         self.set_header('X-Rosgate-Role', identity.role)
         landing = landing_of(claims)
@@ -281,12 +282,15 @@ class LaunchHandler(_Base):
         self.page('rosgate', landed_page(landing, ticket, identity, self.script_nonce,
                                          lambda key, **v: self.say(key, lang, **v)))
 
-    async def _roster(self, reg, url: str) -> None:
-        try:
-            count = await roster.fetch(self.lti.store, self.lti.config, reg, url)
-            log.info('lti: roster of %d members read from %s', count, reg.issuer)
-        except Exception as e:   # the LMS's roster is optional: the launch went on without it
-            log.warning('lti: roster at %s not read: %s', url[:200], e)
+    @staticmethod
+    def _beside(work, what: str) -> None:
+        """Read from the LMS beside the launch, not in its way (the services are optional)."""
+        async def run():
+            try:
+                await work
+            except Exception as e:
+                log.warning('lti: %s not read: %s', what, e)
+        tornado.ioloop.IOLoop.current().spawn_callback(run)
 
     def _picker(self, identity, reg, claims) -> None:
         if not is_admin(identity):
@@ -337,7 +341,7 @@ def landing_of(claims: dict) -> str:
     program = str(custom.get('program', '')).strip()
     if program and page == '/':
         query['program'] = program[:64]
-    exercise = str(custom.get('exercise', '')).strip()
+    exercise = grades.exercise_of(claims) or ''
     if exercise and page == '/' and EXERCISE_ID.fullmatch(exercise):
         query['exercise'] = exercise
     presentation = claims.get(lti.CLAIM + 'launch_presentation')
@@ -414,7 +418,7 @@ class DeepLinkHandler(_Base):
         if line_item is not None and title in ('', 'Robot lab'):
             title = line_item['label']          # the gradebook column and the link read the same
         item = {'type': 'ltiResourceLink', 'title': title or 'Robot lab',
-                'url': base_url(self) + page}
+                'url': base_url(self) + page + (f'?exercise={custom["exercise"]}' if line_item is not None else '')}
         if custom:
             item['custom'] = custom
         if line_item is not None:   # the platform makes the gradebook column (AGS) the attempts' scores go to

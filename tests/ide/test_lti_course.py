@@ -165,6 +165,7 @@ def test_a_student_reaching_the_goal_gets_exactly_one_score(course):
     item = platform.lineitems[platform.links[link]['lineitem']]
     assert (item['scoreMaximum'], item['label'], item['resourceId']) == (1, 'East of the start', 'east')
     assert platform.links[link]['custom'] == {'exercise': 'east'}
+    assert platform.returned[-1][0]['url'].endswith('/?exercise=east')
     session = student(gw, platform, 'stu-ben', 'Ben Student', link)
     ws = Client(gw.ws_url, additional_headers={'Cookie': session})
     try:
@@ -186,6 +187,19 @@ def test_a_student_reaching_the_goal_gets_exactly_one_score(course):
     assert (scores[0]['activityProgress'], scores[0]['gradingProgress']) == ('Completed', 'FullyGraded')
     assert scores[0]['comment'].startswith('passed (goal)')
     course_state['east'] = (link, session, attempt_id)
+
+
+def test_a_link_that_kept_only_the_line_item_is_graded_by_its_resource_id(course):
+    """A platform that kept neither the custom parameter nor the link's query: the line item's
+    resourceId (what the deep link gave it) names the exercise, read from the platform."""
+    gw, platform = course
+    link = platform.add_link('East, added by hand', lineitem={'scoreMaximum': 1, 'label': 'East', 'resourceId': 'east'})
+    page, session = launch(gw, platform, platform.add('stu-cleo', [LEARNER], name='Cleo Student', link=link))
+    assert session, page[:300]
+    result = ended(gw, session, attempt(gw, session, 'east'))   # turtle1 is east already: passed at its first pose
+    assert result['passed'] is True
+    scores = wait_for(lambda: platform.scores(link), what='the score of the hand-made link')
+    assert [(s['userId'], s['scoreGiven']) for s in scores] == [('stu-cleo', 1.0)]
 
 
 def test_a_missed_goal_is_posted_as_failed_and_nothing_for_who_did_not_launch(course):
