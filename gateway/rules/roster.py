@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 import logging
+import re
 import time
 
 import sqlalchemy as sa
@@ -31,6 +32,8 @@ log = logging.getLogger('rosgate.roster')
 NRPS_CLAIM = 'https://purl.imsglobal.org/spec/lti-nrps/claim/namesroleservice'
 SCOPE_MEMBERSHIPS = 'https://purl.imsglobal.org/spec/lti-nrps/scope/contextmembership.readonly'
 MEMBERSHIPS = 'application/vnd.ims.lti-nrps.v2.membershipcontainer+json'
+NEXT = re.compile(r'<([^>]+)>\s*;\s*rel="?next"?')
+MAX_PAGES = 200
 
 ROSTER = sa.Table(
     'lti_roster', METADATA,
@@ -57,14 +60,22 @@ COURSES = sa.Table(
 async def fetch(store: Store, config: LtiConfig, reg: Registration, url: str) -> int:
     """Read and keep the roster at ``url``; the number of members listed."""
     token = await access_token(config, reg, [SCOPE_MEMBERSHIPS])
-    resp = await AsyncHTTPClient().fetch(HTTPRequest(
-        url, request_timeout=20, headers={'Accept': MEMBERSHIPS, 'Authorization': f'Bearer {token}'}))
-    body = json.loads(resp.body)
-    course = body.get('context') if isinstance(body.get('context'), dict) else {}
+    course, listed, page = {}, [], url
+    for _ in range(MAX_PAGES):   # Canvas answers 10 members a page: the rest are at Link rel="next"
+        resp = await AsyncHTTPClient().fetch(HTTPRequest(
+            page, request_timeout=20, headers={'Accept': MEMBERSHIPS, 'Authorization': f'Bearer {token}'}))
+        body = json.loads(resp.body)
+        course = course or (body.get('context') if isinstance(body.get('context'), dict) else {})
+        listed += body.get('members') or []
+        page = next((m.group(1) for m in NEXT.finditer(resp.headers.get('Link', ''))), None)
+        if page is None:
+            break
+    else:
+        raise ValueError(f'the roster at {url[:200]} has more than {MAX_PAGES} pages')
     context = str(course.get('id') or url)[:255]
     now = time.time()
     rows = []
-    for m in body.get('members') or []:
+    for m in listed:
         if not isinstance(m, dict) or not m.get('user_id'):
             continue
         who = identity_of({'iss': reg.issuer, 'sub': str(m['user_id']), 'name': m.get('name'),

@@ -60,7 +60,8 @@ class TornadoRequest(Request):
         kind = request.headers.get('Content-Type', '')
         form = {k: v[0].decode() for k, v in request.body_arguments.items()} if 'form' in kind else {}
         return {'method': request.method, 'form_data': form,
-                'get_data': {k: v[0].decode() for k, v in request.query_arguments.items()},
+                'get_data': {k: int(v[0]) if v[0].isdigit() else v[0].decode()   # page, limit: numbers
+                             for k, v in request.query_arguments.items()},
                 'headers': request.headers, 'content_type': kind, 'path': request.path,
                 'json': json.loads(request.body) if request.body and 'json' in kind else None}
 
@@ -89,7 +90,7 @@ class Launch(LTIAdvantageMessageLaunchAbstract):
         launch = p.launches[preflight_response['lti_message_hint']]
         self.set_user_data(launch['sub'], launch['roles'], full_name=launch['name'])
         self.set_launch_context_claim(COURSE['id'], context_title=COURSE['title'], context_label=COURSE['label'])
-        self.set_nrps(p.url('/memberships'))
+        self.set_nrps(p.url('/memberships?limit=2'))   # two a page: the tool follows Link rel="next"
         if launch['kind'] == 'dl':
             self.set_dl(p.url('/dl-return'), title='Robotics 101', accept_types={'ltiResourceLink'},
                         extra_data={'opaque': '42'})
@@ -153,7 +154,11 @@ class Roster(NamesRoleProvisioningService):
         return Context(**COURSE)
 
     def get_member_data_page(self, page=1, limit=None, role=None, since=None, **kw):
-        return {'content': [dict(m) for m in self.platform.members], 'has_next': False, 'next': None}
+        members = [dict(m) for m in self.platform.members]
+        if limit is None:
+            return {'content': members, 'has_next': False, 'next': None}
+        return {'content': members[(page - 1) * limit:page * limit], 'has_next': page * limit < len(members),
+                'next': None}
 
 
 class Platform:
@@ -195,7 +200,7 @@ class Platform:
         return {self.issuer: [{'client_id': self.client_id, 'auth_login_url': self.url('/auth'),
                                'auth_token_url': self.url('/token'), 'key_set_url': self.url('/jwks'),
                                'private_key_file': private_key_file, 'deployment_ids': [self.deployment],
-                               **({'memberships_urls': [self.url('/memberships')]} if memberships else {})}]}
+                               **({'memberships_urls': [self.url('/memberships?limit=2')]} if memberships else {})}]}
 
     def new_lineitem(self, data: dict) -> dict:
         item = f'li{next(self.ids)}'
@@ -237,6 +242,8 @@ class _H(tornado.web.RequestHandler):
         if 200 <= resp.code < 300:
             result = resp.result['content'] if isinstance(resp.result, dict) and 'content' in resp.result \
                 else resp.result
+            if isinstance(resp.result, dict) and resp.result.get('next'):
+                self.set_header('Link', f'<{resp.result["next"]}>; rel="next"')
             if result is not None:
                 self.finish(json.dumps(result))
             else:
