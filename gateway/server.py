@@ -124,6 +124,8 @@ async def serve(settings: Settings, files: rules.Files, backend, sockets: list[s
     server.stop()
     if parts.checker is not None:
         parts.checker.stop_all()
+    if parts.grades is not None:   # the stopped attempts' scores into the outbox before the store closes
+        await parts.grades.stop()
     await gateway.shutdown()
     await backend.stop()
     await server.close_all_connections()

@@ -227,9 +227,12 @@ class Outbox:
         self._timer = PeriodicCallback(self.flush, period * 1000)
         self._timer.start()
 
-    def stop(self) -> None:
+    async def stop(self, timeout: float = 5.0) -> None:
+        """No more timed flushes; the results being queued are written (for at most ``timeout`` s)."""
         if self._timer is not None:
             self._timer.stop()
+        if self._tasks:
+            await asyncio.wait(list(self._tasks), timeout=timeout)
 
     async def flush(self, now: float | None = None) -> int:
         """Post every due score; the number posted."""
