@@ -143,6 +143,7 @@ class Lti:
         self.resume = Expiring(RESUME_TTL)
         self.picks = Expiring(PENDING_TTL)         # deep linking requests waiting for the teacher's pick
         self.keys = KeySets()
+        self.reading: set[str] = set()             # rosters being read from the LMS now (their URLs)
 
 
 def base_url(handler: tornado.web.RequestHandler) -> str:
@@ -265,8 +266,10 @@ class LaunchHandler(_Base):
         framed = self.request.headers.get('Sec-Fetch-Dest', '').lower() == 'iframe'
         log.info('lti: %s (%s) launched from %s', identity.name, identity.role, reg.issuer)
         url = (claims.get(roster.NRPS_CLAIM) or {}).get('context_memberships_url')
-        if self.lti.store is not None and isinstance(url, str) and url:   # the course's roster
-            self._beside(roster.fetch(self.lti.store, self.lti.config, reg, url), f'roster at {url[:200]}')
+        if self.lti.store is not None and isinstance(url, str) and url and url not in self.lti.reading:
+            self.lti.reading.add(url)   # the course's roster; a class launching at once reads it once
+            self._beside(roster.fetch(self.lti.store, self.lti.config, reg, url), f'roster at {url[:200]}',
+                         lambda: self.lti.reading.discard(url))
         if claims[lti.CLAIM + 'message_type'] == lti.DEEP_LINKING:
             self._picker(identity, reg, claims)
             return
@@ -283,13 +286,15 @@ class LaunchHandler(_Base):
                                          lambda key, **v: self.say(key, lang, **v)))
 
     @staticmethod
-    def _beside(work, what: str) -> None:
+    def _beside(work, what: str, done=lambda: None) -> None:
         """Read from the LMS beside the launch, not in its way (the services are optional)."""
         async def run():
             try:
                 await work
             except Exception as e:
                 log.warning('lti: %s not read: %s', what, e)
+            finally:
+                done()
         tornado.ioloop.IOLoop.current().spawn_callback(run)
 
     def _picker(self, identity, reg, claims) -> None:

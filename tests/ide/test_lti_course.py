@@ -161,7 +161,11 @@ def test_the_roster_is_in_the_class_view_before_any_launch(course, chromium):
 
 def test_a_student_reaching_the_goal_gets_exactly_one_score(course):
     gw, platform = course
+    platform.members.append({'user_id': 'stu-fay', 'name': 'Fay Late', 'roles': [LEARNER]})
     link = deep_link(gw, platform, 'east')
+    # the teacher's launch read the course's roster again, beside the launch
+    wait_for(lambda: 'Fay Late' in {m['name'] for m in api(gw, 'GET', '/api/roster', token=TOKENS['admin'])[1]['members']},
+             what='the roster read at the launch')
     item = platform.lineitems[platform.links[link]['lineitem']]
     assert (item['scoreMaximum'], item['label'], item['resourceId']) == (1, 'East of the start', 'east')
     assert platform.links[link]['custom'] == {'exercise': 'east'}
