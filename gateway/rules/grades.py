@@ -16,7 +16,9 @@ id: a second call for the same attempt is a no-op, so the LMS's gradebook gets o
 assertion signed with the tool's key by PyJWT, POSTed to the platform's token endpoint); a failure
 (the LMS down, a 5xx) leaves the row and sets its next try with exponential backoff (10 s doubling
 to an hour), so a score reaches the LMS when it comes back, also across gateway restarts. One
-flush runs at a time (a lock): a result's own flush and the timer's never post a row twice.
+flush runs at a time (a lock): a result's own flush and the timer's never post a row twice; and
+a row is claimed in the store before it is posted (a conditional update), so the gateways of a
+fleet sharing one database do not post it twice either.
 """
 
 from __future__ import annotations
@@ -44,6 +46,7 @@ SCOPE_LINEITEM = 'https://purl.imsglobal.org/spec/lti-ags/scope/lineitem'
 SCOPE_LINEITEM_READ = SCOPE_LINEITEM + '.readonly'
 LINEITEM = 'application/vnd.ims.lis.v2.lineitem+json'
 BACKOFF_FIRST, BACKOFF_MAX = 10.0, 3600.0
+HOLD = 120.0   # s a gateway holds a score it is posting (the gateways of a fleet share the outbox)
 
 LINKS = sa.Table(
     'ags_links', METADATA,
@@ -246,6 +249,11 @@ class Outbox:
             .where(OUTBOX.c.posted.is_(None), OUTBOX.c.next_try <= now)).mappings().all())
         posted = 0
         for row in due:
+            claimed = await self.store.run(lambda c, r=row: c.execute(   # another gateway of a fleet may flush too
+                OUTBOX.update().where(OUTBOX.c.attempt_id == r['attempt_id'], OUTBOX.c.posted.is_(None),
+                                      OUTBOX.c.next_try <= now).values(next_try=now + HOLD)).rowcount)
+            if claimed != 1:
+                continue
             try:
                 await self._post(row)
             except (OSError, HTTPClientError, GradeError, KeyError, ValueError) as e:
