@@ -183,7 +183,8 @@ class Rules:
 def compose(gateway, files: Files = Files(), *, reads=lambda name: False, runs=None, watched=None) -> Rules:
     """Every rule, built from the settings, in the one order they apply.
 
-    At the publish door (``Gateway.publish``), in this order: (1) the runs' guard (``runs``: a run
+    At the publish door (``Gateway.publish``), in this order: (0) a live exercise attempt's pose and
+    scan topics are the robot's alone (``watched``), (1) the runs' guard (``runs``: a run
     publishes nothing its starter's station does not own, and its output topics are its own), (2) the
     driver lease (``--exclusive-control``: a command from someone not holding the group's lease is
     refused), (3) safety (clamps, stamps, stream tracking for the stops) last, so a clamp acts on what
@@ -193,7 +194,7 @@ def compose(gateway, files: Files = Files(), *, reads=lambda name: False, runs=N
 
     reads: the gateway's own read-only services (rosapi), which viewers may call. runs: the run
     manager (its ``publish_hook``, ``subscribe_guard``), or None. watched: topic -> why it may not be
-    published now, or None (the exercises' checker: a topic a live attempt's goal reads is the
+    published now, or None (the exercises' checker: the pose and scan a live attempt reads are the
     robot's alone, so no client or run can publish a pose that reaches the goal); first at the door.
     """
     settings = gateway.settings
@@ -254,6 +255,7 @@ def compose(gateway, files: Files = Files(), *, reads=lambda name: False, runs=N
     if db.startswith('postgresql'):
         fleet = Fleet.of(gateway.store)
         part = join_fleet(fleet, lease=lease, stations=stations, sessions=sessions, timetable=timetable)
+
     def robots_own(sender, pub, msg, issued=None):
         why = watched(pub.topic)
         if why is not None:

@@ -319,7 +319,6 @@ class LaunchHandler(_Base):
                   '<p><label>Title <input name="title" value="Robot lab"></label></p>'
                   '<button type="submit" id="add">Add to the course</button></form>')
 
-
     def _exercises(self) -> list:
         if self.lti.exercises is None:
             return []
