@@ -18,8 +18,10 @@ import ssl
 from dataclasses import dataclass
 
 import tornado.httpserver
+import tornado.ioloop
 
 from . import rules
+from .rules import grades, roster
 from .bridge import rosapi
 from .bridge.gateway import Gateway
 from .exercises import Checker, Library
@@ -41,6 +43,7 @@ class Parts:
     recordings: RecordingManager
     history: History | None
     lti: object = None        # rules.lti.LtiConfig with --lti
+    grades: object = None     # rules.grades.Outbox with --lti: posts queued scores to the LMS
     exercises: Library | None = None
     checker: Checker | None = None   # its ``on_result`` list: fn(identity, exercise, attempt_result)
 
@@ -48,14 +51,22 @@ class Parts:
 def start(gateway: Gateway, files: rules.Files) -> Parts:
     settings = gateway.settings
     runs, runs_socket = start_runs(gateway)
-    gateway.install(rules.compose(gateway, files, reads=rosapi.handles, runs=runs))
+    checker = Checker(gateway)
+    gateway.install(rules.compose(gateway, files, reads=rosapi.handles, runs=runs, watched=checker.watching))
     recordings = start_recordings(gateway)
     history = start_history(gateway)
     start_twin(gateway, history, settings.twin.opcua)
     if runs_socket is not None:   # runs reach the websocket alone, on a unix socket bound into their box
         runs.serve(socket_app(gateway), runs_socket)
-    return Parts(runs=runs, recordings=recordings, history=history, lti=files.lti,
-                 exercises=Library(settings.lab.exercises_dir), checker=Checker(gateway))
+    outbox = None
+    if files.lti is not None:   # an ended attempt's score goes to the LMS of the learner's launch
+        outbox = grades.Outbox(gateway.store, files.lti)
+        outbox.start()
+        checker.on_result.append(outbox.result)
+        if any(reg.memberships_urls for reg in files.lti.registrations):   # rosters known before any launch
+            tornado.ioloop.IOLoop.current().spawn_callback(roster.refresh, gateway.store, files.lti)
+    return Parts(runs=runs, recordings=recordings, history=history, lti=files.lti, grades=outbox,
+                 exercises=Library(settings.lab.exercises_dir), checker=checker)
 
 
 def pages_box(base: str) -> str:
@@ -113,6 +124,8 @@ async def serve(settings: Settings, files: rules.Files, backend, sockets: list[s
     server.stop()
     if parts.checker is not None:
         parts.checker.stop_all()
+    if parts.grades is not None:   # the stopped attempts' scores into the outbox before the store closes
+        await parts.grades.stop()
     await gateway.shutdown()
     await backend.stop()
     await server.close_all_connections()

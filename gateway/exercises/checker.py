@@ -5,7 +5,10 @@ subscription for all), so it reads what the backend delivers (turtlesim's ``/tur
 ``scan``) and never what a page says. An attempt ends at the goal reached (or failed for good), at
 the exercise's time limit, or when the program stops (``stop``); its result is written to the store
 and handed to every callable in ``on_result(identity, exercise, attempt_result)``: the grades code
-subscribes there.
+subscribes there. While an attempt is live, the robot's pose and scan topics it reads are the
+robot's alone: ``watching`` is the publish door's rule that refuses a client's or a run's message
+on them (on the sim a client's /turtle1/pose reached the fan-out as the robot's own, and passed a
+goal never reached). A ``topic`` goal's topic stays open: it may be what the program publishes.
 """
 
 from __future__ import annotations
@@ -137,6 +140,15 @@ class Checker:
             attempt.end('failed')
             raise
         return attempt
+
+    def watching(self, topic: str) -> str | None:
+        """Why ``topic`` may not be published through the gateway now (a live attempt reads it as the
+        robot's pose or scan), or None."""
+        for attempt in self.attempts.values():
+            if any(fan.topic == topic and key[2] in ('pose', 'scan') for fan, key in attempt.taps):
+                return (f'{topic} is read by a live exercise attempt on {attempt.station or "/"}: its goal is '
+                        'checked on the robot\'s own messages, not on a client\'s')
+        return None
 
     def _tap(self, attempt: Attempt, topic: str, kind: str) -> None:
         gw = self.gateway

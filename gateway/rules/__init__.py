@@ -26,6 +26,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import NamedTuple
 
+from protocol.errors import ProtocolError
+
 from .access import ADMINS
 from .bookings import BookingLimits, Slots, Timetable
 from .fleet import join as join_fleet
@@ -178,10 +180,11 @@ class Rules:
     fleet: Fleet | None = None    # with --db on PostgreSQL: the other gateways (store.fleet)
 
 
-def compose(gateway, files: Files = Files(), *, reads=lambda name: False, runs=None) -> Rules:
+def compose(gateway, files: Files = Files(), *, reads=lambda name: False, runs=None, watched=None) -> Rules:
     """Every rule, built from the settings, in the one order they apply.
 
-    At the publish door (``Gateway.publish``), in this order: (1) the runs' guard (``runs``: a run
+    At the publish door (``Gateway.publish``), in this order: (0) a live exercise attempt's pose and
+    scan topics are the robot's alone (``watched``), (1) the runs' guard (``runs``: a run
     publishes nothing its starter's station does not own, and its output topics are its own), (2) the
     driver lease (``--exclusive-control``: a command from someone not holding the group's lease is
     refused), (3) safety (clamps, stamps, stream tracking for the stops) last, so a clamp acts on what
@@ -190,7 +193,9 @@ def compose(gateway, files: Files = Files(), *, reads=lambda name: False, runs=N
     station's commands before its run is stopped).
 
     reads: the gateway's own read-only services (rosapi), which viewers may call. runs: the run
-    manager (its ``publish_hook``, ``subscribe_guard``), or None.
+    manager (its ``publish_hook``, ``subscribe_guard``), or None. watched: topic -> why it may not be
+    published now, or None (the exercises' checker: the pose and scan a live attempt reads are the
+    robot's alone, so no client or run can publish a pose that reaches the goal); first at the door.
     """
     settings = gateway.settings
     sec, safe, st, lab = settings.security, settings.safety, settings.stations, settings.lab
@@ -250,7 +255,14 @@ def compose(gateway, files: Files = Files(), *, reads=lambda name: False, runs=N
     if db.startswith('postgresql'):
         fleet = Fleet.of(gateway.store)
         part = join_fleet(fleet, lease=lease, stations=stations, sessions=sessions, timetable=timetable)
-    publish = (*((runs.publish_hook,) if runs is not None else ()),
+
+    def robots_own(sender, pub, msg, issued=None):
+        why = watched(pub.topic)
+        if why is not None:
+            raise ProtocolError(why)
+        return msg
+
+    publish = (*((robots_own,) if watched is not None else ()), *((runs.publish_hook,) if runs is not None else ()),
                *((lease.publish_hook,) if lease is not None else ()), safety.publish_hook)
     guards = (runs.subscribe_guard,) if runs is not None else ()
     hooks = tuple(h for h in (stations, lease, safety, slots, runs, part) if h is not None)

@@ -4,8 +4,10 @@
 list of them (several client ids of one platform), each with ``client_id``, ``auth_login_url``
 (the platform's OIDC authorization endpoint), ``key_set_url`` (its JWKS) or an inline
 ``key_set``, ``deployment_ids``, and the tool's own ``private_key_file`` (relative to the file;
-none: one kept in the data directory, made at first start). ``auth_token_url`` and
-``auth_audience`` are accepted and not needed (no LTI Advantage services are called).
+none: one kept in the data directory, made at first start). ``auth_token_url`` is the platform's
+token endpoint for LTI Advantage's services (scores: ``grades``; the roster: ``roster``), and
+``memberships_urls`` (optional) the courses whose roster is read at start; ``auth_audience`` is
+accepted and not needed.
 
 ``check_launch`` judges an id_token with PyJWT: RS256 against the platform's key, iss, aud (and
 azp when aud lists several), exp and iat with ``LEEWAY`` seconds of skew, the nonce this browser's
@@ -57,6 +59,8 @@ class Registration:
     key_set_url: str | None
     key_set: dict | None
     deployment_ids: tuple[str, ...]
+    auth_token_url: str | None = None   # the platform's OAuth 2 token endpoint (AGS, NRPS)
+    memberships_urls: tuple[str, ...] = ()   # courses whose roster (NRPS) is read at start
 
 
 def _key_id(public_key) -> str:
@@ -114,7 +118,8 @@ class LtiConfig:
                     raise ValueError(f'{where}: deployment_ids is a list of the platform\'s deployment ids')
                 regs.append(Registration(issuer, str(item['client_id']), item['auth_login_url'],
                                          item.get('key_set_url'), item.get('key_set'),
-                                         tuple(str(d) for d in deployments)))
+                                         tuple(str(d) for d in deployments), item.get('auth_token_url'),
+                                         tuple(str(u) for u in item.get('memberships_urls') or ())))
                 if item.get('private_key_file'):
                     key_files.add(path.parent / item['private_key_file'])
         try:

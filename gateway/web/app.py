@@ -7,7 +7,7 @@ the login pages and LTI's (``/lti/...``, with ``--lti``);
 web_video_server's camera URLs (``/stream``, ``/snapshot``, ``/stream_viewer``, ``/streams``: ``video``);
 the robot's description and meshes (``/urdf``, ``/package/PKG/PATH``: ``packages``); the gauges' limits
 (``/api/gauges``: ``gauges``); block sets and the class's shared blocks (``/api/blocks``: ``blocksets``); exercises, their attempts and results (``/api/exercises``,
-``/api/attempts``, ``/api/exercise-results``: ``exercises``);
+``/api/attempts``, ``/api/exercise-results``: ``exercises``); the LMS courses' roster (``/api/roster``: ``roster``);
 the IDE's static files last. The parts behind the routes (runs, recordings, history, the OPC UA
 server) are started by the server's start (``gateway.server``), not here.
 """
@@ -30,6 +30,7 @@ from .language import Texts
 from .packages import package_routes
 from .login import login_routes
 from .lti import lti_routes
+from .roster import roster_routes
 from .pages import Application, PublicFileHandler, write_page
 from .programs import program_routes
 from .recordings import recording_routes
@@ -103,7 +104,8 @@ def make_app(gateway: Gateway, parts) -> tornado.web.Application:
     texts = Texts(settings.ide_dir / 'i18n')    # the login and LTI pages' words, in the reader's language
     routes += login_routes(policy, texts)
     if parts.lti is not None:
-        routes += lti_routes(parts.lti, policy, settings.examples_dir, texts)
+        routes += lti_routes(parts.lti, policy, settings.examples_dir, texts, gateway.store, parts.exercises)
+    routes += roster_routes(gateway, parts.lti)
     if settings.storage.programs_dir is not None:
         routes += program_routes(settings.storage.programs_dir, policy)
     routes += run_routes(parts.runs, parts.recordings) + recording_routes(parts.recordings)

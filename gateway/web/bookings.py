@@ -17,7 +17,8 @@ GET    /api/queue         -> {"place", "queued", "wait" (s, estimated; null: unk
                           "line"}: the walk-ins' line when every station is taken (rules.queue)
 POST   /api/queue         -> 201 join it (409 with a station already); DELETE /api/queue: leave it
 GET    /api/people        -> {"people": [{"id", "name", "role", "kind", "seen"}]}: who an admin may book
-                          for (everyone who signed in here, newest first); admins only
+                          for (everyone who signed in here, newest first, then the LMS courses' active
+                          members who never launched yet: kind "lti", seen null); admins only
 GET    /api/bookings.ics  -> the caller's bookings as an iCalendar feed (an admin's: everyone's);
                           a calendar app subscribes with ?token= in the address
 
@@ -34,6 +35,7 @@ import re
 import icalendar
 import tornado.web
 
+from ..rules import roster
 from ..rules.access import ADMINS, OPERATORS, acts_as_admin, is_admin, owns
 from ..rules.bookings import Slots
 from ..rules.stations import person_of
@@ -110,33 +112,46 @@ class BookingListHandler(_Handler):
                 raise tornado.web.HTTPError(403, '"for" (booking for someone else) is for admins')
             if not isinstance(behalf, str) or not 0 < len(behalf.strip()) <= 100:
                 raise tornado.web.HTTPError(400, '"for" is the name or id of a person')
-            booker, name = self.behalf(behalf.strip())
+            booker, name = await self.behalf(behalf.strip())
         booking = await self.slots.timetable.add(station, booker, name, start, end, exempt=admin)   # BookingError: answered by Handler
         self.set_status(201)
         self.finish(_view(booking, key))
 
 
-    def behalf(self, who: str) -> tuple[str, str]:
+    async def behalf(self, who: str) -> tuple[str, str]:
         """(person key, name) of whom "for" names: someone who signed in here (by id or name), else
-        a name of the tokens file (whose key is the name itself)."""
-        sessions = self.gateway.policy.sessions
-        found = sessions.people(who) if sessions is not None else []
+        an active member of an LMS course (the roster: before their first launch), else a name of
+        the tokens file (whose key is the name itself)."""
+        found = await people(self.gateway, who)
         if len(found) > 1:
-            ids = ', '.join(f'{p.owner} ({p.kind}, {p.role})' for p in found[:5])
+            ids = ', '.join(f'{p["id"]} ({p["kind"]}, {p["role"]})' for p in found[:5])
             raise tornado.web.HTTPError(409, f'several people are named {who!r}: book by id, one of {ids}')
         if found:
-            return f'user {found[0].owner}', found[0].name
+            return f'user {found[0]["id"]}', found[0]['name']
         return f'user {who}', who
+
+
+async def people(gateway, who: str | None = None) -> list[dict]:
+    """Who an admin may book for: who signed in here, newest first, then the courses' active members
+    who have not (``rules.roster``); ``who``: only those it names (their id, or their name in any case)."""
+    sessions = gateway.policy.sessions
+    found = [p.json() for p in sessions.people(who)] if sessions is not None else []
+    seen = {p['id'] for p in found}
+    for m in await roster.members(gateway.store):
+        if m['status'] == 'Active' and m['person'] not in seen and (
+                who is None or who == m['person'] or who.casefold() == m['name'].casefold()):
+            seen.add(m['person'])
+            found.append({'id': m['person'], 'name': m['name'], 'role': m['role'], 'kind': 'lti', 'seen': None})
+    return found
 
 
 class PeopleHandler(_Handler):
     def prepare(self) -> None:
         pass   # the people are known with or without --booking
 
-    def get(self) -> None:
+    async def get(self) -> None:
         self.who(roles=ADMINS)
-        sessions = self.gateway.policy.sessions
-        self.finish({'people': [p.json() for p in sessions.people()] if sessions is not None else []})
+        self.finish({'people': await people(self.gateway)})
 
 
 class BookingHandler(_Handler):

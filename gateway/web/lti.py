@@ -12,7 +12,10 @@
   and nobody is signed in. Otherwise the browser is signed in (the same session as ``/login``)
   and lands where the launch asks (``landing``); a deep linking request gets the picker.
 - ``POST /lti/deeplink``: the picker's choice, answered with a signed LtiDeepLinkingResponse
-  auto-posted to the platform.
+  auto-posted to the platform. An exercise picked (``--exercises-dir``) goes as a resource link
+  with a ``lineItem`` (scoreMaximum 1, its title as label, its id as resourceId), so the platform
+  makes the gradebook column its scores go to, and custom ``exercise=ID``, so a launch from it
+  lands in the IDE on that exercise and its AGS line item is kept for that exercise (``rules.grades``).
 - ``GET /lti/resume``: where a launch whose cookie the browser refused (Safari in an iframe)
   continues in a new window, with a ticket good for one use within ``RESUME_TTL`` s.
 - ``GET /lti/jwks``: the tool's public keys; ``GET /lti/config``: what to paste into the LMS.
@@ -32,9 +35,11 @@ from urllib.parse import urlencode, urlsplit
 
 import jwt
 import tornado.httpclient
+import tornado.ioloop
 import tornado.web
 
-from ..rules import lti
+from ..exercises import ID as EXERCISE_ID, ExerciseError
+from ..rules import grades, lti, roster
 from ..rules.access import is_admin
 from ..rules.lti import LaunchError
 from .api import Handler, check_origin
@@ -128,14 +133,17 @@ class KeySets:
 class Lti:
     """What the routes share: the configuration, logins in flight, used states, keys."""
 
-    def __init__(self, config: lti.LtiConfig, policy, examples_dir, texts: Texts):
+    def __init__(self, config: lti.LtiConfig, policy, examples_dir, texts: Texts, store=None, exercises=None):
         self.config, self.policy, self.examples_dir = config, policy, examples_dir
+        self.store = store                         # where launches' AGS line items are kept (grades)
+        self.exercises = exercises                 # exercises.Library: what a deep link may pick to grade
         self.texts = texts                         # the pages' words, in the reader's language
         self.pending = Expiring(PENDING_TTL)
         self.used = Expiring(PENDING_TTL)          # states already launched: a replay is told so
         self.resume = Expiring(RESUME_TTL)
         self.picks = Expiring(PENDING_TTL)         # deep linking requests waiting for the teacher's pick
         self.keys = KeySets()
+        self.reading: set[str] = set()             # rosters being read from the LMS now (their URLs)
 
 
 def base_url(handler: tornado.web.RequestHandler) -> str:
@@ -257,9 +265,17 @@ class LaunchHandler(_Base):
         identity = lti.identity_of(claims)
         framed = self.request.headers.get('Sec-Fetch-Dest', '').lower() == 'iframe'
         log.info('lti: %s (%s) launched from %s', identity.name, identity.role, reg.issuer)
+        url = (claims.get(roster.NRPS_CLAIM) or {}).get('context_memberships_url')
+        if self.lti.store is not None and isinstance(url, str) and url and url not in self.lti.reading:
+            self.lti.reading.add(url)   # the course's roster; a class launching at once reads it once
+            self._beside(roster.fetch(self.lti.store, self.lti.config, reg, url), f'roster at {url[:200]}',
+                         lambda: self.lti.reading.discard(url))
         if claims[lti.CLAIM + 'message_type'] == lti.DEEP_LINKING:
             self._picker(identity, reg, claims)
             return
+        if self.lti.store is not None and await grades.remember_launch(self.lti.store, identity.key, claims) \
+                and grades.exercise_of(claims) is None:   # which exercise: the line item's resourceId
+            self._beside(grades.resolve(self.lti.store, self.lti.config, identity.key), 'the line item')
         begin_session(self, self.lti.policy, identity, 'lti', framed=framed)
         self.set_header('X-Rosgate-Role', identity.role)
         landing = landing_of(claims)
@@ -268,6 +284,18 @@ class LaunchHandler(_Base):
         lang = best([urllib.parse.parse_qs(urlsplit(landing).query).get('lang', [''])[0]], self.lti.texts.offered())
         self.page('rosgate', landed_page(landing, ticket, identity, self.script_nonce,
                                          lambda key, **v: self.say(key, lang, **v)))
+
+    @staticmethod
+    def _beside(work, what: str, done=lambda: None) -> None:
+        """Read from the LMS beside the launch, not in its way (the services are optional)."""
+        async def run():
+            try:
+                await work
+            except Exception as e:
+                log.warning('lti: %s not read: %s', what, e)
+            finally:
+                done()
+        tornado.ioloop.IOLoop.current().spawn_callback(run)
 
     def _picker(self, identity, reg, claims) -> None:
         if not is_admin(identity):
@@ -278,6 +306,7 @@ class LaunchHandler(_Base):
         options = [('ide', 'Block IDE'), ('teleop', 'Teleop (drive a robot)'), ('class', 'Class view (teacher)')]
         examples = sorted(p.stem for p in self.lti.examples_dir.glob('*.json') if p.stem != 'index')
         options += [(f'example:{e}', f'IDE with the example {e}') for e in examples]
+        options += [(f'exercise:{e.id}', f'Exercise "{e.title}" (graded: a gradebook column)') for e in self._exercises()]
         radios = ''.join(f'<p><label><input type="radio" name="pick" value="{html.escape(v)}"{" checked" if i == 0 else ""}>'
                          f' {html.escape(t)}</label></p>' for i, (v, t) in enumerate(options))
         self.page('rosgate: choose an activity',
@@ -289,6 +318,14 @@ class LaunchHandler(_Base):
                   '<p><label>Station (optional, e.g. s03) <input name="station"></label></p>'
                   '<p><label>Title <input name="title" value="Robot lab"></label></p>'
                   '<button type="submit" id="add">Add to the course</button></form>')
+
+    def _exercises(self) -> list:
+        if self.lti.exercises is None:
+            return []
+        found, problems = self.lti.exercises.all()
+        for problem in problems:
+            log.warning('lti: exercise not offered: %s', problem)
+        return found
 
 
 def landing_of(claims: dict) -> str:
@@ -308,6 +345,9 @@ def landing_of(claims: dict) -> str:
     program = str(custom.get('program', '')).strip()
     if program and page == '/':
         query['program'] = program[:64]
+    exercise = grades.exercise_of(claims) or ''
+    if exercise and page == '/' and EXERCISE_ID.fullmatch(exercise):
+        query['exercise'] = exercise
     presentation = claims.get(lti.CLAIM + 'launch_presentation')
     locale = str(presentation.get('locale', '')) if isinstance(presentation, dict) else ''
     lang = str(custom.get('lang', '')).strip().lower()
@@ -356,8 +396,17 @@ class DeepLinkHandler(_Base):
                                              'again from the course')
         reg, claims = found
         pick = self.get_argument('pick', 'ide')
-        custom = {}
-        if pick.startswith('example:'):
+        custom, line_item = {}, None
+        if pick.startswith('exercise:'):
+            try:
+                ex = self.lti.exercises.get(pick.split(':', 1)[1]) if self.lti.exercises is not None else None
+            except ExerciseError as e:
+                raise tornado.web.HTTPError(400, str(e)) from None
+            if ex is None:
+                raise tornado.web.HTTPError(400, f'no exercise {pick.split(":", 1)[1][:64]!r} in --exercises-dir')
+            page, custom['exercise'] = '/', ex.id
+            line_item = {'scoreMaximum': 1, 'label': ex.title, 'resourceId': ex.id}
+        elif pick.startswith('example:'):
             page, custom['program'] = '/', 'example:' + pick.split(':', 1)[1][:64]
         else:
             page = PAGES.get(pick, '/')
@@ -369,10 +418,15 @@ class DeepLinkHandler(_Base):
             if not station.replace('_', '').isalnum():
                 raise tornado.web.HTTPError(400, f'a station is a name like s03, not {station[:40]!r}')
             custom['station'] = station
-        item = {'type': 'ltiResourceLink', 'title': self.get_argument('title', 'Robot lab')[:200] or 'Robot lab',
-                'url': base_url(self) + page}
+        title = self.get_argument('title', '').strip()[:200]
+        if line_item is not None and title in ('', 'Robot lab'):
+            title = line_item['label']          # the gradebook column and the link read the same
+        item = {'type': 'ltiResourceLink', 'title': title or 'Robot lab',
+                'url': base_url(self) + page + (f'?exercise={custom["exercise"]}' if line_item is not None else '')}
         if custom:
             item['custom'] = custom
+        if line_item is not None:   # the platform makes the gradebook column (AGS) the attempts' scores go to
+            item['lineItem'] = line_item
         token = lti.deep_linking_response(self.lti.config, reg, claims, [item])
         settings = claims[lti.DL_CLAIM + 'deep_linking_settings']
         self.auto_post(settings['deep_link_return_url'], {'JWT': token}, 'Sending your choice to the course…')
@@ -413,8 +467,8 @@ class ConfigHandler(_Base):
                   f'<h2>Platforms registered (--lti {html.escape(self.lti.config.path)})</h2><ul>{regs}</ul>')
 
 
-def lti_routes(config, policy, examples_dir, texts: Texts) -> list:
-    shared = {'lti_': Lti(config, policy, examples_dir, texts)}
+def lti_routes(config, policy, examples_dir, texts: Texts, store=None, exercises=None) -> list:
+    shared = {'lti_': Lti(config, policy, examples_dir, texts, store, exercises)}
     return [(r'/lti/login', LoginInitHandler, shared), (r'/lti/launch', LaunchHandler, shared),
             (r'/lti/deeplink', DeepLinkHandler, shared), (r'/lti/resume', ResumeHandler, shared),
             (r'/lti/jwks', JwksHandler, shared), (r'/lti/config', ConfigHandler, shared)]

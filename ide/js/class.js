@@ -4,7 +4,8 @@
 // namespaces of the graph), so a real multi-robot graph shows the same way as the sim's fleet.
 // Beside each student's tile, their newest kept runs (GET api/runs?all=1, an admin's: the class's)
 // with their program, output and recording to download; and their exercises' best and last
-// attempts with a "passed" mark (GET api/exercise-results: classexercises.js).
+// attempts with a "passed" mark (GET api/exercise-results: classexercises.js). Below the tiles, the
+// LMS courses' roster, known before a student first launches (GET api/roster: classroster.js).
 import { WorldView } from './worldview.js';
 import { DriverLease, DRIVER_TOPIC } from './driver.js';
 import { isVelocityType, zeroVelocity, withNamespace } from '../runtime/util.js';
@@ -15,6 +16,7 @@ import { mountBooking } from './booking.js';
 import { t, tn } from './i18n.js';
 import { keptRuns, runItem } from './runhistory.js';
 import { exerciseSummary, exerciseItem } from './classexercises.js';
+import { mountRoster } from './classroster.js';
 
 const $ = (s) => document.querySelector(s);
 const REFRESH = 10000;   // ms between looks at the graph for new stations (and at the kept runs)
@@ -238,6 +240,9 @@ function setup() {
   setInterval(() => { if (view.ros?.isConnected) refresh(); }, REFRESH);
   setInterval(refreshRuns, REFRESH);
   refreshRuns();
+  const roster = mountRoster($('#roster'));
+  setInterval(roster, REFRESH);
+  roster();
 }
 
 setup();

@@ -15,15 +15,13 @@ from urllib.parse import urlsplit
 
 import jwt
 import pytest
-from cryptography.hazmat.primitives import serialization
-from cryptography.hazmat.primitives.asymmetric import rsa
 
 from tests.support.http import api, http
 from tests.support.ide import drives_its_station
 from tests.support.wait import wait_for
 from tests.support.wsclient import Client
 
-from tests.support.lti_platform import CLAIM, DL, INST_ADMIN, INSTRUCTOR, LEARNER, STUDENT, Platform
+from tests.support.lti_platform import CLAIM, DL, INST_ADMIN, INSTRUCTOR, LEARNER, STUDENT, Platform, write_tool_key
 
 ADMIN_TOKEN = 'lti-test-admin-token-77'
 
@@ -31,9 +29,7 @@ ADMIN_TOKEN = 'lti-test-admin-token-77'
 @pytest.fixture(scope='module')
 def lab(start_gateway, tmp_path_factory):
     folder = tmp_path_factory.mktemp('lti')
-    key = rsa.generate_private_key(public_exponent=65537, key_size=2048)
-    (folder / 'tool.pem').write_bytes(key.private_bytes(serialization.Encoding.PEM, serialization.PrivateFormat.PKCS8,
-                                                        serialization.NoEncryption()))
+    write_tool_key(folder / 'tool.pem')
     platform = Platform(tool='http://localhost:0')
     (folder / 'tool.json').write_text(json.dumps(platform.tool_config('tool.pem')))
     (folder / 'tokens.toml').write_text(f'[[tokens]]\nname = "teacher"\nrole = "admin"\ntoken = "{ADMIN_TOKEN}"\n')
@@ -357,9 +353,7 @@ def test_the_teacher_books_a_slot_for_a_student_from_the_lms(start_gateway, brow
     """A student known only by her LMS launch (her key is a digest of issuer and subject) gets a
     slot the teacher books "for" her by name: it is hers on her pages, and she drives in it."""
     import time
-    key = rsa.generate_private_key(public_exponent=65537, key_size=2048)
-    (tmp_path / 'tool.pem').write_bytes(key.private_bytes(serialization.Encoding.PEM, serialization.PrivateFormat.PKCS8,
-                                                          serialization.NoEncryption()))
+    write_tool_key(tmp_path / 'tool.pem')
     platform = Platform(tool='http://localhost:0')
     try:
         (tmp_path / 'tool.json').write_text(json.dumps(platform.tool_config('tool.pem')))

@@ -22,6 +22,7 @@ import uuid
 
 import jwt
 import tornado.web
+from cryptography.hazmat.primitives import serialization
 from cryptography.hazmat.primitives.asymmetric import rsa
 
 CLAIM = 'https://purl.imsglobal.org/spec/lti/claim/'
@@ -39,6 +40,36 @@ def form_page(action: str, fields: dict) -> str:
             '<button>go</button></form><script>document.getElementById("f").submit()</script></body></html>')
 
 
+def write_tool_key(path) -> None:
+    """The tool's private key (PEM) at ``path``, as a school's tool configuration names it."""
+    key = rsa.generate_private_key(public_exponent=65537, key_size=2048)
+    path.write_bytes(key.private_bytes(serialization.Encoding.PEM, serialization.PrivateFormat.PKCS8,
+                                       serialization.NoEncryption()))
+
+
+class Served:
+    """A tornado app on a loopback port, on an event loop of its own in a thread (beside the test's)."""
+
+    def __init__(self, routes: list, kwargs: dict):
+        self.loop = asyncio.new_event_loop()
+        ready = threading.Event()
+        self.thread = threading.Thread(target=self._run, args=([(p, h, kwargs) for p, h in routes], ready),
+                                       daemon=True)
+        self.thread.start()
+        ready.wait(10)
+
+    def _run(self, routes, ready) -> None:
+        asyncio.set_event_loop(self.loop)
+        server = tornado.web.Application(routes).listen(0, '127.0.0.1')
+        self.port = next(iter(server._sockets.values())).getsockname()[1]
+        ready.set()
+        self.loop.run_forever()
+
+    def stop(self) -> None:
+        self.loop.call_soon_threadsafe(self.loop.stop)
+        self.thread.join(5)
+
+
 class Platform:
     def __init__(self, tool: str, client_id: str = 'rosgate-client', deployment: str = 'dep-1'):
         self.tool, self.client_id, self.deployment = tool.rstrip('/'), client_id, deployment
@@ -49,27 +80,12 @@ class Platform:
         self.posted: list[dict] = []          # {'id_token', 'state', 'launch'} as posted to the tool
         self.returned: list[str] = []         # deep linking response JWTs the tool posted back
         self.ids = itertools.count(1)
-        self.loop = asyncio.new_event_loop()
-        ready = threading.Event()
-        self.thread = threading.Thread(target=self._run, args=(ready,), daemon=True)
-        self.thread.start()
-        ready.wait(10)
-        self.issuer = f'http://127.0.0.1:{self.port}'
-
-    def _run(self, ready) -> None:
-        asyncio.set_event_loop(self.loop)
-        app = tornado.web.Application([
-            (r'/jwks', Jwks, {'p': self}), (r'/start', Start, {'p': self}), (r'/auth', Auth, {'p': self}),
-            (r'/dl-return', DlReturn, {'p': self}), (r'/post', Repost, {'p': self}),
-            (r'/course', Course, {'p': self})])
-        server = app.listen(0, '127.0.0.1')
-        self.port = next(iter(server._sockets.values())).getsockname()[1]
-        ready.set()
-        self.loop.run_forever()
+        self.served = Served([(r'/jwks', Jwks), (r'/start', Start), (r'/auth', Auth), (r'/dl-return', DlReturn),
+                              (r'/post', Repost), (r'/course', Course)], {'p': self})
+        self.issuer = f'http://127.0.0.1:{self.served.port}'
 
     def stop(self) -> None:
-        self.loop.call_soon_threadsafe(self.loop.stop)
-        self.thread.join(5)
+        self.served.stop()
 
     def rotate(self) -> None:
         """A new signing key under a new kid, published at once (the old one is gone)."""

@@ -1,0 +1,44 @@
+"""The course's roster from the LMS (LTI Advantage NRPS, ``rules.roster``) for the teacher's pages:
+
+GET  /api/roster  -> {"enabled", "members": [{"person", "name", "role", "roles", "status", "context",
+                     "title", "fetched"}], "courses": N}: every course's members as the LMS last listed
+                     them (status Active, Inactive, or Deleted: gone from the LMS's list); admins only
+POST /api/roster  -> the same after reading every known course's roster again (the teacher's
+                     "Refresh"), with "failed": {url: why} for those the LMS did not answer
+
+The class view lists them before a student first launches (a course's roster is read at each
+launch of it, the teacher's included, and at start for a registration's ``memberships_urls``);
+the booking panel offers them to book for (``bookings.PeopleHandler``).
+"""
+
+from __future__ import annotations
+
+import tornado.web
+
+from ..rules import roster
+from ..rules.access import ADMINS
+from .api import JsonHandler, caller
+
+
+class RosterHandler(JsonHandler):
+    def initialize(self, gateway, config) -> None:
+        self.gateway, self.config = gateway, config
+
+    async def get(self) -> None:
+        caller(self, self.gateway, roles=ADMINS)
+        await self._answer({})
+
+    async def post(self) -> None:
+        caller(self, self.gateway, change=True, roles=ADMINS)
+        if self.config is None:
+            raise tornado.web.HTTPError(404, 'no LMS to read a roster from (start the gateway with --lti)')
+        await self._answer(await roster.refresh(self.gateway.store, self.config))
+
+    async def _answer(self, failed: dict) -> None:
+        members = await roster.members(self.gateway.store)
+        self.finish({'enabled': self.config is not None, 'members': members,
+                     'courses': len({(m['issuer'], m['context']) for m in members}), 'failed': failed})
+
+
+def roster_routes(gateway, config) -> list:
+    return [(r'/api/roster/?', RosterHandler, {'gateway': gateway, 'config': config})]
