@@ -101,7 +101,7 @@ def drives_its_station(page, gw, token: str, ns: str) -> None:
         watcher.subscribe(f'{ns}/turtle1/cmd_vel', 'geometry_msgs/msg/Twist')
         page.locator('body').click(position={'x': 5, 'y': 5})
         page.keyboard.down('ArrowUp')
-        msg = watcher.expect(lambda m: m.get('op') == 'publish' and m['msg']['linear']['x'] > 0, timeout=10)
+        msg = watcher.expect(lambda m: m.get('op') == 'publish' and m['msg']['linear']['x'] > 0, timeout=30)
         page.keyboard.up('ArrowUp')
         assert msg['topic'] == f'{ns}/turtle1/cmd_vel'
 
