@@ -54,6 +54,7 @@ def start(gateway: Gateway, files: rules.Files) -> Parts:
     checker = Checker(gateway)
     gateway.install(rules.compose(gateway, files, reads=rosapi.handles, runs=runs, watched=checker.watching))
     recordings = start_recordings(gateway)
+    checker.recorder = recordings
     history = start_history(gateway)
     start_twin(gateway, history, settings.twin.opcua)
     if runs_socket is not None:   # runs reach the websocket alone, on a unix socket bound into their box

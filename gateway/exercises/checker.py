@@ -5,7 +5,9 @@ subscription for all), so it reads what the backend delivers (turtlesim's ``/tur
 ``scan``) and never what a page says. An attempt ends at the goal reached (or failed for good), at
 the exercise's time limit, or when the program stops (``stop``); its result is written to the store
 and handed to every callable in ``on_result(identity, exercise, attempt_result)``: the grades code
-subscribes there. While an attempt is live, the robot's pose and scan topics it reads are the
+subscribes there. With a ``recorder`` (the gateway's recordings), each attempt records the robot's
+pose (and scan, and the topics of its goal) and the station's velocity commands, owned by the
+student: the teacher's replay of the run. While an attempt is live, the robot's pose and scan topics it reads are the
 robot's alone: ``watching`` is the publish door's rule that refuses a client's or a run's message
 on them (on the sim a client's /turtle1/pose reached the fan-out as the robot's own, and passed a
 goal never reached). A ``topic`` goal's topic stays open: it may be what the program publishes.
@@ -66,6 +68,7 @@ class Attempt:
         self.evaluation = Evaluation(exercise.goal)
         self.started = time.time()
         self.taps: list = []
+        self.recording = None
         self.result: AttemptResult | None = None
         self.done = asyncio.get_running_loop().create_future()
         self.timer = asyncio.get_running_loop().call_later(exercise.time_limit, self.end, 'time')
@@ -93,13 +96,14 @@ class Attempt:
         if self.result is not None:
             return self.result
         self.timer.cancel()
+        recording = self.checker.stop_recording(self)
         self.evaluation.time(time.time() - self.started)
         passed, score = self.evaluation.finish()
         who = self.identity
         self.result = AttemptResult(
             attempt=self.id, exercise=self.exercise.id, person=(who.key or who.name) if who else 'anyone',
             name=who.name if who else 'anyone', station=self.station, passed=passed, score=score,
-            why=why, started_at=self.started, ended_at=time.time(), program=self.program)
+            why=why, started_at=self.started, ended_at=time.time(), program=self.program, recording=recording)
         self.checker.finished(self)
         if not self.done.done():
             self.done.set_result(self.result)
@@ -114,6 +118,7 @@ class Checker:
         self.attempts: dict[str, Attempt] = {}        # attempt id -> Attempt
         self.on_result: list = []                     # fn(identity, exercise, attempt_result)
         self.ended: OrderedDict[str, AttemptResult] = OrderedDict()   # the newest, while the store writes
+        self.recorder = None   # start(globs, max_seconds, owner, counted) and stop(recording, reason)
 
     def topic(self, station: str, name: str) -> str:
         """A relative name under the station's namespace ('' is the root: ``turtle1/pose`` -> ``/turtle1/pose``)."""
@@ -139,7 +144,26 @@ class Checker:
         except Exception:
             attempt.end('failed')
             raise
+        self._record(attempt, [t for t, _ in watch] + [self.topic(station, '*cmd_vel')])
         return attempt
+
+    def _record(self, attempt: Attempt, globs: list[str]) -> None:
+        if self.recorder is None:
+            return
+        who = attempt.identity
+        try:
+            attempt.recording = self.recorder.start(tuple(globs), attempt.exercise.time_limit + 1,
+                                                    who.owner if who else None, counted=False)
+        except Exception as e:   # a full disk: the attempt is checked all the same, without its replay
+            log.warning('attempt %s is not recorded: %s', attempt.id, e)
+
+    def stop_recording(self, attempt: Attempt) -> str | None:
+        """Ends the attempt's recording; its id (None: not recorded)."""
+        rec, attempt.recording = attempt.recording, None
+        if rec is None:
+            return None
+        self.recorder.stop(rec, f'attempt {attempt.id} ended')
+        return rec.id if rec.state == 'done' else None
 
     def watching(self, topic: str) -> str | None:
         """Why ``topic`` may not be published through the gateway now (a live attempt reads it as the

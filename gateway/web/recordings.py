@@ -95,6 +95,7 @@ class Recording:
 
         self.manager, self.id, self.globs, self.max_seconds = manager, id, globs, max_seconds
         self.owner = owner
+        self.counted = True   # against the limits (an exercise attempt's is not)
         self.path = manager.dir / id
         self.writer = Writer(self.path, version=9, storage_plugin=StoragePlugin.MCAP)
         self.writer.open()
@@ -177,12 +178,16 @@ class RecordingManager(Hook):
     def active(self) -> list[Recording]:
         return [r for r in self.recordings.values() if r.state == 'recording']
 
-    def start(self, globs: tuple[str, ...], max_seconds: float | None, owner: str | None = None) -> Recording:
-        """owner: the name of who asks (None: auth is off, or the gateway's own --record)."""
+    def start(self, globs: tuple[str, ...], max_seconds: float | None, owner: str | None = None,
+              counted: bool = True) -> Recording:
+        """owner: the name of who asks (None: auth is off, or the gateway's own --record). An exercise
+        attempt's recording (its pose and commands: small, bounded by its time limit) is not
+        ``counted`` against the concurrent and per-person limits: a class of 30 attempts at once."""
         lim = self.limits
-        if len(self.active()) >= lim.max_concurrent:
+        others = [r for r in self.active() if r.counted] if counted else []
+        if len(others) >= lim.max_concurrent:
             raise tornado.web.HTTPError(409, f'{lim.max_concurrent} recordings are already running; stop one first')
-        if owner is not None and sum(r.owner == owner for r in self.active()) >= lim.max_per_person:
+        if owner is not None and sum(r.owner == owner for r in others) >= lim.max_per_person:
             raise tornado.web.HTTPError(429, f'{owner} already runs {lim.max_per_person} recordings; stop one first')
         self.dir.mkdir(parents=True, exist_ok=True)
         free = shutil.disk_usage(self.dir).free
@@ -192,6 +197,7 @@ class RecordingManager(Hook):
         rec_id = f"rec-{time.strftime('%Y%m%d-%H%M%S')}-{secrets.token_hex(2)}"
         try:
             rec = Recording(self, rec_id, globs, max_seconds, owner)
+            rec.counted = counted
         except Exception as e:   # rosbags' WriterError, OSError
             raise tornado.web.HTTPError(500, f'cannot create the recording in {self.dir}: {e}') from None
         self.recordings[rec_id] = rec

@@ -35,7 +35,7 @@ export function exerciseItem(entry) {
   li.append(mark, ' ', text, details);
   if (entry.best.recording) {
     li.append(' ', Object.assign(document.createElement('a'), {
-      href: `api/recordings/${encodeURIComponent(entry.best.recording)}`, textContent: t('class.ex.replay'),
+      href: `api/recordings/${encodeURIComponent(entry.best.recording)}.mcap`, textContent: t('class.ex.replay'),
     }));
   }
   return li;

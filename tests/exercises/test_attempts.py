@@ -5,12 +5,14 @@ back through the API (and so from the store)."""
 from __future__ import annotations
 
 import json
+import tempfile
+from pathlib import Path
 
 import pytest
 import roslibpy
 
 from tests.support.auth import TOKENS, tokens_toml
-from tests.support.http import api
+from tests.support.http import api, http
 from tests.support.ros import client
 from tests.support.wait import wait_for
 
@@ -65,6 +67,26 @@ def test_the_goal_reached_is_passed_with_score_1(gw):
     assert result['passed'] is True and result['score'] == 1.0 and result['why'] == 'goal'
     assert result['program'] == 'forward 2 m/s' and result['exercise'] == 'east' and result['name'] == 'alice'
     assert result['ended_at'] >= result['started_at']
+    replay_of_the_attempt(gw, result['recording'])
+
+
+def replay_of_the_attempt(gw, recording: str) -> None:
+    """The attempt's recording: the teacher reads it (and another student may not); it holds the
+    robot's poses, which went east, and the commands that drove it."""
+    from rosbags.highlevel import AnyReader
+    assert recording, 'the attempt was not recorded'
+    assert http(gw, f'/api/recordings/{recording}.mcap', token=BOB).status == 403
+    mcap = http(gw, f'/api/recordings/{recording}.mcap', token=TEACHER)
+    assert mcap.status == 200, mcap
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / 'attempt.mcap'
+        path.write_bytes(mcap.body)
+        with AnyReader([path]) as reader:
+            topics = {c.topic for c in reader.connections}
+            poses = [reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages()
+                     if c.topic == '/turtle1/pose']
+    assert {'/turtle1/pose', '/turtle1/cmd_vel'} <= topics, topics
+    assert len(poses) > 5 and poses[-1].x > poses[0].x + 0.5, [p.x for p in poses[:3]]
 
 
 def test_a_missed_goal_is_recorded_as_failed(gw):

@@ -72,6 +72,11 @@ def test_the_teacher_sees_the_passed_mark(lab, tablets, chromium):
         assert 'not passed' in missed.inner_text()
         passed.locator('summary').click()
         assert passed.locator('pre').inner_text() == 'print("here")'
+        # the replay: the attempt's recording, which the teacher's session downloads
+        replay = passed.locator('a').get_attribute('href')
+        assert replay.endswith('.mcap'), replay
+        got = ctx.request.get(gw.http_url + replay)
+        assert got.ok and got.body()[:5] == b'\x89MCAP', got.status
         assert page.locator("article.tile[data-ns='/s02'] .exercises").is_hidden()
         assert not errors, errors
     finally:
