@@ -28,17 +28,9 @@ import time
 from tests.bench.pyodide import RUN, open_ide
 from tests.support.process import GatewayProcess
 from tests.support.ide import CHROMIUM, CHROMIUM_ARGS
-from tests.support.ide import drive, program
+from tests.support.ide import PY_DRIVE, drive, program
 from tests.support.wait import wait_for
 
-PY_DRIVE = """import time, roslibpy
-ros = roslibpy.Ros('localhost', 9090)
-ros.run()
-cmd = roslibpy.Topic(ros, '/turtle1/cmd_vel', 'geometry_msgs/msg/Twist')
-while True:
-    cmd.publish({'linear': {'x': 0.5, 'y': 0.0, 'z': 0.0}, 'angular': {'x': 0.0, 'y': 0.0, 'z': 1.0}})
-    time.sleep(0.05)
-"""
 NOTE_CLICK = """() => document.querySelector('#stop').addEventListener('click',
   () => { window.stopClickedAt = performance.timeOrigin + performance.now(); }, {capture: true, once: true})"""
 STOP_PYTHON = """async () => {

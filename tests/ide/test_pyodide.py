@@ -10,6 +10,7 @@ import time
 
 import pytest
 
+from tests.support.ide import PY_DRIVE
 from tests.support.wait import wait_for
 
 START = """async ({source, ns}) => {
@@ -155,14 +156,7 @@ client.terminate()
 
 def test_stop_zeroes_the_turtle(ide, turtle_ros):
     cmd = turtle_ros.watch("/turtle1/cmd_vel", "geometry_msgs/msg/Twist")
-    start(ide, """import time, roslibpy
-ros = roslibpy.Ros('localhost', 9090)
-ros.run()
-cmd = roslibpy.Topic(ros, '/turtle1/cmd_vel', 'geometry_msgs/msg/Twist')
-while True:
-    cmd.publish({'linear': {'x': 0.5, 'y': 0.0, 'z': 0.0}, 'angular': {'x': 0.0, 'y': 0.0, 'z': 1.0}})
-    time.sleep(0.05)
-""")
+    start(ide, PY_DRIVE)
     wait_for(lambda: any(m["linear"]["x"] == 0.5 for _, m in cmd.messages), timeout=PYODIDE_START,
              what="the program drives")
     t0 = time.monotonic()

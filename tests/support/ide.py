@@ -118,6 +118,17 @@ def program(*tops: dict, name: str = "test program", variables: dict | None = No
                           "variables": [{"name": n, "id": i} for n, i in (variables or {}).items()]}}
 
 
+# A textbook roslibpy program that drives turtle1 in a circle at 20 Hz until it is stopped.
+PY_DRIVE = """import time, roslibpy
+ros = roslibpy.Ros('localhost', 9090)
+ros.run()
+cmd = roslibpy.Topic(ros, '/turtle1/cmd_vel', 'geometry_msgs/msg/Twist')
+while True:
+    cmd.publish({'linear': {'x': 0.5, 'y': 0.0, 'z': 0.0}, 'angular': {'x': 0.0, 'y': 0.0, 'z': 1.0}})
+    time.sleep(0.05)
+"""
+
+
 def drive(seconds: float = 30, speed: float = 1.0) -> dict:
     return ex.block("turtle_drive", inputs={"TURTLE": ex.text("turtle1"), "SPEED": ex.num(speed),
                                              "TURN": ex.num(0), "SECONDS": ex.num(seconds)})
