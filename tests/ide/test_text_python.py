@@ -3,7 +3,7 @@
 it, run with the real js/pyrun.js (Pyodide in a worker) behind js/textrun.js's door. A textbook
 roslibpy program (`roslibpy.Ros(host='example.org', port=9090)`, `run()`, a `Topic` publish,
 `time.sleep`) drives turtle1 (an independent roslibpy client sees its pose move) and its prints
-reach the IDE's console; Stop zeroes the turtle within 0.5 s of the click; a runtime error is
+reach the IDE's console; Stop zeroes the turtle and nothing drives after; a runtime error is
 marked on its line, a syntax error before the run; a program that ends says so. One gateway and one browser page for the module."""
 
 from __future__ import annotations
@@ -94,9 +94,7 @@ def test_python_drives_the_turtle_and_stop_zeroes_it(ide, turtle):
     t0 = time.monotonic()
     ide.page.click("#stop")
     zero = wait_for(lambda: next((t for t, m in cmd.since(t0) if not m["linear"]["x"] and not m["angular"]["z"]), None),
-                    timeout=2, what="a zero Twist after Stop")
-    print(f"Stop -> zero Twist (Python): {(zero - t0) * 1000:.0f} ms")
-    assert zero - t0 < 1.5, zero - t0   # 0.5 s is the printed figure's bar; this one holds on a busy CI machine
+                    what="a zero Twist after Stop")   # how soon: `python -m tests.bench stop` (bar 0.5 s)
     ide.page.wait_for_function("document.body.dataset.run === 'idle'")
     # the program's loop would have published ten times by now: none of it left the page
     wait_for(lambda: time.monotonic() > zero + 0.5, what="half a second")
