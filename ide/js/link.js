@@ -142,6 +142,7 @@ export class Link extends EventTarget {
     this.dispatchEvent(new CustomEvent('open', { detail: ros }));
     this._ping();
     this.pinged = performance.now();
+    this.ticked = this.pinged;
     this.ticker = setInterval(() => this._tick(), LOOK_EVERY);
   }
 
@@ -152,6 +153,11 @@ export class Link extends EventTarget {
   _tick() {
     if (!this.ros) return;
     const now = performance.now();
+    // a page that was busy itself (its timer came late: a long task, a loaded tablet) heard
+    // nothing in that time through no fault of the link: the stall does not count as silence
+    const stalled = now - this.ticked - LOOK_EVERY;
+    if (stalled > LOOK_EVERY) this.heardAt += stalled;
+    this.ticked = now;
     // silence counts only where pings are answered (elsewhere a quiet link may be well), and not
     // in a hidden tab, whose timers the browser slows to one a second or less
     const hidden = typeof document !== 'undefined' && document.hidden;

@@ -63,9 +63,10 @@ def test_publish_ids_name_their_block(turtle_gateway, ide_factory):
     ide = ide_factory(turtle_gateway)
     ide.js("""() => {
       window.sent = [];
-      const ros = rosgateIde.ros;
-      const send = ros.callOnConnection.bind(ros);
-      ros.callOnConnection = (m) => { window.sent.push(m); send(m); };
+      // every connection's sends, the one the page may open again after a stall included
+      const proto = Object.getPrototypeOf(rosgateIde.ros);
+      const send = proto.callOnConnection;
+      proto.callOnConnection = function (m) { window.sent.push(m); return send.call(this, m); };
     }""")
     publish = ex.block("ros_publish", {"TOPIC": "/chatter_ids", "TYPE": "std_msgs/msg/String"},
                        {"MSG": {"type": "ros_message",

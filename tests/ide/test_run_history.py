@@ -4,7 +4,7 @@ class view's runs beside each student's tile, in Chromium against a live gateway
 from __future__ import annotations
 
 from tests.support.http import api
-from tests.support.ide import drive, ex
+from tests.support.ide import drive, ex, page_errors
 from tests.support.ide import program as ide_program
 from tests.support.lesson import TOKENS, console_says, on_station, open_ide, tokens_file
 
@@ -57,5 +57,5 @@ def test_a_students_kept_run_in_her_ide_and_beside_her_tile(start_gateway, table
     assert cls.query_selector_all("article.tile[data-ns='/s02'] .runs li") == []
     status, body = api(gw, "GET", "/api/runs?all=1", token=TOKENS["teacher"])
     assert status == 200 and [r["owner"] for r in body["runs"]] == ["ada"], body
-    assert not ada.errors, ada.errors
+    assert not page_errors(ada), ada.errors
     assert all('status of 403' in e for e in bo.errors), bo.errors   # her output, which bo asked for above
