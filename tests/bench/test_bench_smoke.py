@@ -224,7 +224,7 @@ def test_camera_bench_yields_its_figures(tmp_path):
     if not rosgate_available():
         pytest.skip("no gateway")
     out = tmp_path / "camera.json"
-    proc = subprocess.run([sys.executable, "-m", "tests.bench", "camera", "--seconds", "3", "--out", str(out)],
+    proc = subprocess.run([sys.executable, "-m", "tests.bench", "camera", "--seconds", "1.5", "--out", str(out)],
                           cwd=REPO, capture_output=True, text=True, timeout=180)
     assert proc.returncode == 0, proc.stderr[-3000:]
     doc = json.loads(out.read_text())
