@@ -41,11 +41,15 @@ def stations(c: Client) -> None:
     c.subscribe('/rosgate/stations', 'std_msgs/msg/String')
 
 
+def announced(c: Client) -> dict:
+    """The next announcement on /rosgate/stations of the gateway of ``c`` (each change is
+    announced: wait_for(... announced ...) reads them in order until one matches)."""
+    return json.loads(c.next_message('/rosgate/stations', timeout=10)['data'])
+
+
 def owner_on(c: Client, ns: str) -> str | None:
-    """Who the next announcement of the gateway of ``c`` names as the station's owner (each change
-    is announced: wait_for(owner_on ...) reads them in order until one matches)."""
-    msg = c.next_message('/rosgate/stations', timeout=10)
-    return json.loads(msg['data'])['owners'].get(ns, {}).get('name')
+    """Who the next announcement names as the station's owner."""
+    return announced(c)['owners'].get(ns, {}).get('name')
 
 
 def drive(c: Client, ns: str, x: float = 1.0) -> dict | None:
