@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import datetime
 import ipaddress
-import re
 import urllib.error
 import urllib.parse
 import urllib.request
@@ -26,17 +25,11 @@ from cryptography.x509.oid import NameOID
 
 from tests.support.http import http
 from tests.support.ide import CHROMIUM, CHROMIUM_ARGS, drives_its_station
-from tests.support.nginx import NGINX, nginx
+from tests.support.nginx import NGINX, guide_block, nginx
 from tests.support.postgres import free_port
 from tests.support.wait import wait_for
 
-ROOT = Path(__file__).resolve().parents[2]
 TOKENS = {'operator': 'proxy-operator-token-1', 'admin': 'proxy-admin-token-2'}
-
-
-def guide_nginx_block() -> str:
-    text = (ROOT / 'docs' / 'remote-lab.md').read_text()
-    return re.search(r'```nginx\n(.*?)```', text, re.S).group(1)
 
 
 def certificate(folder: Path) -> tuple[Path, Path]:
@@ -75,7 +68,7 @@ def proxied(start_gateway, tmp_path_factory):
                        '--allowed-hosts', 'lab.localtest', '--trusted-proxies', '127.0.0.1')
     cert, key = certificate(folder)
     lab, other_port = free_port(), free_port()
-    site = (guide_nginx_block()
+    site = (guide_block()
             .replace('listen 443 ssl;', f'listen 127.0.0.1:{lab} ssl;')
             .replace('lab.school.example.pem', 'X').replace('/etc/ssl/X', str(cert))
             .replace('/etc/ssl/private/lab.school.example.key', str(key))

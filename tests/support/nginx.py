@@ -5,6 +5,7 @@ manager, once it accepts connections on the port given. The TLS proxy of docs/re
 
 from __future__ import annotations
 
+import re
 import shutil
 import socket
 import subprocess
@@ -14,6 +15,13 @@ from pathlib import Path
 from .wait import wait_for
 
 NGINX = shutil.which('nginx') or '/usr/sbin/nginx'
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def guide_block() -> str:
+    """The nginx block of docs/remote-lab.md, as the guide gives it (a test puts its names in)."""
+    text = (ROOT / 'docs' / 'remote-lab.md').read_text()
+    return re.search(r'```nginx\n(.*?)```', text, re.S).group(1)
 
 
 @contextmanager
