@@ -18,7 +18,8 @@ Figures per N, over the window after the warm-up: the messages the pages exchang
 (commands in, poses and markers out, rosapi calls); the gateways' CPU (their sum, 100 = one core)
 and the throughput per core (messages a second per core used); the same with each gateway's idle
 CPU taken off (measured before the pages come: its simulation of S turtles and the fleet's
-beats, which a gateway on a real ROS graph would not have); nginx's and PostgreSQL's CPU;
+beats, which a gateway on a real ROS graph would not have), and with nginx's and PostgreSQL's
+CPU counted as well as the gateways'; nginx's and PostgreSQL's CPU;
 rosapi p50/p95; PostgreSQL's committed transactions (``pg_stat_database.xact_commit``) a second
 and per drive command. The machine's other load (``other``) is given too: on a shared machine
 it makes the rows of one run comparable only with care.
@@ -189,6 +190,7 @@ async def load(n: int, url: str, pages: int, folder: Path, db: Database, minutes
         'idle_cpu_pct': [round(100 * i, 1) for i in idle],
         'per_core_less_idle': round(messages / (cores - idle_cores)) if cores > idle_cores else None,
         'nginx_cpu_pct': round(100 * web_cpu / seconds, 1), 'postgres_cpu_pct': round(100 * pg_cpu / seconds, 1),
+        'per_core_serving': round(messages * seconds / (sum(cpu) + web_cpu + pg_cpu)),
         'client_cpu_pct': round(100 * client / seconds, 1),
         'other_cpu_pct': round(max(0.0, 100 * (busy - own) / seconds), 1),
         'rosapi_p50_ms': percentile(lat, 50), 'rosapi_p95_ms': percentile(lat, 95),
@@ -202,7 +204,8 @@ async def load(n: int, url: str, pages: int, folder: Path, db: Database, minutes
 def row_text(r: dict) -> str:
     return (f"{r['gateways']} gateway(s): {r['messages_per_s']} msg/s ({r['commands_per_s']} commands/s), "
             f"gateways' CPU {r['gateways_cpu_pct']} % {r['gateway_cpu_pct']} (idle {r['idle_cpu_pct']}), "
-            f"{r['per_core']} msg/s per core ({r['per_core_less_idle']} less idle); rosapi p50 "
+            f"{r['per_core']} msg/s per core ({r['per_core_less_idle']} less idle, {r['per_core_serving']} with nginx "
+            f"and PostgreSQL); rosapi p50 "
             f"{fmt(r['rosapi_p50_ms'])} ms p95 {fmt(r['rosapi_p95_ms'])} ms ({r['rosapi_calls']} calls, "
             f"{r['rosapi_failed']} failed); nginx {r['nginx_cpu_pct']} %, PostgreSQL {r['postgres_cpu_pct']} %, "
             f"client {r['client_cpu_pct']} %, other {r['other_cpu_pct']} %; PostgreSQL {r['pg_xact_per_s']} "
