@@ -189,6 +189,18 @@ class Lesson:
             await close_quietly(ws)
 
 
+async def next_station(ready: asyncio.Queue, pages: list[asyncio.Task]) -> str:
+    """The station the next page claimed (what it put on ``ready``); an error saying why when a page
+    ended first (a page ends only by failing) or none came within a minute."""
+    got = asyncio.create_task(ready.get())
+    done, _ = await asyncio.wait({got, *pages}, timeout=60, return_when=asyncio.FIRST_COMPLETED)
+    if got not in done:
+        got.cancel()
+        failed = [p for p in pages if p.done()]
+        raise RuntimeError(f"pages did not start: {failed[0].exception() if failed else 'timeout'}")
+    return got.result()
+
+
 async def late_viewer(url: str, topic: str) -> dict:
     """The first message a new subscriber of ``topic`` receives: its size, wait and contents."""
     ws = await open_ws(url)
@@ -221,13 +233,7 @@ async def drive(target: Target, stations: int, minutes: float, log, warmup: floa
     pages = [asyncio.create_task(lesson.page(i, ready)) for i in range(stations)]
     try:
         for _ in range(stations):
-            got = asyncio.create_task(ready.get())
-            done, _ = await asyncio.wait({got, *pages}, timeout=60, return_when=asyncio.FIRST_COMPLETED)
-            if got not in done:
-                got.cancel()
-                failed = [p for p in pages if p.done()]
-                raise RuntimeError(f"pages did not start: {failed[0].exception() if failed else 'timeout'}")
-            lesson.namespaces.append(got.result())
+            lesson.namespaces.append(await next_station(ready, pages))
         log(f"{stations} pages driving; warm-up {warmup:g} s")
         await asyncio.sleep(warmup)
         rss0 = meter.rss_bytes()

@@ -44,7 +44,7 @@ from tests.support.postgres import free_port, postgres_server
 from tests.support.process import descendants
 
 from .client import percentile
-from .lesson import Lesson, Minute, fmt
+from .lesson import Lesson, Minute, fmt, next_station
 from .servers import ProcMeter, machine_busy_s, start_rosgate
 
 IDLE = 5.0          # s of the gateways' idle CPU, before the pages come
@@ -144,14 +144,8 @@ async def load(n: int, url: str, pages: int, folder: Path, db: Database, minutes
             tasks = []
             for i in range(pages):   # one after the other: nginx deals them out in turn
                 tasks.append(asyncio.create_task(lesson.page(i, ready)))
-                got = asyncio.create_task(ready.get())
-                done, _ = await asyncio.wait({got, *tasks}, timeout=60, return_when=asyncio.FIRST_COMPLETED)
-                if got not in done:
-                    got.cancel()
-                    failed = [t for t in tasks if t.done()]
-                    raise RuntimeError(f'page {i} did not start: {failed[0].exception() if failed else "timeout"}')
-                lesson.namespaces.append(got.result())
-                await db.claimed(got.result())
+                lesson.namespaces.append(await next_station(ready, tasks))
+                await db.claimed(lesson.namespaces[-1])
             if len(set(lesson.namespaces)) != pages:
                 raise RuntimeError(f'two pages were given one station: {sorted(lesson.namespaces)}')
             log(f'  {n} gateway(s): {pages} pages driving, each on a station of its own; warm-up {warmup:g} s')
