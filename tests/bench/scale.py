@@ -38,12 +38,13 @@ import time
 from pathlib import Path
 
 import sqlalchemy as sa
+from websockets.exceptions import ConnectionClosed
 
 from tests.support.nginx import guide_block, nginx
 from tests.support.postgres import free_port, postgres_server
 from tests.support.process import descendants
 
-from .client import percentile
+from .client import close_quietly, open_ws, percentile, send_op
 from .lesson import Lesson, Minute, fmt, next_station
 from .servers import ProcMeter, machine_busy_s, start_rosgate
 
@@ -51,12 +52,58 @@ IDLE = 5.0          # s of the gateways' idle CPU, before the pages come
 WARMUP = 10.0       # s of driving before the window
 
 
-def tokens(folder: Path, pages: int) -> list[str]:
-    """A tokens file with one operator a page (pupil01 ...); the pages' tokens."""
+def tokens(folder: Path, pages: int) -> tuple[list[str], str]:
+    """A tokens file with one operator a page (pupil00 ...) and a viewer; the pages' tokens, the viewer's."""
     made = [f'scale-{i:02d}-{secrets.token_hex(8)}' for i in range(pages)]
+    viewer = f'scale-viewer-{secrets.token_hex(8)}'
     (folder / 'tokens.toml').write_text(''.join(
-        f'[[tokens]]\nname = "pupil{i:02d}"\nrole = "operator"\ntoken = "{t}"\n\n' for i, t in enumerate(made)))
-    return made
+        f'[[tokens]]\nname = "pupil{i:02d}"\nrole = "operator"\ntoken = "{t}"\n\n' for i, t in enumerate(made))
+        + f'[[tokens]]\nname = "watcher"\nrole = "viewer"\ntoken = "{viewer}"\n')
+    return made, viewer
+
+
+class Owners:
+    """Who each gateway announces as the stations' owners (its /rosgate/stations, followed on a
+    websocket of its own, not through nginx). A fleet answers a claim from its gateway's memory
+    and settles a clash in PostgreSQL after: a page let in before every gateway has heard the
+    last claim may be given the same station (and lose it a moment later), the more so on a
+    loaded machine. So the bench lets the next page in once every gateway announces the claim."""
+
+    def __init__(self) -> None:
+        self.owners: list[set[str]] = []
+        self.changed = asyncio.Condition()
+        self.tasks: list[asyncio.Task] = []
+        self.sockets = []
+
+    async def follow(self, urls: list[str]) -> None:
+        for i, url in enumerate(urls):
+            ws = await open_ws(url)
+            self.sockets.append(ws)
+            self.owners.append(set())
+            await send_op(ws, {'op': 'subscribe', 'id': 'stations', 'topic': '/rosgate/stations',
+                               'type': 'std_msgs/msg/String'})
+            self.tasks.append(asyncio.create_task(self._read(i, ws)))
+
+    async def _read(self, i: int, ws) -> None:
+        try:
+            async for frame in ws:
+                msg = json.loads(frame)
+                if msg.get('op') == 'publish':
+                    async with self.changed:
+                        self.owners[i] = set(json.loads(msg['msg']['data'])['owners'])
+                        self.changed.notify_all()
+        except ConnectionClosed:
+            pass
+
+    async def everywhere(self, station: str, timeout: float = 30.0) -> None:
+        async with self.changed:
+            await asyncio.wait_for(self.changed.wait_for(lambda: all(station in o for o in self.owners)), timeout)
+
+    async def close(self) -> None:
+        for t in self.tasks:
+            t.cancel()
+        for ws in self.sockets:
+            await close_quietly(ws)
 
 
 def proxy_block(port: int, gateways: list[int]) -> str:
@@ -95,21 +142,6 @@ class Database:
         with open(f'/proc/{backend}/stat') as f:
             self.pid = int(f.read().rsplit(')', 1)[1].split()[1])   # its parent: the postmaster
 
-    async def claimed(self, station: str, timeout: float = 10.0) -> None:
-        """Until the station's claim is a row of fleet_holds (and so announced to every gateway):
-        the fleet answers a claim from its gateway's memory and settles a clash in PostgreSQL
-        after, so a page let in before the row is written may be given the same station (and
-        lose it a moment later)."""
-        deadline = time.monotonic() + timeout
-        query = sa.text("SELECT count(*) FROM fleet_holds WHERE kind = 'claim' AND name = :ns")
-        while True:
-            with self.engine.connect() as c:
-                if c.execute(query, {'ns': station}).scalar():
-                    return
-            if time.monotonic() > deadline:
-                raise RuntimeError(f'the claim of {station} is not in fleet_holds after {timeout:g} s')
-            await asyncio.sleep(0.02)
-
     def commits(self) -> int:
         """Committed transactions of the database so far (this query's own not counted)."""
         with self.engine.connect() as c:
@@ -120,7 +152,8 @@ class Database:
 async def load(n: int, url: str, pages: int, folder: Path, db: Database, minutes: float, warmup: float,
                log) -> dict:
     """One row: N gateways behind nginx, the lesson's pages through it."""
-    made = tokens(folder, pages)
+    made, viewer = tokens(folder, pages)
+    owners = Owners()
     flags = ['--backend', 'sim', '--robot', 'turtlesim', '--fleet', str(pages), '--exclusive-control',
              '--auth', str(folder / 'tokens.toml'), '--db', url, '--trusted-proxies', '127.0.0.1']
     gateways = []
@@ -132,6 +165,7 @@ async def load(n: int, url: str, pages: int, folder: Path, db: Database, minutes
         proxy = folder / f'nginx-{n}'
         proxy.mkdir()
         with nginx(proxy, proxy_block(port, ports), port) as web:
+            await owners.follow([f'{g.url}?token={viewer}' for g in gateways])
             meters = [ProcMeter(g.pid) for g in gateways]
             await asyncio.sleep(2.0)   # the gateways' start-up work done
             idle0 = [m.sample() for m in meters]
@@ -145,7 +179,7 @@ async def load(n: int, url: str, pages: int, folder: Path, db: Database, minutes
             for i in range(pages):   # one after the other: nginx deals them out in turn
                 tasks.append(asyncio.create_task(lesson.page(i, ready)))
                 lesson.namespaces.append(await next_station(ready, tasks))
-                await db.claimed(lesson.namespaces[-1])
+                await owners.everywhere(lesson.namespaces[-1])
             if len(set(lesson.namespaces)) != pages:
                 raise RuntimeError(f'two pages were given one station: {sorted(lesson.namespaces)}')
             log(f'  {n} gateway(s): {pages} pages driving, each on a station of its own; warm-up {warmup:g} s')
@@ -167,6 +201,7 @@ async def load(n: int, url: str, pages: int, folder: Path, db: Database, minutes
                 lesson.stop.set()
                 await asyncio.gather(*tasks, return_exceptions=True)
     finally:
+        await owners.close()
         for g in gateways:
             g.stop()
     fig = window.figures()
