@@ -176,14 +176,14 @@ async def load(n: int, url: str, pages: int, folder: Path, db: Database, minutes
                             page_url=lambda index: f'ws://127.0.0.1:{port}/?token={made[index]}')
             ready: asyncio.Queue = asyncio.Queue()
             tasks = []
-            for i in range(pages):   # one after the other: nginx deals them out in turn
-                tasks.append(asyncio.create_task(lesson.page(i, ready)))
-                lesson.namespaces.append(await next_station(ready, tasks))
-                await owners.everywhere(lesson.namespaces[-1])
-            if len(set(lesson.namespaces)) != pages:
-                raise RuntimeError(f'two pages were given one station: {sorted(lesson.namespaces)}')
-            log(f'  {n} gateway(s): {pages} pages driving, each on a station of its own; warm-up {warmup:g} s')
             try:
+                for i in range(pages):   # one after the other: nginx deals them out in turn
+                    tasks.append(asyncio.create_task(lesson.page(i, ready)))
+                    lesson.namespaces.append(await next_station(ready, tasks))
+                    await owners.everywhere(lesson.namespaces[-1])
+                if len(set(lesson.namespaces)) != pages:
+                    raise RuntimeError(f'two pages were given one station: {sorted(lesson.namespaces)}')
+                log(f'  {n} gateway(s): {pages} pages driving, each on a station of its own; warm-up {warmup:g} s')
                 await asyncio.sleep(warmup)
                 lesson.minute = window = Minute(1)
                 cpu0 = [m.sample() for m in meters]
