@@ -2,7 +2,11 @@
 A and B, with the same --db, --auth and data folder, and the robots of two stations, /s01 and /s02,
 on the graph (plain rclpy nodes of their own context: each takes ``turtle1/cmd_vel`` and publishes
 its odometry). The cases are tests/support/fleet.py's: here each robot's own subscription hears
-what both gateways send it, so a Stop or a slot's end is checked where it matters, at the robot."""
+what both gateways send it, so a Stop or a slot's end is checked where it matters, at the robot.
+
+On one graph the gateways' own topics are ROS topics: a client of B hears A's /rosgate/stations
+announcements as well as B's. So the gateways are ready when each serves the stations' claims
+(its /rosapi/services), not when an announcement lists them (that may be the other's)."""
 
 from __future__ import annotations
 
@@ -96,14 +100,16 @@ def robots(rclpy_helpers):
 
 @pytest.fixture(scope='module')
 def pair(robots, launch, tokens_file, postgres, tmp_path_factory):
-    """Gateways A and B on the graph, each once it sees both stations (its /rosgate/stations)."""
+    """Gateways A and B on the graph, each once it serves both stations' claims (its
+    /rosapi/services: not /rosgate/stations, which on one graph carries every gateway's
+    announcements, so that one gateway's list may stand for another's)."""
     gateways = fleet.start_pair(launch, tokens_file, postgres, str(tmp_path_factory.mktemp('fleet-data')),
                                 '--backend', 'rclpy')
+    claims = {f'{ns}/fleet/claim' for ns in STATIONS}
     for gw in gateways:
         with Client(gw.ws_url, TOKENS['viewer']) as c:
-            fleet.stations(c)
-            wait_for(lambda: set(STATIONS) <= set(fleet.announced(c)['stations']), 20,
-                     what=f'{gw.node} sees both stations')
+            wait_for(lambda: claims <= set(c.call('/rosapi/services')['values']['services']), 20, 0.1,
+                     what=f'{gw.node} serves both stations')
     return gateways
 
 

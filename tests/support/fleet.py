@@ -77,8 +77,9 @@ def one_station_one_person(a, b) -> None:
         assert alice.call('/s01/fleet/claim')['values'] == {'success': True, 'message': '/s01'}
         stations(bob)
         wait_for(lambda: owner_on(bob, '/s01') == 'alice', 10)
-        answer = bob.call('/s01/fleet/claim')['values']
-        assert answer['success'] is False and "alice" in answer['message'], answer
+        reply = bob.call('/s01/fleet/claim')
+        answer = reply['values']
+        assert reply['result'] and answer['success'] is False and "alice" in answer['message'], reply
         refusal = drive(bob, '/s01')
         assert refusal is not None and 'alice' in refusal['msg'], refusal
         # the lease too: alice drives through A, bob may not take it on B
