@@ -61,7 +61,7 @@ test: system-test install-test ide tests/node/node_modules/.installed $(ROSVENV)
 
 $(ROSVENV)/.installed: pyproject.toml Makefile
 	$(PYTHON) -m venv $(ROSVENV)
-	$(ROSVENV)/bin/pip install -q -e '.[ros,ros-build]' $(ROS_TEST_PKGS)
+	$(ROSVENV)/bin/pip install -q -e '.[ros,ros-build,postgres]' $(ROS_TEST_PKGS)
 	touch $@
 
 # As root a network namespace alone (unshare -n): a user namespace that maps uid 0 alone (unshare -rn

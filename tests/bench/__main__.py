@@ -12,6 +12,9 @@ if __name__ == "__main__":
     if sys.argv[1:2] == ["fleet"]:   # database round trips per command in a fleet (tests/bench/fleet.py)
         from .fleet import main as fleet
         sys.exit(fleet(sys.argv[2:]))
+    if sys.argv[1:2] == ["scale"]:   # the class load over 1, 2 and 4 gateways behind nginx (tests/bench/scale.py)
+        from .scale import main as scale
+        sys.exit(scale(sys.argv[2:]))
     if sys.argv[1:2] == ["history"]:   # the history's cost and reads (tests/bench/history.py)
         from .history import main as history
         sys.exit(history(sys.argv[2:]))

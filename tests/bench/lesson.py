@@ -62,6 +62,7 @@ class Minute:
     marker_msgs: int = 0
     marker_bytes: int = 0
     camera_frames: int = 0
+    commands: int = 0
     rss_mb: float | None = None
     cpu_pct: float | None = None
     other_pct: float | None = None
@@ -77,21 +78,25 @@ class Minute:
             "rosapi_calls": len(lat), "rosapi_failed": self.failed_calls,
             "pose_per_s": self.poses / per_s, "markers_per_s": self.marker_msgs / per_s,
             "markers_kib_per_s": self.marker_bytes / per_s / 1024,
-            "camera_per_s": self.camera_frames / per_s,
+            "camera_per_s": self.camera_frames / per_s, "commands_per_s": self.commands / per_s,
             "client_cpu_pct": self.client_pct, "other_cpu_pct": self.other_pct,
         }
 
 
 class Lesson:
-    def __init__(self, url: str, stations: int, camera: bool = False) -> None:
+    """The pages of a lesson; ``page_url(index)`` gives a page its address (default: ``url``; a
+    signed-in page's carries its token)."""
+
+    def __init__(self, url: str, stations: int, camera: bool = False, page_url=None) -> None:
         self.url, self.stations, self.camera = url, stations, camera
+        self.page_url = page_url or (lambda index: url)
         self.minute = Minute(0)       # the bucket being filled; 0 is the warm-up
         self.stop = asyncio.Event()
         self.namespaces: list[str] = []
         self.errors: list[str] = []
 
     async def page(self, index: int, ready: asyncio.Queue) -> None:
-        ws = await open_ws(self.url, max_queue=256)
+        ws = await open_ws(self.page_url(index), max_queue=256)
         pending: dict[str, float] = {}
         claimed: asyncio.Future = asyncio.get_running_loop().create_future()
 
@@ -160,6 +165,7 @@ class Lesson:
                 ang = 1.2 * math.sin(0.23 * t + phase) + 0.3 * math.cos(0.05 * t + phase)
                 await ws.send(b'{"op":"publish","topic":"%s","msg":{"linear":{"x":%.4f,"y":0.0,"z":0.0},'
                               b'"angular":{"x":0.0,"y":0.0,"z":%.4f}}}' % (cmd.encode(), lin, ang), text=True)
+                self.minute.commands += 1
                 now = loop.time()
                 if now >= next_call:
                     next_call += CALL_PERIOD
@@ -181,6 +187,18 @@ class Lesson:
         finally:
             read.cancel()
             await close_quietly(ws)
+
+
+async def next_station(ready: asyncio.Queue, pages: list[asyncio.Task]) -> str:
+    """The station the next page claimed (what it put on ``ready``); an error saying why when a page
+    ended first (a page ends only by failing) or none came within a minute."""
+    got = asyncio.create_task(ready.get())
+    done, _ = await asyncio.wait({got, *pages}, timeout=60, return_when=asyncio.FIRST_COMPLETED)
+    if got not in done:
+        got.cancel()
+        failed = [p for p in pages if p.done()]
+        raise RuntimeError(f"pages did not start: {failed[0].exception() if failed else 'timeout'}")
+    return got.result()
 
 
 async def late_viewer(url: str, topic: str) -> dict:
@@ -215,13 +233,7 @@ async def drive(target: Target, stations: int, minutes: float, log, warmup: floa
     pages = [asyncio.create_task(lesson.page(i, ready)) for i in range(stations)]
     try:
         for _ in range(stations):
-            got = asyncio.create_task(ready.get())
-            done, _ = await asyncio.wait({got, *pages}, timeout=60, return_when=asyncio.FIRST_COMPLETED)
-            if got not in done:
-                got.cancel()
-                failed = [p for p in pages if p.done()]
-                raise RuntimeError(f"pages did not start: {failed[0].exception() if failed else 'timeout'}")
-            lesson.namespaces.append(got.result())
+            lesson.namespaces.append(await next_station(ready, pages))
         log(f"{stations} pages driving; warm-up {warmup:g} s")
         await asyncio.sleep(warmup)
         rss0 = meter.rss_bytes()

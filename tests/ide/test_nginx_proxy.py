@@ -12,10 +12,6 @@ from __future__ import annotations
 
 import datetime
 import ipaddress
-import re
-import shutil
-import socket
-import subprocess
 import urllib.error
 import urllib.parse
 import urllib.request
@@ -29,22 +25,11 @@ from cryptography.x509.oid import NameOID
 
 from tests.support.http import http
 from tests.support.ide import CHROMIUM, CHROMIUM_ARGS, drives_its_station
+from tests.support.nginx import NGINX, guide_block, nginx
+from tests.support.postgres import free_port
 from tests.support.wait import wait_for
 
-ROOT = Path(__file__).resolve().parents[2]
 TOKENS = {'operator': 'proxy-operator-token-1', 'admin': 'proxy-admin-token-2'}
-NGINX = shutil.which('nginx') or '/usr/sbin/nginx'
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(('127.0.0.1', 0))
-        return s.getsockname()[1]
-
-
-def guide_nginx_block() -> str:
-    text = (ROOT / 'docs' / 'remote-lab.md').read_text()
-    return re.search(r'```nginx\n(.*?)```', text, re.S).group(1)
 
 
 def certificate(folder: Path) -> tuple[Path, Path]:
@@ -83,7 +68,7 @@ def proxied(start_gateway, tmp_path_factory):
                        '--allowed-hosts', 'lab.localtest', '--trusted-proxies', '127.0.0.1')
     cert, key = certificate(folder)
     lab, other_port = free_port(), free_port()
-    site = (guide_nginx_block()
+    site = (guide_block()
             .replace('listen 443 ssl;', f'listen 127.0.0.1:{lab} ssl;')
             .replace('lab.school.example.pem', 'X').replace('/etc/ssl/X', str(cert))
             .replace('/etc/ssl/private/lab.school.example.key', str(key))
@@ -99,36 +84,8 @@ def proxied(start_gateway, tmp_path_factory):
         ssl_certificate_key {key};
         location / {{ default_type text/html; return 200 '{page}'; }}
     }}""" for port, name in ((lab, 'other.localtest'), (other_port, 'lab.localtest')))
-    conf = folder / 'nginx.conf'
-    conf.write_text(f"""daemon off;
-pid {folder}/nginx.pid;
-error_log {folder}/error.log;
-worker_processes 1;
-events {{ worker_connections 256; }}
-http {{
-    access_log {folder}/access.log;
-    client_body_temp_path {folder}/body;
-    proxy_temp_path {folder}/proxy;
-    fastcgi_temp_path {folder}/fastcgi;
-    uwsgi_temp_path {folder}/uwsgi;
-    scgi_temp_path {folder}/scgi;
-{site}
-{elsewhere}
-}}
-""")
-    nginx = subprocess.Popen([NGINX, '-p', str(folder), '-c', str(conf)], stdout=subprocess.PIPE,
-                             stderr=subprocess.STDOUT)
-    try:
-        def up():
-            if nginx.poll() is not None:
-                raise AssertionError(f'nginx exited: {nginx.stdout.read().decode()}')
-            with socket.socket() as s:
-                return s.connect_ex(('127.0.0.1', lab)) == 0
-        wait_for(up, timeout=15)
+    with nginx(folder, f'{site}\n{elsewhere}', lab):
         yield gw, lab, other_port
-    finally:
-        nginx.terminate()
-        nginx.wait(10)
 
 
 @pytest.fixture

@@ -1,5 +1,6 @@
-"""A fleet of gateways on one PostgreSQL (store.fleet, rules.fleet): two real gateway processes
-with the same --db, --fleet, --auth and data folder (the cookie secret), and clients of each.
+"""A fleet of gateways on one PostgreSQL (store.fleet, rules.fleet): two real sim gateway processes
+with the same --db, --fleet, --auth and data folder (the cookie secret), and clients of each; the
+cases are tests/support/fleet.py's (tests/backends/test_fleet_graph.py runs them on one ROS 2 graph).
 
 Each sim gateway has its robots in its own process, so where the robot itself would be shared
 (one ROS graph) the test checks what the other gateway does: its client's commands refused, its
@@ -7,159 +8,36 @@ zero published on the station's command topic, its seat ended."""
 
 from __future__ import annotations
 
-import json
-import signal
-import time
-
 import pytest
-import sqlalchemy as sa
 
-from tests.support.auth import TOKENS, login
-from tests.support.http import api, http
+from tests.support import fleet
 from tests.support.postgres import postgres_server
-from tests.support.wait import wait_for
-from tests.support.wsclient import TWIST, Client, is_zero_twist, twist
-
-# --cmd-timeout 5: the dead-man's zero (1 s by default) is not taken for the Stop's
-FLAGS = ('--robot', 'turtlesim', '--fleet', '2', '--exclusive-control', '--booking', '--slot-minutes', '0.25',
-         '--cmd-timeout', '5')
-STOP_BOUND = 1.0     # s: a Stop on one gateway zeroes the station on the other within this
 
 postgres = pytest.fixture(scope='module')(postgres_server)
 
 
 @pytest.fixture(scope='module')
 def pair(launch, tokens_file, postgres, tmp_path_factory):
-    """Gateways A and B of one fleet (B started second)."""
-    data = str(tmp_path_factory.mktemp('fleet-data'))   # one cookie secret, as a fleet shares it
-    env = {'XDG_DATA_HOME': data}
-    return [launch(*FLAGS, '--auth', tokens_file, '--db', postgres, env=env) for _ in range(2)]
-
-
-def stations(c: Client) -> None:
-    """Follow the gateway's /rosgate/stations (latched: its state now, then each change)."""
-    c.subscribe('/rosgate/stations', 'std_msgs/msg/String')
-
-
-def owner_on(c: Client, ns: str) -> str | None:
-    """Who the next announcement of the gateway of ``c`` names as the station's owner (each change
-    is announced: wait_for(owner_on ...) reads them in order until one matches)."""
-    msg = c.next_message('/rosgate/stations', timeout=10)
-    return json.loads(msg['data'])['owners'].get(ns, {}).get('name')
-
-
-def drive(c: Client, ns: str, x: float = 1.0) -> dict | None:
-    return c.refusal({'op': 'publish', 'topic': f'{ns}/turtle1/cmd_vel', 'type': TWIST, 'msg': twist(x)})
+    """Gateways A and B of one fleet, each with the stations /s01 and /s02 of its own sim."""
+    return fleet.start_pair(launch, tokens_file, postgres, str(tmp_path_factory.mktemp('fleet-data')),
+                            '--robot', 'turtlesim', '--fleet', '2')
 
 
 def test_one_station_one_person_whichever_gateway(pair):
-    a, b = pair
-    with Client(a.ws_url, TOKENS['operator']) as alice, Client(b.ws_url, TOKENS['operator2']) as bob:
-        assert alice.call('/s01/fleet/claim')['values'] == {'success': True, 'message': '/s01'}
-        stations(bob)
-        wait_for(lambda: owner_on(bob, '/s01') == 'alice', 10)
-        answer = bob.call('/s01/fleet/claim')['values']
-        assert answer['success'] is False and "alice" in answer['message'], answer
-        refusal = drive(bob, '/s01')
-        assert refusal is not None and 'alice' in refusal['msg'], refusal
-        # the lease too: alice drives through A, bob may not take it on B
-        assert drive(alice, '/s01') is None
-        bob.subscribe('/rosgate/driver', 'std_msgs/msg/String')   # B's class page shows who drives through A
-        driver = lambda m: (json.loads(m['data'])['drivers'].get('/s01') or {})   # noqa: E731
-        shown = driver(bob.next_message('/rosgate/driver', lambda m: driver(m).get('elsewhere'), timeout=5))
-        assert shown['name'].startswith('alice') and shown['owner'] is True, shown
-        assert bob.call('/fleet/claim')['values'] == {'success': True, 'message': '/s02'}
-        refusal = drive(bob, '/s01')
-        assert refusal is not None and 'alice' in refusal['msg'], refusal
-        for c, ns in ((alice, '/s01'), (bob, '/s02')):
-            drive(c, ns, 0.0)
-            c.call(f'{ns}/fleet/release')
+    fleet.one_station_one_person(*pair)
 
 
 def test_a_stop_on_a_halts_a_student_driving_through_b(pair):
-    a, b = pair
-    with Client(a.ws_url, TOKENS['admin']) as teacher, Client(b.ws_url, TOKENS['operator2']) as bob, \
-            Client(b.ws_url, TOKENS['viewer']) as watcher:
-        assert bob.call('/s02/fleet/claim')['values']['success'] is True
-        watcher.subscribe('/s02/turtle1/cmd_vel', TWIST)
-        stations(watcher)
-        assert drive(bob, '/s02') is None
-        watcher.next_message('/s02/turtle1/cmd_vel', lambda m: m['linear']['x'] == 1.0)
-        teacher.publish('/rosgate/control', {'data': 'stop /s02'}, 'std_msgs/msg/String')
-        stopped = time.monotonic()
-        watcher.next_message('/s02/turtle1/cmd_vel', is_zero_twist, timeout=STOP_BOUND)
-        took = time.monotonic() - stopped
-        assert took < STOP_BOUND, took
-        refusal = drive(bob, '/s02')
-        assert refusal is not None and 'teacher' in refusal['msg'] and 'stopped /s02' in refusal['msg'], refusal
-        # the teacher's Release on A frees it on B as well (her class page on A shows it bob's)
-        stations(teacher)
-        wait_for(lambda: owner_on(teacher, '/s02') == 'bob', 5)
-        answer = teacher.call('/s02/fleet/release')['values']
-        assert answer['success'] is True, answer
-        wait_for(lambda: owner_on(watcher, '/s02') is None, 10)
-        refusal = drive(bob, '/s02')
-        assert refusal is not None and 'teacher released /s02' in refusal['msg'], refusal
-        assert bob.call('/s02/fleet/claim')['values']['success'] is True   # she claims again: hers
-        assert drive(bob, '/s02') is None
-        drive(bob, '/s02', 0.0)
-        bob.call('/s02/fleet/release')
+    fleet.stop_on_a_halts_b(*pair, fleet.client_follow)
 
 
 def test_a_logout_on_a_ends_the_session_on_b_at_once(pair):
-    a, b = pair
-    cookie = login(a, TOKENS['operator'])
-    whoami = lambda gw: http(gw, '/whoami', headers={'Cookie': cookie})   # noqa: E731
-    on_b = wait_for(lambda: (lambda r: r if r.status == 200 else None)(whoami(b)), 5, 0.05)
-    assert on_b.json()['name'] == 'alice'   # a sign-in on A holds on B (a proxy that is not sticky)
-    assert http(a, '/logout', headers={'Cookie': cookie}).status in (303, 200)
-    ended = time.monotonic()
-    wait_for(lambda: whoami(b).status == 401, 2, 0.02)
-    assert time.monotonic() - ended < 1.0
-    assert whoami(a).status == 401
+    fleet.logout_everywhere(*pair)
 
 
 def test_history_is_written_once(pair, postgres):
-    a, b = pair
-    stats = lambda gw: api(gw, 'GET', '/api/history/stats', token=TOKENS['admin'])[1]   # noqa: E731
-    writer = wait_for(lambda: next((gw for gw in pair if stats(gw)['rows_written'] > 0), None), 30, 0.2)
-    other = b if writer is a else a
-    assert stats(other)['rows_written'] == 0
-    engine = sa.create_engine(postgres)
-    with engine.connect() as c:
-        rows = c.execute(sa.text('SELECT count(*) FROM history_points')).scalar()
-    engine.dispose()
-    assert rows >= 1 and rows <= stats(writer)['rows_written']
+    fleet.history_once(pair, postgres)
 
 
-def test_a_slot_booked_through_a_ends_on_time_with_a_killed(pair, postgres):
-    a, b = pair
-    with Client(b.ws_url, TOKENS['operator']) as alice, Client(b.ws_url, TOKENS['viewer']) as watcher, \
-            Client(a.ws_url, TOKENS['operator2']) as bob, Client(b.ws_url, TOKENS['admin']) as teacher:
-        assert bob.call('/s02/fleet/claim')['values']['success'] is True    # bob drives /s02 through A
-        assert drive(bob, '/s02') is None
-        begin = time.time() + 2
-        status, slot = api(a, 'POST', '/api/bookings', {'station': '/s01', 'start': begin, 'end': begin + 10},
-                           token=TOKENS['operator'])
-        assert status == 201, slot
-        stations(watcher)
-        wait_for(lambda: owner_on(watcher, '/s01') == 'alice', 10)   # B seats her: it heard the booking
-        assert drive(alice, '/s01') is None
-        watcher.subscribe('/s01/turtle1/cmd_vel', TWIST)
-        answer = wait_for(lambda: (lambda v: v if 'bob' in v['message'] else None)(
-            teacher.call('/s02/fleet/claim')['values']), 5)
-        assert answer['success'] is False, answer
-        a.stop(signal.SIGKILL)
-        killed = time.monotonic()
-        # A's claims and leases lapse within HOLD (3 s) of its death: the teacher on B claims /s02
-        wait_for(lambda: teacher.call('/s02/fleet/claim')['values']['success'], 10, 0.1)
-        assert time.monotonic() - killed < 3.0 + 1.5
-        refusal = None
-        while refusal is None and time.time() < slot['end'] + 5:   # she keeps driving at 10 Hz through B
-            refusal = drive(alice, '/s01')
-            time.sleep(0.1)   # the stream's pace, not a wait for an event
-        late = time.time() - slot['end']
-        assert refusal is not None and 'slot on /s01 has ended' in refusal['msg'], refusal
-        assert -0.1 < late < STOP_BOUND, late
-        zero = watcher.next_message('/s01/turtle1/cmd_vel', is_zero_twist, timeout=STOP_BOUND)
-        assert zero is not None
+def test_a_slot_booked_through_a_ends_on_time_with_a_killed(pair):
+    fleet.slot_ends_with_a_killed(*pair, fleet.client_follow)

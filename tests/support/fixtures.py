@@ -1,6 +1,6 @@
 """The fixtures every test folder shares (registered by tests/conftest.py through ``pytest_plugins``):
-gateways started for the session, the shared sim gateway and a roslibpy client of it, Playwright
-and one Chromium per module."""
+gateways started for the session or for a module (launch), the shared sim gateway and a roslibpy
+client of it, the tokens file of tests.support.auth, Playwright and one Chromium per module."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 
+from tests.support.auth import tokens_toml
 from tests.support.process import ROOT, GatewayProcess
 from tests.support.ros import client
 
@@ -19,6 +20,26 @@ def start_gateway():
     with ExitStack() as started:
         def start(*args: str, env: dict | None = None) -> GatewayProcess:
             gw = GatewayProcess(*args, env=env)
+            started.callback(gw.stop)
+            return gw
+
+        yield start
+
+
+@pytest.fixture(scope='session')
+def tokens_file(tmp_path_factory):
+    """A tokens file giving each of tests.support.auth's TOKENS its person and role."""
+    path = tmp_path_factory.mktemp('auth') / 'tokens.toml'
+    path.write_text(tokens_toml())
+    return str(path)
+
+
+@pytest.fixture(scope='module')
+def launch(start_gateway):
+    """start_gateway(*flags) for this module: every gateway it started is stopped at module end."""
+    with ExitStack() as started:
+        def start(*flags: str, env: dict | None = None):
+            gw = start_gateway(*flags, env=env)
             started.callback(gw.stop)
             return gw
 
