@@ -225,6 +225,28 @@ class Stations(Hook):
             del self.owners[mine]
         return self._own(session, station)
 
+    def _claimed(self, session, station: str | None = None):
+        """The claim services' answer: at once alone, PostgreSQL's word in a fleet (awaitable)."""
+        return self.claim(session, station) if self.fleet is None else self.claim_in_fleet(session, station)
+
+    async def claim_in_fleet(self, session, station: str | None = None) -> dict:
+        """``claim``, then PostgreSQL's word on it: another gateway may have given the station to
+        someone else a moment ago (its event not heard here yet). Then the claim is refused, naming
+        the holder, and nothing of it stays."""
+        answer = self.claim(session, station)
+        ns = answer['message']
+        o = self.owners.get(ns) if answer['success'] else None
+        if o is None:
+            return answer
+        holder = await self.fleet.take('claim', ns, o.person, o.name)
+        if holder is None:
+            return answer
+        if self.owners.get(ns) is o:
+            del self.owners[ns]
+            self._announce()
+        return {'success': False, 'message': f'{ns} is {holder.who}\'s station (claimed through another '
+                                             'gateway); ask the teacher, or claim a free one'}
+
     def _own(self, session, station: str) -> dict:
         o = self.owners.get(station)
         name = session.attrs.get('name') or f'client {session.id}'
@@ -322,10 +344,10 @@ class Stations(Hook):
 
     def _serve(self) -> None:
         stations = self.stations()
-        wanted = {CLAIM: (TRIGGER, lambda s, req: self.claim(s)),
+        wanted = {CLAIM: (TRIGGER, lambda s, req: self._claimed(s)),
                   RELEASE_ALL: (EMPTY, lambda s, req: self.release_all(s))} if stations else {}
         for ns in stations:
-            wanted[f'{ns}/fleet/claim'] = (TRIGGER, lambda s, req, ns=ns: self.claim(s, ns))
+            wanted[f'{ns}/fleet/claim'] = (TRIGGER, lambda s, req, ns=ns: self._claimed(s, ns))
             wanted[f'{ns}/fleet/release'] = (TRIGGER, lambda s, req, ns=ns: self.release(s, ns))
         if set(wanted) == self._served:
             return

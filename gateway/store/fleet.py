@@ -18,9 +18,10 @@ consensus of ours:
   must happen once per fleet (calling a station's reset at a slot's end, writing the history); if
   it dies its connection closes, PostgreSQL releases the lock, and another takes it within BEAT.
 
-The rules never wait on the database: what other gateways hold is mirrored in memory (``held``),
-kept current by the events and by the beat's read of every live hold, so the publish door checks
-a dict. Writes go through this module's own thread, in the order they were asked.
+The rules never wait on the database on the publish path: what other gateways hold is mirrored in
+memory (``held``), kept current by the events and by the beat's read of every live hold, so the
+publish door checks a dict. A station's claim alone waits for PostgreSQL's word (``take``): two
+students asking two gateways for one station at once get one yes and one no naming the holder. Writes go through this module's own thread, in the order they were asked.
 
 Only a PostgreSQL store makes a fleet (``Fleet.of``); SQLite is one gateway, as before.
 May import: ``settings`` and ``store``.
@@ -119,6 +120,22 @@ class Fleet:
         self.mine[(kind, name)] = (person, who)
         self.others.pop((kind, name), None)
         self._jobs.put(('hold', kind, name, person, who, force))
+
+    async def take(self, kind: str, name: str, person: str, who: str) -> Hold | None:
+        """Take a hold and wait for PostgreSQL's word: None when it is this gateway's, else who holds
+        it. For a station's claim, which a person waits for and which two gateways may be asked for
+        at once: one round trip, off the loop, never on the publish path (``hold`` answers from memory)."""
+        theirs = await asyncio.to_thread(self.store.run_now, lambda c: self._insert(c, kind, name, person, who))
+        key = (kind, name)
+        if theirs is None:
+            self.mine[key] = (person, who)
+            self.others.pop(key, None)
+            return None
+        if self.mine.get(key) == (person, who):
+            del self.mine[key]        # what ``hold`` queued for it loses quietly: the caller answers
+        holder = Hold(theirs.person, theirs.who, theirs.gateway, time.monotonic() + HOLD)
+        self.others[key] = holder
+        return holder
 
     def drop(self, kind: str, name: str) -> None:
         if self.mine.pop((kind, name), None) is not None:
@@ -268,19 +285,24 @@ class Fleet:
             self._send(c, 'drop', k=kind, name=name)
         else:
             _, kind, name, person, who, force = job
-            from sqlalchemy.dialects.postgresql import insert
-            row = dict(kind=kind, name=name, person=person, who=who, gateway=self.id)
-            stmt = insert(HOLDS).values(**row, expires=NOW + HOLD)
-            cond = None if force else ((HOLDS.c.expires < NOW) | (HOLDS.c.gateway == self.id)
-                                       | (HOLDS.c.person == person))
-            stmt = stmt.on_conflict_do_update(index_elements=['kind', 'name'], where=cond, set_=dict(
-                person=stmt.excluded.person, who=stmt.excluded.who, gateway=stmt.excluded.gateway,
-                expires=stmt.excluded.expires)).returning(HOLDS.c.gateway)
-            if c.execute(stmt).first() is None:
-                theirs = c.execute(sa.select(HOLDS).where(HOLDS.c.kind == kind, HOLDS.c.name == name)).first()
+            theirs = self._insert(c, kind, name, person, who, force)
+            if theirs is not None:
                 self._post(self._lost_hold, kind, name, person, who, theirs)
-                return
-            self._send(c, 'hold', k=kind, name=name, person=person, who=who, force=force)
+
+    def _insert(self, c: sa.Connection, kind: str, name: str, person: str, who: str, force: bool = False):
+        """The hold taken (the others told): None; or the row of whoever holds it."""
+        from sqlalchemy.dialects.postgresql import insert
+        row = dict(kind=kind, name=name, person=person, who=who, gateway=self.id)
+        stmt = insert(HOLDS).values(**row, expires=NOW + HOLD)
+        cond = None if force else ((HOLDS.c.expires < NOW) | (HOLDS.c.gateway == self.id)
+                                   | (HOLDS.c.person == person))
+        stmt = stmt.on_conflict_do_update(index_elements=['kind', 'name'], where=cond, set_=dict(
+            person=stmt.excluded.person, who=stmt.excluded.who, gateway=stmt.excluded.gateway,
+            expires=stmt.excluded.expires)).returning(HOLDS.c.gateway)
+        if c.execute(stmt).first() is None:
+            return c.execute(sa.select(HOLDS).where(HOLDS.c.kind == kind, HOLDS.c.name == name)).first()
+        self._send(c, 'hold', k=kind, name=name, person=person, who=who, force=force)
+        return None
 
     def _beat(self, c: sa.Connection):
         c.execute(sa.update(HOLDS).where(HOLDS.c.gateway == self.id).values(expires=NOW + HOLD))

@@ -27,6 +27,10 @@ def test_one_station_one_person_whichever_gateway(pair):
     fleet.one_station_one_person(*pair)
 
 
+def test_claims_at_the_same_moment_get_one_yes(pair):
+    fleet.claims_at_once(*pair)
+
+
 def test_a_stop_on_a_halts_a_student_driving_through_b(pair):
     fleet.stop_on_a_halts_b(*pair, fleet.client_follow)
 

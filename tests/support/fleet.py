@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import signal
+import threading
 import time
 
 import sqlalchemy as sa
@@ -94,6 +95,36 @@ def one_station_one_person(a, b) -> None:
         for c, ns in ((alice, '/s01'), (bob, '/s02')):
             drive(c, ns, 0.0)
             c.call(f'{ns}/fleet/release')
+
+
+def claims_at_once(a, b, rounds: int = 3) -> None:
+    """Two students ask two gateways for one station at the same moment (neither gateway has heard
+    the other's claim yet): one yes, one no naming the holder, and both gateways show the one owner."""
+    with Client(a.ws_url, TOKENS['operator']) as alice, Client(b.ws_url, TOKENS['operator2']) as bob:
+        stations(alice)
+        stations(bob)
+        for _ in range(rounds):
+            gate = threading.Barrier(2)
+            answers: dict = {}
+
+            def ask(name: str, c: Client) -> None:
+                gate.wait(5)
+                answers[name] = c.call('/s01/fleet/claim')['values']
+            threads = [threading.Thread(target=ask, args=pair) for pair in (('alice', alice), ('bob', bob))]
+            for t in threads:
+                t.start()
+            for t in threads:
+                t.join(15)
+            won = [name for name, answer in answers.items() if answer['success']]
+            assert len(won) == 1, answers
+            lost = 'bob' if won == ['alice'] else 'alice'
+            assert won[0] in answers[lost]['message'], answers
+            for c in (alice, bob):
+                wait_for(lambda c=c: owner_on(c, '/s01') == won[0], 10, what=f'{won[0]} the owner on both gateways')
+            winner = alice if won == ['alice'] else bob
+            assert winner.call('/s01/fleet/release')['values']['success'] is True
+            for c in (alice, bob):
+                wait_for(lambda c=c: owner_on(c, '/s01') is None, 10, what='/s01 free on both gateways')
 
 
 def stop_on_a_halts_b(a, b, follow) -> None:

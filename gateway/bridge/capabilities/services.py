@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import asyncio
+import inspect
 
 from protocol.convert import from_args, from_json
 from protocol.errors import ProtocolError
@@ -37,6 +38,8 @@ async def _call(s: ClientSession, op: CallService) -> None:
             type, answer = own
             srv = s.backend.srv_def(type)
             values = answer(s, from_args(s.backend.defs, srv.request, op.args))
+            if inspect.isawaitable(values):   # an answer that waits (a fleet's claim, on PostgreSQL)
+                values = await values
         else:
             type = normalize(op.type, 'srv') if op.type else await service_type(s, name)
             srv = s.backend.srv_def(type)
