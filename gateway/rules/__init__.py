@@ -234,11 +234,15 @@ def compose(gateway, files: Files = Files(), *, reads=lambda name: False, runs=N
             safety.stop_session(session, in_group(group))
         gateway.hooks.group_stopped(group, group_of)
 
+    def zero_group(group):
+        """Every velocity topic of the group on the graph zeroed: what a dead gateway left moving."""
+        safety.zero_topics([(t, ty) for t, ty in gateway.backend.topics() if group_of(t) == group])
+
     if safe.exclusive_control:
         lease = Lease(gateway, types=frozenset(types), globs=parse_globs(safe.control_glob),
                       takeover_role=ADMINS[0] if auth else None, stations=stations,
                       on_lost=lambda session, group: safety.stop_session(session, in_group(group)),
-                      stop_group=stop_group)
+                      stop_group=stop_group, zero_group=zero_group)
     limits = Limits(max_subscriptions=sec.max_subscriptions, max_publishers=sec.max_publishers,
                     max_pending_calls=sec.max_pending_calls, max_op_rate=sec.max_op_rate)
     policy = SecurePolicy(settings, auth=auth, limits=limits, lease=lease, stations=stations, reads=reads,

@@ -2,7 +2,7 @@
 
 ``join`` hands each rule the fleet (they tell it what they hold and do) and hears the others'
 events on the loop: a hold lost to another gateway, the teacher's Stop, Release and the end of a
-stop, a station given back, a sign-in and a sign-out, the timetable changed. Nothing here waits on
+stop, a station given back, a sign-in and a sign-out, the timetable changed, the walk-in line. Nothing here waits on
 the database: the events come from the fleet's LISTEN thread, the rules check its in-memory mirror.
 """
 
@@ -41,11 +41,15 @@ def join(fleet, *, lease, stations, sessions, timetable) -> FleetPart:
     fleet.on('free', lambda e: stations.freed_elsewhere(e['station'], e['by'], e['person'], e.get('barred')))
     fleet.on('hold', lambda e: stations.refresh())
     fleet.on('drop', lambda e: stations.refresh())
+    if stations.queue is not None:
+        stations.queue.fleet = fleet
+        fleet.on('queue', stations.queue.heard)
     if lease is not None:
         lease.fleet = fleet
         fleet.on('hold', lambda e: lease.refresh())
         fleet.on('drop', lambda e: lease.refresh())
         fleet.lost['lease'] = lease.lost_elsewhere
+        fleet.lapsed['lease'] = lease.lapsed_elsewhere
         fleet.on('stop', lambda e: lease.stopped_elsewhere(e['group'], e['by']))
         fleet.on('release', lambda e: lease.released_elsewhere(e['group'], e['by']))
         fleet.on('unhalt', lambda e: lease.unhalted_elsewhere(e['group']))

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import logging
 import time
 from collections.abc import Callable
 from fnmatch import fnmatchcase
@@ -44,6 +45,8 @@ from protocol.errors import ProtocolError
 
 from ..backends.base import QoS
 from .policy import CONTROL_TOPIC, GATEWAY_ROLE
+
+log = logging.getLogger('rosgate.lease')
 from .safety import moving_command
 from .stations import Stations, person
 from .hooks import Hook
@@ -67,9 +70,11 @@ def glob_group(glob: str) -> str:
 class Lease(Hook):
     def __init__(self, gateway, *, types: frozenset[str], globs: tuple[str, ...] | None,
                  takeover_role: str | None, on_lost: Callable[[object, str], None], stations: Stations,
-                 stop_group: Callable[[str], None] = lambda group: None):
+                 stop_group: Callable[[str], None] = lambda group: None,
+                 zero_group: Callable[[str], None] | None = None):
         self.gateway, self.types, self.globs = gateway, types, globs or ()
         self.takeover_role, self.on_lost, self.stop_group = takeover_role, on_lost, stop_group
+        self.zero_group = zero_group             # every command topic of a group zeroed (a dead gateway's)
         self.owners = stations
         self.holders: dict[str, object] = {}     # group -> session
         self.since: dict[str, float] = {}
@@ -419,6 +424,15 @@ class Lease(Hook):
 
     def unhalted_elsewhere(self, group: str) -> None:
         self.halted.pop(group, None)
+        self._announce()
+
+    def lapsed_elsewhere(self, group: str, hold) -> None:
+        """The gateway that held the group's lease died (its row lapsed, nobody gave it back): what its
+        driver left moving is zeroed from here, as that gateway's dead-man would have (one graph)."""
+        log.info('driver lease for %s lapsed (%s through a gateway that stopped answering): stopping it',
+                 group, hold.who)
+        if self.zero_group is not None:
+            self.zero_group(group)
         self._announce()
 
     def lost_elsewhere(self, group: str, hold) -> None:

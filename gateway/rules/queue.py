@@ -3,7 +3,10 @@ are seated, in order, at the next station that frees (a slot ends with none afte
 or the teacher releases it, a claim lapses).
 
 A place in line is a person's (rules.stations.person), kept in memory: walk-ins are of the
-moment. Someone who has no page connected for ``grace`` seconds leaves the line. While the
+moment. In a fleet (store.fleet) the line is one for every gateway: each tells the others who
+joined (with when: the line's order) and who left, and seats only the people who joined through
+it, when they come first: an earlier person in line is her own gateway's to seat. A gateway
+started later knows the people who join from then on. Someone who has no page connected for ``grace`` seconds leaves the line. While the
 line is not empty, ``/fleet/claim`` does not hand a free station to someone not in it (it
 would jump the line); ``Stations`` asks ``first_in_line``. The estimated wait of place k is
 when the k-th station frees by what the gateway knows: a booked slot's end (and the bookings
@@ -25,6 +28,7 @@ class Waiting:
     name: str
     since: float = field(default_factory=time.time)
     seen: float = field(default_factory=time.monotonic)
+    here: bool = True       # joined through this gateway (in a fleet, the others' are mirrored)
 
 
 class Queue:
@@ -32,6 +36,7 @@ class Queue:
         self.timetable, self.grace = timetable, grace
         self.line: list[Waiting] = []
         self.seated: dict[str, tuple[str, float]] = {}   # person -> (station, when), told once asked
+        self.fleet = None                                 # store.fleet.Fleet: the line shared
 
     def place(self, key: str) -> int | None:
         return next((i + 1 for i, w in enumerate(self.line) if w.person == key), None)
@@ -42,12 +47,26 @@ class Queue:
     def join(self, key: str, name: str) -> None:
         self.seated.pop(key, None)
         if self.place(key) is None:
-            self.line.append(Waiting(key, name))
+            w = Waiting(key, name)
+            self.line.append(w)
+            if self.fleet is not None:
+                self.fleet.notify('queue', person=key, name=name, since=w.since)
 
     def leave(self, key: str) -> bool:
         before = len(self.line)
         self.line = [w for w in self.line if w.person != key]
-        return len(self.line) != before
+        left = len(self.line) != before
+        if left and self.fleet is not None:
+            self.fleet.notify('queue', person=key, left=True)
+        return left
+
+    def heard(self, event: dict) -> None:
+        """Another gateway's line changed: someone joined there (in order of joining) or left."""
+        key = event['person']
+        self.line = [w for w in self.line if w.person != key]
+        if not event.get('left'):
+            self.line.append(Waiting(key, event['name'], event['since'], here=False))
+            self.line.sort(key=lambda w: w.since)
 
     def status(self, key: str, stations) -> dict:
         seated = self.seated.get(key)
@@ -81,17 +100,19 @@ class Queue:
         """Seat people in line at free stations, in order; (person, station) of each seated.
         People with no page connected for ``grace`` seconds leave the line first."""
         now = time.monotonic()
-        for w in list(self.line):
+        for w in [w for w in self.line if w.here]:   # another gateway's waiters are present there
             if w.person in present:
                 w.seen = now
             elif now - w.seen > self.grace:
-                self.line.remove(w)
+                self.leave(w.person)
         done = []
         for w in list(self.line):
+            if not w.here:
+                break           # she is first: her gateway seats her, then the line moves on here
             ns = stations.free_for(w.person)
             if ns is None:
                 continue
-            self.line.remove(w)
+            self.leave(w.person)
             self.seated[w.person] = (ns, time.time())
             done.append((w.person, w.name, ns))
         return done

@@ -254,6 +254,16 @@ class Safety(Hook):
             if temporary:
                 pub.detach(0)
 
+    def zero_topics(self, topics) -> int:
+        """Zero each (topic, type) of ``topics`` that is a velocity type, through the gateway's own
+        publisher: what another gateway of a fleet left moving when it died (its streams were its own)."""
+        count = 0
+        for topic, type in topics:
+            if type in self.types:
+                self._stop(topic, Stream(type, self.gateway.backend.msg_def(type)))
+                count += 1
+        return count
+
     def stop_session(self, session, where=None) -> int:
         """Zero every velocity topic this client left moving (those ``where(topic)`` accepts,
         when given); returns how many."""

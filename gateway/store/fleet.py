@@ -84,6 +84,7 @@ class Fleet:
         self.heard: dict[tuple[str, str], float] = {}   # when an event last changed a hold (monotonic)
         self.handlers: dict[str, list[Callable[[dict], None]]] = {}
         self.lost: dict[str, Callable[[str, Hold], None]] = {}   # kind -> fn(name, holder) on a hold lost
+        self.lapsed: dict[str, Callable[[str, Hold], None]] = {}  # kind -> fn(name, holder): its gateway died
         self.timekeeper = False
         self.booking_key = BOOKING_KEY
         self.notified = 0              # events sent (figures: none per command)
@@ -198,7 +199,15 @@ class Fleet:
                     seen[key] = self.others[key]
             elif at < now - 60:
                 del self.heard[key]
+        gone = [(key, h) for key, h in self.others.items() if key not in seen]
         self.others = seen
+        for (kind, name), h in gone:   # not given back (that is an event): it lapsed, its gateway is gone
+            fn = self.lapsed.get(kind)
+            if fn is not None:
+                try:
+                    fn(name, h)
+                except Exception:
+                    log.exception('fleet: a lapsed %s of %s', kind, name)
 
     def close(self) -> None:
         self._closing.set()

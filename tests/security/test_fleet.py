@@ -31,6 +31,10 @@ def test_claims_at_the_same_moment_get_one_yes(pair):
     fleet.claims_at_once(*pair)
 
 
+def test_the_walk_in_line_is_one_for_the_fleet(pair):
+    fleet.one_line(*pair)
+
+
 def test_a_stop_on_a_halts_a_student_driving_through_b(pair):
     fleet.stop_on_a_halts_b(*pair, fleet.client_follow)
 

@@ -127,6 +127,30 @@ def claims_at_once(a, b, rounds: int = 3) -> None:
                 wait_for(lambda c=c: owner_on(c, '/s01') is None, 10, what='/s01 free on both gateways')
 
 
+def one_line(a, b) -> None:
+    """The walk-in line is the fleet's: the teacher queues through B while both stations are held
+    through A; A lists her in its line, refuses the free station to anyone else, and when alice
+    gives hers back through A, B seats the teacher there (her turn) and the line is empty on A."""
+    def line_on(gw) -> list:
+        status, body = api(gw, 'GET', '/api/queue', token=TOKENS['operator2'])
+        assert status == 200, body
+        return body['line']
+    with Client(a.ws_url, TOKENS['operator']) as alice, Client(a.ws_url, TOKENS['operator2']) as bob, \
+            Client(b.ws_url, TOKENS['admin']) as teacher:
+        stations(teacher)
+        assert alice.call('/s01/fleet/claim')['values']['success'] is True
+        assert bob.call('/s02/fleet/claim')['values']['success'] is True
+        wait_for(lambda: announced(teacher)['owners'].keys() >= {'/s01', '/s02'}, 10, what='both held, on B')
+        status, body = api(b, 'POST', '/api/queue', {}, token=TOKENS['admin'])
+        assert status == 201 and body['place'] == 1, body
+        wait_for(lambda: line_on(a) == ['teacher'], 10, what="the teacher in A's line")
+        assert alice.call('/s01/fleet/release')['values']['success'] is True
+        wait_for(lambda: owner_on(teacher, '/s01') == 'teacher', 15, what='the teacher seated at /s01 by B')
+        wait_for(lambda: line_on(a) == [], 10, what="A's line empty")
+        for c, ns in ((teacher, '/s01'), (bob, '/s02')):
+            c.call(f'{ns}/fleet/release')
+
+
 def stop_on_a_halts_b(a, b, follow) -> None:
     """The teacher's Stop on A zeroes the station a student drives through B within STOP_BOUND,
     and nothing moves it after: her commands are refused until the teacher's Release and her new
@@ -192,8 +216,9 @@ def history_once(pair, postgres: str) -> None:
 
 
 def slot_ends_with_a_killed(a, b, follow) -> None:
-    """A slot booked through A seats its booker on B; A dies (SIGKILL): its claims lapse within
-    HOLD, and B's timekeeper ends the slot on time, refusing her commands and zeroing the robot."""
+    """A slot booked through A seats its booker on B; A dies (SIGKILL) while bob drives /s02 through
+    it: its claims and leases lapse within HOLD, B zeroes /s02's commands, and B's timekeeper ends
+    the slot on time, refusing her commands and zeroing the robot."""
     with Client(b.ws_url, TOKENS['operator']) as alice, Client(b.ws_url, TOKENS['viewer']) as watcher, \
             Client(a.ws_url, TOKENS['operator2']) as bob, Client(b.ws_url, TOKENS['admin']) as teacher:
         assert bob.call('/s02/fleet/claim')['values']['success'] is True    # bob drives /s02 through A
@@ -210,8 +235,12 @@ def slot_ends_with_a_killed(a, b, follow) -> None:
         answer = wait_for(lambda: (lambda v: v if 'bob' in v['message'] else None)(
             teacher.call('/s02/fleet/claim')['values']), 5)
         assert answer['success'] is False, answer
+        heard_s02 = follow(watcher, '/s02')
+        assert drive(bob, '/s02') is None
         a.stop(signal.SIGKILL)
         killed = time.monotonic()
+        # A's dead-man died with it: when its lease on /s02 lapses, B zeroes what bob left moving
+        heard_s02(is_zero_twist, HOLD + 3)
         # A's claims and leases lapse within HOLD of its death: the teacher on B claims /s02
         wait_for(lambda: teacher.call('/s02/fleet/claim')['values']['success'], 10, 0.1)
         assert time.monotonic() - killed < HOLD + 1.5
