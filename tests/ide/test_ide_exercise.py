@@ -27,18 +27,20 @@ def gw(start_gateway, tmp_path_factory):
     return start_gateway('--robot', 'turtlesim', '--exercises-dir', str(folder))
 
 
-def attempt_of(ide) -> str:
-    ide.page.wait_for_function('rosgateIde.exercise?.attempt')
-    return ide.page.evaluate('rosgateIde.exercise.attempt')
-
-
-def test_the_goal_reached_from_the_ide_passes(gw, ide_factory):
-    ide = ide_factory(gw, gw.http_url + '?exercise=east')
-    ide.page.wait_for_function("rosgateIde.programName === 'east'")
+def started(gw, ide_factory, exercise: str):
+    """The IDE opened on ``exercise`` (its start program loaded, connected) and its attempt started:
+    (the page, the attempt's id)."""
+    ide = ide_factory(gw, gw.http_url + f'?exercise={exercise}')
+    ide.page.wait_for_function("(name) => rosgateIde.programName === name", arg=exercise)
     ide.page.wait_for_selector('#exercise-start:not([disabled])')
     ide.page.wait_for_function("document.body.dataset.connection === 'connected'")
     ide.page.click('#exercise-start')
-    attempt = attempt_of(ide)
+    ide.page.wait_for_function('rosgateIde.exercise?.attempt')
+    return ide, ide.page.evaluate('rosgateIde.exercise.attempt')
+
+
+def test_the_goal_reached_from_the_ide_passes(gw, ide_factory):
+    ide, attempt = started(gw, ide_factory, 'east')
     ide.page.wait_for_function("document.body.dataset.attempt === 'passed'", timeout=20000)
     ide.page.click('#stop')
     status, result = api(gw, 'GET', f'/api/attempts/{attempt}')
@@ -48,12 +50,7 @@ def test_the_goal_reached_from_the_ide_passes(gw, ide_factory):
 
 
 def test_a_program_stopped_before_its_goal_fails(gw, ide_factory):
-    ide = ide_factory(gw, gw.http_url + '?exercise=far')
-    ide.page.wait_for_function("rosgateIde.programName === 'far'")
-    ide.page.wait_for_function("document.body.dataset.connection === 'connected'")
-    ide.page.wait_for_selector('#exercise-start:not([disabled])')
-    ide.page.click('#exercise-start')
-    attempt = attempt_of(ide)
+    ide, attempt = started(gw, ide_factory, 'far')
     ide.page.wait_for_function("rosgateIde.runner.state === 'running'")
     ide.page.click('#stop')
     ide.page.wait_for_function("document.body.dataset.attempt === 'failed'", timeout=15000)
