@@ -37,6 +37,7 @@ import threading
 import time
 from pathlib import Path
 
+from tests.bench.report import save
 from tests.support.rawsocket import server_frame
 
 REPO = Path(__file__).resolve().parents[2]
@@ -284,8 +285,7 @@ def main(argv: list[str]) -> int:
     finally:
         cam.stop()
         gw.stop()
-    if args.out:
-        Path(args.out).write_text(json.dumps(results, indent=2))
+    save(args.out, results)
     return 0
 
 

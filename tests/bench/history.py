@@ -41,6 +41,7 @@ from gateway.store import Store
 from gateway.web.history import FLUSH, History, _Tap
 from gateway.web.history_api import query
 
+from .report import save
 from .servers import machine_busy_s, start_rosgate
 
 STATIONS, TYPE = 30, 'sensor_msgs/msg/BatteryState'
@@ -194,9 +195,7 @@ def main(argv: list[str]) -> int:
           f"p95 {read['http_raw']['p95_ms']} ms, server CPU {read['http_raw']['server_cpu_ms']} ms a read; step=60 p50 {read['http_step60']['p50_ms']} ms; "
           f"in-process p50 {read['inprocess']['p50_ms']} ms; machine busy {read['machine_cpu_pct']} % of 200 "
           f"[bar: server CPU < {BAR_READ_MS:g} ms a read: {'ok' if ok_read else 'MISSED'}]")
-    if args.out:
-        with open(args.out, 'w') as f:
-            json.dump({'write': write, 'read': read}, f, indent=2)
+    save(args.out, {'write': write, 'read': read})
     return 0 if ok_write and ok_read else 1
 
 

@@ -23,8 +23,9 @@ import tempfile
 import threading
 import time
 
-from tests.support.process import GatewayProcess
+from tests.bench.report import save
 from tests.support.ide import CHROMIUM, CHROMIUM_ARGS
+from tests.support.process import GatewayProcess
 
 RUN = """async ({source, ns}) => {
   const py = await import('/js/pyrun.js');
@@ -219,7 +220,5 @@ def main(argv=None) -> int:
           f"the page itself {mem['page'] / 1e6:.1f} MB")
     for name, r in figures["rate"].items():
         print(f"rate {name:20}: {r['sent']:8.0f} commands/s sent, {r['received']:8.0f}/s received")
-    if args.out:
-        with open(args.out, "w") as f:
-            json.dump(figures, f, indent=1)
+    save(args.out, figures)
     return 0

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import json
 import statistics
+from pathlib import Path
 
 # The metrics most tables end with: the CPU of the server, the clients and the rest of the machine.
 CPU = [("server_cpu_pct", "srv CPU%"), ("client_cpu_pct", "cli CPU%"), ("other_cpu_pct", "other%")]
@@ -62,6 +64,12 @@ ROS_TITLES = dict(
              "test_msgs/srv/BasicTypes (example_interfaces is not on PyPI), C calls in flight",
     slow_consumer="5. Slow consumer: the camera node's images to 3 cbor subscribers, one stops reading",
 )
+
+
+def save(path: str | None, doc) -> None:
+    """A bench's figures as JSON at ``--out`` (nothing without it)."""
+    if path:
+        Path(path).write_text(json.dumps(doc, indent=1))
 
 
 def title(scenario: str, ros: bool = False) -> str:

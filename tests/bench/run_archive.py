@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import asyncio
-import json
 import shutil
 import sys
 import tempfile
@@ -28,6 +27,7 @@ from types import SimpleNamespace
 from gateway.runs.archive import Archive
 from gateway.store import Store
 
+from .report import save
 from .servers import machine_busy_s
 
 TICK = 0.01     # s between the hand-ins of each run's lines
@@ -105,9 +105,7 @@ def main(argv: list[str]) -> int:
           f"with the printing loop's own {w['printing_pct_of_core']} %; other load {w['other_cpu_pct']} %), "
           f"database {w['db_bytes'] / 2**20:.1f} MiB; the first run's output read back: "
           f"{w['kept_lines_first_run']} lines{' (cut at the cap)' if w['cut'] else ''} of {w['lines_per_run']} printed")
-    if args.out:
-        with open(args.out, 'w') as f:
-            json.dump(w, f, indent=2)
+    save(args.out, w)
     complete = w['cut'] or w['kept_lines_first_run'] == w['lines_per_run']
     return 0 if complete else 1
 

@@ -16,7 +16,6 @@ test driver's own round trips. The bars: 300 ms for blocks, 500 ms for Python, 2
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import signal
 import statistics
@@ -26,9 +25,9 @@ import threading
 import time
 
 from tests.bench.pyodide import RUN, open_ide
+from tests.bench.report import save
+from tests.support.ide import CHROMIUM, CHROMIUM_ARGS, PY_DRIVE, drive, program
 from tests.support.process import GatewayProcess
-from tests.support.ide import CHROMIUM, CHROMIUM_ARGS
-from tests.support.ide import PY_DRIVE, drive, program
 from tests.support.wait import wait_for
 
 NOTE_CLICK = """() => document.querySelector('#stop').addEventListener('click',
@@ -138,7 +137,5 @@ def main(argv=None) -> int:
         missed += worst > BARS[kind]
         print(f"stop {kind:7}: to the zero at the robot, median {statistics.median(ms):.0f} ms, "
               f"max {worst:.0f} ms over {len(ms)} (bar {BARS[kind]:.0f} ms)")
-    if args.out:
-        with open(args.out, "w") as f:
-            json.dump(figures, f, indent=1)
+    save(args.out, figures)
     return 1 if missed else 0
