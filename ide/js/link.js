@@ -3,7 +3,9 @@
 //
 // Seen: every PING_EVERY the page sends rosgate's `ping` op (docs/protocol.md); the `pong` gives
 // the round trip, and any frame from the gateway proves the link alive. A link that carries
-// nothing for SILENCE (three pongs missing: not a lost packet's retransmission) is lost (a TCP connection through an outage stays "open" for minutes):
+// nothing for SILENCE (three pongs missing: not a lost packet's retransmission), or for longer
+// where the gateway's own round trips are slow and uneven (a busy server: the silence() limit,
+// TCP's retransmission timeout, RFC 6298: SRTT + 4·RTTVAR, up to SILENCE_CAP), is lost (a TCP connection through an outage stays "open" for minutes):
 // the page says so within a second and drops the connection — what it queued is stale, and the
 // gateway stops the robot by itself when commands stop coming (its cmd timeout). A server that
 // does not know `ping` answers it with an error status: the page then relies on the socket alone.
@@ -18,6 +20,7 @@ import { t, num } from './i18n.js';
 
 export const PING_EVERY = 250;          // ms between pings
 export const SILENCE = 800;             // ms without a frame from the gateway: the link is lost
+const SILENCE_CAP = 5000;               // ms: the longest a slow gateway's own round trips may stretch it
 const LOOK_EVERY = 100;                 // ms between looks at the silence
 export const RETRY = { first: 150, factor: 2, cap: 800, jitter: 0.3 };   // ms; each delay ±30 %
 export const ATTEMPT_TIMEOUT = 2500;    // ms an attempt may go unanswered while the round trip is unknown
@@ -38,6 +41,8 @@ export class Link extends EventTarget {
     this.ros = null;
     this.state = 'idle';       // connecting | connected | lost
     this.rtt = null;           // ms, the last pong's round trip
+    this.srtt = null;          // ms, its smoothed mean and mean deviation (RFC 6298)
+    this.rttvar = 0;
     this.heardAt = null;       // performance.now() of the last frame from the gateway
     this.dataAt = null;        // ... of the last frame that was not a pong
     this.pings = true;         // the server answers pings (rosgate does)
@@ -161,8 +166,25 @@ export class Link extends EventTarget {
     // silence counts only where pings are answered (elsewhere a quiet link may be well), and not
     // in a hidden tab, whose timers the browser slows to one a second or less
     const hidden = typeof document !== 'undefined' && document.hidden;
-    if (this.pongs && !hidden && now - this.heardAt > SILENCE) { this._lose('silent'); return; }
+    if (this.pongs && !hidden && now - this.heardAt > this.silence()) { this._lose('silent'); return; }
     if (now - this.pinged >= PING_EVERY - LOOK_EVERY / 2) { this.pinged = now; this._ping(); }
+  }
+
+  _measured(rtt) {
+    this.rtt = rtt;
+    if (this.srtt === null) {
+      this.srtt = rtt;
+      this.rttvar = rtt / 2;
+    } else {
+      this.rttvar = 0.75 * this.rttvar + 0.25 * Math.abs(this.srtt - rtt);
+      this.srtt = 0.875 * this.srtt + 0.125 * rtt;
+    }
+  }
+
+  // How long the link may carry nothing before it counts as lost.
+  silence() {
+    if (this.srtt === null) return SILENCE;
+    return Math.min(SILENCE_CAP, Math.max(SILENCE, this.srtt + 4 * this.rttvar));
   }
 
   _heard(ros, m) {
@@ -171,7 +193,7 @@ export class Link extends EventTarget {
     this.heardAt = now;
     if (m?.op === 'pong') {
       this.pongs += 1;
-      if (typeof m.t === 'number') this.rtt = now - m.t;
+      if (typeof m.t === 'number') this._measured(now - m.t);
     } else if (m?.op === 'status' && m.id === PING_ID) {
       // not rosgate ("Unknown operation"): no pings, no silence detection; another refusal
       // (not signed in yet) leaves them on

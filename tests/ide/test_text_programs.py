@@ -131,9 +131,10 @@ def test_completion_offers_the_graph(ide):
     open_text(ide, "python")
     ide.page.click(".cm-content")
     ide.page.keyboard.type("rt.publish('/turtle1/cm")
-    item = ide.page.wait_for_selector(".cm-tooltip-autocomplete li:has-text('/turtle1/cmd_vel')")
+    item = ide.page.locator(".cm-tooltip-autocomplete li:has-text('/turtle1/cmd_vel')")
     assert TWIST in item.inner_text()
-    item.click()        # one event: the option shown is the one taken, however late the list redraws
+    # one event: the option shown is the one taken; a locator finds it again if the list redraws
+    item.click()
     ide.page.keyboard.type("', 'geometry_msgs/msg/Twist', {'li")      # ' steps over the closing quote
     fields = ".cm-tooltip-autocomplete li:has-text('linear')"
     try:    # the fields come from rosapi; a link the loaded machine dropped meanwhile is asked again

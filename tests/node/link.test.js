@@ -6,7 +6,7 @@ import { spawn } from 'node:child_process';
 import { once } from 'node:events';
 import { fileURLToPath } from 'node:url';
 import path from 'node:path';
-import { Link, RETRY, backoff } from '../../ide/js/link.js';
+import { Link, RETRY, SILENCE, backoff } from '../../ide/js/link.js';
 
 const root = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '..', '..');
 const python = process.env.ROSGATE_PYTHON || path.join(root, '.venv', 'bin', 'python');
@@ -44,6 +44,20 @@ test('backoff grows from RETRY.first to RETRY.cap, spread by the jitter', () => 
   assert.ok(cap * (1 + jitter) < 1100, 'an attempt starts within about a second of the link\'s return');
   const spread = new Set(Array.from({ length: 20 }, () => backoff(5)));
   assert.ok(spread.size > 10, 'pages do not knock at once');
+});
+
+test('the silence that counts as lost: SILENCE on a steady link, longer where the gateway is slow and uneven', () => {
+  const link = new Link('ws://127.0.0.1:1/');
+  assert.equal(link.silence(), SILENCE);                     // no round trip measured yet
+  for (let i = 0; i < 40; i++) link._measured(150 + (i % 2 ? 50 : -50));   // a home link: 150 ± 50 ms
+  assert.equal(link.silence(), SILENCE);
+  for (const rtt of [900, 60, 1400, 80, 1100, 70]) link._measured(rtt);     // a busy gateway's answers
+  const busy = link.silence();
+  assert.ok(busy > 2000 && busy <= 5000, `busy: ${busy} ms`);
+  for (let i = 0; i < 60; i++) link._measured(20);          // it recovers: back to SILENCE
+  assert.equal(link.silence(), SILENCE);
+  for (let i = 0; i < 20; i++) link._measured(i % 2 ? 20000 : 10);
+  assert.equal(link.silence(), 5000);                        // capped
 });
 
 test('a link shows its round trip, and heals by itself when the gateway comes back', async () => {
