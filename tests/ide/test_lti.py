@@ -77,9 +77,11 @@ def launch(page, url: str, landing: str):
 def teleop_ready(page, ns: str | None = None) -> str:
     page.wait_for_function("document.body?.dataset.ready === 'true'", timeout=20000)
     page.wait_for_function("document.body?.dataset.connection === 'connected'", timeout=10000)
-    page.wait_for_function("/^\\/s0[1-3]$/.test(document.querySelector('#ns').value)"
-                           + (f" && document.querySelector('#ns').value === '{ns}'" if ns else ''), timeout=10000)
-    return page.input_value('#ns')
+    # the station read in the same look that found it (the page may reload into it right after)
+    found = page.wait_for_function("(want) => { const v = document.querySelector('#ns')?.value;"
+                                   " return /^\\/s0[1-3]$/.test(v) && (!want || v === want) ? v : null; }",
+                                   arg=ns, timeout=10000)
+    return found.json_value()
 
 
 def refused(page, url: str) -> str:
