@@ -117,7 +117,7 @@ def test_fleet_claim_runs_the_program_on_the_claimed_robot(start_gateway, ide_fa
         ide.run()
         ide.wait_idle(timeout=20)
         assert "finished" in ide.console_text()
-        wait_for(lambda: abs(x("/s01") - (START + 1)) < 0.05, what="the /s01 turtle 1 m further")
+        wait_for(lambda: abs(x("/s01") - (START + 1)) < 0.05, timeout=30, what="the /s01 turtle 1 m further")
         assert abs(x("/s02") - START) < 1e-3
         ide.screenshot("ide-fleet-claimed")
 

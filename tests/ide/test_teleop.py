@@ -45,7 +45,6 @@ def test_joystick_drives_at_10_hz_and_release_stops(chromium, rover):
         sent = [(t, m) for t, m in cmd.since(t0) if t < t_release]
         assert all(m["linear"]["x"] >= 0 for t, m in sent)           # never backwards
         first = next(i for i, (t, m) in enumerate(sent) if m["linear"]["x"] > 0.3)   # full deflection
-        assert sent[first][0] - t0 < 1.0
         forward = sent[first:]
         assert all(m["linear"]["x"] > 0.3 for t, m in forward[1:]), forward
         assert all(abs(m["angular"]["z"]) < 0.05 for t, m in forward[1:]), forward
