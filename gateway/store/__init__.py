@@ -6,7 +6,8 @@ wait for the writer), or any URL SQLAlchemy speaks (``--db postgresql+psycopg://
 for a fleet of gateways that shares one place (``fleet``: leases, claims, stops, sign-ins, the
 timetable and one history, across gateways).
 
-Features declare their tables on ``METADATA`` (the schema, not state) where they live, and reach
+Features declare their tables on ``METADATA`` where they live, and the schema's versions
+(``schema.py``, alembic) make them: a database is brought to the newest version when it opens. They reach
 the database only through ``Store.run(fn)``: ``fn(connection)`` runs inside a transaction on the
 store's one worker thread, so the event loop never waits on a disk or a network and writes never
 race each other. ``Store.run_now(fn)`` is the same on the calling thread, for start-up and tests.
@@ -26,6 +27,7 @@ from typing import Callable, TypeVar
 import sqlalchemy as sa
 
 from ..settings import data_dir
+from . import schema
 
 log = logging.getLogger('rosgate.store')
 METADATA = sa.MetaData()
@@ -41,7 +43,7 @@ def _public(url: sa.engine.URL) -> str:
 
 
 class Store:
-    """One database, opened once per gateway; tables are created when it opens."""
+    """One database, opened once per gateway and brought to the newest schema version then."""
 
     def __init__(self, url: str | None = None):
         url = url or default_url()
@@ -57,8 +59,8 @@ class Store:
         if self.sqlite:
             sa.event.listen(self.engine, 'connect', _sqlite_pragmas)
         self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix='rosgate-store')
-        METADATA.create_all(self.engine)
-        log.info('store: %s', self.url)
+        self.revision = schema.upgrade(self.engine)
+        log.info('store: %s (schema %s)', self.url, self.revision)
 
     async def run(self, fn: Callable[[sa.Connection], T]) -> T:
         """fn(connection) in a transaction on the store's thread; the loop goes on meanwhile."""

@@ -7,15 +7,16 @@ import threading
 
 import sqlalchemy as sa
 
-from gateway.store import METADATA, Store
+from gateway.store import Store
 
-NOTES = sa.Table('test_store_notes', METADATA, sa.Column('id', sa.Integer, primary_key=True),
+NOTES = sa.Table('test_store_notes', sa.MetaData(), sa.Column('id', sa.Integer, primary_key=True),
                  sa.Column('text', sa.String(200), nullable=False))
 
 
 def test_sqlite_store_keeps_rows_across_a_reopen(tmp_path):
     url = f'sqlite:///{tmp_path}/sub/rosgate.db'
     store = Store(url)
+    NOTES.create(store.engine)
     caller = threading.get_ident()
 
     def write(conn):
@@ -36,6 +37,7 @@ def test_sqlite_store_keeps_rows_across_a_reopen(tmp_path):
 
 def test_a_failed_write_is_rolled_back_and_the_store_goes_on(tmp_path):
     store = Store(f'sqlite:///{tmp_path}/rosgate.db')
+    NOTES.create(store.engine)
 
     def half(conn):
         conn.execute(NOTES.insert(), [{'text': 'kept?'}])
