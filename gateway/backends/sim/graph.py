@@ -24,6 +24,7 @@ from ..base import (
     is_hidden,
 )
 from .actions import SimActionServer, SimClientGoal, SimServerGoal
+from .params import ParameterServices
 
 __all__ = ['Graph', 'Node', 'SimActionServer', 'SimClientGoal', 'SimServerGoal', 'resolve']
 
@@ -133,6 +134,7 @@ class Node:
         self.graph, self.namespace = graph, namespace
         self.name = resolve(name, namespace)
         self.params: dict[str, Any] = {}
+        self.param_descriptions: dict[str, dict] = {}   # name -> {description, constraints, read_only}
         self._param_hooks: dict[str, Callable[[Any], None]] = {}
         self._owned: set = set()
         self._tasks: set[asyncio.Task] = set()
@@ -215,8 +217,12 @@ class Node:
             goal.finish(STATUS_ABORTED, self.graph.default_result(goal.server.type))
 
     # parameters
-    def declare_parameter(self, name: str, value: Any, on_set: Callable[[Any], None] | None = None) -> None:
+    def declare_parameter(self, name: str, value: Any, on_set: Callable[[Any], None] | None = None,
+                          **description) -> None:
+        """description: what describe_parameters says of it (description, constraints, read_only)."""
         self.params[name] = value
+        if description:
+            self.param_descriptions[name] = description
         if on_set:
             self._param_hooks[name] = on_set
 
@@ -285,6 +291,7 @@ class Graph:
         if node.name in self._nodes:
             raise BackendError(f'a node named {node.name} already exists')
         self._nodes[node.name] = node
+        ParameterServices(node)   # as every ROS 2 node: <node>/get_parameters, set_parameters, ...
         return node
 
     def default_result(self, action_type: str) -> Message:
