@@ -128,6 +128,7 @@ class TopicFanout:
         self.renderers: dict[images.Target, Renderer] = {}
         self.renders = 0   # images rendered: at most one per message and target, however many take it
         self.closed = False
+        self.meter = None   # topicstats.Meter while a page is shown this topic's rate (it keeps the fan-out)
         self.handle = backend.subscribe(topic, type, self._on_message, cdr=True)
         self._cdr_wanted = False    # a subscriber takes cbor-raw: the backend keeps the CDR as received
 
@@ -165,7 +166,7 @@ class TopicFanout:
             return False
         sub.cancel()
         del self.subscribers[session.id]
-        if not self.subscribers and not self.watchers:
+        if self.unused:
             self.gateway.drop_fanout(self)
         else:
             self._want_cdr()
@@ -177,8 +178,19 @@ class TopicFanout:
         self.watchers[key] = (callback, target)
 
     def unwatch(self, key: object) -> None:
-        if self.watchers.pop(key, None) is not None and not self.subscribers and not self.watchers:
+        if self.watchers.pop(key, None) is not None and self.unused:
             self.gateway.drop_fanout(self)
+
+    def unmeter(self, meter) -> None:
+        """The topic is no longer measured (topicstats); the subscription goes if nobody else has it."""
+        if self.meter is meter:
+            self.meter = None
+            if self.unused and not self.closed:
+                self.gateway.drop_fanout(self)
+
+    @property
+    def unused(self) -> bool:
+        return not self.subscribers and not self.watchers and self.meter is None
 
     def _want_cdr(self) -> None:
         wanted = any(sub.compression == 'cbor-raw' for sub in self.subscribers.values())
@@ -217,6 +229,8 @@ class TopicFanout:
     def _on_message(self, msg: dict, cdr: bytes | None = None) -> None:
         """cdr: the message as the backend received it, for cbor-raw (else built from msg)."""
         self.last = msg
+        if self.meter is not None:
+            self.meter.count(msg, cdr)
         cache: dict[tuple, encode.Frames] = {}
         now = time.monotonic()
         targets: set[images.Target] = set()
