@@ -11,6 +11,7 @@ import contextlib
 import inspect
 import itertools
 import logging
+import time
 from collections import deque
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
@@ -53,8 +54,26 @@ class Topic:
 
     def retained(self) -> list[Message]:
         """What a late transient-local subscriber receives now, oldest first (a retained
-        callable is called for its message: a snapshot built only when someone joins)."""
-        return [m() if callable(m) else m for m in self.latched]
+        callable is called for its message: a snapshot built only when someone joins; one past
+        its publisher's QoS lifespan is no longer given)."""
+        now = time.monotonic()
+        out = []
+        for m in self.latched:
+            if isinstance(m, Lasting):
+                if m.until < now:
+                    continue
+                m = m.msg
+            out.append(m() if callable(m) else m)
+        return out
+
+
+class Lasting:
+    """A retained message of a publisher with a QoS lifespan (ROS 2's /rosout: 10 s), until when."""
+
+    __slots__ = ('msg', 'until')
+
+    def __init__(self, msg, until: float):
+        self.msg, self.until = msg, until
 
 
 class SimPublisher:
@@ -67,7 +86,7 @@ class SimPublisher:
     def publish(self, msg: Message) -> None:
         topic = self._topic
         if self.qos.transient_local:
-            topic.latched.append(msg)
+            topic.latched.append(Lasting(msg, time.monotonic() + self.qos.lifespan) if self.qos.lifespan else msg)
         for sub in tuple(topic.subscriptions):
             if sub.backlog:   # a newcomer gets the retained messages before this newer one
                 sub.catch_up()
