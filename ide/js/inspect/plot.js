@@ -58,16 +58,22 @@ export class Plot {
 
   // The numeric fields of a topic's first message, offered in the field menu.
   offerFields(topic) {
+    if (topic === this.offered) return;   // (the field's change on leaving it: the same topic)
+    this.offered = topic;
     this.els.field.replaceChildren();
     if (!topic) return;
     this.els.info.textContent = t('inspect.plot.reading', { topic });
+    this.offering?.close();
     const sub = this.wire.subscribe(topic, this.types.get(topic), (msg) => {
+      if (this.offering !== sub) return;   // a second message already on its way
+      this.offering = null;
       sub.close();
       const paths = leaves(msg).map(([p]) => p);
       this.els.field.replaceChildren(...paths.map((p) => new Option(p, p)));
       this.els.info.textContent = paths.length ? '' : t('inspect.plot.no.numbers', { topic });
       this.els.root.dataset.fields = String(paths.length);
     }, { queue_length: 1 }, (why) => { this.els.info.textContent = t('inspect.refused', { why }); });
+    this.offering = sub;
   }
 
   add(topic, path) {

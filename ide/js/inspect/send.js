@@ -15,6 +15,7 @@ export class Sender {
     this.callType = '';
     this.types = new Map();
     this.result = new Tree(els.call.result);
+    // (a field's change event comes again on leaving it: the same name keeps the form as filled)
     els.pub.topic.addEventListener('change', () => this.choosePublish(els.pub.topic.value.trim()));
     els.pub.type.addEventListener('change', () => this.buildPublish(els.pub.type.value.trim()));
     els.pub.send.addEventListener('click', () => this.publish());
@@ -32,6 +33,7 @@ export class Sender {
 
   async buildPublish(type) {
     const p = this.els.pub;
+    if (type && type === p.root.dataset.ready && this.pubForm) return;
     p.root.dataset.ready = '';
     if (!type) return;
     try {
@@ -63,6 +65,8 @@ export class Sender {
 
   async chooseService(service) {
     const c = this.els.call;
+    if (service && service === this.callService && c.root.dataset.ready) return;
+    this.callService = service;
     c.service.value = service;
     c.root.dataset.ready = '';
     c.result.replaceChildren();
