@@ -9,6 +9,7 @@ from gateway.backends.base import BackendError
 pytestmark = pytest.mark.asyncio(loop_scope='session')
 
 NODE = '/fibonacci_action_server'
+ADDER = '/add_two_ints_server'
 
 
 async def test_get_set(world):
@@ -87,18 +88,19 @@ async def test_parameter_services_set(world):
     try:
         done = await _call(backend, f'{NODE}/set_parameters', {'parameters': [
             {'name': 'step_interval', 'value': double},
-            {'name': 'step_interval', 'value': {'type': 4, 'string_value': 'fast'}},   # another type: refused
-            {'name': 'not_declared_here', 'value': {'type': 2, 'integer_value': 1}}]})
-        ok, wrong, undeclared = done['results']
+            {'name': 'step_interval', 'value': {'type': 4, 'string_value': 'fast'}}]})   # another type: refused
+        ok, wrong = done['results']
         assert ok == {'successful': True, 'reason': ''}
         assert not wrong['successful'] and 'type' in wrong['reason']
-        assert not undeclared['successful'] and 'declared' in undeclared['reason']
         assert await backend.get_param(NODE, 'step_interval') == 0.09
-        # all or nothing
-        atomic = await _call(backend, f'{NODE}/set_parameters_atomically', {'parameters': [
-            {'name': 'step_interval', 'value': {'type': 3, 'double_value': 0.5}},
-            {'name': 'not_declared_here', 'value': {'type': 2, 'integer_value': 1}}]})
+        # a node with ROS 2's defaults (every node has use_sim_time) takes no parameter it did not declare,
+        # and an atomic set is all or nothing
+        undeclared = {'name': 'not_declared_here', 'value': {'type': 2, 'integer_value': 1}}
+        done = await _call(backend, f'{ADDER}/set_parameters', {'parameters': [undeclared]})
+        assert not done['results'][0]['successful'] and 'declared' in done['results'][0]['reason']
+        atomic = await _call(backend, f'{ADDER}/set_parameters_atomically', {'parameters': [
+            {'name': 'use_sim_time', 'value': {'type': 1, 'bool_value': True}}, undeclared]})
         assert not atomic['result']['successful']
-        assert await backend.get_param(NODE, 'step_interval') == 0.09
+        assert await backend.get_param(ADDER, 'use_sim_time') is False
     finally:
         await backend.set_param(NODE, 'step_interval', before)

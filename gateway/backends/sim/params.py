@@ -96,6 +96,7 @@ class ParameterServices:
     def __init__(self, node):
         self.node = node
         self.kinds: dict[str, int] = {}   # a declared parameter's type (an empty list keeps its kind)
+        node.params.setdefault('use_sim_time', False)   # every ROS 2 node declares it
         for short, type in SERVICES.items():
             node.create_service(f'{node.name}/{short}', type, getattr(self, short))
 
