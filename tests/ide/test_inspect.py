@@ -1,4 +1,4 @@
-"""/inspect in Chromium against the sim's turtlesim: what a student sees (topics with their types and
+"""/inspect in Chromium against the sim's turtlesim and rover: what a student sees (topics with their types and
 rates, a live echo she can pause, the nodes and what each does, the graph, the /rosout log) and what
 she does there (a parameter set, a plot and its CSV, a message published, a service called), each
 checked by an independent roslibpy client. Elements are found by id and data attributes, not words.
@@ -18,7 +18,7 @@ ROW = "document.querySelector(\"#topics tbody tr[data-topic='{}']\")"
 
 @pytest.fixture(scope="module")
 def lab(start_gateway):
-    return start_gateway("--robot", "turtlesim", "--talker")
+    return start_gateway("--robot", "turtlesim", "--robot", "rover", "--talker")
 
 
 @pytest.fixture(scope="module")
@@ -49,6 +49,7 @@ def test_topics_echo_nodes_graph_and_log(context, lab, ros):
     try:
         pose = ROW.format("/turtle1/pose")
         page.wait_for_function(f"{pose}?.querySelector('td.type').textContent === 'turtlesim/msg/Pose'")
+        page.eval_on_selector("#topics tbody tr[data-topic='/turtle1/pose']", "r => r.scrollIntoView({block: 'nearest'})")
         page.wait_for_function(f"Number({pose}.dataset.rate) > 0 && {pose}.querySelector('td.pubs').textContent === '1'")
         assert "Hz" in page.eval_on_selector("#topics tbody tr[data-topic='/turtle1/pose'] td.rate", "e => e.textContent")
         assert page.text_content("#topics tbody tr[data-topic='/chatter'] td.type") == "std_msgs/msg/String"
@@ -68,6 +69,12 @@ def test_topics_echo_nodes_graph_and_log(context, lab, ros):
         assert page.get_attribute("#echo-card", "data-count") == paused
         page.click("#echo-pause")
         page.wait_for_function(f"Number(document.querySelector('#echo-card').dataset.count) > {paused}", timeout=20000)
+
+        # a camera's echo is its picture, made to measure by the gateway (at most 480 wide)
+        page.click("#topics tbody tr[data-topic='/camera/image_raw/compressed'] td.name")
+        page.wait_for_function("document.querySelector('#echo-image').naturalWidth > 0 && !document.querySelector('#echo-image').hidden")
+        assert 0 < page.evaluate("document.querySelector('#echo-image').naturalWidth") <= 480
+        assert "data" not in page.eval_on_selector_all("#echo-tree .k", "ks => ks.map(k => k.textContent)")
 
         # the nodes: what turtlesim publishes, subscribes to, serves; its parameters
         page.click("#nodes button[data-node='/turtlesim']")
@@ -89,11 +96,16 @@ def test_topics_echo_nodes_graph_and_log(context, lab, ros):
 
         # the log: turtlesim's lines (a spawn's among them), by level and by search
         ros.call("/spawn", "turtlesim/srv/Spawn", {"x": 2.0, "y": 2.0, "theta": 0.0, "name": ""})
+        ros.call("/reset_world", "std_srvs/srv/Empty")   # the rover says so in its log
         page.wait_for_function("[...document.querySelectorAll(\"#log li[data-node='turtlesim']\")]"
                                ".some(li => li.textContent.includes('Spawning turtle'))")
         page.select_option("#log-level", "30")
         page.wait_for_function("![...document.querySelectorAll('#log li')].some(li => li.dataset.level === 'info')")
         page.select_option("#log-level", "20")
+        page.wait_for_function("[...document.querySelector('#log-node').options].some(o => o.value === 'rover')")
+        page.select_option("#log-node", "rover")
+        assert set(page.eval_on_selector_all("#log li", "ls => ls.map(l => l.dataset.node)")) <= {"rover"}
+        page.select_option("#log-node", "")
         page.fill("#log-search", "Spawning")
         texts = page.eval_on_selector_all("#log li", "ls => ls.map(l => l.textContent)")
         assert texts and all("Spawning" in t for t in texts)
@@ -130,6 +142,9 @@ def test_parameters_plot_publish_and_call(context, lab, ros):
         lines = open(got.value.path()).read().splitlines()
         assert lines[0] == "time,unix,/turtle1/pose x" and len(lines) >= 6
         assert all(float(line.split(",")[2]) >= 0 for line in lines[1:] if line.split(",")[2])
+        with page.expect_download() as got:
+            page.click("#plot-png")
+        assert open(got.value.path(), "rb").read(8) == b"\x89PNG\r\n\x1a\n"
 
         # a Twist published from its form reaches the turtle's topic
         cmd = ros.watch("/turtle1/cmd_vel", "geometry_msgs/msg/Twist")
@@ -167,10 +182,17 @@ def test_a_phone_reads_the_same_page(chromium, lab):
         page = ctx.new_page()
         page.goto(lab.http_url + "inspect")
         page.wait_for_function(READY)
-        page.wait_for_function(f"Number({ROW.format('/turtle1/pose')}?.dataset.rate) > 0")
+        first = "document.querySelector('#topics tbody tr:first-child')"
+        page.wait_for_function(f"Number({first}?.dataset.rate) >= 0")
         assert page.evaluate("document.documentElement.scrollWidth <= innerWidth + 1"), "the page scrolls sideways"
-        assert page.is_visible("#jump") and page.is_visible("#topics tbody tr[data-topic='/turtle1/pose'] td.type")
-        assert not page.is_visible("#topics tbody tr[data-topic='/turtle1/pose'] td.bw")   # room for the rate
+        assert page.is_visible("#jump") and page.is_visible("#topics tbody tr:first-child td.type")
+        assert not page.is_visible("#topics tbody tr:first-child td.bw")   # room for the rate
+        # only the rows in view are measured: the last one when it is scrolled to
+        last = "document.querySelector('#topics tbody tr:last-child')"
+        page.wait_for_function(f"Number({first}.dataset.rate) >= 0 && Number({first}.dataset.pubs) >= 0")   # asked again since
+        assert page.evaluate(f"{last}.dataset.rate") is None
+        page.eval_on_selector("#topics tbody tr:last-child", "r => r.scrollIntoView()")
+        page.wait_for_function(f"{last}.dataset.rate !== undefined")
         page.click("#jump a[href='#nodes-card']")
         page.wait_for_function("document.querySelector(\"#nodes button[data-node='/turtlesim']\") !== null")
     finally:

@@ -132,6 +132,6 @@ export class TopicList extends EventTarget {
       row.cells.bw.textContent = bandwidth(r.bandwidths[i]);
       row.tr.dataset.rate = String(r.rates[i]);
     });
-    this.dispatchEvent(new CustomEvent('measured', { detail: topics.map((name, i) => ({ topic: name, rate: r.rates[i] })) }));
+    this.dispatchEvent(new CustomEvent('measured', { detail: topics.map((name, i) => ({ topic: name, rate: r.rates[i], bandwidth: r.bandwidths[i] })) }));
   }
 }
