@@ -74,15 +74,17 @@ $('#echo-publish').addEventListener('click', () => {
 });
 $('#graph-refresh').addEventListener('click', () => graph.refresh());
 
-// A live echo from the start: the first topic in view that carries a few messages a second (else
-// any), not the log (its part is below) nor TF, nor one of kilobytes a second (a camera, a cloud: a
-// phone's link), until the reader picks one.
+// A live echo from the start, until the reader picks one: the first topic in view that says where
+// the robot is (odometry, a pose), else one that carries a few messages a second (else any); not
+// the log (its part is below) nor TF, nor one of kilobytes a second (a camera, a cloud: a phone's link).
 const QUIET = new Set(['/rosout', '/parameter_events', '/tf', '/tf_static']);
 const LIGHT = 20000;   // bytes a second
+const STATES = ['nav_msgs/msg/Odometry', 'turtlesim/msg/Pose', 'geometry_msgs/msg/PoseStamped', 'sensor_msgs/msg/JointState'];
 topics.addEventListener('measured', (e) => {
   if (echo.topic) return;
   const live = e.detail.filter((m) => m.rate > 0 && m.bandwidth >= 0 && m.bandwidth < LIGHT && !QUIET.has(m.topic));
-  const first = live.find((m) => m.rate >= 2) ?? live[0];
+  const state = live.find((m) => STATES.includes(inspect.types.get(m.topic)));   // where the robot is: it moves
+  const first = state ?? live.find((m) => m.rate >= 2) ?? live[0];
   if (first) chooseTopic(first.topic, inspect.types.get(first.topic) ?? '');
 });
 

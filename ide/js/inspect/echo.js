@@ -29,6 +29,8 @@ export class Echo {
   setTopics(types) { this.types = types; }
 
   async show(topic, type) {
+    this.sub?.close();   // at once: a message of the topic shown before must not land under this one
+    this.sub = null;
     this.topic = topic;
     this.type = type;
     this.els.topic.value = topic;
@@ -41,7 +43,10 @@ export class Echo {
     this.els.root.dataset.topic = topic;
     this.els.root.dataset.count = '0';
     if (type && !IMAGE_TYPES.includes(type)) {
-      try { this.tree.setTypedefs((await this.wire.call('/rosapi/message_details', { type })).typedefs); } catch { /* shown as it comes */ }
+      let typedefs = null;
+      try { typedefs = (await this.wire.call('/rosapi/message_details', { type })).typedefs; } catch { /* shown as it comes */ }
+      if (topic !== this.topic) return;   // another was chosen meanwhile
+      if (typedefs) this.tree.setTypedefs(typedefs);
     }
     this._resubscribe();
   }
@@ -61,8 +66,9 @@ export class Echo {
     const image = IMAGE_TYPES.includes(this.type);
     const options = { throttle_rate: Number(this.els.rate.value), queue_length: 1 };
     if (image) options.image = { width: WIDTH, quality: 70 };
-    this.sub = this.wire.subscribe(this.topic, this.type || undefined, (msg) => this._message(msg, image), options,
-      (why) => { this.els.info.textContent = t('inspect.refused', { why }); });
+    const sub = this.wire.subscribe(this.topic, this.type || undefined, (msg) => { if (this.sub === sub) this._message(msg, image); },
+      options, (why) => { this.els.info.textContent = t('inspect.refused', { why }); });
+    this.sub = sub;
   }
 
   _message(msg, image) {
