@@ -139,6 +139,7 @@ def lidar(caller):
     msg.data = rec.tobytes()
     timer = node.create_timer(0.1, lambda: pub.publish(msg))
     caller.executor.add_node(node)
+    node.cloud = msg
     yield node
     caller.executor.remove_node(node)
     node.destroy_timer(timer)
@@ -163,3 +164,18 @@ async def test_a_real_clouds_points_thinned_for_a_page(gateway, lidar):
         xyz = raw[:, :12].copy().view('<f4').reshape(-1, 3)
         assert np.isfinite(xyz).all() and (xyz[:, 2] == 1.5).all() and 3.0 not in xyz[:, 1]   # row 3 had no returns
         assert (raw[:, 12:].copy().view('<u4').ravel() == 0x00ff8000).all()
+
+
+async def test_a_real_topics_rate_and_bandwidth_from_its_cdr(gateway, lidar):
+    """/rosgate/topic_stats on the rclpy backend: each message's size is its CDR as received."""
+    from rclpy.serialization import serialize_message
+    size = len(serialize_message(lidar.cloud))
+    with client(gateway) as ros:
+        wait_for(lambda: '/bot/points' in ros.get_topics(), 20)
+        stats = roslibpy.Service(ros, '/rosgate/topic_stats', 'rosgate_msgs/srv/TopicStatistics')
+
+        def measured():
+            v = stats.call(roslibpy.ServiceRequest({'topics': ['/bot/points']}), timeout=10)
+            return v if v['rates'][0] > 0 and v['windows'][0] >= 1 else None
+        v = wait_for(measured, 30, 0.3)
+        assert v['bandwidths'][0] == pytest.approx(v['rates'][0] * size, rel=1e-6), (v, size)
