@@ -1,10 +1,12 @@
 // A message as a folding tree (<details> per nested message): arrays longer than SHOWN items are
 // summarised (their length, and for numbers the smallest and largest), byte arrays (base64 in
-// JSON) by their size, long strings cut. A tree drawn again for the next message keeps the
-// branches the reader opened (by their path). Pure helpers (summary, leaves) are exported for tests.
+// JSON) by their size, long strings cut. Nested messages start open (three levels: the numbers of
+// an odometry's pose show), arrays folded; a tree drawn again for the next message keeps the
+// branches as the reader left them (by their path). Pure helpers (summary, leaves) are exported for tests.
 import { t, num } from '../i18n.js';
 
 export const SHOWN = 16;          // array items shown one by one
+const OPEN_DEPTH = 3;             // nested messages open at first down to pose.pose.position
 const LONG_STRING = 200;
 
 const isList = (v) => Array.isArray(v) || ArrayBuffer.isView(v);
@@ -63,7 +65,8 @@ function leaf(key, value) {
 export class Tree {
   constructor(el) {
     this.el = el;
-    this.open = new Set(['']);     // paths of the open branches
+    this.open = new Set();         // paths the reader opened
+    this.closed = new Set();       // ... and closed (nested messages start open to OPEN_DEPTH, arrays closed)
     this.bytes = new Set();        // fields that are byte arrays (uint8[], char[]: base64 in JSON)
   }
 
@@ -86,8 +89,10 @@ export class Tree {
   _branch(key, value, path) {
     const d = document.createElement('details');
     d.dataset.path = path;
-    d.open = this.open.has(path);
-    d.addEventListener('toggle', () => (d.open ? this.open.add(path) : this.open.delete(path)));
+    d.open = this.open.has(path) || (!this.closed.has(path) && !isList(value) && path.split('.').length <= OPEN_DEPTH);
+    d.addEventListener('toggle', () => {
+      if (d.open) { this.open.add(path); this.closed.delete(path); } else { this.open.delete(path); this.closed.add(path); }
+    });
     const s = document.createElement('summary');
     const k = document.createElement('span');
     k.className = 'k';
