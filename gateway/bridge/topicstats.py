@@ -48,12 +48,13 @@ MAX_KEPT = 4096      # arrivals kept per topic (a 1 kHz topic: the last 4 s)
 class Meter:
     """One topic's arrivals of the last WINDOW seconds: (time, bytes)."""
 
-    __slots__ = ('fan', 'since', 'arrivals', 'size', 'sampled_at', 'asked_at', 'unsized')
+    __slots__ = ('fan', 'since', 'arrivals', 'bytes', 'size', 'sampled_at', 'asked_at', 'unsized')
 
     def __init__(self, fan: TopicFanout, now: float):
         self.fan = fan
         self.since = now
-        self.arrivals: deque[tuple[float, int]] = deque(maxlen=MAX_KEPT)
+        self.arrivals: deque[tuple[float, int]] = deque()
+        self.bytes = 0             # the sizes of the arrivals kept, summed as they come and go
         self.size = 0              # the last measured size, for messages that come without CDR
         self.sampled_at = -1e9
         self.asked_at = now
@@ -72,21 +73,25 @@ class Meter:
                 except Exception:  # noqa: BLE001 (a type the backend cannot serialize: size unknown)
                     self.unsized = True
             size = self.size
-        self.arrivals.append((now, size))
+        arrivals = self.arrivals
+        if len(arrivals) == MAX_KEPT:
+            self.bytes -= arrivals.popleft()[1]
+        arrivals.append((now, size))
+        self.bytes += size
 
     def read(self, now: float) -> tuple[float, float, float]:
         """(rate, bandwidth, window) over the last WINDOW seconds."""
         start = max(self.since, now - WINDOW)
         arrivals = self.arrivals
         while arrivals and arrivals[0][0] < start:
-            arrivals.popleft()
+            self.bytes -= arrivals.popleft()[1]
         span = now - start
         if span <= 0:
             return 0.0, 0.0, 0.0
-        if len(arrivals) == arrivals.maxlen:   # a fast topic: the window is what is kept
+        if len(arrivals) == MAX_KEPT:   # a fast topic: the window is what is kept
             span = max(now - arrivals[0][0], 1e-3)
         rate = len(arrivals) / span
-        bandwidth = -1.0 if self.unsized else sum(size for _, size in arrivals) / span
+        bandwidth = -1.0 if self.unsized else self.bytes / span
         return rate, bandwidth, span
 
 
