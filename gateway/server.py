@@ -22,7 +22,7 @@ import tornado.ioloop
 
 from . import rules
 from .rules import grades, roster
-from .bridge import rosapi
+from .bridge import rosapi, topicstats
 from .bridge.gateway import Gateway
 from .exercises import Checker, Library
 from .runs import RunManager, start_runs
@@ -52,7 +52,9 @@ def start(gateway: Gateway, files: rules.Files) -> Parts:
     settings = gateway.settings
     runs, runs_socket = start_runs(gateway)
     checker = Checker(gateway)
-    gateway.install(rules.compose(gateway, files, reads=rosapi.handles, runs=runs, watched=checker.watching))
+    reads = lambda name: rosapi.handles(name) or name == topicstats.SERVICE   # noqa: E731 (what viewers may call)
+    gateway.install(rules.compose(gateway, files, reads=reads, runs=runs, watched=checker.watching))
+    topicstats.TopicStats(gateway)   # /rosgate/topic_stats: the rates /inspect shows
     recordings = start_recordings(gateway)
     checker.recorder = recordings
     history = start_history(gateway)

@@ -140,6 +140,8 @@ def _image(v):
 
 
 IMAGE = Check(_image)
+MAX_CLOUD_POINTS = 1_000_000
+CLOUD_POINTS = Check(_integer(1, MAX_CLOUD_POINTS))
 
 
 @dataclass(frozen=True, slots=True)
@@ -182,7 +184,7 @@ class Subscribe:
     OP: ClassVar[str] = 'subscribe'
     SPEC: ClassVar = {'topic': STR_REQ, 'id': ID, 'type': STR, 'throttle_rate': NONNEG,
                       'queue_length': NONNEG, 'fragment_size': FRAGMENT_SIZE, 'compression': COMPRESSION,
-                      'qos': OBJ, 'image': IMAGE}
+                      'qos': OBJ, 'image': IMAGE, 'points': CLOUD_POINTS}
     topic: str
     id: str | None = None
     type: str | None = None
@@ -192,6 +194,7 @@ class Subscribe:
     compression: str = 'none'
     qos: dict | None = None
     image: ImageSpec | None = None   # extension: a smaller or lower-quality JPEG of an image topic
+    points: int | None = None        # extension: a PointCloud2 thinned to at most this many points
 
 
 @dataclass(frozen=True, slots=True)

@@ -4,7 +4,7 @@ Each incoming message is encoded at most once per (compression, fragment_size, i
 same frames are queued to every subscriber's outbox; throttle_rate and queue_length are applied
 per subscriber at its queue (a throttled MarkerArray stream is merged rather than thinned:
 markers.py). An image made to measure (the ``image`` field of subscribe, the
-``/stream`` viewers) is rendered once per message and ``images.Target`` for all who asked, off
+``/stream`` viewers; a point cloud's ``points``: clouds.py) is rendered once per message and ``images.Target`` for all who asked, off
 the event loop (``Renderer``): a 640x480 JPEG made 320 wide takes ~5-13 ms and a 1080p raw image
 ~70-90 ms here, which at 30 Hz would stall every client; Pillow lets go of the GIL while it
 decodes, resizes and encodes, so a thread does it beside the loop. A message that arrives while
@@ -27,7 +27,9 @@ import logging
 import time
 from typing import TYPE_CHECKING, Any
 
-from . import encode, images, markers
+from protocol.ops import ImageSpec
+
+from . import clouds, encode, images, markers
 
 if TYPE_CHECKING:
     from .session import ClientSession
@@ -40,6 +42,13 @@ NEWEST_WINS = frozenset({
     'geometry_msgs/msg/PoseWithCovarianceStamped', 'nav_msgs/msg/Odometry', 'turtlesim/msg/Pose',
     'nav_msgs/msg/OccupancyGrid',
 })
+
+
+def made(msg: dict, type: str, target) -> bytes | dict:
+    """A message made to measure: a cloud thinned (clouds.py), an image or a map fitted (images.py)."""
+    if isinstance(target, clouds.Target):
+        return clouds.thin(msg, target.points)
+    return images.render(msg, type, target)
 
 
 class Subscriber:
@@ -64,8 +73,8 @@ class Subscriber:
         lengths = [o[1] for o in opts]
         self.queue_length = 1 if self.fanout.type in NEWEST_WINS else max(lengths) or default_queue_length
         self.compression, self.fragment_size = opts[-1][2], opts[-1][3]
-        spec = opts[-1][4] if len(opts[-1]) > 4 else None
-        self.image = images.Target.of(spec) if spec is not None else None
+        spec = opts[-1][4] if len(opts[-1]) > 4 else None   # an ImageSpec, a clouds.Target or None
+        self.image = images.Target.of(spec) if isinstance(spec, ImageSpec) else spec
 
     def deliver(self, frames: encode.Frames) -> None:
         outbox = self.session.outbox
@@ -93,7 +102,7 @@ class Renderer:
             self.waiting = msg   # replaces any message waiting before it
             return
         self.busy = True
-        future = asyncio.get_running_loop().run_in_executor(None, images.render, msg, self.fanout.type, self.target)
+        future = asyncio.get_running_loop().run_in_executor(None, made, msg, self.fanout.type, self.target)
         future.add_done_callback(functools.partial(self._done, msg))
 
     def _done(self, msg: dict, future: asyncio.Future) -> None:
@@ -128,6 +137,7 @@ class TopicFanout:
         self.renderers: dict[images.Target, Renderer] = {}
         self.renders = 0   # images rendered: at most one per message and target, however many take it
         self.closed = False
+        self.meter = None   # topicstats.Meter while a page is shown this topic's rate (it keeps the fan-out)
         self.handle = backend.subscribe(topic, type, self._on_message, cdr=True)
         self._cdr_wanted = False    # a subscriber takes cbor-raw: the backend keeps the CDR as received
 
@@ -165,7 +175,7 @@ class TopicFanout:
             return False
         sub.cancel()
         del self.subscribers[session.id]
-        if not self.subscribers and not self.watchers:
+        if self.unused:
             self.gateway.drop_fanout(self)
         else:
             self._want_cdr()
@@ -177,8 +187,19 @@ class TopicFanout:
         self.watchers[key] = (callback, target)
 
     def unwatch(self, key: object) -> None:
-        if self.watchers.pop(key, None) is not None and not self.subscribers and not self.watchers:
+        if self.watchers.pop(key, None) is not None and self.unused:
             self.gateway.drop_fanout(self)
+
+    def unmeter(self, meter) -> None:
+        """The topic is no longer measured (topicstats); the subscription goes if nobody else has it."""
+        if self.meter is meter:
+            self.meter = None
+            if self.unused and not self.closed:
+                self.gateway.drop_fanout(self)
+
+    @property
+    def unused(self) -> bool:
+        return not self.subscribers and not self.watchers and self.meter is None
 
     def _want_cdr(self) -> None:
         wanted = any(sub.compression == 'cbor-raw' for sub in self.subscribers.values())
@@ -209,7 +230,7 @@ class TopicFanout:
                 sub.deliver(self._encode(msg, sub.compression, sub.fragment_size))
             else:   # rare (a latched camera): rendered here, for this subscriber alone
                 try:
-                    result: bytes | images.ImageError = images.render(msg, self.type, sub.image)
+                    result: bytes | dict | images.ImageError = made(msg, self.type, sub.image)
                 except images.ImageError as e:
                     result = e
                 sub.deliver(self._encode_image(msg, result, sub.compression, sub.fragment_size))
@@ -217,6 +238,8 @@ class TopicFanout:
     def _on_message(self, msg: dict, cdr: bytes | None = None) -> None:
         """cdr: the message as the backend received it, for cbor-raw (else built from msg)."""
         self.last = msg
+        if self.meter is not None:
+            self.meter.count(msg, cdr)
         cache: dict[tuple, encode.Frames] = {}
         now = time.monotonic()
         targets: set[images.Target] = set()

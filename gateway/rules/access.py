@@ -9,6 +9,12 @@ publish, call, send_goal, advertise_service, advertise_action, param, programs; 
 topic, service or action, or None to ask about the role alone. It returns None (allowed) or the
 reason, which every path words the same.
 
+Parameters: a node's own ``<node>/set_parameters`` (and ``set_parameters_atomically``) and rosapi's
+``set_param``/``delete_param`` need the ``param`` permission (an admin's), which an operator (a
+student) has only for the nodes of a station she owns (``station_param``); a node's
+``get_parameters``, ``list_parameters``, ``describe_parameters`` and ``get_parameter_types`` are
+reads (a viewer's too). Judged by the service's name, as ROS 2 names them (``parameter_service``).
+
 ``owns(who, theirs)``: the one "admin or owner": an admin, or the thing is theirs; with auth off
 (``who`` None) everyone, as every request is an admin's then (``acts_as_admin``). ``is_admin(who)``: a signed-in admin
 (quotas, seeing everyone's), which nobody is with auth off. The role sets are named once here.
@@ -21,6 +27,36 @@ from .tokens import ROLES
 ADMINS = ('admin',)
 OPERATORS = ('operator', 'admin')     # those who may change things: drive, run, record, book
 EVERYONE = ROLES                      # every role may look
+
+
+PARAM_READS = frozenset({'list_parameters', 'get_parameters', 'get_parameter_types', 'describe_parameters'})
+PARAM_WRITES = frozenset({'set_parameters', 'set_parameters_atomically'})
+
+
+def parameter_service(name: str) -> str | None:
+    """'read' or 'param' for a node's parameter service (``/s01/turtlesim/set_parameters``), else None."""
+    leaf = name.rpartition('/')[2]
+    return 'param' if leaf in PARAM_WRITES else 'read' if leaf in PARAM_READS else None
+
+
+def parameter_node(name: str) -> str:
+    """The node whose parameters a name reaches: its service (``/s01/turtlesim/set_parameters``) or
+    rosapi's parameter name (``/s01/turtlesim:background_r``) -> ``/s01/turtlesim``."""
+    node, sep, _ = name.partition(':')
+    if not sep:
+        node = name.rpartition('/')[0]
+    return node if node.startswith('/') else '/' + node
+
+
+def station_param(stations, who, name: str) -> str | None:
+    """None when ``who`` owns the station the node of ``name`` is in, else why not (an operator
+    changes the parameters of her own station's nodes only)."""
+    node = parameter_node(name)
+    top = '/' + node.strip('/').split('/')[0]
+    if stations is not None and top in stations.stations() and stations.is_owner(who, top):
+        return None
+    return (f'{node} is not in a station of yours: role {role_of(who)} may change parameters only of its own '
+            'station\'s nodes (press "Claim a robot"), an admin any')
 
 
 def role_of(who) -> str | None:

@@ -20,7 +20,7 @@ from .stations import person_of
 from .names import ACTION_KINDS, LOCAL_HOSTS, action_of, host_name, is_ip, own_names, parse_globs, parse_networks, refuse, target
 from .sessions import SESSION_COOKIE, Sessions
 from ..settings import SecuritySettings
-from .access import role_of
+from .access import OPERATORS, parameter_service, role_of, station_param
 from .tokens import AuthError, Authenticator, Identity
 
 GATEWAY_ROLE = 'gateway'   # the role of what the gateway publishes itself (stops): passes the lease, never moves
@@ -45,9 +45,12 @@ SMALL_BODY = 64 * 1024   # bodies up to this size are read without a token (the 
 
 def permission(action: str, name: str, reads: Callable[[str], bool]) -> str:
     """The permission an action needs; calls of the gateway's own rosapi services (``reads``)
-    are reads, except the parameter writes."""
+    are reads, except the parameter writes; a node's parameter services (``access.parameter_service``)
+    are reads or parameter writes."""
     if action == 'call' and reads(name):
         return 'param' if name in WRITING_ROSAPI else 'read'
+    if action == 'call':
+        return parameter_service(name) or action
     return action
 
 
@@ -286,7 +289,12 @@ class SecurePolicy(Policy):
             if role is None:
                 return NOT_AUTHENTICATED
             need = permission(action, name, self.reads) if name is not None else action
-            if need not in PERMISSIONS.get(role, ()):
+            if need == 'param' and role in OPERATORS and need not in PERMISSIONS.get(role, ()) and name is not None:
+                # a student's own station's nodes: rosapi's writes are judged again by the parameter's name
+                why = None if name in WRITING_ROSAPI else station_param(self.stations, who, name)
+                if why is not None:
+                    return why
+            elif need not in PERMISSIONS.get(role, ()):
                 return f'role {role} may not {VERBS[need]} {name}' if name is not None else \
                     f'role {role} may not {VERBS[need]} this'
         return super().refusal(who, action, name)

@@ -1,7 +1,7 @@
 """The tornado application: every route in one place.
 
 ``/`` upgrades to the rosbridge websocket (``socket``) and, as a plain GET, serves the IDE;
-``/teleop``, ``/twin`` (the robot in 3D) and ``/class`` are the other pages; ``/health``; the JSON
+``/teleop``, ``/twin`` (the robot in 3D), ``/inspect`` (topics, nodes, log, parameters) and ``/class`` are the other pages; ``/health``; the JSON
 API apps (``/api/programs``, ``/api/runs``, ``/api/recordings``, ``/api/history``, ``/api/bookings``),
 the login pages and LTI's (``/lti/...``, with ``--lti``);
 web_video_server's camera URLs (``/stream``, ``/snapshot``, ``/stream_viewer``, ``/streams``: ``video``);
@@ -56,7 +56,7 @@ class HealthHandler(tornado.web.RequestHandler):
 
 
 class TeleopHandler(tornado.web.RequestHandler):
-    """GET /teleop, /twin: a page whose relative asset paths resolve from the root."""
+    """GET /teleop, /twin, /inspect: a page whose relative asset paths resolve from the root."""
 
     def initialize(self, page) -> None:
         self.page = page
@@ -98,6 +98,8 @@ def make_app(gateway: Gateway, parts) -> tornado.web.Application:
         (r'/teleop', TeleopHandler, {'page': settings.ide_dir / 'teleop.html'}),
         (r'/twin/', tornado.web.RedirectHandler, {'url': '/twin'}),
         (r'/twin', TeleopHandler, {'page': settings.ide_dir / 'twin.html'}),
+        (r'/inspect/', tornado.web.RedirectHandler, {'url': '/inspect'}),
+        (r'/inspect', TeleopHandler, {'page': settings.ide_dir / 'inspect.html'}),
         (r'/class/?', ClassHandler, {'gateway': gateway, 'page': settings.ide_dir / 'class.html'}),
         (r'/examples/(.*)', IdeFileHandler, {'path': str(settings.examples_dir)}),
     ]

@@ -27,7 +27,7 @@ from ..rules.names import forwarded
 # files, the build script) is for building them, and class.html only goes out through /class,
 # which checks who asks.
 PUBLIC_DIRS = frozenset({'blocks', 'css', 'generators', 'i18n', 'js', 'runtime', 'vendor'})
-PUBLIC_FILES = frozenset({'index.html', 'teleop.html', 'twin.html', 'toolbox.json'})
+PUBLIC_FILES = frozenset({'index.html', 'teleop.html', 'twin.html', 'inspect.html', 'toolbox.json'})
 # The IDE page is cross-origin isolated, so its Python worker may share memory with it
 # (SharedArrayBuffer: a blocked program wakes on the gateway's messages, ide/js/pyrun.js). Everything
 # the page loads is from the gateway itself; a page of another origin cannot embed these files.

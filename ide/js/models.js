@@ -1,6 +1,7 @@
 // The built-in models of the sim's robots (the rover, the turtle) for a robot without a
 // description, and the world's markers (walls, bounds) as three.js objects.
 import * as THREE from 'three';
+import { markerMesh } from './markers3d.js';
 
 export const COLOURS = { body: 0xf08c1a, turtle: 0x3fa34d, wheel: 0x444a55, warn: 0xffb300, danger: 0xe53935, scan: 0xff3b3b };
 const CUBE = 1, LINE_STRIP = 4, LINE_LIST = 5;
@@ -39,6 +40,7 @@ export function turtle() {
 }
 
 export function markerObject(m) {
+  if (![CUBE, LINE_STRIP, LINE_LIST].includes(m.type)) return markerMesh(m);   // every other type: markers3d.js
   const colour = new THREE.Color(m.color.r, m.color.g, m.color.b);
   let obj = null;
   if (m.type === CUBE) {

@@ -17,6 +17,7 @@ import { HomeEstimate } from './gohome.js';
 import { Link } from './link.js';
 import { mountRecorder } from './recorder.js';
 import { mountBooking } from './booking.js';
+import { watchGamepads } from './gamepad.js';
 import { t, num } from './i18n.js';
 
 const $ = (s) => document.querySelector(s);
@@ -24,6 +25,7 @@ const params = new URLSearchParams(location.search);
 const state = {
   ros: null,
   joy: { x: 0, y: 0, active: false },
+  pad: { x: 0, y: 0, active: false },        // a gamepad's left stick while its dead-man button is held
   keys: new Set(),
   timer: null,
   published: 0,
@@ -64,6 +66,7 @@ function connect() {
   link.addEventListener('lost', () => {
     state.keys.clear();
     state.joy = { x: 0, y: 0, active: false };
+    state.gamepad?.stop();
     if (state.timer) { clearInterval(state.timer); state.timer = null; }
     state.ros = null;
     setStatus('lost', t('status.lost.stopped'));
@@ -205,6 +208,7 @@ function command() {
   const k = state.keys;
   let lin = 0, ang = 0;
   if (state.joy.active) { lin = state.joy.y; ang = -state.joy.x; }
+  else if (state.pad.active) { lin = state.pad.y; ang = -state.pad.x; }
   if (k.size) {
     lin = (k.has('up') ? 1 : 0) - (k.has('down') ? 1 : 0);
     ang = (k.has('left') ? 1 : 0) - (k.has('right') ? 1 : 0);
@@ -241,7 +245,7 @@ function publish(lin, ang) {
   $('#cmd').textContent = t('teleop.cmd', { v: num(lin, 2), w: num(ang, 2) });
 }
 
-function active() { return state.joy.active || state.keys.size > 0; }
+function active() { return state.joy.active || state.pad.active || state.keys.size > 0; }
 
 // Starts the fixed-rate loop on the first input; stops it and sends zero when input ends.
 function update() {
@@ -276,6 +280,18 @@ function setupJoystick() {
   joy.on('end', () => { state.joy = { x: 0, y: 0, active: false }; update(); });
 }
 
+// A gamepad (gamepad.js): its left stick as the joystick's, within the same speed and limits, while
+// its dead-man button is held; let go, unplugged or hidden, the page sends its zero as on a release.
+function setupGamepad() {
+  state.gamepad = watchGamepads({
+    onInput: (pad) => { state.pad = pad; update(); },
+    onPad: (name) => {
+      $('#gamepad').hidden = !name;
+      $('#gamepad').textContent = name ? t('teleop.gamepad', { name: name.replace(/\s*\(.*$/, '') }) : '';
+    },
+  });
+}
+
 const KEYMAP = { ArrowUp: 'up', KeyW: 'up', ArrowDown: 'down', KeyS: 'down', ArrowLeft: 'left', KeyA: 'left', ArrowRight: 'right', KeyD: 'right' };
 
 function setupKeys() {
@@ -308,6 +324,7 @@ function setupKeys() {
 function stopAll() {
   state.keys.clear();
   state.joy = { x: 0, y: 0, active: false };
+  state.gamepad?.stop();   // held, the pad drives again only after its button is let go
   if (state.timer) { clearInterval(state.timer); state.timer = null; }
   if (state.advertised) publish(0, 0);   // a topic this page never drove gets nothing (the root
 }                                        // /cmd_vel before the page reloads into its station)
@@ -515,6 +532,7 @@ setupRobot();
 if (params.get('topic')) $('#topic').value = params.get('topic');
 setupKeys();
 setupJoystick();
+setupGamepad();
 setupDashboard();
 connect();
 document.body.dataset.ready = 'true';

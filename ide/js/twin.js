@@ -16,6 +16,7 @@ import { Frames } from './frames.js';
 import { MapLayer } from './map3d.js';
 import { mapSubscribe } from './grid.js';
 import { offerGoals } from './goal.js';
+import { Drawables } from './drawables.js';
 import { t, tn, num } from './i18n.js';
 
 const params = new URLSearchParams(location.search);
@@ -146,6 +147,7 @@ function onTf(msg) {
   twin.frames.update(msg);
   placeByTf();
   twin.map?.place();
+  twin.drawables?.onTf();
 }
 
 function follow(before, x, y, yaw) {
@@ -313,6 +315,8 @@ async function start(ros) {
     $('#model').textContent = state.error;
   }
   listen(ros, name('/world/markers'), 'visualization_msgs/msg/MarkerArray', onMarkers);
+  twin.drawables = new Drawables(twin, ns);   // point clouds, markers, goals (drawables.js)
+  twin.drawables.attach(ros, types);
   twin.goals = await offerGoals(ros, twin, {
     ns, frame: () => twin.map.frame || state.rootFrame || 'map', onState: (text) => { state.goal = text; notice(text); },
   });

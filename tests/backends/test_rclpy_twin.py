@@ -114,3 +114,68 @@ async def test_the_meshes_are_served_and_escapes_refused(gateway):
                  '/package/testbot/package.xml/..', '/package/testbot/.git/config'):
         status, body = get(gateway.port, path)
         assert status in (403, 404) and b'root:' not in body, (path, status)
+
+
+@pytest.fixture
+def lidar(caller):
+    """A real rclpy node publishing a 16x2000 organised PointCloud2 (x, y, z, rgb; NaN where a beam had
+    no return) at 10 Hz."""
+    import numpy as np
+    from rclpy.node import Node
+    from sensor_msgs.msg import PointCloud2, PointField
+
+    node = Node('lidar', namespace='/bot', context=caller.context)
+    pub = node.create_publisher(PointCloud2, 'points', 5)
+    rec = np.zeros((16, 2000), dtype=[('x', '<f4'), ('y', '<f4'), ('z', '<f4'), ('rgb', '<u4')])
+    rec['x'] = np.arange(2000)[None, :] * 0.01
+    rec['y'] = np.arange(16)[:, None]
+    rec['z'] = 1.5
+    rec['rgb'] = 0x00ff8000
+    rec['x'][3, :] = np.nan
+    msg = PointCloud2(height=16, width=2000, is_bigendian=False, point_step=16, row_step=16 * 2000, is_dense=False,
+                      fields=[PointField(name=n, offset=4 * i, datatype=7 if n != 'rgb' else 6, count=1)
+                              for i, n in enumerate(('x', 'y', 'z', 'rgb'))])
+    msg.header.frame_id = 'lidar'
+    msg.data = rec.tobytes()
+    timer = node.create_timer(0.1, lambda: pub.publish(msg))
+    caller.executor.add_node(node)
+    node.cloud = msg
+    yield node
+    caller.executor.remove_node(node)
+    node.destroy_timer(timer)
+    node.destroy_node()
+
+
+async def test_a_real_clouds_points_thinned_for_a_page(gateway, lidar):
+    import base64
+
+    import numpy as np
+    with client(gateway) as ros:
+        wait_for(lambda: '/bot/points' in ros.get_topics(), 20)
+        clouds = []
+        ros.on('/bot/points', clouds.append)
+        ros.send_on_ready(roslibpy.Message({'op': 'subscribe', 'id': 'thin', 'topic': '/bot/points',
+                                            'type': 'sensor_msgs/msg/PointCloud2', 'points': 1000}))
+        wait_for(lambda: clouds, 20)
+        cloud = clouds[0]['msg'] if 'msg' in clouds[0] else clouds[0]
+        assert (cloud['height'], cloud['width'], cloud['point_step']) == (1, 1000, 16)
+        assert [f['name'] for f in cloud['fields']] == ['x', 'y', 'z', 'rgb'] and cloud['header']['frame_id'] == 'lidar'
+        raw = np.frombuffer(base64.b64decode(cloud['data']), np.uint8).reshape(-1, 16)
+        xyz = raw[:, :12].copy().view('<f4').reshape(-1, 3)
+        assert np.isfinite(xyz).all() and (xyz[:, 2] == 1.5).all() and 3.0 not in xyz[:, 1]   # row 3 had no returns
+        assert (raw[:, 12:].copy().view('<u4').ravel() == 0x00ff8000).all()
+
+
+async def test_a_real_topics_rate_and_bandwidth_from_its_cdr(gateway, lidar):
+    """/rosgate/topic_stats on the rclpy backend: each message's size is its CDR as received."""
+    from rclpy.serialization import serialize_message
+    size = len(serialize_message(lidar.cloud))
+    with client(gateway) as ros:
+        wait_for(lambda: '/bot/points' in ros.get_topics(), 20)
+        stats = roslibpy.Service(ros, '/rosgate/topic_stats', 'rosgate_msgs/srv/TopicStatistics')
+
+        def measured():
+            v = stats.call(roslibpy.ServiceRequest({'topics': ['/bot/points']}), timeout=10)
+            return v if v['rates'][0] > 0 and v['windows'][0] >= 1 else None
+        v = wait_for(measured, 30, 0.3)
+        assert v['bandwidths'][0] == pytest.approx(v['rates'][0] * size, rel=1e-6), (v, size)

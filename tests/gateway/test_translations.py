@@ -68,7 +68,7 @@ def page_words(page: Path) -> Words:
 def code_keys() -> set[str]:
     """Keys the scripts pass to t() / tn() as literals, and the %{BKY_...} references."""
     keys = set()
-    for js in (IDE / 'js').glob('*.js'):
+    for js in (IDE / 'js').rglob('*.js'):   # the pages' parts in folders (js/inspect/) too
         text = js.read_text()
         for m in re.finditer(r"\bt\(\s*'([^'$]+)'", text):
             keys.add(m.group(1))
@@ -118,7 +118,7 @@ def test_no_script_writes_english_words_outside_t():
     """Words a script shows (an element's text or title, the console's statuses, the twin's
     notices) come from t(): a literal with words there is English in every language."""
     loose = []
-    for js in sorted((IDE / 'js').glob('*.js')):
+    for js in sorted((IDE / 'js').rglob('*.js')):
         text = js.read_text()
         for m in SHOWN.finditer(text):
             words = re.sub(r'<[^>]*>', ' ', literal(text, m.end()))

@@ -207,6 +207,22 @@ def test_twin_draws_or_says_why_not(engine, lab):
     assert orange > 100, f"{engine.name}: {orange} orange pixels"
 
 
+def test_inspect_shows_topics_a_live_echo_and_nodes(engine, lab):
+    engine.open(lab.http_url + "inspect")
+    engine.wait(READY, 30, "/inspect ready and connected")
+    row = "document.querySelector(\"#topics tbody tr[data-topic='/odom']\")"
+    engine.wait(f"{row}?.querySelector('td.type').textContent === 'nav_msgs/msg/Odometry' && Number({row}.dataset.rate) > 0",
+                30, "/odom listed with its type and a rate")
+    engine.click("#topics tbody tr[data-topic='/odom'] td.name")
+    engine.wait("document.querySelector('#echo-card').dataset.topic === '/odom'"
+                " && Number(document.querySelector('#echo-card').dataset.count) >= 2", 30, "a live echo of /odom")
+    assert "child_frame_id" in engine.js("document.querySelector('#echo-tree').textContent")
+    engine.wait("document.querySelector(\"#nodes button[data-node='/rover']\") !== null", what="the rover among the nodes")
+    engine.click("#nodes button[data-node='/rover']")
+    engine.wait("document.querySelector('#params-box').dataset.params > 0", 30, "the rover's parameters")
+    assert engine.js("!!document.querySelector(\"#params tr[data-param='max_linear_velocity']\")")
+
+
 def test_login_signs_in_and_opens_the_ide(engine, signed):
     engine.open(signed.http_url + "login?next=%2F")
     engine.wait("document.querySelector('input[name=token]') !== null", what="the login form")

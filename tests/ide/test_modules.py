@@ -14,7 +14,7 @@ IDE = Path(__file__).resolve().parents[2] / "ide"
 MODULE_SCRIPT = re.compile(r'<script\s+type="module"\s+src="([^"]+)"')
 IMPORT = re.compile(r"""(?:^|\n)\s*(?:import|export)\s[^;]*?from\s+['"](\.{1,2}/[^'"]+)['"]"""
                     r"""|(?:^|\n)\s*import\s+['"](\.{1,2}/[^'"]+)['"]""")
-SOURCES = sorted(p for d in ("js", "runtime", "generators") for p in (IDE / d).glob("*.js"))
+SOURCES = sorted(p for d in ("js", "runtime", "generators") for p in (IDE / d).rglob("*.js"))   # js/inspect/ too
 
 
 def imports(path: Path) -> list[Path]:
@@ -26,7 +26,7 @@ def test_each_page_has_one_module_entry():
     pages = sorted(IDE.glob("*.html"))
     assert {p.name for p in pages} >= {"index.html", "teleop.html", "class.html", "twin.html"}
     entries = {p.name: MODULE_SCRIPT.findall(p.read_text()) for p in pages}
-    assert entries == {"class.html": ["js/class.js"], "index.html": ["js/main.js"],
+    assert entries == {"class.html": ["js/class.js"], "index.html": ["js/main.js"], "inspect.html": ["js/inspect.js"],
                        "teleop.html": ["js/teleop.js"], "twin.html": ["js/twin.js"]}
     for p in pages:   # and no inline module either
         assert len(re.findall(r'type="module"', p.read_text())) == 1, p.name

@@ -11,6 +11,7 @@ import contextlib
 import inspect
 import itertools
 import logging
+import time
 from collections import deque
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
@@ -24,6 +25,7 @@ from ..base import (
     is_hidden,
 )
 from .actions import SimActionServer, SimClientGoal, SimServerGoal
+from .params import ParameterServices
 
 __all__ = ['Graph', 'Node', 'SimActionServer', 'SimClientGoal', 'SimServerGoal', 'resolve']
 
@@ -52,8 +54,26 @@ class Topic:
 
     def retained(self) -> list[Message]:
         """What a late transient-local subscriber receives now, oldest first (a retained
-        callable is called for its message: a snapshot built only when someone joins)."""
-        return [m() if callable(m) else m for m in self.latched]
+        callable is called for its message: a snapshot built only when someone joins; one past
+        its publisher's QoS lifespan is no longer given)."""
+        now = time.monotonic()
+        out = []
+        for m in self.latched:
+            if isinstance(m, Lasting):
+                if m.until < now:
+                    continue
+                m = m.msg
+            out.append(m() if callable(m) else m)
+        return out
+
+
+class Lasting:
+    """A retained message of a publisher with a QoS lifespan (ROS 2's /rosout: 10 s), until when."""
+
+    __slots__ = ('msg', 'until')
+
+    def __init__(self, msg, until: float):
+        self.msg, self.until = msg, until
 
 
 class SimPublisher:
@@ -66,7 +86,7 @@ class SimPublisher:
     def publish(self, msg: Message) -> None:
         topic = self._topic
         if self.qos.transient_local:
-            topic.latched.append(msg)
+            topic.latched.append(Lasting(msg, time.monotonic() + self.qos.lifespan) if self.qos.lifespan else msg)
         for sub in tuple(topic.subscriptions):
             if sub.backlog:   # a newcomer gets the retained messages before this newer one
                 sub.catch_up()
@@ -133,6 +153,7 @@ class Node:
         self.graph, self.namespace = graph, namespace
         self.name = resolve(name, namespace)
         self.params: dict[str, Any] = {}
+        self.param_descriptions: dict[str, dict] = {}   # name -> {description, constraints, read_only}
         self._param_hooks: dict[str, Callable[[Any], None]] = {}
         self._owned: set = set()
         self._tasks: set[asyncio.Task] = set()
@@ -215,8 +236,12 @@ class Node:
             goal.finish(STATUS_ABORTED, self.graph.default_result(goal.server.type))
 
     # parameters
-    def declare_parameter(self, name: str, value: Any, on_set: Callable[[Any], None] | None = None) -> None:
+    def declare_parameter(self, name: str, value: Any, on_set: Callable[[Any], None] | None = None,
+                          **description) -> None:
+        """description: what describe_parameters says of it (description, constraints, read_only)."""
         self.params[name] = value
+        if description:
+            self.param_descriptions[name] = description
         if on_set:
             self._param_hooks[name] = on_set
 
@@ -285,6 +310,7 @@ class Graph:
         if node.name in self._nodes:
             raise BackendError(f'a node named {node.name} already exists')
         self._nodes[node.name] = node
+        ParameterServices(node)   # as every ROS 2 node: <node>/get_parameters, set_parameters, ...
         return node
 
     def default_result(self, action_type: str) -> Message:

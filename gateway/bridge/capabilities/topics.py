@@ -11,7 +11,7 @@ from protocol.msgdefs import normalize
 from protocol.ops import MAX_INT, MAX_SECONDS, Advertise, Publish, Subscribe, Unadvertise, Unsubscribe
 
 from ...backends.base import QoS
-from .. import images
+from .. import clouds, images
 
 if TYPE_CHECKING:
     from ..session import ClientSession
@@ -104,12 +104,19 @@ def subscribe(s: ClientSession, op: Subscribe) -> None:
         if op.compression == 'cbor-raw':
             raise ProtocolError("the field 'image' cannot be combined with cbor-raw (the topic's own bytes)",
                                 op=op.OP, id=op.id)
+    if op.points is not None:
+        if type != clouds.CLOUD:
+            raise ProtocolError(f"{topic} is {type}: the field 'points' applies to {clouds.CLOUD} topics",
+                                op=op.OP, id=op.id)
+        if op.image is not None or op.compression == 'cbor-raw':
+            raise ProtocolError("the field 'points' cannot be combined with 'image' or cbor-raw", op=op.OP, id=op.id)
+    measure = clouds.Target(op.points) if op.points is not None else op.image
     fan = s.gateway.fanout(topic, type)
     fresh = s.id not in fan.subscribers
     try:
-        sub = fan.add(s, op.id, (op.throttle_rate, op.queue_length, op.compression, op.fragment_size, op.image))
+        sub = fan.add(s, op.id, (op.throttle_rate, op.queue_length, op.compression, op.fragment_size, measure))
     except BaseException:   # release next to creation: a failed subscribe leaves no subscription
-        if not fan.subscribers:
+        if fan.unused:
             s.gateway.drop_fanout(fan)
         raise
     s.subscriptions[topic] = sub

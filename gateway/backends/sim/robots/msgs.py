@@ -7,6 +7,8 @@ import math
 import time
 from typing import Any
 
+from ...base import QoS
+
 Message = dict[str, Any]
 IDENTITY_Q = {'x': 0.0, 'y': 0.0, 'z': 0.0, 'w': 1.0}
 LOG_LEVELS = {logging.DEBUG: 10, logging.INFO: 20, logging.WARNING: 30, logging.ERROR: 40}
@@ -51,13 +53,17 @@ def set_latched(pub, msg) -> None:
     pub.retain(msg)
 
 
+ROSOUT = QoS(depth=1000, reliable=True, transient_local=True, lifespan=10.0)   # rcl's rosout profile
+
+
 class RosLog:
-    """A node's logger: Python logging plus rcl_interfaces/msg/Log on /rosout, as a ROS node logs."""
+    """A node's logger: Python logging plus rcl_interfaces/msg/Log on /rosout, as a ROS node logs
+    (with rcl's QoS for it: a subscriber that joins gets the lines of the last 10 seconds)."""
 
     def __init__(self, node, name: str):
         self.name = name  # the logger name ROS would use: the node name without leading '/'
         self.log = logging.getLogger('rosgate.sim.' + name.replace('/', '.'))
-        self.pub = node.create_publisher('/rosout', 'rcl_interfaces/msg/Log')
+        self.pub = node.create_publisher('/rosout', 'rcl_interfaces/msg/Log', ROSOUT)
 
     def __call__(self, level: int, text: str, function: str = '') -> None:
         self.log.log(level, '[%s]: %s', self.name, text)

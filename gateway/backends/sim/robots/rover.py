@@ -4,7 +4,8 @@ Node ``rover``. In: ``cmd_vel`` (geometry_msgs/msg/Twist, or TwistStamped with t
 0.5 s command timeout, velocity and acceleration limits (node parameters). Out: ``odom``,
 ``tf`` (odom -> base_link), ``tf_static``, ``scan`` (360 beams), ``imu``, ``battery_state``,
 ``motor/left|right/temperature``, ``bumper`` (std_msgs/msg/Bool, true while touching a wall),
-``camera/image_raw/compressed`` (JPEG, first-person), ``robot_description`` and ``joint_states``
+``camera/image_raw/compressed`` (JPEG, first-person), ``points`` (sensor_msgs/msg/PointCloud2 of a
+16-ring 3D lidar: depth.py), ``robot_description`` and ``joint_states``
 (its URDF and wheel joints, as a real robot: body.py). Service ``reset_world`` (std_srvs/srv/Empty).
 Hitting a wall stops the rover (its commanded speed too; a new command is needed).
 Costly outputs (scan, camera, odometry) are computed only while someone subscribes.
@@ -20,6 +21,7 @@ from ...base import BackendError, QoS
 from . import markers as mk
 from .body import Body
 from .camera import Camera
+from .depth import DepthSensor
 from .msgs import RosLog, has_subscribers, header, normalize_angle, stamp, transform, vector3, yaw_quaternion
 from .world import World
 
@@ -47,6 +49,7 @@ class Rover:
         self.hub, self.world, self.speed, self.twist_stamped = hub, world, speed, twist_stamped
         self.log = RosLog(node, node.name.lstrip('/').replace('/', '.'))
         self.camera = Camera(world)
+        self.depth = DepthSensor(world)
         self.limits = dict(PARAMS)
         for key, value in PARAMS.items():
             node.declare_parameter(key, value, on_set=lambda v, key=key: self.check_limit(key, v))
@@ -65,13 +68,15 @@ class Rover:
                           for side in ('left', 'right')]
         self.bumper_pub = pub('bumper', 'std_msgs/msg/Bool', QoS(depth=10))
         self.camera_pub = pub('camera/image_raw/compressed', 'sensor_msgs/msg/CompressedImage', SENSOR)
+        self.points_pub = pub('points', 'sensor_msgs/msg/PointCloud2', SENSOR)
         self.prefix = '' if namespace == '/' else namespace.strip('/') + '/'
         self.body = Body(node, TRACK)
         self.tf_static_pub.publish({'transforms': [
             transform('world', self.prefix + 'odom', *world.start[:2], 0.0, world.start[2]),
             transform(self.prefix + 'base_link', self.prefix + 'base_scan', 0.0, 0.0, 0.17, 0.0),
             transform(self.prefix + 'base_link', self.prefix + 'imu_link', 0.0, 0.0, 0.05, 0.0),
-            transform(self.prefix + 'base_link', self.prefix + 'camera_link', 0.08, 0.0, 0.15, 0.0)]})
+            transform(self.prefix + 'base_link', self.prefix + 'camera_link', 0.08, 0.0, 0.15, 0.0),
+            transform(self.prefix + 'base_link', self.prefix + 'lidar_link', 0.0, 0.0, 0.25, 0.0)]})
         self.robot_id = hub.robot_id(node.name)
         hub.set_static(mk.outline(1, world.width, world.height))
         for i, b in enumerate(world.boxes, start=1):
@@ -133,6 +138,8 @@ class Rover:
             self.publish_scan()
         if n % EVERY['camera'] == 5 and has_subscribers(self.camera_pub):
             self.publish_camera()
+        if n % EVERY['scan'] == 3 and has_subscribers(self.points_pub):
+            self.points_pub.publish(self.depth.message(header(self.prefix + 'lidar_link'), self.x, self.y, self.yaw))
         if n % EVERY['bumper'] == 0:
             self.publish_bumper()
         if n % EVERY['markers'] == 0:
