@@ -38,7 +38,7 @@ UINT32 = 2**32 - 1
 
 # binary opcodes: client -> server, server -> client
 CLIENT_MESSAGE_DATA, SERVICE_CALL_REQUEST, PLAYBACK_CONTROL = 0x01, 0x02, 0x03
-MESSAGE_DATA, TIME, SERVICE_CALL_RESPONSE, FETCH_ASSET_RESPONSE = 0x01, 0x02, 0x03, 0x04
+MESSAGE_DATA, SERVICE_CALL_RESPONSE, FETCH_ASSET_RESPONSE = 0x01, 0x03, 0x04   # (0x02: time, not sent)
 _MESSAGE_DATA = struct.Struct('<BIQ')
 _U32 = struct.Struct('<I')
 _CALL = struct.Struct('<III')
@@ -402,10 +402,6 @@ def status(level: str, message: str, id: str | None = None) -> bytes:
     return dumps(out)
 
 
-def remove_status(ids) -> bytes:
-    return dumps({'op': 'removeStatus', 'statusIds': list(ids)})
-
-
 def channel(id: int, topic: str, schema_name: str, schema: str) -> dict:
     """A server channel of a ROS 2 topic: CDR messages, a ros2msg schema."""
     return {'id': id, 'topic': topic, 'encoding': 'cdr', 'schemaName': schema_name, 'schema': schema,
@@ -469,10 +465,6 @@ def message_data_header(subscription_id: int, timestamp_ns: int) -> bytes:
 def service_call_response(service_id: int, call_id: int, encoding: str, payload: bytes) -> bytes:
     name = encoding.encode('utf-8')
     return b''.join((bytes((SERVICE_CALL_RESPONSE,)), _CALL.pack(service_id, call_id, len(name)), name, payload))
-
-
-def time(timestamp_ns: int) -> bytes:
-    return struct.pack('<BQ', TIME, timestamp_ns)
 
 
 def fetch_asset_response(request_id: int, data: bytes = b'', error: str | None = None) -> bytes:

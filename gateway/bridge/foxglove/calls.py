@@ -92,9 +92,9 @@ def _rule_name(s: FoxgloveSession, name: str, op) -> str:
     return f'{node}:{param}'
 
 
-def _readable(s: FoxgloveSession, op) -> None:
+def _readable(s: FoxgloveSession, op, work: bool = True) -> None:
     """A parameter or graph read: the gate, then the role's read permission."""
-    s.gate(op.OP, getattr(op, 'id', None))
+    s.gate(op.OP, getattr(op, 'id', None), work)
     why = s.gateway.policy.refusal(s, 'read', None)
     if why is not None:
         raise ProtocolError(why, op=op.OP, id=getattr(op, 'id', None))
@@ -122,7 +122,7 @@ def get_parameters(s: FoxgloveSession, op: fg.GetParameters) -> None:
 
 
 def set_parameters(s: FoxgloveSession, op: fg.SetParameters) -> None:
-    s.gate(op.OP, op.id)
+    s.gate(op.OP, op.id, work=True)
     for p in op.parameters:
         s.gateway.policy.check(s, 'param', _rule_name(s, p.name, op), op.OP, op.id)
 
@@ -152,8 +152,8 @@ def subscribe_parameters(s: FoxgloveSession, op: fg.SubscribeParameterUpdates) -
     for name in op.names:
         _rule_name(s, name, op)
 
-    async def follow() -> None:
-        s.param_subs.update(await _names(s, op, op.names))
+    async def follow() -> None:   # the parameters that exist (a client cannot make the hub poll made-up names)
+        s.param_subs.update(await s.hub.read(await _names(s, op, op.names)))
 
     s.spawn(follow(), op.OP, None)
 
@@ -169,7 +169,7 @@ def unsubscribe_parameters(s: FoxgloveSession, op: fg.UnsubscribeParameterUpdate
 # --- the connection graph and what this server lacks -------------------------------------------
 
 def subscribe_graph(s: FoxgloveSession, op: fg.SubscribeConnectionGraph) -> None:
-    _readable(s, op)
+    _readable(s, op, work=False)
     if s.graph is None:
         s.graph = EMPTY
         s.graph_changed(s.hub.graph())

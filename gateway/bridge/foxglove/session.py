@@ -109,9 +109,14 @@ class FoxgloveSession(ClientSession):
         for guard in self.gateway.guards:
             guard(self, op)
 
-    def gate(self, op: str, id: str | None = None) -> None:
-        """``admit`` for an op that names no topic or service: its rate and the sign-in."""
+    def gate(self, op: str, id: str | None = None, work: bool = False) -> None:
+        """``admit`` for an op that names no topic or service: its rate and the sign-in; ``work``:
+        it starts a task (parameters), which counts against --max-pending-calls as calls do."""
         self.admit(Gate(op, id))
+        limit = self.gateway.settings.security.max_pending_calls
+        if work and len(self.tasks) >= limit:
+            raise ProtocolError(f'this client already has {limit} calls and requests pending (--max-pending-calls)',
+                                op=op, id=id)
 
     def may(self, action: str, name: str | None) -> bool:
         return self.gateway.policy.refusal(self, action, name) is None

@@ -22,7 +22,6 @@ from protocol.convert import from_json
 from protocol.errors import ProtocolError
 
 from ...backends.base import QoS
-from ..capabilities.topics import absolute
 
 if TYPE_CHECKING:
     from .session import FoxgloveSession
@@ -122,9 +121,12 @@ def advertise(s: FoxgloveSession, op: fg.Advertise) -> None:
 def _advertise(s: FoxgloveSession, channel: fg.ClientChannel) -> None:
     if channel.id in s.client_channels:
         raise ProtocolError(f'channel {channel.id} is already advertised by this client (unadvertise it first)')
+    limit = s.gateway.settings.security.max_publishers
+    if len(s.client_channels) >= limit:
+        raise ProtocolError(f'this client already has {limit} channels (--max-publishers)')
     if channel.encoding not in fg.ENCODINGS:
         raise ProtocolError(f'encoding {channel.encoding!r} is not supported: publish in {" or ".join(fg.ENCODINGS)}')
-    topic = absolute(channel.topic)
+    topic = channel.topic if channel.topic.startswith('/') else '/' + channel.topic
     type = s.backend.msg_def(channel.schema_name).type   # unknown types fail here, naming the type
     s.admit(ops.Advertise(topic=topic, type=type, id=str(channel.id)))
     pub = s.publishers.get(topic)
