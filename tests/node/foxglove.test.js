@@ -445,7 +445,7 @@ describe('the Foxglove protocol under --auth', () => {
     const fox = new Fox(authUrl, { Cookie: cookie });
     try {
       await fox.channel('/turtle1/cmd_vel');
-      assert.ok(fox.services.size > 0);
+      await fox.until(() => fox.services.size > 0, 'the services an operator may call');
     } finally {
       await fox.close();
     }
