@@ -71,7 +71,7 @@ def turtle(rclpy_helpers):
 def test_foxglove_clients_on_the_jazzy_graph(turtle, rclpy_helpers, start_gateway, tokens_file):
     import roslibpy
 
-    gateway = start_gateway('--backend', 'rclpy', '--history', 'none', '--send-buffer-limit', '262144')
+    gateway = start_gateway('--backend', 'rclpy', '--history', 'none', '--send-buffer-limit', '262144', '--cmd-timeout', '0')
     locked = start_gateway('--backend', 'rclpy', '--history', 'none', '--auth', tokens_file, '--auth-timeout', '60')
     for gw, token in ((gateway, None), (locked, TOKENS['viewer'])):   # the turtle and the adder discovered first
         with client(gw, token=token) as ros:

@@ -126,20 +126,30 @@ class Fox {
 class Stalled {
   static async open(address) {
     const target = new URL(address);
-    const socket = net.connect(Number(target.port), target.hostname);
-    await once(socket, 'connect');
-    socket.write(`GET ${target.pathname} HTTP/1.1\r\nHost: ${target.host}\r\nUpgrade: websocket\r\n`
+    const stalled = new Stalled(net.connect(Number(target.port), target.hostname));
+    await once(stalled.socket, 'connect');
+    stalled.socket.write(`GET ${target.pathname} HTTP/1.1\r\nHost: ${target.host}\r\nUpgrade: websocket\r\n`
       + `Connection: Upgrade\r\nSec-WebSocket-Key: ${randomBytes(16).toString('base64')}\r\n`
       + 'Sec-WebSocket-Version: 13\r\nSec-WebSocket-Protocol: foxglove.websocket.v1\r\n\r\n');
-    let head = Buffer.alloc(0);
-    while (!head.includes('\r\n\r\n')) head = Buffer.concat([head, (await once(socket, 'data'))[0]]);
-    socket.pause();
-    const end = head.indexOf('\r\n\r\n') + 4;
-    assert.match(head.subarray(0, end).toString(), /^HTTP\/1.1 101[^]*Sec-WebSocket-Protocol: foxglove.websocket.v1/i);
-    return new Stalled(socket, head.subarray(end));
+    while (!stalled.buffer.includes('\r\n\r\n')) await stalled.more();
+    stalled.socket.pause();
+    const end = stalled.buffer.indexOf('\r\n\r\n') + 4;
+    assert.match(stalled.buffer.subarray(0, end).toString(), /^HTTP\/1.1 101[^]*Sec-WebSocket-Protocol: foxglove.websocket.v1/i);
+    stalled.buffer = stalled.buffer.subarray(end);
+    return stalled;
   }
 
-  constructor(socket, rest) { this.socket = socket; this.buffer = rest; }
+  constructor(socket) {
+    this.socket = socket;
+    this.buffer = Buffer.alloc(0);
+    this.wake = null;
+    socket.on('data', (chunk) => {   // one listener for the socket's life: no chunk is lost between reads
+      this.buffer = Buffer.concat([this.buffer, chunk]);
+      this.wake?.();
+    });
+  }
+
+  more() { return new Promise((resolve) => { this.wake = resolve; }); }
 
   send(op) {   // one masked text frame (a client's must be masked)
     const payload = Buffer.from(JSON.stringify(op));
@@ -159,12 +169,16 @@ class Stalled {
         if (frame) {
           frames.push(frame);
           if (check(frame)) return frames;
-          continue;
+        } else {
+          await this.more();
         }
-        this.buffer = Buffer.concat([this.buffer, (await once(this.socket, 'data'))[0]]);
       }
     };
-    return withTimeout(read(), WAIT, what);
+    return withTimeout(read(), WAIT, what).catch((e) => {
+      const texts = frames.filter((f) => f.text).map((f) => f.text.slice(0, 80));
+      throw new Error(`${e.message} (read ${frames.length} frames, ${this.buffer.length} bytes pending; `
+        + `texts ${JSON.stringify(texts)})`);
+    });
   }
 
   #frame() {
@@ -194,7 +208,7 @@ before(async () => {
   const tokens = path.join(dir, 'tokens.toml');
   writeFileSync(tokens, Object.entries(TOKENS).map(([role, token]) =>
     `[[tokens]]\nname = "${role}-fox"\nrole = "${role}"\ntoken = "${token}"\n`).join('\n'));
-  const open = await startGateway(['--robot', 'turtlesim', '--history', 'none', '--send-buffer-limit', '262144']);
+  const open = await startGateway(['--robot', 'turtlesim', '--history', 'none', '--send-buffer-limit', '262144', '--cmd-timeout', '0']);
   const locked = await startGateway(['--robot', 'turtlesim', '--history', 'none', '--auth', tokens, '--auth-timeout', '60']);
   started.push(open, locked);
   url = open.url;
@@ -382,8 +396,12 @@ describe('the Foxglove protocol', () => {
       const cmds = await watcher.subscribe('/turtle1/cmd_vel');
       const writer = await driver.writer(TWIST);
       const cmd = driver.client.advertise({ topic: '/turtle1/cmd_vel', encoding: 'cdr', schemaName: TWIST });
-      for (let i = 0; i < 3; i++) driver.client.sendMessage(cmd, writer.writeMessage(twist(0.8)));
-      await watcher.until(() => cmds.all().filter((m) => cmds.read(m).linear.x === 0.8).length === 3, 'three moving commands');
+      const timer = setInterval(() => driver.client.sendMessage(cmd, writer.writeMessage(twist(0.8))), 100);
+      try {   // a joystick held: commands until the watcher has seen three
+        await watcher.until(() => cmds.all().filter((m) => cmds.read(m).linear.x === 0.8).length >= 3, 'moving commands');
+      } finally {
+        clearInterval(timer);
+      }
       driver.ws.terminate();   // gone without a word, as a dropped link
       const zero = await watcher.until(() => {
         const all = cmds.all().map((m) => cmds.read(m));
