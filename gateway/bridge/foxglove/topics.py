@@ -66,6 +66,7 @@ class Outgoing:
     type: str
     encoding: str
     pub: Any   # bridge.gateway.SharedPublisher
+    op: ops.Publish   # each message as the policy's gate sees it (made once: it never changes)
 
 
 def _each(s: FoxgloveSession, op, items, one, ident) -> None:
@@ -136,7 +137,8 @@ def _advertise(s: FoxgloveSession, channel: fg.ClientChannel) -> None:
         s.publishers[topic] = pub
     elif pub.type != type:
         raise ProtocolError(f'{topic} is already advertised by this client with type {pub.type}')
-    s.client_channels[channel.id] = Outgoing(topic, type, channel.encoding, pub)
+    s.client_channels[channel.id] = Outgoing(topic, type, channel.encoding, pub,
+                                             ops.Publish(topic=topic, msg=NO_MESSAGE, id=str(channel.id), type=type))
 
 
 def unadvertise(s: FoxgloveSession, op: fg.Unadvertise) -> None:
@@ -154,7 +156,7 @@ def message_data(s: FoxgloveSession, op: fg.MessageData) -> None:
     if channel is None:
         raise ProtocolError(f'channel {op.channel_id} is not advertised by this client (advertise it first)',
                             id=str(op.channel_id))
-    s.admit(ops.Publish(topic=channel.topic, msg=NO_MESSAGE, id=str(op.channel_id), type=channel.type))
+    s.admit(channel.op)
     if channel.encoding == 'cdr':
         msg = s.backend.from_cdr(channel.type, op.data)
     else:
