@@ -34,6 +34,9 @@ if TYPE_CHECKING:
 log = logging.getLogger('rosgate.foxglove')
 PERIOD = 1.0          # s between looks at the graph while a Foxglove client is connected
 PARAM_PERIOD = 2.0    # s between reads of the parameters clients subscribed to
+# s before a type the gateway could not describe is tried again: on rclpy a type the install lacks
+# is asked of the graph's nodes, which may hold the loop for up to 3 s (backends/rclpy/graphtypes.py)
+UNKNOWN_RETRY = 60.0
 GONE = object()    # a parameter's value once it is unset
 
 
@@ -77,7 +80,7 @@ class Hub:
         self.values: dict[str, Any] = {}                # subscribed parameters' last values ('/node.param')
         self._ids = itertools.count(1)
         self._known: dict[tuple, int] = {}              # (kind, name, type) -> its id, kept for a comeback
-        self._unknown: set[tuple] = set()               # (name, type) not described: logged once
+        self._unknown: dict[tuple, float] = {}          # (name, type) not described -> when to try again
         self._task: asyncio.Task | None = None
         self._params_read = 0.0
 
@@ -131,7 +134,7 @@ class Hub:
             del self.channels[c.topic], self.channel_ids[c.id]
         added = []
         for topic, type in topics.items():
-            if topic not in self.channels:
+            if topic not in self.channels and self._may_try(topic, type):
                 channel = self._channel(topic, type)
                 if channel is not None:
                     added.append(channel)
@@ -142,7 +145,7 @@ class Hub:
             del self.services[s.name], self.service_ids[s.id]
         s_added = []
         for name, type in services.items():
-            if name not in self.services:
+            if name not in self.services and self._may_try(name, type):
                 service = self._service(name, type)
                 if service is not None:
                     s_added.append(service)
@@ -155,16 +158,22 @@ class Hub:
             found = self._known[key] = next(self._ids)
         return found
 
+    def _may_try(self, name: str, type: str) -> bool:
+        again = self._unknown.get((name, type))
+        return again is None or time.monotonic() >= again
+
     def _described(self, name: str, type: str, describe):
-        """describe() -> what it makes; None (logged once per name and type) when the gateway
-        does not know the type."""
+        """describe() -> what it makes; None when the gateway does not know the type (logged the
+        first time; tried again after UNKNOWN_RETRY)."""
         try:
-            return describe()
+            made = describe()
         except Exception as e:   # UnknownType, a type the backend cannot resolve: not offered
             if (name, type) not in self._unknown:
-                self._unknown.add((name, type))
                 log.warning('foxglove: %s is not offered: its type %s is not known here (%s)', name, type, e)
+            self._unknown[(name, type)] = time.monotonic() + UNKNOWN_RETRY
             return None
+        self._unknown.pop((name, type), None)
+        return made
 
     def _channel(self, topic: str, type: str) -> Channel | None:
         backend = self.gateway.backend
