@@ -139,3 +139,18 @@ def test_a_client_cannot_pile_up_channels_on_one_topic(gw):
         assert refusal['message'] == 'advertise (id 1001): this client already has 1000 channels (--max-publishers)'
     finally:
         fox.close()
+
+
+def test_the_sdk_subprotocol_is_the_same_wire_and_playback_control_is_refused(gw):
+    fox = Fox(gw.ws_url, TOKENS['viewer'], subprotocols=('foxglove.sdk.v1', 'foxglove.websocket.v1'))
+    try:
+        assert fox.subprotocol == 'foxglove.sdk.v1'
+        info = fox.expect(lambda m: isinstance(m, dict) and m.get('op') == 'serverInfo')
+        assert info['metadata']['ROS_DISTRO'] == 'jazzy'
+        sid = fox.subscribe('/turtle1/pose')
+        assert len(fox.message(sid)) == 4 + 5 * 4   # turtlesim/msg/Pose: five float32
+        fox.ws.send(b'\x03' + b'\x00' * 16)   # foxglove.sdk.v1's playback control request
+        assert fox.status('playbackControlRequest')['message'].endswith('it has no playbackControl capability')
+        assert len(fox.message(sid)) == 24   # and the connection carries on
+    finally:
+        fox.close()
