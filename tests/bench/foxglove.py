@@ -16,6 +16,10 @@ times (the median shown, with the min and max):
   3 rosbridge JSON subscribers (uint8[] as base64), 3 rosbridge CBOR subscribers and 3 Foxglove
   subscribers: the frames a second the slowest one got, and the gateway's CPU.
 
+``--backend rclpy`` runs the gateway on a Jazzy graph (in a loopback-only network namespace, as
+``make bench ARGS="--backend rclpy"``); the camera is then a plain rclpy node (tests/bench/rosnodes.py)
+and its points are 3 JSON, 3 CBOR, 3 cbor-raw and 3 Foxglove subscribers.
+
 Every row has the machine's other load beside it (``other%``: what the rest of the machine used
 meanwhile, 100 = one core; the 1-minute load average before the run is printed first).
 """
@@ -177,17 +181,27 @@ def _ms(ns: float | None) -> float | None:
     return None if ns is None else ns / 1e6
 
 
-async def camera(url: str, pid: int, kind: str, subscribers: int, seconds: float) -> dict:
-    """A 640x480 rgb8 camera at 30 Hz to ``subscribers`` of one ``kind`` (json, cbor, foxglove)."""
-    topic = f'/bench/camera_{kind}_{time.monotonic_ns()}'
+async def camera(url: str, pid: int, kind: str, subscribers: int, seconds: float, rclpy: bool = False) -> dict:
+    """A 640x480 rgb8 camera at 30 Hz to ``subscribers`` of one ``kind`` (json, cbor, cbor-raw,
+    foxglove): on the sim a Foxglove client publishes it in CDR; on rclpy a camera node does."""
+    topic = f'/bench/camera_{kind.replace("-", "_")}_{time.monotonic_ns()}'
     payload = image()
-    pub, prefix = await _fox_publisher(url, topic, payload.type)
-    frame = prefix + payload.cdr()
+    node = pub = None
+    if rclpy:
+        from tests.bench.rosgraph import ImageNode
+        node = ImageNode(topic, CAMERA_RATE)
+    else:
+        pub, prefix = await _fox_publisher(url, topic, payload.type)
+        frame = prefix + payload.cdr()
     counts = [0] * subscribers
     first = [asyncio.Event() for _ in range(subscribers)]
     subs, readers = [], []
 
     async def publish(until: float) -> int:
+        if node is not None:   # the node publishes by itself: what it sent meanwhile
+            before = await node.count()
+            await asyncio.sleep(max(0.0, until - time.monotonic()))
+            return await node.count() - before
         sent, next_at = 0, time.monotonic()
         while next_at < until:
             await pub.send(frame)
@@ -213,8 +227,8 @@ async def camera(url: str, pid: int, kind: str, subscribers: int, seconds: float
             else:
                 ws, channels = await _open(url, False), None
                 op = {'op': 'subscribe', 'topic': topic, 'type': payload.type}
-                if kind == 'cbor':
-                    op['compression'] = 'cbor'
+                if kind != 'json':
+                    op['compression'] = kind
                 await ws.send(orjson.dumps(op).decode())
             subs.append(ws)
             readers.append(asyncio.create_task(read(i, ws, channels)))
@@ -230,8 +244,10 @@ async def camera(url: str, pid: int, kind: str, subscribers: int, seconds: float
     finally:
         for r in readers:
             r.cancel()
-        for ws in (pub, *subs):
+        for ws in (*([pub] if pub is not None else []), *subs):
             await ws.close()
+        if node is not None:
+            node.stop()
     got = [c - s for c, s in zip(counts, start)]
     return {'published_hz': sent / seconds, 'slowest_hz': min(got) / seconds if got else None,
             'server_cpu_pct': figures['server_cpu_pct'],
@@ -257,8 +273,13 @@ def show(name: str, summary: dict, keys: list[str]) -> None:
 
 
 async def run(args) -> dict:
-    target = start_rosgate([*default_rosgate_args(), '--history', 'none', *args.rosgate_arg])
-    results: dict = {'loadavg_before': os.getloadavg(), 'rate': {}, 'camera': {}}
+    rclpy = args.backend == 'rclpy'
+    if rclpy:
+        from tests.bench.rosgraph import start_rosgate_rclpy
+        target = start_rosgate_rclpy(['--backend', 'rclpy', '--history', 'none', *args.rosgate_arg])
+    else:
+        target = start_rosgate([*default_rosgate_args(), '--history', 'none', *args.rosgate_arg])
+    results: dict = {'backend': args.backend, 'loadavg_before': os.getloadavg(), 'rate': {}, 'camera': {}}
     print(f'load average before: {results["loadavg_before"][0]:.2f} (1 min), {os.cpu_count()} cores', flush=True)
     try:
         if 'rate' in args.only:
@@ -270,9 +291,12 @@ async def run(args) -> dict:
                     show(f'{path} {size} B W={args.window}', summary,
                          ['msg_per_s', 'lat_p50_ms', 'lat_p95_ms', 'server_us_per_msg', 'other_cpu_pct'])
         if 'camera' in args.only:
-            for kind, count in (('foxglove', 0), ('json', 3), ('cbor', 3), ('foxglove', 3)):
+            points = ((('json', 3), ('cbor', 3), ('cbor-raw', 3), ('foxglove', 3)) if rclpy else
+                      (('foxglove', 0), ('json', 3), ('cbor', 3), ('foxglove', 3)))
+            for kind, count in points:
                 label = 'in only' if count == 0 else f'{count} {kind}'
-                runs = [await camera(target.url, target.pid, kind, count, args.seconds) for _ in range(args.repeats)]
+                runs = [await camera(target.url, target.pid, kind, count, args.seconds, rclpy)
+                        for _ in range(args.repeats)]
                 summary = results['camera'][label] = median_of(runs)
                 show(f'640x480 rgb8 30 Hz, {label}', summary,
                      ['published_hz', 'slowest_hz', 'server_cpu_pct', 'server_ms_per_frame', 'other_cpu_pct'])
@@ -289,10 +313,17 @@ def main(argv: list[str]) -> int:
     ap.add_argument('--repeats', type=int, default=3)
     ap.add_argument('--window', type=int, default=32, help='messages in flight in the rate points [%(default)s]')
     ap.add_argument('--only', choices=['rate', 'camera'], action='append')
+    ap.add_argument('--backend', choices=['sim', 'rclpy'], default='sim',
+                    help='rclpy: the gateway on a Jazzy graph in a loopback-only namespace, the camera a node')
     ap.add_argument('--rosgate-arg', action='append', default=[])
     ap.add_argument('--out')
     args = ap.parse_args(argv)
     args.only = set(args.only or ['rate', 'camera'])
+    if args.backend == 'rclpy':
+        from tests.bench import rosgraph
+        rosgraph.check_ros_env()
+        if not rosgraph.isolated():
+            rosgraph.reexec_isolated(['foxglove', *argv])
     save(args.out, asyncio.run(run(args)))
     return 0
 
