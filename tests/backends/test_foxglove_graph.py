@@ -71,7 +71,8 @@ def turtle(rclpy_helpers):
 def test_foxglove_clients_on_the_jazzy_graph(turtle, rclpy_helpers, start_gateway, tokens_file):
     import roslibpy
 
-    gateway = start_gateway('--backend', 'rclpy', '--history', 'none', '--send-buffer-limit', '262144', '--cmd-timeout', '0')
+    gateway = start_gateway('--backend', 'rclpy', '--history', 'none', '--send-buffer-limit', '262144', '--cmd-timeout', '0',
+                            '--unregister-timeout', '0.5')
     locked = start_gateway('--backend', 'rclpy', '--history', 'none', '--auth', tokens_file, '--auth-timeout', '60')
     for gw, token in ((gateway, None), (locked, TOKENS['viewer'])):   # the turtle and the adder discovered first
         with client(gw, token=token) as ros:
@@ -86,4 +87,4 @@ def test_foxglove_clients_on_the_jazzy_graph(turtle, rclpy_helpers, start_gatewa
     run = subprocess.run(['node', '--test', 'foxglove.test.js'], cwd=NODE_DIR, env=env, capture_output=True,
                          text=True, timeout=300)
     assert run.returncode == 0, run.stdout[-6000:] + run.stderr[-2000:]
-    assert '# pass 14' in run.stdout and '# fail 0' in run.stdout, run.stdout[-4000:]
+    assert '# pass 15' in run.stdout and '# fail 0' in run.stdout, run.stdout[-4000:]

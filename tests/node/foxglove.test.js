@@ -208,7 +208,8 @@ before(async () => {
   const tokens = path.join(dir, 'tokens.toml');
   writeFileSync(tokens, Object.entries(TOKENS).map(([role, token]) =>
     `[[tokens]]\nname = "${role}-fox"\nrole = "${role}"\ntoken = "${token}"\n`).join('\n'));
-  const open = await startGateway(['--robot', 'turtlesim', '--history', 'none', '--send-buffer-limit', '262144', '--cmd-timeout', '0']);
+  const open = await startGateway(['--robot', 'turtlesim', '--history', 'none', '--send-buffer-limit', '262144', '--cmd-timeout', '0',
+    '--unregister-timeout', '0.5']);
   const locked = await startGateway(['--robot', 'turtlesim', '--history', 'none', '--auth', tokens, '--auth-timeout', '60']);
   started.push(open, locked);
   url = open.url;
@@ -261,6 +262,20 @@ describe('the Foxglove protocol', () => {
     const defs = parse(cmd.schema, { ros2: true });   // the whole text: Twist and Vector3
     assert.deepEqual(defs[0].definitions.map((f) => f.name), ['linear', 'angular']);
     assert.ok(defs.some((d) => /Vector3$/.test(d.name ?? '')), cmd.schema);
+  });
+
+  test('channels come and go with the graph', async () => {
+    const other = new Fox(url);
+    try {
+      await other.ready();
+      const mine = other.client.advertise({ topic: '/fox/passing', encoding: 'json', schemaName: 'std_msgs/msg/String' });
+      const channel = await fox.channel('/fox/passing');
+      assert.equal(channel.schemaName, 'std_msgs/msg/String');
+      other.client.unadvertise(mine);   // its publisher goes after --unregister-timeout, and the topic with it
+      await fox.until(() => !fox.channels.has('/fox/passing'), 'the channel unadvertised');
+    } finally {
+      await other.close();
+    }
   });
 
   test('messages arrive as CDR with their receive time, and decode', async () => {
