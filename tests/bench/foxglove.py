@@ -14,11 +14,13 @@ times (the median shown, with the min and max):
 * ``camera``: a 640x480 rgb8 sensor_msgs/msg/Image published at 30 Hz (by a Foxglove client in
   CDR, the cheapest way in, the same for every point) to 0 subscribers (what taking it in costs),
   3 rosbridge JSON subscribers (uint8[] as base64), 3 rosbridge CBOR subscribers and 3 Foxglove
-  subscribers: the frames a second the slowest one got, and the gateway's CPU.
+  subscribers (with the same subscription id, as the same layout opened in three apps, which
+  share one frame; and with ids apart, one frame each): the frames a second the slowest one
+  got, and the gateway's CPU.
 
 ``--backend rclpy`` runs the gateway on a Jazzy graph (in a loopback-only network namespace, as
 ``make bench ARGS="--backend rclpy"``); the camera is then a plain rclpy node (tests/bench/rosnodes.py)
-and its points are 3 JSON, 3 CBOR, 3 cbor-raw and 3 Foxglove subscribers.
+and its points are 3 JSON, 3 CBOR, 3 cbor-raw and 3 Foxglove subscribers (both ways).
 
 Every row has the machine's other load beside it (``other%``: what the rest of the machine used
 meanwhile, 100 = one core; the 1-minute load average before the run is printed first).
@@ -183,7 +185,9 @@ def _ms(ns: float | None) -> float | None:
 
 async def camera(url: str, pid: int, kind: str, subscribers: int, seconds: float, rclpy: bool = False) -> dict:
     """A 640x480 rgb8 camera at 30 Hz to ``subscribers`` of one ``kind`` (json, cbor, cbor-raw,
-    foxglove): on the sim a Foxglove client publishes it in CDR; on rclpy a camera node does."""
+    foxglove: the clients subscribe with the same id, as the same layout opened in each app does;
+    foxglove-apart: with ids 1, 2, 3): on the sim a Foxglove client publishes it in CDR; on rclpy a
+    camera node does."""
     topic = f'/bench/camera_{kind.replace("-", "_")}_{time.monotonic_ns()}'
     payload = image()
     node = pub = None
@@ -222,8 +226,8 @@ async def camera(url: str, pid: int, kind: str, subscribers: int, seconds: float
     try:
         warm = asyncio.create_task(publish(time.monotonic() + WARM))
         for i in range(subscribers):
-            if kind == 'foxglove':
-                ws, channels = await _fox_subscriber(url, topic, i + 1)
+            if kind.startswith('foxglove'):   # one id for all, as the same layout in each app; or ids apart
+                ws, channels = await _fox_subscriber(url, topic, i + 1 if kind == 'foxglove-apart' else 1)
             else:
                 ws, channels = await _open(url, False), None
                 op = {'op': 'subscribe', 'topic': topic, 'type': payload.type}
@@ -291,8 +295,8 @@ async def run(args) -> dict:
                     show(f'{path} {size} B W={args.window}', summary,
                          ['msg_per_s', 'lat_p50_ms', 'lat_p95_ms', 'server_us_per_msg', 'other_cpu_pct'])
         if 'camera' in args.only:
-            points = ((('json', 3), ('cbor', 3), ('cbor-raw', 3), ('foxglove', 3)) if rclpy else
-                      (('foxglove', 0), ('json', 3), ('cbor', 3), ('foxglove', 3)))
+            points = ((('json', 3), ('cbor', 3), ('cbor-raw', 3), ('foxglove', 3), ('foxglove-apart', 3)) if rclpy else
+                      (('foxglove', 0), ('json', 3), ('cbor', 3), ('foxglove', 3), ('foxglove-apart', 3)))
             for kind, count in points:
                 label = 'in only' if count == 0 else f'{count} {kind}'
                 runs = [await camera(target.url, target.pid, kind, count, args.seconds, rclpy)

@@ -278,7 +278,7 @@ def test_foxglove_bench_yields_its_figures(tmp_path):
     assert set(doc["rate"]) == {"rosbridge 64 B", "foxglove 64 B", "rosbridge 1024 B", "foxglove 1024 B"}
     for point in doc["rate"].values():
         assert point["msg_per_s"]["median"] > 0 and point["server_us_per_msg"]["median"] > 0
-    assert set(doc["camera"]) == {"in only", "3 json", "3 cbor", "3 foxglove"}
+    assert set(doc["camera"]) == {"in only", "3 json", "3 cbor", "3 foxglove", "3 foxglove-apart"}
     for label, point in doc["camera"].items():
         assert point["published_hz"]["median"] > 0 and "other_cpu_pct" in point
         if label != "in only":

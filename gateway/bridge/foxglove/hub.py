@@ -68,6 +68,33 @@ class Graph:
 EMPTY = Graph({}, {}, {})
 
 
+class Framer:
+    """The message data frames of the message the fan-out is handing out now: its receive time
+    read once for every Foxglove subscriber, and one frame per subscription id, shared by the
+    clients that chose the same id. A frame is the 13-byte header and a copy of the payload (the
+    id differs per subscription, and a websocket message is one buffer here): a 640x480 rgb8
+    image copied for each of 3 viewers cost 0.26 ms each on the 2-core test machine, busy. Clients
+    number their subscriptions from 0 in the order they subscribe (npm ws-protocol's FoxgloveClient,
+    so Lichtblick and Foxglove), so a class opening the same layout shares one copy."""
+
+    __slots__ = ('clock', 'payload', 'stamp', 'frames')
+
+    def __init__(self, clock):
+        self.clock = clock          # () -> (sec, nanosec): the backend's now
+        self.payload: bytes | None = None
+        self.stamp = 0
+        self.frames: dict[int, bytes] = {}
+
+    def frame(self, subscription: int, payload: bytes) -> bytes:
+        if payload is not self.payload:   # the next message (held here, so no other can take its address)
+            sec, nanosec = self.clock()
+            self.payload, self.stamp, self.frames = payload, sec * 1_000_000_000 + nanosec, {}
+        found = self.frames.get(subscription)
+        if found is None:
+            found = self.frames[subscription] = fg.message_data_header(subscription, self.stamp) + payload
+        return found
+
+
 class Hub:
     def __init__(self, gateway):
         self.gateway = gateway
@@ -78,6 +105,7 @@ class Hub:
         self.service_ids: dict[int, Service] = {}
         self.session_id = str(time.time_ns())           # serverInfo's: a reconnecting client sees a restart
         self.values: dict[str, Any] = {}                # subscribed parameters' last values ('/node.param')
+        self.framer = Framer(gateway.backend.now)       # message data frames for every session's Feed
         self._ids = itertools.count(1)
         self._known: dict[tuple, int] = {}              # (kind, name, type) -> its id, kept for a comeback
         self._unknown: dict[tuple, float] = {}          # (name, type) not described -> when to try again

@@ -36,8 +36,9 @@ class Dropped(Exception):
 
 class Feed:
     """Where one Foxglove subscription stands in a topic's fan-out (as a recording's tap does):
-    each message's CDR gets this subscription's header (its id, when the gateway took it) and goes
-    to the session's outbox as a topic message, which the outbox drops for a slow client."""
+    each message's CDR gets this subscription's header (its id, when the gateway took it:
+    ``hub.Framer``) and goes to the session's outbox as a topic message, which the outbox drops for
+    a slow client."""
 
     __slots__ = ('session', 'id', 'sub_id', 'outbox')
 
@@ -51,9 +52,7 @@ class Feed:
 
     def message(self, frame: bytes, binary: bool, key: object, queue_length: int) -> bool:
         session = self.session
-        sec, nanosec = session.backend.now()
-        header = fg.message_data_header(self.sub_id, sec * 1_000_000_000 + nanosec)
-        return session.outbox.message(header + frame, True, key, queue_length)
+        return session.outbox.message(session.hub.framer.frame(self.sub_id, frame), True, key, queue_length)
 
     def forget(self, key: object) -> None:
         self.session.outbox.forget(key)
