@@ -129,7 +129,11 @@ class Backend(Protocol):
     def interfaces(self) -> list[str]: ...
     def typedefs(self, msg: MsgDef) -> list[dict]: ...        # rosapi TypeDef list, root first
     def full_text(self, msg: MsgDef) -> str: ...
-    def to_cdr(self, type: str, msg: Message) -> bytes: ...   # for cbor-raw
+    def to_cdr(self, type: str, msg: Message) -> bytes: ...   # for cbor-raw and Foxglove clients
+    def from_cdr(self, type: str, data: bytes) -> Message:
+        """A message dict from CDR bytes (a Foxglove client's message or service request);
+        ``type`` a message type or a service's part ('pkg/srv/X_Request', as ``to_cdr`` takes
+        too). ConversionError when the bytes are not that type's CDR."""
 
     # topics
     def create_publisher(self, topic: str, type: str, qos: QoS) -> Publisher: ...

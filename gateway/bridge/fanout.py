@@ -36,6 +36,9 @@ if TYPE_CHECKING:
 
 log = logging.getLogger('rosgate.fanout')
 _fragment_ids = itertools.count(1)
+# encodings made from the message's CDR: rosbridge's cbor-raw, and 'cdr', the bytes alone, which
+# the Foxglove sessions' subscriptions take (bridge.foxglove.topics.Feed frames them)
+CDR_ENCODINGS = ('cbor-raw', 'cdr')
 NEWEST_WINS = frozenset({
     images.RAW, images.COMPRESSED, 'sensor_msgs/msg/PointCloud2', 'sensor_msgs/msg/LaserScan',
     'geometry_msgs/msg/PoseStamped', 'geometry_msgs/msg/Pose',
@@ -202,7 +205,7 @@ class TopicFanout:
         return not self.subscribers and not self.watchers and self.meter is None
 
     def _want_cdr(self) -> None:
-        wanted = any(sub.compression == 'cbor-raw' for sub in self.subscribers.values())
+        wanted = any(sub.compression in CDR_ENCODINGS for sub in self.subscribers.values())
         if wanted != self._cdr_wanted:
             self._cdr_wanted = wanted
             self.handle.want_cdr(wanted)
@@ -323,6 +326,8 @@ class TopicFanout:
     def _encode(self, msg: dict, compression: str, fragment_size: int | None,
                 cdr: bytes | None = None, msgdef=None) -> encode.Frames:
         msgdef = msgdef or self.msgdef
+        if compression == 'cdr':   # a Foxglove subscription: the bytes alone, framed per subscriber (Feed)
+            return [(cdr if cdr is not None else self.gateway.backend.to_cdr(self.type, msg), True)]
         if compression == 'cbor-raw':
             sec, nanosec = self.gateway.backend.now()
             if cdr is None:

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 
 from ..backends.base import BackendError, QoS
 from .fanout import TopicFanout
+from .foxglove.hub import Hub
 from .outbox import corked
 from ..rules import GATEWAY_ROLE, Hooks
 from ..rules.policy import Policy
@@ -99,6 +100,7 @@ class Gateway:
         self._client_count = None
         self._store: Store | None = None
         self.images_rendered = 0       # images made to measure (fan-out), in /health: one per frame and size
+        self.foxglove = Hub(self)      # the graph as the Foxglove sessions see it (bridge.foxglove)
         if hasattr(backend, 'batch_scope'):   # a backend delivering messages in batches
             backend.batch_scope = corked      # sends each client its share in one write
 

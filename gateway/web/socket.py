@@ -11,6 +11,7 @@ import tornado.iostream
 import tornado.websocket
 
 from ..bridge.gateway import Gateway
+from ..bridge.foxglove.session import choose_subprotocol, session_for
 from ..bridge.session import ClientSession
 from .pages import write_page
 
@@ -142,6 +143,10 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
             protocol.__class__ = TextAsBytesProtocol   # same state, one method more
         return protocol
 
+    def select_subprotocol(self, subprotocols: list[str]) -> str | None:
+        """Foxglove's protocol for a client that offers it (Foxglove, Lichtblick); rosbridge's otherwise."""
+        return choose_subprotocol(subprotocols)
+
     def check_origin(self, origin: str) -> bool:
         """As for the HTTP routes (``api.check_origin``): a browser's own Sec-Fetch-Site of
         same-origin passes (behind a TLS proxy the page's https origin differs from what the gateway
@@ -166,8 +171,8 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
     def open(self, *args, **kwargs) -> None:
         self.set_nodelay(True)   # without it Nagle's algorithm stalls small messages
         bound_unsent(self.ws_connection.stream)
-        self.session = ClientSession(self.gateway, self._send, self._send_many, self.close,
-                                     self.request.remote_ip or '', ping=self.ping)
+        self.session = session_for(self.selected_subprotocol, self.gateway, self._send, self._send_many, self.close,
+                                   self.request.remote_ip or '', ping=self.ping)
         self.session.attrs.update(self.gateway.policy.connect_attrs(self.request))
         self.session.open()
         self.gateway.hooks.connect(self.session, self.request)   # e.g. a robot-side run knowing its own connection

@@ -24,6 +24,9 @@ if __name__ == "__main__":
     if sys.argv[1:2] == ["pyodide"]:   # Python in the IDE page (tests/bench/pyodide.py)
         from .pyodide import main as pyodide
         sys.exit(pyodide(sys.argv[2:]))
+    if sys.argv[1:2] == ["foxglove"]:   # the Foxglove path beside the rosbridge path (tests/bench/foxglove.py)
+        from .foxglove import main as foxglove
+        sys.exit(foxglove(sys.argv[2:]))
     if sys.argv[1:2] == ["stop"]:   # Stop to the robot's zero, blocks and Python (tests/bench/stop.py)
         from .stop import main as stop
         sys.exit(stop(sys.argv[2:]))

@@ -264,3 +264,23 @@ def test_run_archive_bench_keeps_every_line_and_gives_its_cost(tmp_path):
     assert res.returncode == 0, res.stderr[-2000:]
     w = json.loads(out.read_text())
     assert w["cut"] and w["kept_lines_first_run"] < 4096 // 30 and "(cut at the cap)" in res.stdout
+
+
+def test_foxglove_bench_yields_its_figures(tmp_path):
+    """`python -m tests.bench foxglove` briefly: both paths deliver, every figure is there."""
+    if not rosgate_available():
+        pytest.skip("no gateway")
+    out = tmp_path / "foxglove.json"
+    proc = subprocess.run([sys.executable, "-m", "tests.bench", "foxglove", "--seconds", "0.5", "--repeats", "1",
+                           "--out", str(out)], cwd=REPO, capture_output=True, text=True, timeout=180)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    doc = json.loads(out.read_text())
+    assert set(doc["rate"]) == {"rosbridge 64 B", "foxglove 64 B", "rosbridge 1024 B", "foxglove 1024 B"}
+    for point in doc["rate"].values():
+        assert point["msg_per_s"]["median"] > 0 and point["server_us_per_msg"]["median"] > 0
+    assert set(doc["camera"]) == {"in only", "3 json", "3 cbor", "3 foxglove", "3 foxglove-apart"}
+    for label, point in doc["camera"].items():
+        assert point["published_hz"]["median"] > 0 and "other_cpu_pct" in point
+        if label != "in only":
+            assert point["slowest_hz"]["median"] > 0
+    assert len(doc["loadavg_before"]) == 3

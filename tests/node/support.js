@@ -19,10 +19,10 @@ export function withTimeout(promise, ms, what) {
 export const call = (fn, ms = 5000, what = 'call') =>
   withTimeout(new Promise((resolve, reject) => fn(resolve, reject)), ms, what);
 
-// A sim gateway (demo nodes, fast Fibonacci, no robot): { proc, url, stop() }.
-export async function startGateway() {
+// A sim gateway (demo nodes, fast Fibonacci, no robot unless `extra` flags name one): { proc, url, stop() }.
+export async function startGateway(extra = []) {
   const proc = spawn(python, ['-m', 'gateway', '--port', '0', '--address', '127.0.0.1', '--robot', 'none',
-    '--fibonacci-interval', '0.05', '--programs-dir', path.join(root, '.venv', 'node-test-programs')],
+    '--fibonacci-interval', '0.05', '--programs-dir', path.join(root, '.venv', 'node-test-programs'), ...extra],
   { cwd: root, stdio: ['ignore', 'pipe', 'inherit'] });
   let line = '';
   for await (const chunk of proc.stdout) {

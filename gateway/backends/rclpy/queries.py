@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from protocol.errors import ConversionError
 from protocol.msgdefs import ActionDef, MsgDef, SrvDef, normalize
 
 from . import params as rclpy_params
@@ -38,10 +39,35 @@ class TypesAndGraph:
 
     def to_cdr(self, type: str, msg: Message) -> bytes:
         from rclpy.serialization import serialize_message  # noqa: PLC0415
-        cls = self.defs.msg_class(type)
+        cls = self._cdr_class(type)
         if getattr(cls, 'raw_only', False):     # described by the graph: no class
             return self.convert.cdr_writer(cls)(msg)
         return serialize_message(self.convert.from_dict(cls, msg))
+
+    def from_cdr(self, type: str, data: bytes) -> Message:
+        """The gateway's CDR reader where it compiles one (as the pump takes topics), else rclpy's."""
+        from rclpy.serialization import deserialize_message  # noqa: PLC0415
+        cls = self._cdr_class(type)
+        read = self.convert.cdr_reader(cls)
+        if read is not None:
+            try:
+                return read(bytes(data))
+            except Exception as e:  # noqa: BLE001 (cdr.Slow, or bytes the fast path cannot read: rclpy decides)
+                if getattr(cls, 'raw_only', False):   # described by the graph: no class to read with
+                    raise ConversionError(f'cannot deserialize {type}: {e}') from None
+        try:
+            return self.convert.to_dict(deserialize_message(bytes(data), cls))
+        except Exception as e:  # noqa: BLE001 (rclpy's words for malformed CDR vary)
+            raise ConversionError(f'cannot deserialize {type}: {e}') from None
+
+    def _cdr_class(self, type: str):
+        """The class of a message type, or of a service's part ('pkg/srv/X_Request')."""
+        parts = type.strip('/').split('/')
+        if len(parts) == 3 and parts[1] == 'srv':
+            whole, _, part = parts[2].rpartition('_')
+            if whole and part in ('Request', 'Response'):
+                return getattr(self.defs.srv_class(f'{parts[0]}/srv/{whole}'), part)
+        return self.defs.msg_class(type)
 
     # --- graph --------------------------------------------------------------------------------
 

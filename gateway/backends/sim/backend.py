@@ -79,6 +79,10 @@ class SimBackend:
         from protocol.convert import to_cdr
         return to_cdr(self.graph.defs, type, msg)
 
+    def from_cdr(self, type: str, data: bytes) -> Message:
+        from protocol.convert import from_cdr
+        return from_cdr(self.graph.defs, type, bytes(data))
+
     # --- topics ------------------------------------------------------------------------------
     def create_publisher(self, topic: str, type: str, qos: QoS) -> SimPublisher:
         return self.node.create_publisher(topic, type, qos)
