@@ -29,7 +29,8 @@ JSON: {"driver": <holder of "/"> | null, "drivers": {group: holder | null}, "sta
 "stopped": {group: unix time}, "halted": {group: who stopped it, while the stop holds}}, a holder
 being {"client", "name", "role", "remote", "since", "owner": whether it is the station's owner's,
 "run": its run id or null; in a fleet of gateways, one driving through another gateway has
-"elsewhere": true and only "name" and "owner"}.
+"elsewhere": true and only "name" and "owner"}; in a fleet, "fleet": {"gateway": its id,
+"unreachable": unix time since when it cannot reach its database, or null}.
 """
 
 from __future__ import annotations
@@ -432,8 +433,11 @@ class Lease(FleetLease, Hook):
                                 'run': None, 'elsewhere': True}
                             for g in stations if (h := self.fleet.held('lease', g)) is not None})
         drivers.update({g: self._info(g) for g in self.holders})
-        text = json.dumps({'driver': self._info(ROOT), 'drivers': drivers, 'stations': list(stations),
-                           'stopped': self.stopped, 'halted': self.halted})
+        info = {'driver': self._info(ROOT), 'drivers': drivers, 'stations': list(stations),
+                'stopped': self.stopped, 'halted': self.halted}
+        if self.fleet is not None:   # which gateway says so, and since when it cannot reach its database
+            info['fleet'] = {'gateway': self.fleet.id, 'unreachable': self.fleet.unreachable}
+        text = json.dumps(info)
         if text != self._announced:
             self._announced = text
             self._driver.publish({'data': text})

@@ -244,7 +244,12 @@ class Stations(Hook):
         except Unreachable as e:
             holder, why = None, f'{e}, so it cannot confirm your claim of {ns}; try again in a moment'
         else:
-            if holder is None:
+            if holder is None:        # hers in PostgreSQL, which lifted any Release that barred her
+                if self.owners.get(ns) is not o:     # (heard meanwhile, and undone here too)
+                    self.owners[ns] = o
+                for barred in [s for s, p in self.barred.items() if p == o.person or s == ns]:
+                    del self.barred[barred]
+                self._announce()
                 return answer
             why = f'{ns} is {holder.who}\'s station (claimed through another gateway); ask the teacher, or ' \
                   'claim a free one'

@@ -195,7 +195,10 @@ class Fleet:
                 stop = self.db.stop_row(c, name)
                 if stop is not None:
                     return Stopped(json.loads(stop.value).get('by', 'the teacher'))
-            return self.db.insert_hold(c, kind, name, person, who)
+            theirs = self.db.insert_hold(c, kind, name, person, who)
+            if theirs is None and kind == 'claim':   # she claims: a Release that barred her is behind her
+                self.db.unbar(c, name, person, job.seq)
+            return theirs
 
         def done(result, error):
             if future.done():         # too late: nobody waits; a hold taken meanwhile goes back
@@ -208,6 +211,8 @@ class Fleet:
                 future.set_result(result)
         job = self.db.submit(Job(run, done, retry=False))
         self._holding[(kind, name)] = job.seq
+        if kind == 'claim':
+            self._touched[('bar', name)] = job.seq
         try:
             theirs = await asyncio.wait_for(asyncio.shield(future), TAKE_TIMEOUT)
         except asyncio.TimeoutError:
@@ -272,12 +277,13 @@ class Fleet:
         def run(c):
             if kind == 'stop' or ends:
                 self.db.lock_group(c, name)
-            self.db.write_state(c, kind, name, value, until)
+            self.db.write_state(c, kind, name, value, until, job.seq)
             self.db.end_holds(c, ends, why)
             if also is not None:
                 also(c)
 
-        job = self.db.submit(Job(run, _settles(future) if future is not None else None, after=after))
+        job = Job(run, _settles(future) if future is not None else None, after=after)
+        self.db.submit(job)
         self._touched[key] = job.seq
         for end in ends:             # the caller has let go of its own already
             self.others.pop(end, None)
@@ -343,9 +349,13 @@ class Fleet:
             event = json.loads(payload)
         except ValueError:
             return
-        if event.get('gw') == self.id:
-            return
         what = event.get('ev')
+        if event.get('gw') == self.id:
+            if what == 'state':      # our own write, committed: the others' notices on it count again
+                key = (event['k'], event['name'])
+                if self._touched.get(key, 0) <= event.get('seq', 0):
+                    self._touched.pop(key, None)
+            return
         now = time.monotonic()
         if what in ('hold', 'drop', 'end'):
             key = (event['k'], event['name'])
@@ -365,6 +375,8 @@ class Fleet:
                     self._lose(key, None, event.get('why'))
         elif what == 'state':
             key = (event['k'], event['name'])
+            if key in self._touched:     # older than our write not yet committed: that decides (or a read)
+                return
             self._state_heard[key] = now
             value = event.get('value')
             self._apply_state(key[0], key[1], None if value is None else {**value, 'gateway': event['gateway']})

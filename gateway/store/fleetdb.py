@@ -203,7 +203,7 @@ class Worker:
     def lock_group(c, name: str) -> None:
         c.execute(sa.select(sa.func.pg_advisory_xact_lock(LEASE_KEY, sa.func.hashtext(name))))
 
-    def write_state(self, c, kind: str, name: str, value: dict | None, until: float | None) -> None:
+    def write_state(self, c, kind: str, name: str, value: dict | None, until: float | None, seq: int = 0) -> None:
         from sqlalchemy.dialects.postgresql import insert
         if value is None:
             c.execute(STATE.delete().where(STATE.c.kind == kind, STATE.c.name == name))
@@ -213,7 +213,16 @@ class Worker:
             c.execute(stmt.on_conflict_do_update(index_elements=['kind', 'name'], set_=dict(
                 value=stmt.excluded.value, gateway=stmt.excluded.gateway, at=stmt.excluded.at,
                 until=stmt.excluded.until)))
-        self.send(c, 'state', k=kind, name=name, value=value, gateway=self.id)
+        self.send(c, 'state', k=kind, name=name, value=value, gateway=self.id, seq=seq)
+
+    def unbar(self, c, station: str, person: str, seq: int) -> list[str]:
+        """A person claims a station: the teacher's Releases that barred her (from it, or anyone from
+        it) are behind her, in the same transaction (rules.stations); the stations unbarred."""
+        rows = c.execute(sa.select(STATE.c.name, STATE.c.value).where(STATE.c.kind == 'bar')).all()
+        gone = {r.name for r in rows if json.loads(r.value).get('person') == person} | {station}
+        for name in sorted(gone):    # the station's, always: its notice tells this gateway it is written
+            self.write_state(c, 'bar', name, None, None, seq)
+        return sorted(gone)
 
     def once(self, c, name: str) -> bool:
         """Whether this gateway is the first to claim ``name`` (kept a day)."""
