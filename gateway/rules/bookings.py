@@ -322,6 +322,8 @@ class Slots(Hook):
         fleet = self.timetable.fleet
         if fleet is None or await fleet.once(f'reset {station} {booking.start:.3f} {booking.end:.3f}'):
             await self._reset(station)
+        else:
+            log.info('slot end: %s reset by another gateway of the fleet', station)
 
     async def _reset(self, station: str) -> None:
         """The --station-reset service in the station's namespace (std_srvs Empty or Trigger)."""

@@ -108,10 +108,18 @@ class Lease(FleetLease, Hook):
         for ns in self.stations():
             if name.startswith(ns + '/'):
                 return ns
+        for ns in self._known_groups():   # a Stop in force, a driver elsewhere: a group before the graph shows it
+            if name.startswith(ns + '/'):
+                return ns
         for g in self.globs:
             if fnmatchcase(name, g):
                 return glob_group(g)
         return ROOT
+
+    def _known_groups(self):
+        yield from (g for g in self.halted if g != ROOT)
+        if self.fleet is not None:
+            yield from (name for kind, name in self.fleet.others if kind == 'lease' and name != ROOT)
 
     def group_of_namespace(self, ns: str) -> str:
         return self.group(ns.rstrip('/') + '/') if ns.strip('/') else ROOT

@@ -83,6 +83,9 @@ class FleetLease:
                 self.fleet.drop('lease', group)     # nobody here to hold it any more
         elif isinstance(answer, Stopped):
             self.stopped_elsewhere(group, answer.by)
+        elif answer is not None:
+            log.info('driver lease for %s: PostgreSQL gave it to %s through another gateway, not to %s', group,
+                     answer.who, who)
         wait.done(why)   # each message asks again: hers now, or refused naming the holder or the Stop
 
     def _halt(self, group: str, by: str) -> None:

@@ -179,7 +179,7 @@ def first_commands_at_once(a, b, robot, rounds: int = 50) -> dict:
             assert c.refusal({'op': 'advertise', 'topic': topic, 'type': TWIST}) is None
         for v in (va, vb):
             v.subscribe('/rosgate/driver', 'std_msgs/msg/String')
-        ids = (health(a)['fleet']['gateway'], health(b)['fleet']['gateway'])
+        gws = (health(a)['fleet']['gateway'], health(b)['fleet']['gateway'])
         for n in range(rounds):
             speeds = {'alice': 0.1 + n / 100, 'bob': -(0.1 + n / 100)}
             ids = {name: f'publish:first:{n}:{name}' for name in people}
@@ -213,7 +213,7 @@ def first_commands_at_once(a, b, robot, rounds: int = 50) -> dict:
             w = people[winner]
             w.publish(topic, twist(0.0))
             w.publish('/rosgate/control', {'data': 'release /s01'}, 'std_msgs/msg/String')
-            for v, gw in ((va, ids[0]), (vb, ids[1])):   # each gateway's own word (one graph: v hears both)
+            for v, gw in ((va, gws[0]), (vb, gws[1])):   # each gateway's own word (one graph: v hears both)
                 v.next_message('/rosgate/driver', lambda m, gw=gw: _free(m, gw, '/s01'), 20)
     return wins
 
@@ -237,8 +237,11 @@ def stop_known_to_a_later_gateway(a, start_c, follow) -> None:
             assert refusal is not None and 'teacher' in refusal['msg'] and 'stopped /s02' in refusal['msg'], refusal
             assert drive(bob, '/s02', 0.5) is not None    # again: the Stop holds on C
             teacher.publish('/rosgate/control', {'data': 'release /s02'}, 'std_msgs/msg/String')
-            drive_again(bob, '/s02', 0.25)
-            moved = heard(lambda m: not is_zero_twist(m), 15)
+            stream = Stream(bob, '/s02', 0.25)   # (a new publisher's first messages may go before the robot hears it)
+            try:
+                moved = heard(lambda m: not is_zero_twist(m), 30)
+            finally:
+                stream.stop()
             assert moved['linear']['x'] == 0.25, moved          # neither refused command reached the robot
             drive(bob, '/s02', 0.0)
             bob.publish('/rosgate/control', {'data': 'release /s02'}, 'std_msgs/msg/String')
