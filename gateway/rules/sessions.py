@@ -157,9 +157,12 @@ class Sessions:
         if self.store is not None:
             row = dict(id_hash=key, name=identity.name[:200], role=identity.role, owner=identity.owner[:100],
                        kind=kind, created=now, expires=s.expires)
-            self.store.submit(lambda c: c.execute(TABLE.insert().values(**row)))
-            if self.fleet is not None:
+            insert = lambda c: c.execute(TABLE.insert().values(**row))   # noqa: E731
+            if self.fleet is not None:   # in order with a sign-out's revocation, on the fleet's thread
+                self.fleet.write(insert)
                 self.fleet.notify('login', **row)
+            else:
+                self.store.submit(insert)
         self._seen(Person(identity.owner[:100], identity.name[:200], identity.role, kind, now))
         return tornado.web.create_signed_value(self.secret, SESSION_COOKIE, session_id).decode()
 

@@ -236,6 +236,10 @@ class Fleet:
         if self.mine.pop((kind, name), None) is not None:
             self.db.submit(Job(lambda c: self.db.drop_hold(c, kind, name)))
 
+    def write(self, fn: Callable[[sa.Connection], Any]) -> None:
+        """fn(connection) on the fleet's thread, in order with its other writes, retried until taken."""
+        self.db.submit(Job(fn))
+
     def notify(self, what: str, **event) -> None:
         """Tell the other gateways (``on(what, fn)`` there hears it): a wake-up, not state."""
         self.db.submit(Job(lambda c: self.db.send(c, what, **event)))

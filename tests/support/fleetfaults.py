@@ -18,6 +18,7 @@ from contextlib import contextmanager
 from .auth import TOKENS, login
 from .fleet import drive, owner_on, stations
 from .http import http
+from .postgres import kill_ports
 from .wait import wait_for
 from .wsclient import TWIST, Client, is_zero_twist, twist
 
@@ -26,29 +27,33 @@ CUT = 10.0         # s the database is unreachable from B
 
 
 class Faults:
-    """The faults, for gateway ``b``: ``pg`` (tests/support/postgres.Postgres), ``relay`` (B's)."""
+    """The faults, for gateway ``b``: ``pg`` (tests/support/postgres.Postgres), ``relay`` (B's).
+    ``ended``: when the last fault ended (time.monotonic()), for the figures the cases print."""
 
     def __init__(self, pg, relay, b):
         self.pg, self.relay, self.b = pg, relay, b
+        self.began = self.ended = 0.0
 
     @contextmanager
     def during(self, fault: str):
         """The block runs while the fault holds: PostgreSQL down ('restart': started again on the
         way out), B's connections just killed ('kill'), B cut off ('cut': the way out waits for
         the link's return)."""
+        self.began = time.monotonic()
         if fault == 'restart':
             self.pg.stop()
             try:
                 yield
             finally:
                 self.pg.start()
-        elif fault == 'kill':
-            assert self.pg.kill(self.b.pid) > 0, 'B has no connection to kill'
+        elif fault == 'kill':   # every connection of B's (they all come through its relay)
+            assert kill_ports(self.pg, self.relay.ports()) > 0, 'B has no connection to kill'
             yield
         else:
             back = self.relay.cut(CUT)
             yield
             wait_for(lambda: time.monotonic() > back, CUT + 5, 0.05, what='the link back')
+        self.ended = time.monotonic()
 
 
 class Stream:
@@ -116,14 +121,20 @@ def stop_through_a(a, b, faults: Faults, fault: str, follow) -> None:
             heard(lambda m: m['linear']['x'] == 1.0, 15)
             with faults.during(fault):
                 teacher.publish('/rosgate/control', {'data': 'stop /s02'}, 'std_msgs/msg/String')
+                sent = time.monotonic()
                 if fault == 'cut':    # B alone: its lease ends with its expiry, and no new one
                     told(bob, 'has not reached its database')
+                    ended = time.monotonic() - faults.began
                     heard(is_zero_twist, 15)
                     refusal_with(bob, 'cannot be confirmed with the other gateways')
             stop = refusal_with(bob, 'stopped /s02')           # the Stop, heard or read by B
+            known = time.monotonic()
             assert 'teacher' in stop['msg'], stop
             if fault != 'cut':
                 heard(is_zero_twist, 15)
+            print(f'\n{fault}: the Stop sent through A {sent - faults.began:.2f} s into the fault refused bob on B '
+                  f'{known - sent:.2f} s after it was sent, {known - faults.ended:+.2f} s from the fault\'s end'
+                  + (f'; B ended his lease by itself {ended:.2f} s into the cut' if fault == 'cut' else ''))
         finally:
             stream.stop()
         stations(teacher)     # B's claim is bob's again on A (a cut let its row lapse for a while)
@@ -154,14 +165,19 @@ def logout_through_a(a, b, faults: Faults, fault: str) -> None:
             answer['reply'] = http(a, '/logout', headers=headers, timeout=60)
         thread = threading.Thread(target=logout)
         with faults.during(fault):
+            sent = time.monotonic()
             thread.start()
         thread.join(60)
+        answered = time.monotonic()
         assert answer['reply'].status == 303, answer['reply']
         right_after = http(b, '/whoami', headers=headers).status
         assert right_after in (401, 503), right_after        # refused: ended, or not confirmable now
         wait_for(lambda: http(b, '/whoami', headers=headers).status == 401, 30, 0.05, what='401 on B')
         assert http(a, '/whoami', headers=headers).status == 401
         assert socket_on_b.closed_code(30) == 1008
+        print(f'\n{fault}: the logout through A answered after {answered - sent:.2f} s; a request on B right '
+              f'after got {right_after}; her websocket on B closed {time.monotonic() - faults.ended:+.2f} s from the '
+              f'fault\'s end')
 
 
 def first_commands_at_once(a, b, robot, rounds: int = 50) -> dict:

@@ -47,6 +47,14 @@ class Relay:
         self._seen_cut.wait(5)
         return self.until
 
+    def ports(self) -> list[int]:
+        """The local ports of the relay's connections to the server (its ``client_port`` there)."""
+        found = []
+        for a, b in list(self.pairs.items()):
+            if b is not None and a.getpeername()[1] == self.upstream[1]:
+                found.append(a.getsockname()[1])
+        return found
+
     @property
     def is_cut(self) -> bool:
         return time.monotonic() < self.until

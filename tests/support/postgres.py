@@ -45,6 +45,8 @@ class Postgres:
             os.chown(self.folder, pw.pw_uid, pw.pw_gid)
         self.data, self.port = f'{self.folder}/data', free_port()
         self.url = f'postgresql+psycopg://rosgate@127.0.0.1:{self.port}/rosgate'
+        # over its unix socket: for a gateway in another network namespace (tests/support/netlink.py)
+        self.unix_url = f'postgresql+psycopg://rosgate@/rosgate?host={self.folder}&port={self.port}'
 
     def run(self, *cmd):
         cmd = [str(c) for c in cmd]
@@ -79,6 +81,15 @@ class Postgres:
         rows = self.sql("SELECT pg_terminate_backend(pid) FROM pg_stat_activity WHERE application_name LIKE :name",
                         name=f'rosgate-{pid}-%')
         return sum(1 for r in rows if r[0])
+
+
+def kill_ports(pg: Postgres, ports: list[int]) -> int:
+    """``pg_terminate_backend`` on the connections that come from these client ports; how many."""
+    if not ports:
+        return 0
+    rows = pg.sql('SELECT pg_terminate_backend(pid) FROM pg_stat_activity WHERE client_port = ANY(:ports)',
+                  ports=list(ports))
+    return sum(1 for r in rows if r[0])
 
 
 def postgres():
