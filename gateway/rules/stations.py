@@ -139,11 +139,13 @@ class Stations(Hook):
         return self._stations
 
     def owner(self, station: str) -> Owner | None:
-        """Who owns the station: claimed here, or through another gateway of the fleet (a dict lookup)."""
+        """Who owns the station: claimed here, or through another gateway of the fleet (a dict lookup;
+        not a booker whose slot there ended here: another gateway's clock may end it a moment later)."""
         o = self.owners.get(station)
         if o is None and self.fleet is not None:
             held = self.fleet.held('claim', station)
-            if held is not None:
+            if held is not None and (self.timetable is None
+                                     or self.timetable.walk_in_refusal(station, held.person) is None):
                 return Owner(held.person, held.who, 0.0, time.monotonic())
         return o
 

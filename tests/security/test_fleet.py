@@ -79,5 +79,9 @@ def test_a_logout_through_a_holds_on_b_through_a_database_fault(pair, faults, fa
     fleetfaults.logout_through_a(*pair, faults, fault)
 
 
+def test_a_slot_ends_on_b_while_a_still_seats_its_booker(pair, pg):
+    fleetfaults.slot_end_while_another_gateway_still_seats(*pair, pg, fleet.client_follow)
+
+
 def test_a_slot_booked_through_a_ends_on_time_with_a_killed(pair):
     fleet.slot_ends_with_a_killed(*pair, fleet.client_follow)

@@ -161,16 +161,17 @@ def logout_through_a(a, b, faults: Faults, fault: str) -> None:
         assert socket_on_b.call('/rosapi/get_time')['result'] is True
         answer = {}
 
-        def logout() -> None:
+        def logout() -> None:   # and at once, the same cookie on B
             answer['reply'] = http(a, '/logout', headers=headers, timeout=60)
+            answer['at'] = time.monotonic()
+            answer['on b'] = http(b, '/whoami', headers=headers).status
         thread = threading.Thread(target=logout)
         with faults.during(fault):
             sent = time.monotonic()
             thread.start()
         thread.join(60)
-        answered = time.monotonic()
+        answered, right_after = answer['at'], answer['on b']
         assert answer['reply'].status == 303, answer['reply']
-        right_after = http(b, '/whoami', headers=headers).status
         assert right_after in (401, 503), right_after        # refused: ended, or not confirmable now
         wait_for(lambda: http(b, '/whoami', headers=headers).status == 401, 30, 0.05, what='401 on B')
         assert http(a, '/whoami', headers=headers).status == 401
@@ -261,3 +262,41 @@ def stop_known_to_a_later_gateway(a, start_c, follow) -> None:
             assert moved['linear']['x'] == 0.25, moved          # neither refused command reached the robot
             drive(bob, '/s02', 0.0)
             bob.publish('/rosgate/control', {'data': 'release /s02'}, 'std_msgs/msg/String')
+
+
+def slot_end_while_another_gateway_still_seats(a, b, pg, follow) -> None:
+    """Each gateway ends a slot on its own clock, and the station's one claim row names the gateway
+    that seated the booker last: here A, which cannot drop it at the end (the test holds its row
+    locked). alice drives through B: when her slot ends B refuses her and zeroes the robot, though
+    A's claim still says she has the station (a claim held elsewhere is not hers past her slot)."""
+    import sqlalchemy as sa
+    with Client(a.ws_url, TOKENS['operator']) as alice_a, Client(b.ws_url, TOKENS['operator']) as alice, \
+            Client(b.ws_url, TOKENS['viewer']) as watcher:
+        begin = time.time() + 2
+        status, slot = http_api(a, {'station': '/s01', 'start': begin, 'end': begin + 4, 'for': 'alice'})
+        assert status == 201, slot
+        stations(watcher)
+        wait_for(lambda: owner_on(watcher, '/s01') == 'alice', 30, 0.0, what='alice seated at /s01 by B')
+        row = lambda: pg.sql("SELECT gateway FROM fleet_holds WHERE kind = 'claim' AND name = '/s01'")  # noqa: E731
+        a_id = health(a)['fleet']['gateway']
+        wait_for(lambda: alice_a.call('/s01/fleet/claim')['values']['success'] and row() == [(a_id,)], 30, 0.2,
+                 what="/s01's claim row naming A (her claim through A written after B's seat)")
+        heard = follow(watcher, '/s01')
+        stream = Stream(alice, '/s01')
+        engine = sa.create_engine(pg.url)
+        try:
+            heard(lambda m: m['linear']['x'] == 1.0, 15)
+            with engine.connect() as c:
+                tx = c.begin()
+                c.execute(sa.text("SELECT 1 FROM fleet_holds WHERE kind = 'claim' AND name = '/s01' FOR UPDATE"))
+                refusal_with(alice, 'slot on /s01 has ended')   # B's clock; A cannot drop its claim
+                heard(is_zero_twist, 15)
+                tx.rollback()
+        finally:
+            stream.stop()
+            engine.dispose()
+
+
+def http_api(gw, body: dict):
+    from .http import api
+    return api(gw, 'POST', '/api/bookings', body, token=TOKENS['admin'])
