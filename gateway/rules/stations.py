@@ -324,7 +324,8 @@ class Stations(Hook):
             for s in self._clients_of(o.person):
                 s.status('warning', f'{by} released {station}: it is not your robot any more; press '
                                     '"Claim a robot" for one')
-        self.owners.pop(station, None)
+        if self.owners.pop(station, None) is None and self.fleet is not None and o.person == person(session):
+            self.fleet.end('claim', station, f'{station} was given back')   # her claim, held through another gateway
         self._announce()                     # first: her pages learn it is not hers before it is free
         self._free_lease(session, station)   # (its driver through any gateway, too)
         return {'success': True, 'message': station}

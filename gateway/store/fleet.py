@@ -240,6 +240,12 @@ class Fleet:
         """fn(connection) on the fleet's thread, in order with its other writes, retried until taken."""
         self.db.submit(Job(fn))
 
+    def end(self, kind: str, name: str, why: str | None = None) -> None:
+        """Whoever's hold (kind, name) is, through any gateway, it ends (its holder's clients told ``why``)."""
+        self.others.pop((kind, name), None)
+        self.mine.pop((kind, name), None)
+        self.db.submit(Job(lambda c: self.db.end_holds(c, [(kind, name)], why)))
+
     def notify(self, what: str, **event) -> None:
         """Tell the other gateways (``on(what, fn)`` there hears it): a wake-up, not state."""
         self.db.submit(Job(lambda c: self.db.send(c, what, **event)))

@@ -65,6 +65,10 @@ def test_a_logout_on_a_ends_the_session_on_b_at_once(pair):
     fleet.logout_everywhere(*pair)
 
 
+def test_a_station_claimed_through_a_is_given_back_through_b(pair):
+    fleetfaults.release_through_the_other_gateway(*pair)
+
+
 def test_history_is_written_once(pair, postgres):
     fleet.history_once(pair, postgres)
 

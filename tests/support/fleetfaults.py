@@ -300,3 +300,18 @@ def slot_end_while_another_gateway_still_seats(a, b, pg, follow) -> None:
 def http_api(gw, body: dict):
     from .http import api
     return api(gw, 'POST', '/api/bookings', body, token=TOKENS['admin'])
+
+
+def release_through_the_other_gateway(a, b) -> None:
+    """alice claims /s01 through A and gives it back through B: A no longer counts it hers (the row
+    is ended, whichever gateway holds it), and bob claims it through A."""
+    with Client(a.ws_url, TOKENS['operator']) as alice_a, Client(b.ws_url, TOKENS['operator']) as alice_b, \
+            Client(a.ws_url, TOKENS['operator2']) as bob, Client(b.ws_url, TOKENS['viewer']) as watcher:
+        assert alice_a.call('/s01/fleet/claim')['values']['success'] is True
+        stations(watcher)
+        wait_for(lambda: owner_on(watcher, '/s01') == 'alice', 30, 0.0, what="alice's claim known on B")
+        assert alice_b.call('/s01/fleet/release')['values']['success'] is True
+        stations(bob)
+        wait_for(lambda: owner_on(bob, '/s01') is None, 30, 0.0, what='/s01 free on A')
+        assert bob.call('/s01/fleet/claim')['values'] == {'success': True, 'message': '/s01'}
+        bob.call('/s01/fleet/release')
