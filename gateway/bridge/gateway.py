@@ -21,8 +21,11 @@ from ..backends.base import BackendError, QoS
 from .fanout import TopicFanout
 from .foxglove.hub import Hub
 from .outbox import corked
+from protocol.errors import ProtocolError
+
 from ..rules import GATEWAY_ROLE, Hooks
 from ..rules.policy import Policy
+from ..rules.settle import Wait
 from ..store import Store
 
 if TYPE_CHECKING:
@@ -157,16 +160,43 @@ class Gateway:
         pub.attach(sender.id)
         return pub
 
-    def publish(self, sender, pub: SharedPublisher, msg: dict, issued: float | None = None) -> bool:
+    def publish(self, sender, pub: SharedPublisher, msg: dict, issued: float | None = None,
+                id: str | None = None) -> bool:
         """The one door: the rules, once, then the backend. False when a rule dropped the
         message; a ProtocolError when one refused it. ``issued``: when the sender made the
-        message, on the loop's clock, when it says (a client's stamped command, ``rules.freshness``)."""
-        for rule in self.rules:
-            msg = rule(sender, pub, msg, issued)
-            if msg is None:
+        message, on the loop's clock, when it says (a client's stamped command, ``rules.freshness``).
+        A rule may answer ``Wait`` (a free lease of a fleet asked of PostgreSQL, rules.settle): the
+        message waits, nothing else does, and it asks that rule again when the word comes (True
+        then; a refusal later is a status to the sender naming ``id``, the publish op's)."""
+        return self._through(0, sender, pub, msg, issued, id)
+
+    def _through(self, first: int, sender, pub: SharedPublisher, msg: dict, issued, id) -> bool:
+        rules = self.rules
+        for i in range(first, len(rules)):
+            out = rules[i](sender, pub, msg, issued)
+            if out is None:
                 return False
+            if type(out) is Wait:
+                out.then(lambda why, i=i, msg=msg: self._resume(i, sender, pub, msg, issued, id, why))
+                return True
+            msg = out
         pub._handle.publish(msg)
         return True
+
+    def _resume(self, first: int, sender, pub: SharedPublisher, msg: dict, issued, id, why: str | None) -> None:
+        """A message that waited: the rules asked again from the one that made it wait (or refused)."""
+        if sender.closed:            # its client is gone: nothing of it moves a robot now
+            return
+        try:
+            if why is not None:
+                raise ProtocolError(f'{pub.topic}: {why}')
+            self._through(first, sender, pub, msg, issued, id)
+        except Exception as e:
+            report = getattr(sender, 'report', None)
+            if report is not None:
+                report('publish', id, e)
+            else:
+                sender.status('error', str(e))
 
     def own_topic(self, topic: str, type: str, qos: QoS):
         """A publisher of the gateway's own announcements; clients' publish ops on the topic

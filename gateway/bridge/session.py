@@ -18,6 +18,7 @@ from .capabilities import HANDLERS
 from ..backends.base import BackendError
 from .outbox import Outbox
 from ..rules.freshness import ClientClock, Fence
+from ..rules.settle import Wait
 
 if TYPE_CHECKING:
     from .gateway import Gateway
@@ -90,17 +91,28 @@ class ClientSession:
                     asyncio.ensure_future(self.hang_up(item.close, f'{item.op or "message"}: past a limit'))
                     return
                 continue
-            handler = HANDLERS.get(type(item))
-            if handler is None:
-                continue
-            try:
-                if self.gateway.policy.admit(self, item) is False:
-                    continue
-                for guard in self.gateway.guards:   # e.g. a run's output for its starter alone
-                    guard(self, item)
-                handler(self, item)
-            except Exception as e:  # the one catch site: every failure becomes a status
-                self.report(item.OP, item.id, e)
+            self._take_op(item)
+
+    def _take_op(self, item, why: str | None = None) -> None:
+        """One op: admitted by the policy (or waiting with a free lease being settled, then asked
+        again), the guards, its handler."""
+        handler = HANDLERS.get(type(item))
+        if handler is None or self.closed:
+            return
+        try:
+            if why is not None:
+                raise ProtocolError(why)
+            verdict = self.gateway.policy.admit(self, item)
+            if verdict is False:
+                return
+            if isinstance(verdict, Wait):   # a call on a free lease of a fleet: PostgreSQL's word first
+                verdict.then(lambda why: self._take_op(item, why))
+                return
+            for guard in self.gateway.guards:   # e.g. a run's output for its starter alone
+                guard(self, item)
+            handler(self, item)
+        except Exception as e:  # the one catch site: every failure becomes a status
+            self.report(item.OP, item.id, e)
 
     def spawn(self, coro: Coroutine, op: str, id: str | None) -> asyncio.Task:
         """Run long work (calls, goals) without blocking this client's later ops."""

@@ -210,6 +210,12 @@ def compose(gateway, files: Files = Files(), *, reads=lambda name: False, runs=N
         auth = Authenticator(store, Brake(base=sec.auth_backoff))
         sessions = Sessions(gateway.store, cookie_secret(), hours=sec.session_hours,
                             still_valid=lambda s: s.kind != 'token' or s.identity.listed(store.entries))
+
+        def signed_out(key):   # that sign-in's websockets close (here, and on each gateway that applies it)
+            for session in list(gateway.sessions.values()):
+                if session.attrs.get('signin') == key:
+                    session.close_connection(1008, 'signed out')
+        sessions.on_revoked = signed_out
     timetable = None
     if lab.booking:
         timetable = Timetable(gateway.store, BookingLimits(

@@ -18,10 +18,11 @@ called in the station's namespace, and the next booking takes over. Until the ne
 one slot length after hers, the booker may not walk back in (a slot cannot be stretched).
 
 In a fleet of gateways on one PostgreSQL (``store.fleet``) a booking made through one is known to
-the others at once (an event, then the timetable read again), two gateways booking one time are
-serialized by a transaction lock, and every gateway seats and ends each slot on its own timer: a
-slot ends on time when the gateway it was booked through has died. The --station-reset call is
-the fleet's timekeeper's alone (one call per slot's end).
+the others at once (an event, then the timetable read again; and whenever the rows change, read
+each second), two gateways booking one time are serialized by a transaction lock, and every
+gateway seats and ends each slot on its own timer: a slot ends on time when the gateway it was
+booked through has died, or while the database is away. The --station-reset call is made once per
+slot's end: by the gateway that claims it first in the database (``Fleet.once``).
 
 The timer sleeps until the next boundary (start or end of any booking), never more than
 MAX_SLEEP: the wall clock decides, and a clock that jumps is caught at the next wake-up.
@@ -310,11 +311,19 @@ class Slots(Hook):
         self.stations.unseat(station, booking.person, why)
         nxt = self.timetable.next(station, now)
         self.timetable.ended[station] = (booking.person, nxt.start if nxt is not None else now + self.timetable.limits.slot)
-        fleet = self.timetable.fleet
-        if self.reset and (fleet is None or fleet.timekeeper):   # one call per fleet: the timekeeper's
-            task = asyncio.ensure_future(self._reset(station))
+        if self.reset:
+            task = asyncio.ensure_future(self._reset_once(station, booking))
             self.resets.add(task)
             task.add_done_callback(self.resets.discard)
+
+    async def _reset_once(self, station: str, booking: Booking) -> None:
+        """The reset, by one gateway of a fleet: the one whose claim of it the database takes first
+        (it waits for the database: a reset late is better than two)."""
+        fleet = self.timetable.fleet
+        if fleet is None or await fleet.once(f'reset {station} {booking.start:.3f} {booking.end:.3f}'):
+            await self._reset(station)
+        else:
+            log.info('slot end: %s reset by another gateway of the fleet', station)
 
     async def _reset(self, station: str) -> None:
         """The --station-reset service in the station's namespace (std_srvs Empty or Trigger)."""

@@ -29,7 +29,8 @@ JSON: {"driver": <holder of "/"> | null, "drivers": {group: holder | null}, "sta
 "stopped": {group: unix time}, "halted": {group: who stopped it, while the stop holds}}, a holder
 being {"client", "name", "role", "remote", "since", "owner": whether it is the station's owner's,
 "run": its run id or null; in a fleet of gateways, one driving through another gateway has
-"elsewhere": true and only "name" and "owner"}.
+"elsewhere": true and only "name" and "owner"}; in a fleet, "fleet": {"gateway": its id,
+"unreachable": unix time since when it cannot reach its database, or null}.
 """
 
 from __future__ import annotations
@@ -48,6 +49,7 @@ from .policy import CONTROL_TOPIC, GATEWAY_ROLE
 
 log = logging.getLogger('rosgate.lease')
 from .safety import moving_command
+from .settle import FleetLease, Wait
 from .stations import Stations, person
 from .hooks import Hook
 
@@ -67,7 +69,7 @@ def glob_group(glob: str) -> str:
     return glob[:-2] if glob.endswith('/*') and glob.count('*') == 1 and len(glob) > 2 else glob
 
 
-class Lease(Hook):
+class Lease(FleetLease, Hook):
     def __init__(self, gateway, *, types: frozenset[str], globs: tuple[str, ...] | None,
                  takeover_role: str | None, on_lost: Callable[[object, str], None], stations: Stations,
                  stop_group: Callable[[str], None] = lambda group: None,
@@ -82,6 +84,7 @@ class Lease(Hook):
         self.halted: dict[str, str] = {}         # group -> who stopped it, until "take" by its owner
         self.lent: dict[str, object] = {}        # group -> the session a run of the same person took it from
         self.fleet = None                        # store.fleet.Fleet: the other gateways' leases (rules.fleet)
+        self.settling: dict[str, tuple] = {}     # group -> (person, who, Wait): a free lease asked of PostgreSQL
         backend = gateway.backend
         self._driver = gateway.own_topic(DRIVER_TOPIC, STRING, QoS(depth=1, transient_local=True))
         # declares the control topic so clients may publish to it without a type
@@ -105,10 +108,18 @@ class Lease(Hook):
         for ns in self.stations():
             if name.startswith(ns + '/'):
                 return ns
+        for ns in self._known_groups():   # a Stop in force, a driver elsewhere: a group before the graph shows it
+            if name.startswith(ns + '/'):
+                return ns
         for g in self.globs:
             if fnmatchcase(name, g):
                 return glob_group(g)
         return ROOT
+
+    def _known_groups(self):
+        yield from (g for g in self.halted if g != ROOT)
+        if self.fleet is not None:
+            yield from (name for kind, name in self.fleet.others if kind == 'lease' and name != ROOT)
 
     def group_of_namespace(self, ns: str) -> str:
         return self.group(ns.rstrip('/') + '/') if ns.strip('/') else ROOT
@@ -118,46 +129,52 @@ class Lease(Hook):
 
     # --- commands -------------------------------------------------------------------------------
 
-    def require(self, session, name: str, type: str | None = None, msg: dict | None = None) -> None:
+    def require(self, session, name: str, type: str | None = None, msg: dict | None = None) -> Wait | None:
         """Grant a free lease to a commanding client of the station's owner (or of a station nobody
         owns); refuse everyone but the holder. Nobody moves a stopped robot until its owner takes it
-        again; zero commands (a page stopping its program) pass without taking the lease.
+        again; zero commands (a page stopping its program) pass without taking the lease. In a
+        fleet a free lease waits for PostgreSQL's word: the answer is then a ``Wait`` (settle.py).
         msg: the command (None: a moving one)."""
         if not self.is_command(name, type):
-            return
+            return None
         if session.attrs.get('role') == GATEWAY_ROLE and msg is not None and not moving_command(msg):
-            return   # a stop the gateway publishes itself
+            return None   # a stop the gateway publishes itself
         group = self.group(name)
         holder = self.holders.get(group)
         if holder is session:
-            return
+            return None
         moving = msg is None or type not in self.types or moving_command(msg)   # only asked here: rare
         stopper = self.halted.get(group)
         if stopper is not None:
             if not moving and holder is None:
-                return
+                return None
             raise ProtocolError(f'{name}: {stopper} stopped {group}; send "take {group}" (the Take button) to '
                                 'drive it again')
         key = person(session)
+        settling = self.settling.get(group)
+        if settling is not None:       # someone here is asking PostgreSQL for it: hers wait with it
+            if settling[0] == key:
+                return settling[2]
+            if not moving:
+                return None
+            raise ProtocolError(f'{name}: {settling[1]} is taking the driver lease for {group} (exclusive control); '
+                                f'{self._way_out(session, group)}')
         if holder is not None and person(holder) == key:
             if moving:      # another page or run of the same person: her robot, without a word
                 self._grant(group, session, quiet=True)
-            return
+            return None
         if holder is None:
             elsewhere = self.elsewhere(group, key)
-            if elsewhere is not None:
-                if not moving:
-                    return
+            if elsewhere is not None:   # even a zero: nothing of hers reaches a robot another drives
                 where = '' if group == ROOT else f' {group}'
                 raise ProtocolError(f'{name}: {elsewhere} is driving{where} through another gateway (exclusive '
                                     f'control); {self._way_out(session, group)}')
             owner = self.owners.owner(group)
             barred = self._walk_in_refusal(group, key) if owner is None else None
             if barred is None and (owner is None or owner.person == key):
-                self._grant(group, session)
-                return
+                return self._grant_settled(group, session)
             if not moving:
-                return
+                return None
             if barred is not None:
                 raise ProtocolError(f'{name}: {barred}')
             raise ProtocolError(f'{name}: {group} is {owner.name}\'s station; press "Claim a robot" for your '
@@ -165,12 +182,6 @@ class Lease(Hook):
         where = '' if group == ROOT else f' {group}'
         raise ProtocolError(f'{name}: {who(holder)} is driving{where} (exclusive control); '
                             f'{self._way_out(session, group)}')
-
-    def elsewhere(self, group: str, key: str | None) -> str | None:
-        """Who drives group through another gateway of the fleet, if not person ``key``: a dict
-        lookup (the fleet's mirror, kept current by its events), never a database round trip."""
-        held = self.fleet.held('lease', group) if self.fleet is not None else None
-        return held.who if held is not None and held.person != key else None
 
     def _walk_in_refusal(self, group: str, key: str) -> str | None:
         """Why person ``key`` may not take a station nobody owns: the teacher released it from her,
@@ -214,10 +225,8 @@ class Lease(Hook):
 
     def publish_hook(self, session, pub, msg, issued=None):
         if pub.topic == CONTROL_TOPIC:
-            self._command(session, str(msg.get('data', '')).split())
-            return None
-        self.require(session, pub.topic, pub.type, msg)
-        return msg
+            return self._command(session, str(msg.get('data', '')).split())
+        return self.require(session, pub.topic, pub.type, msg) or msg
 
     def _may_override(self, session) -> bool:
         return self.may_take_over(session.attrs.get('role'))
@@ -253,7 +262,7 @@ class Lease(Hook):
         (a robot-side run); ProtocolError when someone else drives and session may not take over."""
         self._command(session, ['take', ns] if ns else ['take'])
 
-    def _command(self, session, words: list[str]) -> None:
+    def _command(self, session, words: list[str]) -> Wait | None:
         verb = words[0].lower() if words else ''
         if (verb not in ('take', 'take-if-free', 'release', 'stop') or len(words) > 2
                 or (verb in ('stop', 'take-if-free') and len(words) != 2)):
@@ -275,28 +284,29 @@ class Lease(Hook):
             raise ProtocolError(ended)
         if verb == 'take-if-free':   # a page on its own station: never a stopped one, never another's
             if holder is None and mine and group not in self.halted and self.elsewhere(group, person(session)) is None:
-                self._grant(group, session)
-            return
+                return self._grant_settled(group, session)
+            return None
         if verb == 'stop':
             if not self._may_override(session):
                 raise ProtocolError(f'only an admin can stop {group}')
             self.stopped[group] = round(time.time(), 3)
-            self.halted[group] = who(session)   # sticks until the owner's "take" or an admin's "release"
             if holder is not None:
                 self._grant(group, None, by=session, why='stopped the robot and freed')
+            self._halt(group, who(session))   # sticks until the owner's "take" or an admin's "release"
             self.stop_group(group)
             self._announce()
-            self._tell('stop', group=group, by=who(session))
-            return
+            if self.fleet is not None and not self.fleet.confirmed():
+                session.status('warning', f'{group} is stopped through this gateway; {self.fleet.why_unconfirmed()}, '
+                                          'so the other gateways learn of the Stop when it is back')
+            return None
         if verb == 'release':
             if holder is session:
                 self._grant(group, None)
             elif self._may_override(session):
-                self.halted.pop(group, None)
                 if holder is not None:
                     self._grant(group, None, by=session, why='released')
+                self._unhalt(group, end=who(session))   # and whoever drives it through another gateway
                 self._announce()
-                self._tell('release', group=group, by=who(session))
             elif holder is not None:
                 raise ProtocolError(f'{who(holder)} is driving{"" if group == ROOT else " " + group}; '
                                     'only an admin can release it')
@@ -315,21 +325,22 @@ class Lease(Hook):
         if holder is None and elsewhere is not None and not self._may_override(session):
             raise ProtocolError(f'{elsewhere} is driving {group} through another gateway; only an admin can take '
                                 f'over: {self._way_out(session, group)}')
-        if group in self.halted:
-            self._tell('unhalt', group=group)
         if holder is session:
-            self.halted.pop(group, None)
+            self._unhalt(group)
             self._announce()
         elif holder is None:
-            self.halted.pop(group, None)
-            self._grant(group, session, by=session if elsewhere is not None else None)
+            self._unhalt(group)
+            if elsewhere is not None:   # an admin's takeover: hers, whatever the others hold
+                self._grant(group, session, by=session)
+            else:
+                return self._grant_settled(group, session)
         elif person(holder) == person(session):   # her run, or another tab of hers: quietly
-            self.halted.pop(group, None)
+            self._unhalt(group)
             self._grant(group, session)
             if session.attrs.get('run') is not None and holder.attrs.get('run') is None:
                 self.lent[group] = holder
         elif self._may_override(session):
-            self.halted.pop(group, None)
+            self._unhalt(group)
             self._grant(group, session, by=session)
         else:
             raise ProtocolError(f'{who(holder)} is driving{"" if group == ROOT else " " + group}; '
@@ -339,7 +350,7 @@ class Lease(Hook):
         """A booked slot begins (key: its booker) or ends (None): the lease is freed unless a
         client of the booker holds it, a stop of the teacher's no longer holds, and whoever held
         it stops moving and is told why."""
-        self.halted.pop(group, None)
+        self._unhalt(group)
         holder = self.holders.get(group)
         if holder is not None and (key is None or person(holder) != key):
             self._grant(group, None)
@@ -349,12 +360,20 @@ class Lease(Hook):
         self._announce()
 
     def free(self, group: str, by) -> None:
-        """A station given back (the teacher's Release, or its owner's): no holder and no stop."""
-        self.halted.pop(group, None)
+        """A station given back (the teacher's Release, or its owner's): no holder and no stop, on
+        any gateway."""
         holder = self.holders.get(group)
         if holder is not None:
             self._grant(group, None, by=None if holder is by else by, why='released')
+        self._unhalt(group, end=who(by) if by is not None else 'the teacher')
         self._announce()
+
+    def _grant_settled(self, group: str, session) -> Wait | None:
+        """``_grant``, once PostgreSQL says the free lease is hers (in a fleet: settle.py)."""
+        if self.fleet is not None and not self.fleet.holds('lease', group, person(session)):
+            return self._settle(group, session, person(session), who(session))
+        self._grant(group, session)
+        return None
 
     def _grant(self, group: str, session, *, by=None, why: str = 'took over', quiet: bool = False) -> None:
         """Give the group's lease to session (None: free it); the previous holder stops moving.
@@ -395,51 +414,6 @@ class Lease(Hook):
         if held:
             self._announce()
 
-    # --- what other gateways of the fleet did (rules.fleet hands their events in) ------------------
-
-    def _tell(self, kind: str, **event) -> None:
-        if self.fleet is not None:
-            self.fleet.notify(kind, **event)
-
-    def _drop_holder(self, group: str, why: str) -> None:
-        holder = self.holders.get(group)
-        if holder is not None:
-            self._grant(group, None)
-            if not holder.closed:
-                holder.status('warning', f'{why}; your commands were stopped')
-
-    def stopped_elsewhere(self, group: str, by: str) -> None:
-        """The teacher's Stop on another gateway: the same stop here, at once."""
-        self.stopped[group] = round(time.time(), 3)
-        self.halted[group] = by
-        self._drop_holder(group, f'{by} stopped the robot and freed the driver lease for {group}')
-        self.stop_group(group)
-        self._announce()
-
-    def released_elsewhere(self, group: str, by: str) -> None:
-        """An admin's release (or the teacher's Release of the station) on another gateway."""
-        self.halted.pop(group, None)
-        self._drop_holder(group, f'{by} released the driver lease for {group}')
-        self._announce()
-
-    def unhalted_elsewhere(self, group: str) -> None:
-        self.halted.pop(group, None)
-        self._announce()
-
-    def lapsed_elsewhere(self, group: str, hold) -> None:
-        """The gateway that held the group's lease died (its row lapsed, nobody gave it back): what its
-        driver left moving is zeroed from here, as that gateway's dead-man would have (one graph)."""
-        log.info('driver lease for %s lapsed (%s through a gateway that stopped answering): stopping it',
-                 group, hold.who)
-        if self.zero_group is not None:
-            self.zero_group(group)
-        self._announce()
-
-    def lost_elsewhere(self, group: str, hold) -> None:
-        """Another gateway's client holds the lease now (an admin took over, or both took it at once
-        and PostgreSQL gave it to them): ours stops."""
-        self._drop_holder(group, f'{hold.who} holds the driver lease for {group} through another gateway')
-
     def on_shutdown(self) -> None:
         if self._timer is not None:
             self._timer.cancel()
@@ -467,8 +441,11 @@ class Lease(Hook):
                                 'run': None, 'elsewhere': True}
                             for g in stations if (h := self.fleet.held('lease', g)) is not None})
         drivers.update({g: self._info(g) for g in self.holders})
-        text = json.dumps({'driver': self._info(ROOT), 'drivers': drivers, 'stations': list(stations),
-                           'stopped': self.stopped, 'halted': self.halted})
+        info = {'driver': self._info(ROOT), 'drivers': drivers, 'stations': list(stations),
+                'stopped': self.stopped, 'halted': self.halted}
+        if self.fleet is not None:   # which gateway says so, and since when it cannot reach its database
+            info['fleet'] = {'gateway': self.fleet.id, 'unreachable': self.fleet.unreachable}
+        text = json.dumps(info)
         if text != self._announced:
             self._announced = text
             self._driver.publish({'data': text})

@@ -236,11 +236,11 @@ class SecurePolicy(Policy):
             return True
         action, name = wanted
         try:
-            self.check(session, action, name, op.OP, op.id)
+            wait = self.check(session, action, name, op.OP, op.id)
         except ProtocolError as e:
             refuse(session, op, e.message)
         self._caps(session, op, name)
-        return True
+        return wait or True   # a Wait (rules.settle): a call on a free lease of a fleet asks PostgreSQL first
 
     def _rate(self, session, op) -> bool:
         """A token bucket per client (burst: one second's worth, at least one op). Each op over
@@ -299,10 +299,13 @@ class SecurePolicy(Policy):
                     f'role {role} may not {VERBS[need]} this'
         return super().refusal(who, action, name)
 
-    def check(self, session, action: str, name: str, op: str, id: str | None) -> None:
+    def check(self, session, action: str, name: str, op: str, id: str | None):
+        """Raises ProtocolError to refuse; returns a ``rules.settle.Wait`` when the op must wait for
+        the driver lease (a call or goal under --control-glob on a free lease of a fleet)."""
         super().check(session, action, name, op, id)
         if self.lease is not None and action in ('call', 'send_goal'):
-            self.lease.require(session, name)
+            return self.lease.require(session, name)
+        return None
 
     def authenticate(self, session, op) -> None:
         if self.auth is None:
@@ -352,6 +355,8 @@ class SecurePolicy(Policy):
         else:
             if identity is not None:
                 attrs.update(role=identity.role, name=identity.name, person=person_of(identity, {}))
+                if self.sessions is not None and not token_from_request(request):   # closed when it ends
+                    attrs['signin'] = self.sessions.key_of(session_cookie(request))
         return attrs
 
 

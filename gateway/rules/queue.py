@@ -3,10 +3,10 @@ are seated, in order, at the next station that frees (a slot ends with none afte
 or the teacher releases it, a claim lapses).
 
 A place in line is a person's (rules.stations.person), kept in memory: walk-ins are of the
-moment. In a fleet (store.fleet) the line is one for every gateway: each tells the others who
-joined (with when: the line's order) and who left, and seats only the people who joined through
-it, when they come first: an earlier person in line is her own gateway's to seat. A gateway
-started later knows the people who join from then on. Someone who has no page connected for ``grace`` seconds leaves the line. While the
+moment. In a fleet (store.fleet) the line is one for every gateway: a place in it is a row (with
+when she joined: the line's order, and the gateway she joined through), and each gateway seats
+only the people who joined through it, when they come first: an earlier person in line is her own
+gateway's to seat. A gateway started later, or one that could not hear for a while, reads the line. Someone who has no page connected for ``grace`` seconds leaves the line. While the
 line is not empty, ``/fleet/claim`` does not hand a free station to someone not in it (it
 would jump the line); ``Stations`` asks ``first_in_line``. The estimated wait of place k is
 when the k-th station frees by what the gateway knows: a booked slot's end (and the bookings
@@ -50,22 +50,23 @@ class Queue:
             w = Waiting(key, name)
             self.line.append(w)
             if self.fleet is not None:
-                self.fleet.notify('queue', person=key, name=name, since=w.since)
+                self.fleet.put('queue', key, {'name': name, 'since': w.since})
 
     def leave(self, key: str) -> bool:
         before = len(self.line)
         self.line = [w for w in self.line if w.person != key]
         left = len(self.line) != before
-        if left and self.fleet is not None:
-            self.fleet.notify('queue', person=key, left=True)
+        if self.fleet is not None and (left or ('queue', key) in self.fleet.values):
+            self.fleet.remove('queue', key)
         return left
 
-    def heard(self, event: dict) -> None:
-        """Another gateway's line changed: someone joined there (in order of joining) or left."""
-        key = event['person']
+    def mirror(self, key: str, old: dict | None, new: dict | None) -> None:
+        """The line's row of person ``key`` changed through another gateway: she joined there (in
+        order of joining) or left."""
         self.line = [w for w in self.line if w.person != key]
-        if not event.get('left'):
-            self.line.append(Waiting(key, event['name'], event['since'], here=False))
+        if new is not None:
+            here = self.fleet is not None and new.get('gateway') == self.fleet.id
+            self.line.append(Waiting(key, new.get('name', key), new.get('since', time.time()), here=here))
             self.line.sort(key=lambda w: w.since)
 
     def status(self, key: str, stations) -> dict:

@@ -16,12 +16,17 @@ their sessions end: a teacher books a slot "for" a student who launched from the
 Lookups run on every request and websocket upgrade, on the event loop: the live sessions are held
 in memory (loaded once at start-up, written through to the store on its own thread), so no
 lookup waits on a disk. With several gateways on one PostgreSQL (a fleet, ``store.fleet``), each
-tells the others of a sign-in and a sign-out at once (NOTIFY): a cookie from gateway A works on B
-behind a proxy that is not sticky, and a logout on A ends the session on B in the same moment.
+tells the others of a sign-in (NOTIFY, and they read new sessions every second): a cookie from
+gateway A works on B behind a proxy that is not sticky. A sign-out is a row (``revoked``): A
+answers once it is committed and every live gateway has applied it (or lapsed, ``Fleet.everywhere``),
+so a request on B after A answered is refused; that session's websockets close on every gateway as
+it applies the row. A gateway that cannot confirm the shared state refuses sign-ins (503) until it
+can: it may not have heard of a logout elsewhere, and the gateway that answered it counted on that.
 """
 
 from __future__ import annotations
 
+import asyncio
 import hashlib
 import logging
 import os
@@ -34,11 +39,17 @@ import tornado.web
 
 from ..settings import SecuritySettings, data_dir
 from ..store import METADATA
-from .tokens import Identity
+from .tokens import AuthError, Identity
 
 log = logging.getLogger('rosgate.sessions')
 SESSION_COOKIE = 'rosgate_session'
 DEFAULT_HOURS = SecuritySettings.session_hours
+COMMIT_WAIT = 15.0      # s a sign-out waits for the database to take it before answering without it
+
+
+class Unconfirmed(AuthError):
+    """A sign-in this gateway cannot confirm now (a fleet's database away): try again shortly."""
+    status = 503
 
 
 def _who() -> list[sa.Column]:
@@ -115,6 +126,7 @@ class Sessions:
         self.live: dict[str, Session] = {}
         self.known: dict[str, Person] = {}
         self.fleet = None        # store.fleet.Fleet (rules.fleet): the other gateways hear sign-ins and outs
+        self.on_revoked = lambda key: None   # a session ended: its websockets close (rules.compose)
         if store is not None:
             now = time.time()
             self.known = {r.owner: Person(r.owner, r.name, r.role, r.kind, r.seen)
@@ -145,9 +157,12 @@ class Sessions:
         if self.store is not None:
             row = dict(id_hash=key, name=identity.name[:200], role=identity.role, owner=identity.owner[:100],
                        kind=kind, created=now, expires=s.expires)
-            self.store.submit(lambda c: c.execute(TABLE.insert().values(**row)))
-            if self.fleet is not None:
+            insert = lambda c: c.execute(TABLE.insert().values(**row))   # noqa: E731
+            if self.fleet is not None:   # in order with a sign-out's revocation, on the fleet's thread
+                self.fleet.write(insert)
                 self.fleet.notify('login', **row)
+            else:
+                self.store.submit(insert)
         self._seen(Person(identity.owner[:100], identity.name[:200], identity.role, kind, now))
         return tornado.web.create_signed_value(self.secret, SESSION_COOKIE, session_id).decode()
 
@@ -158,8 +173,14 @@ class Sessions:
                                               max_age_days=self.max_age_days)
         return _hash(raw.decode('utf-8', 'replace')) if raw else None
 
+    def key_of(self, cookie_value: str | None) -> str | None:
+        """The session a cookie names (its id's hash), signed and not ended: what its websockets keep."""
+        key = self._key(cookie_value)
+        return key if key in self.live else None
+
     def find(self, cookie_value: str | None) -> Identity | None:
-        """Who a cookie stands for, or None (no cookie, a bad signature, ended or expired)."""
+        """Who a cookie stands for, or None (no cookie, a bad signature, ended or expired); in a
+        fleet that cannot confirm the shared state now, Unconfirmed (a logout elsewhere may be unknown)."""
         key = self._key(cookie_value)
         s = self.live.get(key) if key else None
         if s is None:
@@ -167,15 +188,49 @@ class Sessions:
         if s.expires <= time.time():
             self._drop(key)
             return None
+        if self.fleet is not None and not self.fleet.confirmed():
+            raise Unconfirmed(f'{self.fleet.why_unconfirmed()}, so it cannot confirm your sign-in now; try again '
+                              'in a moment')
         return s.identity
 
     def end(self, cookie_value: str | None) -> bool:
-        """Sign out: the session is gone on the server. True when there was one."""
+        """Sign out here (alone, or not waiting for the others): True when there was a session."""
         key = self._key(cookie_value)
         if key is None or key not in self.live:
             return False
         self._drop(key)
+        self.on_revoked(key)
         return True
+
+    async def sign_out(self, cookie_value: str | None) -> str | None:
+        """Sign out everywhere before answering: the session ended here at once, its row deleted
+        and, in a fleet, a ``revoked`` row committed and applied by every live gateway. None when
+        done; else why not (the database did not answer: the others learn it when it does)."""
+        key = self._key(cookie_value)
+        if key is None:
+            return None
+        s = self.live.pop(key, None)
+        self.on_revoked(key)
+        if self.store is None:
+            return None
+        delete = lambda c: c.execute(TABLE.delete().where(TABLE.c.id_hash == key))   # noqa: E731
+        if self.fleet is None:
+            await self.store.run(delete)
+            return None
+        until = s.expires if s is not None else time.time() + self.seconds
+        committed = self.fleet.put('revoked', key, {'until': until}, until=until, also=delete,
+                                   after=self.fleet.db.gateways)
+        try:
+            done = await asyncio.wait_for(asyncio.shield(committed), COMMIT_WAIT)
+        except Exception as e:
+            log.warning('sign-out not committed within %g s (%s): the other gateways learn it when the database '
+                        'answers', COMMIT_WAIT, str(e) or type(e).__name__)
+            return ('you are signed out on this gateway; the database did not answer, so the other gateways '
+                    'learn it when it does')
+        late = await self.fleet.everywhere(done, 'revoked', key)
+        if late:
+            log.warning('sign-out: gateways %s neither applied it nor lapsed', ', '.join(late))
+        return None
 
     def _seen(self, person: Person) -> None:
         self.known[person.owner] = person
@@ -199,12 +254,24 @@ class Sessions:
         self.live[row['id_hash']] = Session(Identity(row['name'], row['role'], row['owner']), row['kind'],
                                             row['expires'])
 
-    def heard_logout(self, key: str) -> None:
+    def revoked_elsewhere(self, key: str) -> None:
+        """A sign-out through another gateway (its row): refused here from now, its websockets
+        closed, and that gateway told (it answers once every gateway has said so)."""
         self.live.pop(key, None)
+        self.on_revoked(key)
+        self.fleet.ack('revoked', key)
+
+    def created_since(self, c: sa.Connection, since: float) -> list:
+        """The sessions begun since (on the fleet's thread, each second): a sign-in not heard."""
+        return c.execute(sa.select(TABLE).where(TABLE.c.created > since)).all()
+
+    def heard_created(self, rows) -> None:
+        now = time.time()
+        for row in rows:
+            if row.id_hash not in self.live and row.expires > now and ('revoked', row.id_hash) not in self.fleet.values:
+                self.heard_login(row._asdict())
 
     def _drop(self, key: str) -> None:
         self.live.pop(key, None)
-        if self.fleet is not None:
-            self.fleet.notify('logout', key=key)
         if self.store is not None:
             self.store.submit(lambda c: c.execute(TABLE.delete().where(TABLE.c.id_hash == key)))

@@ -50,6 +50,7 @@ from protocol.errors import ProtocolError
 from ..backends.base import QoS
 from .hooks import Hook
 from ..settings import StationSettings
+from ..store.fleet import Unreachable
 
 STATIONS_TOPIC = '/rosgate/stations'
 STRING = 'std_msgs/msg/String'
@@ -138,11 +139,13 @@ class Stations(Hook):
         return self._stations
 
     def owner(self, station: str) -> Owner | None:
-        """Who owns the station: claimed here, or through another gateway of the fleet (a dict lookup)."""
+        """Who owns the station: claimed here, or through another gateway of the fleet (a dict lookup;
+        not a booker whose slot there ended here: another gateway's clock may end it a moment later)."""
         o = self.owners.get(station)
         if o is None and self.fleet is not None:
             held = self.fleet.held('claim', station)
-            if held is not None:
+            if held is not None and (self.timetable is None
+                                     or self.timetable.walk_in_refusal(station, held.person) is None):
                 return Owner(held.person, held.who, 0.0, time.monotonic())
         return o
 
@@ -238,14 +241,24 @@ class Stations(Hook):
         o = self.owners.get(ns) if answer['success'] else None
         if o is None:
             return answer
-        holder = await self.fleet.take('claim', ns, o.person, o.name)
-        if holder is None:
-            return answer
+        try:
+            holder = await self.fleet.take('claim', ns, o.person, o.name)
+        except Unreachable as e:
+            holder, why = None, f'{e}, so it cannot confirm your claim of {ns}; try again in a moment'
+        else:
+            if holder is None:        # hers in PostgreSQL, which lifted any Release that barred her
+                if self.owners.get(ns) is not o:     # (heard meanwhile, and undone here too)
+                    self.owners[ns] = o
+                for barred in [s for s, p in self.barred.items() if p == o.person or s == ns]:
+                    del self.barred[barred]
+                self._announce()
+                return answer
+            why = f'{ns} is {holder.who}\'s station (claimed through another gateway); ask the teacher, or ' \
+                  'claim a free one'
         if self.owners.get(ns) is o:
             del self.owners[ns]
             self._announce()
-        return {'success': False, 'message': f'{ns} is {holder.who}\'s station (claimed through another '
-                                             'gateway); ask the teacher, or claim a free one'}
+        return {'success': False, 'message': why}
 
     def _own(self, session, station: str) -> dict:
         o = self.owners.get(station)
@@ -257,7 +270,7 @@ class Stations(Hook):
             self.owners[station] = Owner(key, name, round(time.time(), 3), time.monotonic(), until)
             self.released.pop(station, None)
             for ns in [ns for ns, p in self.barred.items() if p == key or ns == station]:
-                del self.barred[ns]     # she claimed again: the teacher's Release is behind her
+                self._unbar(ns)         # she claimed again: the teacher's Release is behind her
         else:
             o.name, o.seen = name, time.monotonic()
         self._announce()
@@ -275,7 +288,7 @@ class Stations(Hook):
                 s.status('warning', f'{station} is booked by {name} from now: it is no longer your station')
         self.owners[station] = Owner(key, name, round(time.time(), 3), time.monotonic(), until)
         self.released.pop(station, None)
-        self.barred.pop(station, None)   # her booked slot: a Release of a walk-in before it is behind
+        self._unbar(station)   # her booked slot: a Release of a walk-in before it is behind
         for s in self._clients_of(key):
             s.status('info', f'your booked slot on {station} began; it ends at {_clock(until)}')
         self._announce()
@@ -305,16 +318,16 @@ class Stations(Hook):
             by = session.attrs.get('name') or f'client {session.id}'
             self.released[station] = {'by': by, 'at': round(time.time(), 3)}
             self.barred[station] = o.person
+            if self.fleet is not None:   # a row: her pages on every gateway are barred, her claim ends
+                self.fleet.put('bar', station, {'person': o.person, **self.released[station]},
+                               ends=[('claim', station)], why=f'{by} released {station}')
             for s in self._clients_of(o.person):
                 s.status('warning', f'{by} released {station}: it is not your robot any more; press '
                                     '"Claim a robot" for one')
-        self.owners.pop(station, None)
+        if self.owners.pop(station, None) is None and self.fleet is not None and o.person == person(session):
+            self.fleet.end('claim', station, f'{station} was given back')   # her claim, held through another gateway
         self._announce()                     # first: her pages learn it is not hers before it is free
-        self._free_lease(session, station)
-        if self.fleet is not None:           # her pages on the other gateways learn it too
-            barred = self.barred.get(station) if o.person != person(session) else None
-            self.fleet.notify('free', station=station, by=session.attrs.get('name') or f'client {session.id}',
-                              person=o.person, barred=barred)
+        self._free_lease(session, station)   # (its driver through any gateway, too)
         return {'success': True, 'message': station}
 
     def release_all(self, session) -> dict:
@@ -373,14 +386,32 @@ class Stations(Hook):
         if lease is not None:
             lease.released_elsewhere(station, by)
 
-    def lost_elsewhere(self, station: str, hold) -> None:
-        """Two gateways claimed one station at once; PostgreSQL gave it to the other one's."""
+    def lost_elsewhere(self, station: str, hold, why: str | None = None) -> None:
+        """Our claim is gone from PostgreSQL: two gateways claimed one station at once and it gave
+        it to the other one's (``hold``), or it was given back through another gateway (None)."""
         o = self.owners.pop(station, None)
         if o is not None:
+            why = (f'{station} is {hold.who}\'s station (claimed through another gateway at the same moment)'
+                   if hold is not None else why or f'{station} was given back through another gateway')
             for s in self._clients_of(o.person):
-                s.status('warning', f'{station} is {hold.who}\'s station (claimed through another gateway at '
-                                    'the same moment); press "Claim a robot" for another')
+                s.status('warning', f'{why}; press "Claim a robot" for another')
         self._announce()
+
+    def _unbar(self, station: str) -> None:
+        if self.barred.pop(station, None) is not None and self.fleet is not None:
+            self.fleet.remove('bar', station)
+
+    def barred_elsewhere(self, station: str, old: dict | None, new: dict | None) -> None:
+        """The teacher's Release of a person, through another gateway (its row): she is barred here
+        too; or that bar ended (she claimed again)."""
+        if new is None:
+            if old is not None and self.barred.get(station) == old.get('person'):
+                del self.barred[station]
+            self._announce()
+            return
+        key = new.get('person')
+        if self.barred.get(station) != key:
+            self.freed_elsewhere(station, new.get('by', 'the teacher'), key, key)
 
     def _share(self) -> None:
         """This gateway's claims held in the fleet's table (no-op when unchanged), the given-back dropped."""

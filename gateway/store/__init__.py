@@ -42,6 +42,14 @@ def _public(url: sa.engine.URL) -> str:
     return url.render_as_string(hide_password=True)
 
 
+def pg_connect_args(role: str) -> dict:
+    """libpq settings for each PostgreSQL connection of this gateway: a dead peer or a network that
+    drops everything is noticed within seconds, not TCP's minutes; each named ``rosgate-PID-ROLE``
+    (``application_name``: an operator finds a gateway's connections in ``pg_stat_activity``)."""
+    return {'connect_timeout': 3, 'keepalives': 1, 'keepalives_idle': 2, 'keepalives_interval': 1,
+            'keepalives_count': 2, 'tcp_user_timeout': 5000, 'application_name': f'rosgate-{os.getpid()}-{role}'}
+
+
 class Store:
     """One database, opened once per gateway and brought to the newest schema version then."""
 
@@ -55,7 +63,8 @@ class Store:
         else:
             self.path = None
         self.url = _public(parsed)
-        self.engine = sa.create_engine(parsed, future=True, pool_pre_ping=not self.sqlite)
+        self.engine = sa.create_engine(parsed, future=True, pool_pre_ping=not self.sqlite, connect_args=(
+            pg_connect_args('store') if parsed.get_backend_name() == 'postgresql' else {}))
         if self.sqlite:
             sa.event.listen(self.engine, 'connect', _sqlite_pragmas)
         self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix='rosgate-store')

@@ -52,7 +52,16 @@ class HealthHandler(tornado.web.RequestHandler):
             'status': 'ok', 'backend': gw.backend.name, 'clients': len(gw.sessions),
             'uptime': round(time.time() - gw.started, 3), 'topics': len(gw.fanouts),
             'images_rendered': gw.images_rendered,
+            **_fleet(gw),
         }))
+
+
+def _fleet(gw) -> dict:
+    """In a fleet of gateways: this one's id, whether it keeps time, since when its database is away."""
+    fleet = getattr(gw.ruleset, 'fleet', None)
+    if fleet is None:
+        return {}
+    return {'fleet': {'gateway': fleet.id, 'timekeeper': fleet.timekeeper, 'unreachable': fleet.unreachable}}
 
 
 class TeleopHandler(tornado.web.RequestHandler):

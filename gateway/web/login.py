@@ -77,11 +77,17 @@ class LogoutHandler(tornado.web.RequestHandler):
     def initialize(self, policy) -> None:
         self.policy = policy
 
-    def get(self) -> None:
+    async def get(self) -> None:
         check_origin(self, self.policy)
-        if self.policy.sessions is not None:
-            self.policy.sessions.end(session_cookie(self.request))
+        why = None
+        if self.policy.sessions is not None:   # answered once every gateway refuses the session
+            why = await self.policy.sessions.sign_out(session_cookie(self.request))
         clear_cookie(self, SESSION_COOKIE, secure=is_https(self))
+        if why is not None:
+            self.set_status(503)
+            self.set_header('Content-Type', 'text/plain; charset=utf-8')
+            self.finish(why)
+            return
         self.redirect('/login', status=303)
 
     post = get

@@ -6,7 +6,12 @@ a signed-in student claims /s01 on gateway A and drives it at about 200 commands
 compared, per second, with the same window without commands: the difference over the commands is
 what one command costs the database (the rules check the fleet's in-memory mirror: it should be 0). The
 window ends 2.5 s after the last command, as PostgreSQL flushes each backend's counters at most
-once a second; the transactions both windows count are the fleet's beats and the history."""
+once a second; the transactions both windows count are the fleet's beats and the history.
+
+Then the one wait a fleet adds: a free lease's first command waits for PostgreSQL's word
+(rules.settle). ROUNDS times a second student on gateway B sends a first command on the free /s02
+and the time until the gateway says she holds the lease (the command is published then) is taken,
+beside a later command of hers (answered from memory), timed with a rosapi call after it."""
 
 from __future__ import annotations
 
@@ -23,6 +28,7 @@ from tests.support.wsclient import TWIST, Client, twist
 
 FLAGS = ('--robot', 'turtlesim', '--fleet', '2', '--exclusive-control', '--cmd-timeout', '5')
 WINDOW = 6.0
+ROUNDS = 30
 
 
 def main(argv: list[str]) -> int:
@@ -66,12 +72,42 @@ def main(argv: list[str]) -> int:
         seconds = WINDOW + 2.5
         print(f'{n} commands through gateway A in {WINDOW:g} s: {busy:.2f} PostgreSQL transactions a second '
               f'over the window, {idle:.2f} without commands; per command: {(busy - idle) * seconds / n:+.4f}')
+        first, later = first_command_waits(gateways[1])
+        print(f'a free lease\'s first command, {ROUNDS} times through gateway B: told it holds the lease after '
+              f'{pct(first, 50):.1f} ms (median), {pct(first, 95):.1f} ms (p95), {max(first):.1f} ms (max); a later '
+              f'command and a rosapi call after it: {pct(later, 50):.1f} ms (median), {pct(later, 95):.1f} ms (p95)')
     finally:
         for gw in gateways:
             gw.stop()
         engine.dispose()
         next(server, None)
     return 0
+
+
+def pct(values: list[float], p: float) -> float:
+    ordered = sorted(values)
+    return ordered[min(len(ordered) - 1, int(len(ordered) * p / 100))]
+
+
+def first_command_waits(gw) -> tuple[list[float], list[float]]:
+    """ms until the gateway grants the lease to a first command (waiting for PostgreSQL), and until
+    a rosapi call sent after a later command of the same holder is answered (the lease from memory)."""
+    first, later = [], []
+    topic = '/s02/turtle1/cmd_vel'
+    with Client(gw.ws_url, TOKENS['operator2']) as bob:
+        bob.send({'op': 'set_level', 'level': 'info'})
+        assert bob.refusal({'op': 'advertise', 'topic': topic, 'type': TWIST}) is None
+        for n in range(ROUNDS):
+            start = time.monotonic()
+            bob.publish(topic, twist(0.1), id=f'first:{n}')
+            bob.expect(lambda m: 'you hold the driver lease' in m.get('msg', ''), 10)
+            first.append((time.monotonic() - start) * 1000)
+            start = time.monotonic()   # handled before the rosapi call that follows it is answered
+            assert bob.refusal({'op': 'publish', 'topic': topic, 'msg': twist(0.0)}) is None
+            later.append((time.monotonic() - start) * 1000)
+            bob.publish('/rosgate/control', {'data': 'release /s02'}, 'std_msgs/msg/String')
+            time.sleep(0.05)    # the release reaches PostgreSQL before the next first command
+    return first, later
 
 
 if __name__ == '__main__':

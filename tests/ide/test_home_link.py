@@ -71,6 +71,16 @@ class Poses:
         self.raw.ws.close()
 
 
+class Commands(Poses):
+    """The velocity commands the turtle receives, as (time, linear x, angular z)."""
+
+    def _read(self):
+        for m in self.raw.incoming(lambda: self.done):
+            if m.get('op') == 'publish':
+                with self.lock:
+                    self.samples.append((time.monotonic(), m['msg']['linear']['x'], m['msg']['angular']['z']))
+
+
 def moved(a, b) -> float:
     return math.hypot(a[0] - b[0], a[1] - b[1])
 
@@ -224,6 +234,45 @@ def test_nothing_a_plain_client_sent_during_a_2_s_freeze_moves_the_turtle(kind):
         log = gw.log_text()
     print(f'\n{kind}: after the link returned the turtle moved {moved(end, at_return) * 1000:.1f} mm')
     assert moved(end, at_return) < 0.005, log[-2000:]
+
+
+def test_a_plain_client_driving_a_fleet_gateway_over_a_freezing_link_sees_the_robot_stopped(tmp_path):
+    """The plain roslibpy teleop on a gateway of a fleet (--db PostgreSQL, --exclusive-control): its
+    first command waits for PostgreSQL's word and then drives; when the link freezes the dead-man's
+    zero stops the turtle (the poses after it stand still), and nothing sent during the freeze moves
+    it after the link's return."""
+    from tests.support.postgres import postgres
+    for pg in postgres():
+        with netlink.NetLink(delay=DELAY, jitter=JITTER) as link:
+            gw = link.start_gateway('--robot', 'turtlesim', '--exclusive-control', '--booking', '--db', pg.unix_url)
+            poses = Poses(link, gw, '/turtle1/pose')
+            commands = Commands(link, gw, '/turtle1/cmd_vel', TWIST)   # what reaches the turtle
+            driver = PlainDriver(link, gw, '/turtle1/cmd_vel', 'roslibpy')
+            try:
+                wait_for(lambda: poses.samples, what='a pose')
+                driver.say('hold 0.6')
+                wait_for(lambda: len(commands.samples) >= 5, what='the commands of a drive')
+                back = link.freeze(2.0)
+                zero = wait_for(lambda: next((c for c in commands.samples if c[1] == 0.0), None), 15,
+                                what="the dead-man's zero")
+                driver.say('release')   # what it sent until the zero waits in the frozen link
+                wait_for(lambda: time.monotonic() > back, timeout=5, what='the link back')
+                stopped = wait_for(lambda: next((p for p in poses.samples if p[0] > zero[0] + 0.2), None), 15,
+                                   what='a pose after the zero')
+                driver.say('sync')
+                driver.expect('synced')
+                synced = time.monotonic()
+                wait_for(lambda: poses.samples[-1][0] > synced + 1.2, what='poses past a replayed command')
+                end = poses.latest()
+            finally:
+                driver.close()
+                poses.close()
+                commands.close()
+            log = gw.log_text()
+        moving_after = [c for c in commands.samples if c[0] > zero[0] and c[1] != 0.0]
+        print(f'\nfleet: after the zero the turtle moved {moved(end, stopped[1:]) * 1000:.1f} mm')
+        assert moving_after == [], moving_after[:3]
+        assert moved(end, stopped[1:]) < 0.005, log[-2000:]
 
 
 def test_released_key_stops_within_cmd_timeout_over_jitter():

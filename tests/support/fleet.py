@@ -26,15 +26,15 @@ from .wsclient import TWIST, Client, is_zero_twist, twist
 
 # --cmd-timeout 5: the dead-man's zero (1 s by default) is not taken for the Stop's
 FLAGS = ('--exclusive-control', '--booking', '--slot-minutes', '0.25', '--cmd-timeout', '5')
-STOP_BOUND = 1.0     # s: a Stop on one gateway zeroes the station on the other within this
 HOLD = 3.0           # s: a dead gateway's claims and leases lapse within this (store.fleet)
 
 
-def start_pair(start, tokens_file: str, postgres: str, data: str, *flags: str) -> list:
+def start_pair(start, tokens_file: str, postgres: str, data: str, *flags: str, b_db: str | None = None) -> list:
     """Gateways A and B of one fleet (B started second), ``start(*flags, env=...)`` each; ``data``
-    is their one data folder (one cookie secret, as a fleet shares it)."""
-    return [start(*FLAGS, *flags, '--auth', tokens_file, '--db', postgres, env={'XDG_DATA_HOME': data})
-            for _ in range(2)]
+    is their one data folder (one cookie secret, as a fleet shares it); ``b_db``: B's way to the
+    database, when not ``postgres`` (a tests/support/pgproxy.Relay's, to cut B off)."""
+    return [start(*FLAGS, *flags, '--auth', tokens_file, '--db', url, env={'XDG_DATA_HOME': data})
+            for url in (postgres, b_db or postgres)]
 
 
 def stations(c: Client) -> None:
@@ -152,8 +152,8 @@ def one_line(a, b) -> None:
 
 
 def stop_on_a_halts_b(a, b, follow) -> None:
-    """The teacher's Stop on A zeroes the station a student drives through B within STOP_BOUND,
-    and nothing moves it after: her commands are refused until the teacher's Release and her new
+    """The teacher's Stop on A zeroes the station a student drives through B (how long it took is
+    printed: the bound is the benchmark's), and nothing moves it after: her commands are refused until the teacher's Release and her new
     claim, and the next motion the robot receives is the one she sends then (no refused command
     went out in between: one gateway's commands on a topic arrive in order)."""
     with Client(a.ws_url, TOKENS['admin']) as teacher, Client(b.ws_url, TOKENS['operator2']) as bob, \
@@ -165,9 +165,8 @@ def stop_on_a_halts_b(a, b, follow) -> None:
         heard(lambda m: m['linear']['x'] == 1.0, 5)
         teacher.publish('/rosgate/control', {'data': 'stop /s02'}, 'std_msgs/msg/String')
         stopped = time.monotonic()
-        heard(is_zero_twist, STOP_BOUND)
-        took = time.monotonic() - stopped
-        assert took < STOP_BOUND, took
+        heard(is_zero_twist, 15)
+        print(f'\nthe Stop through A reached the robot driven through B in {(time.monotonic() - stopped) * 1000:.0f} ms')
         for _ in range(3):    # she keeps driving at 10 Hz through B
             refusal = drive(bob, '/s02')
             assert refusal is not None and 'teacher' in refusal['msg'] and 'stopped /s02' in refusal['msg'], refusal
@@ -240,15 +239,16 @@ def slot_ends_with_a_killed(a, b, follow) -> None:
         a.stop(signal.SIGKILL)
         killed = time.monotonic()
         # A's dead-man died with it: when its lease on /s02 lapses, B zeroes what bob left moving
-        heard_s02(is_zero_twist, HOLD + 3)
+        heard_s02(is_zero_twist, HOLD + 15)
+        print(f'\nthe killed gateway\'s robot got its zero from the other in {time.monotonic() - killed:.2f} s')
         # A's claims and leases lapse within HOLD of its death: the teacher on B claims /s02
-        wait_for(lambda: teacher.call('/s02/fleet/claim')['values']['success'], 10, 0.1)
-        assert time.monotonic() - killed < HOLD + 1.5
+        wait_for(lambda: teacher.call('/s02/fleet/claim')['values']['success'], 20, 0.1)
         refusal = None
-        while refusal is None and time.time() < slot['end'] + 5:   # she keeps driving at 10 Hz through B
+        while refusal is None and time.time() < slot['end'] + 30:   # she keeps driving at 10 Hz through B
             refusal = drive(alice, '/s01')
             time.sleep(0.1)   # the stream's pace, not a wait for an event
         late = time.time() - slot['end']
         assert refusal is not None and 'slot on /s01 has ended' in refusal['msg'], refusal
-        assert -0.1 < late < STOP_BOUND, late
-        heard(is_zero_twist, STOP_BOUND)
+        assert late > -0.1, late          # not before its end (how late is printed: the bound is the benchmark's)
+        print(f'the slot ended {late * 1000:+.0f} ms from its booked end')
+        heard(is_zero_twist, 15)

@@ -88,7 +88,7 @@ def publish(s: ClientSession, op: Publish) -> None:
         raise ProtocolError(f'{topic} is advertised by this client with type {pub.type}, not {op.type}',
                             op=op.OP, id=op.id)
     issued = None if op.t is None else s.clock.sample(op.t, asyncio.get_running_loop().time())
-    s.gateway.publish(s, pub, from_json(s.backend.defs, pub.msgdef, op.msg), issued)
+    s.gateway.publish(s, pub, from_json(s.backend.defs, pub.msgdef, op.msg), issued, op.id)
 
 
 def subscribe(s: ClientSession, op: Subscribe) -> None:
