@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 
 from ..backends.base import BackendError, QoS
 from .fanout import TopicFanout
-from .outbox import corked
+from .outbox import after_batch, corked
 from ..rules import GATEWAY_ROLE, Hooks
 from ..rules.policy import Policy
 from ..store import Store
@@ -101,6 +101,7 @@ class Gateway:
         self.images_rendered = 0       # images made to measure (fan-out), in /health: one per frame and size
         if hasattr(backend, 'batch_scope'):   # a backend delivering messages in batches
             backend.batch_scope = corked      # sends each client its share in one write
+            backend.after_batch = after_batch   # and takes what the gateway published at a batch's end
 
     def install(self, rules) -> None:
         """Puts the rules in force (``rules.compose``), once, before the first client."""

@@ -90,20 +90,22 @@ def summarize(runs: list[dict]) -> dict:
     return out
 
 
-def finish_point(entry: dict, bases: tuple[str, ...] = ("ceiling",)) -> None:
+def finish_point(entry: dict, bases: tuple[str, ...] = ("ceiling",), baseline: str | None = None) -> None:
     """Add summary and ratios to one point's entry in place.
 
     `ratios[base][name]` is each other server's figure over the base's (the ceiling, or in
-    `--backend rclpy` the Rust server and the rclpy ceiling); `ratio` is the first base's."""
+    `--backend rclpy` the Rust server and the rclpy ceiling); `ratio` is the first base's. With a
+    `baseline` (another checkout's rosgate) its figures get ratios to the bases too, and the
+    others' to it."""
     entry["summary"] = {name: summarize(runs) for name, runs in entry["runs"].items() if runs}
     entry["ratios"] = {}
-    for base in bases:
+    for base in (*bases, baseline) if baseline else bases:
         reference = entry["summary"].get(base)
         if not reference:
             continue
         entry["ratios"][base] = {}
         for name, summary in entry["summary"].items():
-            if name in bases:
+            if name in bases or name == base:
                 continue
             ratios = {}
             for key, stats in summary.items():

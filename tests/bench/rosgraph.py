@@ -135,11 +135,13 @@ def start_rclpy_ceiling() -> CeilingTarget:
     return target
 
 
-def start_rosgate_rclpy(extra_args: list[str] | None = None) -> Target:
+def start_rosgate_rclpy(extra_args: list[str] | None = None, checkout: Path = REPO,
+                        name: str = "rosgate") -> Target:
+    """rosgate on rclpy (the ROS environment's Python; from another checkout with ``--baseline``)."""
     programs = tempfile.mkdtemp(prefix="bench-programs-")
     args = extra_args if extra_args is not None else ["--backend", "rclpy", "--programs-dir", programs]
     argv = [str(ros_python()), "-m", "gateway", "--port", "0", "--address", "127.0.0.1", *args]
-    return _start("rosgate", "rosbridge", argv)
+    return _start(name, "rosbridge", argv, checkout=checkout)
 
 
 def rust_unavailable() -> str | None:

@@ -20,6 +20,7 @@ import platform
 import sys
 import time
 from dataclasses import asdict, dataclass, field
+from pathlib import Path
 
 import tornado
 import websockets
@@ -35,6 +36,7 @@ from .topics import encoding_max, encoding_rate, slow_consumer, throughput
 SCENARIOS = ("throughput", "fanout", "encodings", "services", "slow_consumer")
 ROS_SCENARIOS = ("throughput", "fanout", "images", "services", "slow_consumer")
 KIB = 1024
+BASELINE = "before"   # the target started from --baseline's checkout
 
 
 @dataclass
@@ -170,7 +172,7 @@ async def run_all(cfg: Config, targets: list[Target], log, ros: bool = False) ->
                 shown = ", ".join(report.fmt(r.get(first_key)) for r in runs)
                 log(f"  {scenario} {label} {target.name} #{rep + 1}: {first_key}={shown} "
                     f"({time.monotonic() - started:.1f} s)", err=True)
-        report.finish_point(entry, bases or ("ceiling",))
+        report.finish_point(entry, bases or ("ceiling",), BASELINE if BASELINE in names else None)
         results.setdefault(scenario, []).append(entry)
     if current is not None:
         log(f"\n{report.title(current, ros)}\n{report.table(current, results[current], names)}\n")
@@ -191,6 +193,10 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--server-pid", action="append", type=int, default=[],
                    help="pid of each --target, in order, for its CPU and RSS")
     p.add_argument("--with-rosgate", action="store_true", help="start rosgate as well as the --target(s)")
+    p.add_argument("--baseline", metavar="DIR", type=Path,
+                   help="also start the rosgate of another checkout (git worktree add DIR COMMIT), as "
+                        "'before', interleaved with the others; its ratios and the goal that no point "
+                        "is slower than it are printed")
     p.add_argument("--no-ceiling", action="store_true", help="skip the ceiling server (no ratios)")
     p.add_argument("--no-rosgate", action="store_true", help="do not start rosgate")
     p.add_argument("--no-rust", action="store_true", help="--backend rclpy: skip the Rust server")
@@ -208,6 +214,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--slow-seconds", type=float, help="slow-consumer duration (default 60)")
     p.add_argument("--sizes", help="throughput payload sizes in bytes, comma-separated "
                                    "(default 64,1024,65536,1048576)")
+    p.add_argument("--windows", help="throughput messages in flight, comma-separated (default 1,32)")
     p.add_argument("--fanout-rate", type=float, help="fan-out publish rate in Hz (default 10)")
     p.add_argument("--fanout-procs", type=int, help="subscriber worker processes (default 2)")
     p.add_argument("--no-malloc-tune", action="store_true",
@@ -232,6 +239,8 @@ def make_config(args: argparse.Namespace) -> Config:
         cfg.rate_s = max(args.duration, 0.5)
     if args.sizes:
         cfg.sizes = [int(v) for v in args.sizes.split(",") if v.strip()]
+    if args.windows:
+        cfg.windows = [int(v) for v in args.windows.split(",") if v.strip()]
     if args.slow_seconds:
         cfg.slow_s = args.slow_seconds
     if args.fanout_rate:
@@ -266,6 +275,9 @@ def start_targets(args: argparse.Namespace) -> list[Target]:
                 raise SystemExit("rosgate is not there yet (no gateway/__main__.py): "
                                  "use --no-rosgate or --target")
             targets.insert(1 if not args.no_ceiling else 0, start_rosgate(args.rosgate_arg))
+            if args.baseline:
+                targets.insert(2 if not args.no_ceiling else 1,
+                               start_rosgate(args.rosgate_arg, checkout=args.baseline, name=BASELINE))
     except BaseException:
         for target in targets:
             target.stop()
@@ -281,6 +293,9 @@ def start_ros_targets(args: argparse.Namespace) -> list[Target]:
     try:
         if not args.no_rosgate:
             targets.append(rosgraph.start_rosgate_rclpy(args.rosgate_arg))
+            if args.baseline:
+                targets.append(rosgraph.start_rosgate_rclpy(args.rosgate_arg, checkout=args.baseline,
+                                                            name=BASELINE))
         if not args.no_rust:
             why = rosgraph.rust_unavailable()
             if why:

@@ -78,6 +78,9 @@ class RclpyBackend(TypesAndGraph):
         self._last: dict[str, float] = {}       # topic -> loop time the gateway last published to it
         # the pump delivers each batch of messages inside this (the gateway: one write per client)
         self.batch_scope: Callable[[], Any] = contextlib.nullcontext
+        # fn -> whether fn runs at the end of the gateway's open batch (the frames of one socket
+        # read); False: no batch is open
+        self.after_batch: Callable[[Callable[[], None]], bool] = lambda fn: False
 
     # --- lifecycle ----------------------------------------------------------------------------
 
@@ -234,7 +237,9 @@ class RclpyBackend(TypesAndGraph):
 
         Fast DDS delivers to a process's own readers inside the publish call, so the loop
         takes them itself: at the first message of a round of the loop (a lone message goes
-        out at once), then every TAKE_EVERY messages and at the end of the round, in one batch.
+        out at once), then every TAKE_EVERY messages and at the end of the round, in one batch;
+        while the gateway handles the frames of one socket read, at the end of that batch
+        (``after_batch``: its frames then go out with the batch's, one write per client).
         While the gateway keeps publishing to a topic (a message within COOL seconds of the one
         before), the pump stops waiting on its readers (``Pump.hold``): it would wake for each
         message and find nothing. A ROS node's messages on the topic are taken along, and
@@ -253,8 +258,7 @@ class RclpyBackend(TypesAndGraph):
             now = self.loop.time()
             last, self._last[topic] = self._last.get(topic, -COOL), now
             if now - last >= COOL or now < self._unheld.get(topic, now):
-                if not self._round:     # the pump takes the rest of this round
-                    self._start_round()
+                if not self._round and not self._start_round():   # the pump takes the rest of this round
                     self.pump.take_here(readers)
                 return
             self._unheld.pop(topic, None)
@@ -264,14 +268,21 @@ class RclpyBackend(TypesAndGraph):
         held.busy = True
         held.owed += 1
         if not self._round:
-            self._start_round()
-            self._take(topic, held)
+            if not self._start_round():
+                self._take(topic, held)
         elif held.owed >= TAKE_EVERY:
             self._take(topic, held)
 
-    def _start_round(self) -> None:
+    def _start_round(self) -> bool:
+        """The take at the end of this round: at the end of the gateway's batch when one is open
+        (True: the messages of a socket read are taken once, and their frames go out with the
+        batch's), else at the end of this turn of the loop (False: the caller takes the first
+        message now, so a lone message goes out at once)."""
         self._round = True
+        if self.after_batch(self._round_end):
+            return True
         self.loop.call_soon(self._round_end)
+        return False
 
     def _round_end(self) -> None:
         self._round = False
