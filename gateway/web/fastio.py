@@ -67,7 +67,7 @@ try:
 except ImportError:
     aiofastnet = None
 
-PICOWS_TESTED = 'picows>=2.3,<2.4'   # WSProtocol's constructor is not public API: the pinned range
+PICOWS_TESTED = 'picows>=2.3.1,<2.4'   # WSProtocol's constructor is not public API: the range pyproject pins
 log = logging.getLogger('rosgate.websocket')
 # picows logs every connection at INFO and each client's protocol error at ERROR (a log line per
 # hostile client); tornado says such things at DEBUG. Our callbacks log their own failures.
@@ -79,11 +79,12 @@ HANDSHAKE_KEY = 'Sec-WebSocket-Key'
 
 
 def _tested(version: str) -> bool:
+    """Whether a picows release is in PICOWS_TESTED (2.3.1 up to 2.4)."""
     try:
-        major, minor = (int(v) for v in version.split('.')[:2])
+        release = tuple(int(v) for v in version.split('.')[:3])
     except ValueError:
         return False
-    return (major, minor) == (2, 3)
+    return (2, 3, 1) <= release < (2, 4)
 
 
 def loop_factory(fast: bool):
