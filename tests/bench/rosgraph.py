@@ -26,7 +26,10 @@ from .servers import REPO, Target, _start, end
 
 ROS_VENV = REPO / ".venv-ros"
 ROS_PYTHON_ENV = "ROSGATE_BENCH_ROS_PYTHON"  # set by --ros-python; children inherit it
-RUST_SCRIPT = REPO.parent / "shared" / "bench" / "rosbridge_rs.sh"
+# shared/ beside the checkout (or beside the folder of worktrees it is in)
+RUST_SCRIPT = next((p for p in (REPO.parent / "shared" / "bench" / "rosbridge_rs.sh",
+                                REPO.parent.parent / "shared" / "bench" / "rosbridge_rs.sh") if p.exists()),
+                   REPO.parent / "shared" / "bench" / "rosbridge_rs.sh")
 NETNS_MARK = "ROSGATE_BENCH_NETNS"
 
 
