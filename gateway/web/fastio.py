@@ -76,6 +76,7 @@ picows_log.setLevel(logging.CRITICAL)
 CLOSE_WAIT = 5.0   # s the client has to answer our close frame (tornado's wait) before the socket goes
 KEEPALIVE = b'rosgate-keepalive'   # the payload of picows's idle pings, told apart from the session's own
 HANDSHAKE_KEY = 'Sec-WebSocket-Key'
+MESSAGE, PONG, CLOSE, FAIL = range(4)   # what _pending holds, in the order it was read
 
 
 def _tested(version: str) -> bool:
@@ -115,7 +116,8 @@ class Connection:
         self._parts: list[bytes] | None = None        # a message arriving in several frames
         self._parts_text = False
         self._parts_size = 0
-        self._pending: deque = deque()                # (payload, text) or (None, pong data), in order
+        self._pending: deque = deque()                # (MESSAGE, payload, text), (PONG, data, _), ... in order
+        self._failed = False                          # a protocol error ended the frames we take
         self._holding: asyncio.Future | None = None   # an on_message still running: later frames wait
 
     @staticmethod
@@ -184,51 +186,79 @@ class Connection:
     # --- frames in ----------------------------------------------------------------------------
 
     def _frame(self, frame) -> None:
+        """One frame from picows, into ``_pending`` in order: a message (joined from its frames),
+        a pong, the client's close, or the protocol error that ends the connection there."""
         kind = frame.msg_type
-        if kind is WSMsgType.TEXT or kind is WSMsgType.BINARY or kind is WSMsgType.CONTINUATION:
-            if frame.rsv1 or frame.rsv2 or frame.rsv3:   # no extension was negotiated
-                return self._fail(1002, 'reserved bits set')
-            payload = frame.get_payload_as_bytes()
-            if kind is WSMsgType.CONTINUATION:
-                if self._parts is None:
-                    return self._fail(1002, 'continuation frame without a message')
-                self._parts_size += len(payload)
-                if self._parts_size > self.handler.max_message_size:
-                    return self._fail(1009, 'message too big')
-                self._parts.append(payload)
-                if not frame.fin:
-                    return None
-                payload, text = b''.join(self._parts), self._parts_text
-                self._parts = None
-            else:
-                if self._parts is not None:
-                    return self._fail(1002, 'a new message inside a fragmented one')
-                text = kind is WSMsgType.TEXT
-                if not frame.fin:
-                    self._parts, self._parts_text, self._parts_size = [payload], text, len(payload)
-                    return None
-            self._pending.append((payload, text))
-        elif kind is WSMsgType.PONG:
-            self._pending.append((None, frame.get_payload_as_bytes()))
-        elif kind is WSMsgType.CLOSE:
-            self._client_closed(frame)
+        if kind is WSMsgType.CLOSE:   # picows checked its code and its reason's UTF-8
+            self._pending.append((CLOSE, frame.get_payload_as_bytes(), False))
+            return
+        if self._failed:
+            return
+        if kind is WSMsgType.PONG:
+            self._pending.append((PONG, frame.get_payload_as_bytes(), False))
+            return
+        if kind is not WSMsgType.TEXT and kind is not WSMsgType.BINARY and kind is not WSMsgType.CONTINUATION:
+            return   # a ping: picows answered it
+        if frame.rsv1 or frame.rsv2 or frame.rsv3:   # no extension was negotiated
+            return self._fail(1002, 'reserved bits set')
+        payload = frame.get_payload_as_bytes()
+        if kind is WSMsgType.CONTINUATION:
+            if self._parts is None:
+                return self._fail(1002, 'continuation frame without a message')
+            self._parts_size += len(payload)
+            if self._parts_size > self.handler.max_message_size:
+                return self._fail(1009, 'message too big')
+            self._parts.append(payload)
+            if not frame.fin:
+                return None
+            payload, text = b''.join(self._parts), self._parts_text
+            self._parts = None
+        else:
+            if self._parts is not None:
+                return self._fail(1002, 'a new message inside a fragmented one')
+            text = kind is WSMsgType.TEXT
+            if not frame.fin:
+                self._parts, self._parts_text, self._parts_size = [payload], text, len(payload)
+                return None
+        self._pending.append((MESSAGE, payload, text))
         return None
 
+    def _fail(self, code: int, reason: str) -> None:
+        """A protocol error: what came before it is handled, then the connection closes with code."""
+        self._failed = True
+        self._parts = None
+        self._pending.append((FAIL, code, reason))
+
     def _deliver(self) -> None:
-        """Hand the frames read so far to the handler, in order, inside one cork: the frames they
-        cause go out in one write per client when the last one is handled."""
+        """Hand what was read so far to the handler, in order, inside one cork: the frames it
+        causes go out in one write per client when the last one is handled. Messages after the
+        connection began to close are not handled (tornado's handler would drop them too)."""
         pending, handler = self._pending, self.handler
+        ending = None
         with corked():
             while pending and self._holding is None and not self._gone:
-                payload, text = pending.popleft()
-                if payload is None:
-                    self._run(handler.on_pong, text)
-                    continue
-                handler.text_frame = text
-                try:
-                    self._run(handler.on_message, payload)
-                finally:
-                    handler.text_frame = False
+                kind, payload, text = pending.popleft()
+                if kind is MESSAGE:
+                    if self._closing:
+                        continue
+                    handler.text_frame = text
+                    try:
+                        self._run(handler.on_message, payload)
+                    finally:
+                        handler.text_frame = False
+                elif kind is PONG:
+                    self._run(handler.on_pong, payload)
+                else:   # the end: after the frames the messages before it caused went out
+                    ending = kind, payload, text
+                    break
+        if ending is None or self._gone:
+            return
+        kind, payload, text = ending
+        if kind is CLOSE:
+            self._client_closed(payload)
+        else:
+            self.close(payload, text)
+            self._abort()
 
     def _run(self, callback, *args, **kwargs) -> None:
         """A handler callback, as tornado runs it: an exception aborts the connection; an
@@ -258,8 +288,7 @@ class Connection:
         self._underlying.resume_reading()
         self._deliver()
 
-    def _client_closed(self, frame) -> None:
-        payload = frame.get_payload_as_bytes()   # picows checked the code and the reason's UTF-8
+    def _client_closed(self, payload: bytes) -> None:
         code = None
         if len(payload) >= 2:
             code = struct.unpack('!H', payload[:2])[0]
@@ -267,10 +296,6 @@ class Connection:
             self.handler.close_reason = payload[2:].decode('utf-8', 'replace')
         if not self._closing:   # the client began: echo its code, as tornado does
             self._send_close(code, None)
-        self._abort()
-
-    def _fail(self, code: int, reason: str) -> None:
-        self.close(code, reason)
         self._abort()
 
     # --- frames out (tornado's names, then the gateway's) -------------------------------------

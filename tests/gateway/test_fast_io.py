@@ -99,38 +99,43 @@ def test_a_message_in_several_frames_is_joined(gateway, tornado_gw, which):
         assert reply['id'] == 'parts' and reply['result'] is True, reply
 
 
-def close_answer(sock: socket.socket, rest: bytes) -> tuple[int, bytes]:
-    """The opcode and payload of the server's first frame, then the connection's end."""
+def frames_until_close(sock: socket.socket, rest: bytes) -> list[tuple[int, bytes]]:
+    """Every frame the server sends until its close frame (included)."""
     buffer = bytearray(rest)
 
     def take(n: int) -> bytes:
         while len(buffer) < n:
             chunk = sock.recv(65536)
-            assert chunk, f'the server dropped the connection without a frame (got {bytes(buffer)!r})'
+            assert chunk, f'the server dropped the connection without a close frame (got {bytes(buffer)!r})'
             buffer.extend(chunk)
         out = bytes(buffer[:n])
         del buffer[:n]
         return out
 
-    return server_frame(take)
+    frames = [server_frame(take)]
+    while frames[-1][0] != 0x8:
+        frames.append(server_frame(take))
+    return frames
 
 
-@pytest.mark.parametrize('frames, code', [
-    ([(0x0, b'"op"}')], 1002),                                           # a continuation of nothing
-    ([(0x1 | 0x40, b'{"op": "nope"}')], 1002),                           # RSV1 without deflate
-    ([(0x1, b'{"op":', False), (0x1, b'"nope"}')], 1002),                # a new message inside one
+def call(id: str) -> bytes:
+    """An op answered at once (its status), before anything else is read."""
+    return client_frame(0x1, json.dumps({'op': 'no_such_op', 'id': id}).encode())
+
+
+@pytest.mark.parametrize('bad', [
+    client_frame(0x0, b'"op"}'),                                          # a continuation of nothing
+    bytes([0xC1]) + client_frame(0x1, b'{"op": "nope"}')[1:],             # RSV1 without deflate
+    bytes([0x01]) + client_frame(0x1, b'{"op":')[1:] + client_frame(0x1, b'"nope"}'),   # a message inside one
 ], ids=['lone continuation', 'rsv1', 'interleaved'])
-def test_protocol_errors_close_with_1002(gateway, frames, code):
+def test_a_protocol_error_closes_1002_after_what_came_before_it(gateway, bad):
     s, rest = raw_websocket(gateway.host, gateway.port, gateway.path)
     with s:
-        for frame in frames:
-            opcode, payload = frame[0], frame[1]
-            final = frame[2] if len(frame) > 2 else True
-            data = bytearray(client_frame(opcode & 0x0F, payload))
-            data[0] = (0x80 if final else 0) | (opcode & 0x4F)
-            s.sendall(bytes(data))
-        opcode, payload = close_answer(s, rest)
-    assert opcode == 0x8 and struct.unpack('!H', payload[:2])[0] == code, (opcode, payload)
+        s.sendall(call('before') + bad + call('after'))   # one write: one read on the server
+        frames = frames_until_close(s, rest)
+    replies = [json.loads(payload)['id'] for opcode, payload in frames[:-1]]
+    assert replies == ['before'], frames
+    assert struct.unpack('!H', frames[-1][1][:2])[0] == 1002, frames[-1]
     with Raw(gateway.ws_url) as other:
         other.sync()
 
@@ -150,16 +155,17 @@ def test_tornado_echoes_a_close_whose_reason_is_not_utf8(tornado_gw):
     s, rest = raw_websocket(tornado_gw.host, tornado_gw.port, tornado_gw.path)
     with s:
         s.sendall(client_frame(0x8, struct.pack('!H', 1000) + b'bye \xff'))
-        opcode, payload = close_answer(s, rest)
-    assert (opcode, payload) == (0x8, struct.pack('!H', 1000))   # the close echoed, its code alone
+        frames = frames_until_close(s, rest)
+    assert frames == [(0x8, struct.pack('!H', 1000))]   # the close echoed, its code alone
 
 
-def test_a_client_close_is_echoed_with_its_code(gateway):
+def test_a_client_close_is_echoed_with_its_code_after_what_came_before_it(gateway):
     s, rest = raw_websocket(gateway.host, gateway.port, gateway.path)
     with s:
-        s.sendall(client_frame(0x8, struct.pack('!H', 4000) + b'bye'))
-        opcode, payload = close_answer(s, rest)
-    assert (opcode, payload) == (0x8, struct.pack('!H', 4000))
+        s.sendall(call('before') + client_frame(0x8, struct.pack('!H', 4000) + b'bye'))
+        frames = frames_until_close(s, rest)
+    assert [json.loads(p)['id'] for _, p in frames[:-1]] == ['before']
+    assert frames[-1] == (0x8, struct.pack('!H', 4000))
 
 
 # --- the seam: a handler that picks its session by subprotocol, carried by picows -----------------
