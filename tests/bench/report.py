@@ -7,7 +7,8 @@ import statistics
 from pathlib import Path
 
 # The metrics most tables end with: the CPU of the server, the clients and the rest of the machine.
-CPU = [("server_cpu_pct", "srv CPU%"), ("client_cpu_pct", "cli CPU%"), ("other_cpu_pct", "other%")]
+CPU = [("server_cpu_pct", "srv CPU%"), ("client_cpu_pct", "cli CPU%"), ("other_cpu_pct", "other%"),
+       ("load1", "load")]   # load: the 1-minute load average as each run ended
 LATENCY = [("lat_p50_ms", "p50 ms"), ("lat_p95_ms", "p95 ms"), ("lat_p99_ms", "p99 ms")]
 # Per scenario: the metrics shown in its table, with their headings.
 COLUMNS = {
@@ -41,7 +42,7 @@ COLUMNS = {
     ],
 }
 
-NO_RATIO = {"other_cpu_pct", "failed"}  # load from elsewhere, and counts: no ratio
+NO_RATIO = {"other_cpu_pct", "failed", "load1"}  # load from elsewhere, and counts: no ratio
 
 TITLES = {
     "throughput": "1. Throughput and one-way latency: std_msgs/String, 1 publisher + 1 subscriber, W in flight",

@@ -167,11 +167,14 @@ async def run_all(cfg: Config, targets: list[Target], log, ros: bool = False) ->
                     entry["errors"][target.name] = f"{type(exc).__name__}: {exc}"
                     log(f"  {scenario} {label} {target.name}: {entry['errors'][target.name]}", err=True)
                     continue
+                load = loadavg()
+                for r in runs:
+                    r["load1"] = load   # the machine's 1-minute load average as the point ended
                 entry["runs"][target.name].extend(runs)
                 first_key = report.COLUMNS[scenario][0][0]
                 shown = ", ".join(report.fmt(r.get(first_key)) for r in runs)
                 log(f"  {scenario} {label} {target.name} #{rep + 1}: {first_key}={shown} "
-                    f"({time.monotonic() - started:.1f} s)", err=True)
+                    f"({time.monotonic() - started:.1f} s, load {load:.2f})", err=True)
         report.finish_point(entry, bases or ("ceiling",), BASELINE if BASELINE in names else None)
         results.setdefault(scenario, []).append(entry)
     if current is not None:
@@ -257,6 +260,15 @@ def make_config(args: argparse.Namespace) -> Config:
     return cfg
 
 
+def loadavg() -> float:
+    """The machine's 1-minute load average (/proc/loadavg): printed beside every figure."""
+    try:
+        with open("/proc/loadavg") as f:
+            return float(f.read().split()[0])
+    except (OSError, ValueError, IndexError):
+        return float("nan")
+
+
 def log(text: str, err: bool = False) -> None:
     print(text, file=sys.stderr if err else sys.stdout, flush=True)
 
@@ -327,6 +339,7 @@ def main(argv: list[str] | None = None) -> int:
         if not args.no_netns and not rosgraph.isolated():
             rosgraph.reexec_isolated(sys.argv[1:] if argv is None else argv)
     cfg = make_config(args)
+    load_at_start = loadavg()
     if cfg.malloc_tune:
         tune_malloc()
     started = time.monotonic()
@@ -368,7 +381,7 @@ def main(argv: list[str] | None = None) -> int:
         log(report.goals_table(goal_rows, primary))
     total = time.monotonic() - started
     log(f"\nidle server CPU %: {', '.join(f'{k} {report.fmt(v)}' for k, v in idle.items())}; "
-        f"total {total:.0f} s")
+        f"total {total:.0f} s; load average {load_at_start:.2f} at the start, {loadavg():.2f} at the end")
     if args.out:
         doc = {
             "meta": {
