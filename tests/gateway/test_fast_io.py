@@ -214,3 +214,40 @@ async def test_a_session_chosen_by_subprotocol_plugs_into_the_picows_connection(
         server.stop()
         await server.close_all_connections()
 
+
+
+def test_the_keepalive_closes_a_silent_peer_and_keeps_one_that_answers(start_gateway):
+    """--websocket-ping-interval / --websocket-ping-timeout on the picows path: a quiet connection
+    is pinged; one that answers with pongs stays open, one that does not is closed."""
+    gw = start_gateway('--robot', 'none', '--websocket-ping-interval', '0.5', '--websocket-ping-timeout', '0.5')
+    silent, rest_silent = raw_websocket(gw.host, gw.port, gw.path)
+    answering, rest = raw_websocket(gw.host, gw.port, gw.path)
+    with silent, answering:
+        buffer = bytearray(rest)
+
+        def take(n: int) -> bytes:
+            while len(buffer) < n:
+                chunk = answering.recv(65536)
+                assert chunk, 'the gateway closed a connection that answered its pings'
+                buffer.extend(chunk)
+            out = bytes(buffer[:n])
+            del buffer[:n]
+            return out
+
+        pings = 0
+        while pings < 3:   # three pings answered: past the timeout of the first twice over
+            opcode, payload = server_frame(take)
+            assert opcode == 0x9, (opcode, payload)
+            answering.sendall(client_frame(0xA, payload))
+            pings += 1
+        answering.sendall(call('alive'))
+        opcode, payload = server_frame(take)
+        assert json.loads(payload)['id'] == 'alive'
+        silent.settimeout(30)
+        got = bytearray(rest_silent)
+        while True:   # a ping, then the close (or the end of the connection)
+            chunk = silent.recv(65536)
+            if not chunk:
+                break
+            got.extend(chunk)
+        assert got[:1] == b'\x89', bytes(got[:20])   # it was pinged before it was dropped
