@@ -22,9 +22,10 @@ and reads and writes every frame from then on.
 What the gateway promised over tornado holds here too: a text message reaches the handler as
 bytes flagged as text (the handler checks UTF-8 and answers 1007); messages in several frames are
 joined, and one past the hard size limit closes the connection with 1009, as does a single frame
-past it (picows); a client's close is echoed with its code; the keepalive ping
-(``--websocket-ping-interval``, ``--websocket-ping-timeout``) closes a connection whose peer stopped
-answering; a write the socket does not take at once returns a future that completes once the
+past it (picows); a client's close is echoed with its code; the keepalive ping goes out every
+``--websocket-ping-interval`` whatever the client sends (a proxy such as nginx times out on what the
+gateway sends: a client that only publishes still gets them) and closes a connection whose peer does
+not answer within ``--websocket-ping-timeout``; a write the socket does not take at once returns a future that completes once the
 transport's buffer is empty (the outbox's flow control); an ``on_message`` that returns an
 awaitable holds the connection's later frames until it is done, as tornado does.
 
@@ -426,7 +427,7 @@ class _Protocol(WSProtocol):
     def __init__(self, request: bytes, listener_factory, max_size: int, ping_interval: float, ping_timeout: float):
         super().__init__(None, None, False, listener_factory, picows_log, True, None,
                          ping_interval > 0, ping_interval or 20.0, ping_timeout or 20.0,
-                         picows.WSAutoPingStrategy.PING_WHEN_IDLE, True, max_size, None, 16 * 1024)
+                         picows.WSAutoPingStrategy.PING_PERIODICALLY, True, max_size, None, 16 * 1024)
         self._request = request
 
     def connection_made(self, transport) -> None:
