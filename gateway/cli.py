@@ -22,6 +22,7 @@ from .backends.sim import SimBackend, robots
 from .server import serve
 from .settings import Refused, Settings, flat, from_flat
 from .web import logs
+from .web.fastio import loop_factory
 from .web.gauges import read_limits
 from .web.history import history_globs
 
@@ -70,6 +71,9 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument('--allowed-origins', help='browser origins allowed besides the gateway\'s own (same scheme, host '
                                               'and port; localhost for 127.0.0.1), globs, e.g. '
                                               '"[\'http://localhost:5173\']" ("*" for any)')
+    g.add_argument('--fast-io', action=argparse.BooleanOptionalAction,
+                   help='compiled I/O where installed: picows for websockets without TLS or deflate, uvloop '
+                        'under tornado (--no-fast-io: tornado and asyncio alone) [%(default)s]')
     b = p.add_argument_group('backend')
     b.add_argument('--backend', dest='backend.kind', choices=('auto', 'sim', 'rclpy'),
                    help='auto: rclpy when it imports, else the embedded sim [%(default)s]')
@@ -301,7 +305,8 @@ def main(argv: list[str] | None = None) -> int:
     settings = replace(settings, node_name=node_name)
     backend = make_backend(settings, start.robots, ros_args, node_name)
     try:
-        asyncio.run(serve(settings, start.files, backend, sockets, announce=announce))
+        with asyncio.Runner(loop_factory=loop_factory(settings.fast_io)) as runner:
+            runner.run(serve(settings, start.files, backend, sockets, announce=announce))
     except Refused as e:     # a part that cannot start here (no bwrap for --allow-runs)
         return refuse(e)
     except KeyboardInterrupt:

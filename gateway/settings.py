@@ -173,6 +173,7 @@ class Settings:
     websocket_ping_interval: float = 20.0      # below the idle timeouts of common proxies (nginx 60 s)
     websocket_ping_timeout: float = 30.0
     send_buffer_limit: int = 16 * 2**20        # per-client queued bytes before topic messages drop
+    fast_io: bool = True                       # picows for plain websockets and uvloop, where installed
     body_timeout: float = 30.0                 # s to send a request body before the connection closes
     idle_connection_timeout: float = 60.0      # s an HTTP connection may wait for its next request's headers
     auth_timeout: float = 30.0                 # s a websocket has to authenticate under --auth

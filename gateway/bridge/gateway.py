@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 from ..backends.base import BackendError, QoS
 from .fanout import TopicFanout
 from .foxglove.hub import Hub
-from .outbox import corked
+from .outbox import after_batch, corked
 from protocol.errors import ProtocolError
 
 from ..rules import GATEWAY_ROLE, Hooks
@@ -106,6 +106,7 @@ class Gateway:
         self.foxglove = Hub(self)      # the graph as the Foxglove sessions see it (bridge.foxglove)
         if hasattr(backend, 'batch_scope'):   # a backend delivering messages in batches
             backend.batch_scope = corked      # sends each client its share in one write
+            backend.after_batch = after_batch   # and takes what the gateway published at a batch's end
 
     def install(self, rules) -> None:
         """Puts the rules in force (``rules.compose``), once, before the first client."""

@@ -18,9 +18,11 @@ import asyncio
 import contextlib
 import ctypes
 import ctypes.util
+import logging
 from collections import deque
 from collections.abc import Awaitable, Callable
 
+log = logging.getLogger('rosgate')
 BATCH_BYTES = 256 * 1024   # written to the socket before waiting for it to drain
 REPLY_LIMIT = 4096         # replies queued for a client that does not read them
 TRIM_AFTER = 4 * 2**20     # an outbox that held this many bytes returns memory when it closes
@@ -232,13 +234,15 @@ class Outbox:
 
 
 _corked: list[Outbox] | None = None   # outboxes holding frames while corked
+_at_end: list[Callable[[], None]] = []   # run as the outermost cork ends, before its frames go out
 
 
 @contextlib.contextmanager
 def corked():
     """Frames that outboxes would write at once inside this block go out when it ends, one
-    socket write per client: a batch of messages from the backend costs each client one send
-    (and its reader one wake-up) instead of one per message. Nested blocks join the outer one."""
+    socket write per client: a batch of messages (the frames of one socket read, a batch from
+    the backend) costs each client one send (and its reader one wake-up) instead of one per
+    message. Nested blocks join the outer one."""
     global _corked
     if _corked is not None:
         yield
@@ -247,9 +251,26 @@ def corked():
     try:
         yield
     finally:
-        _corked = None
-        for box in held:
-            box._uncork()
+        try:
+            while _at_end:
+                fn = _at_end.pop(0)
+                try:
+                    fn()
+                except Exception:
+                    log.exception('at the end of a batch: %s', getattr(fn, '__qualname__', fn))
+        finally:
+            _corked = None
+            for box in held:
+                box._uncork()
+
+
+def after_batch(fn: Callable[[], None]) -> bool:
+    """Run ``fn`` as the open cork ends, before its frames go out (the frames fn causes join
+    them); False, and nothing done, when no cork is open."""
+    if _corked is None:
+        return False
+    _at_end.append(fn)
+    return True
 
 
 def _malloc_trim():

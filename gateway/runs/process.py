@@ -129,10 +129,10 @@ class RunOutput(asyncio.SubprocessProtocol):
         self.drain = None
         if self.pipe.is_closing():
             return
+        pipe = self.pipe.get_extra_info('pipe')   # None on uvloop: then its transport reads, and we drop that
         try:
-            fd = self.pipe.get_extra_info('pipe').fileno()
-            for _ in range(DRAIN_READS):
-                if not os.read(fd, PIPE_SIZE):
+            for _ in range(DRAIN_READS if pipe is not None else 0):
+                if not os.read(pipe.fileno(), PIPE_SIZE):
                     break             # its end: the transport sees it too
         except OSError:               # BlockingIOError: empty
             pass

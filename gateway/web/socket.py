@@ -1,5 +1,11 @@
 """The rosbridge websocket: frames read and written with as few copies as the socket allows, each
-message handed to its client's session (``bridge.session``), which answers through its outbox."""
+message handed to its client's session (``bridge.session``), which answers through its outbox.
+
+The handler speaks to its connection's protocol object alone (``self.ws_connection``: ``send``,
+``send_many``, ``close``, ``selected_subprotocol``, frames in through ``on_message``): picows's
+(``fastio.Connection``) for a plain connection when it is installed, tornado's own
+(``TextAsBytesProtocol``) for TLS, permessage-deflate, unix sockets, ``--no-fast-io`` or
+without picows."""
 
 from __future__ import annotations
 
@@ -13,6 +19,7 @@ import tornado.websocket
 from ..bridge.gateway import Gateway
 from ..bridge.foxglove.session import choose_subprotocol, session_for
 from ..bridge.session import ClientSession
+from .fastio import Connection, frame_header, frame_parts
 from .pages import write_page
 
 TORNADO_TESTED = 'tornado>=6.4,<6.7'   # the range pyproject.toml pins; its private parts are checked below
@@ -74,6 +81,35 @@ class TextAsBytesProtocol(tornado.websocket.WebSocketProtocol13):
         self._rview, self._rstart, self._rend = view, 0, end - start
         while self._rend < n:
             self._rend += await self.stream.read_into(view[self._rend:], partial=True)
+
+    @property
+    def socket(self):
+        return self.stream.socket if self.stream is not None else None
+
+    def send(self, payload: bytes, binary: bool):
+        """One message: its frame header and payload go to the socket as they are (tornado's
+        write_message copies them into one frame and wraps each write in a task)."""
+        stream = self._plain_stream()
+        if stream is None:
+            return self.handler.write_message(payload, binary=binary)
+        return _write(stream, [frame_header(len(payload), binary), payload])
+
+    def send_many(self, frames: list[tuple[bytes, bool]]):
+        """Several messages in one write to the socket (one send, one wake-up of the reader)."""
+        stream = self._plain_stream()
+        if stream is None:
+            last = None
+            for payload, binary in frames:
+                last = self.handler.write_message(payload, binary=binary)
+            return last
+        return _write(stream, frame_parts(frames))
+
+    def _plain_stream(self):
+        """The connection's stream when frames may be written to it as the gateway builds them
+        (no compression, open); else None, and tornado's write_message builds each frame."""
+        if self.is_closing() or self.handler.deflates():
+            return None
+        return self.stream
 
     def _handle_message(self, opcode: int, data: bytes):
         if opcode != TEXT:
@@ -138,6 +174,9 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
         await super().get(*args, **kwargs)
 
     def get_websocket_protocol(self):
+        if (self.gateway.settings.fast_io and self.request.headers.get('Sec-WebSocket-Version') == '13'
+                and Connection.carries(self)):
+            return Connection(self)
         protocol = super().get_websocket_protocol()
         if type(protocol) is tornado.websocket.WebSocketProtocol13:
             protocol.__class__ = TextAsBytesProtocol   # same state, one method more
@@ -170,7 +209,7 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
 
     def open(self, *args, **kwargs) -> None:
         self.set_nodelay(True)   # without it Nagle's algorithm stalls small messages
-        bound_unsent(self.ws_connection.stream)
+        bound_unsent(self.ws_connection)
         self.session = session_for(self.selected_subprotocol, self.gateway, self._send, self._send_many, self.close,
                                    self.request.remote_ip or '', ping=self.ping)
         self.session.attrs.update(self.gateway.policy.connect_attrs(self.request))
@@ -191,31 +230,17 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
         session.status('error', f'not authenticated within {timeout:g} s; closing the connection (1008)')
         asyncio.ensure_future(session.hang_up(1008, 'not authenticated in time', FLUSH_BEFORE_CLOSE))
 
-    def _plain_stream(self):
-        """The connection's stream when frames may be written to it as the gateway builds them
-        (no compression, open); else None, and tornado's write_message builds each frame."""
-        conn = self.ws_connection
-        if conn is None or conn.is_closing() or self.deflates():
-            return None
-        return conn.stream
-
     def _send(self, payload: bytes, binary: bool):
-        """One message: its frame header and payload go to the socket as they are (tornado's
-        write_message copies them into one frame and wraps each write in a task)."""
-        stream = self._plain_stream()
-        if stream is None:
-            return self.write_message(payload, binary=binary)
-        return _write(stream, [_frame_header(len(payload), binary), payload])
+        connection = self.ws_connection
+        if connection is None:
+            raise tornado.websocket.WebSocketClosedError()
+        return connection.send(payload, binary)
 
     def _send_many(self, frames: list[tuple[bytes, bool]]):
-        """Several messages in one write to the socket (one send, one wake-up of the reader)."""
-        stream = self._plain_stream()
-        if stream is None:
-            last = None
-            for payload, binary in frames:
-                last = self.write_message(payload, binary=binary)
-            return last
-        return _write(stream, _frame_parts(frames))
+        connection = self.ws_connection
+        if connection is None:
+            raise tornado.websocket.WebSocketClosedError()
+        return connection.send_many(frames)
 
     def on_message(self, message: str | bytes):
         if self.session is None or self.session.closing:
@@ -250,8 +275,9 @@ class RosbridgeHandler(tornado.websocket.WebSocketHandler):
 
 
 def bound_unsent(stream, limit: int = NOTSENT_LOWAT) -> None:
-    """Keep the kernel's unsent share of a connection small (NOTSENT_LOWAT); a stream without
-    a TCP socket (a test's pipe, a platform without the option) is left as it is."""
+    """Keep the kernel's unsent share of a connection small (NOTSENT_LOWAT); ``stream`` is
+    anything with a ``socket`` (a tornado stream, a websocket connection). One without a TCP socket
+    (a test's pipe, a platform without the option) is left as it is."""
     sock = getattr(stream, 'socket', None)
     if sock is None or sock.family not in (socket.AF_INET, socket.AF_INET6):
         return
@@ -261,7 +287,6 @@ def bound_unsent(stream, limit: int = NOTSENT_LOWAT) -> None:
         pass
 
 
-SMALL = 2048       # payloads below this are copied together with their header into one part
 MAX_PARTS = 512    # parts of one sendmsg (Linux allows 1024)
 
 
@@ -287,30 +312,3 @@ def _write(stream, parts: list) -> object:
                 return None
     return stream.write(b''.join(parts))
 
-
-def _frame_parts(frames: list[tuple[bytes, bool]]) -> list:
-    """The frames of several messages as parts for _write: small frames joined, each large
-    payload a part of its own after its header."""
-    parts: list = []
-    small = bytearray()
-    for payload, binary in frames:
-        small += _frame_header(len(payload), binary)
-        if len(payload) < SMALL:
-            small += payload
-        else:
-            parts.append(small)
-            parts.append(payload)
-            small = bytearray()
-    if small:
-        parts.append(small)
-    return parts
-
-
-def _frame_header(size: int, binary: bool) -> bytes:
-    """A final, unmasked frame's header (RFC 6455 5.2), as a server sends it."""
-    first = 0x82 if binary else 0x81
-    if size < 126:
-        return bytes((first, size))
-    if size <= 0xFFFF:
-        return struct.pack('!BBH', first, 126, size)
-    return struct.pack('!BBQ', first, 127, size)

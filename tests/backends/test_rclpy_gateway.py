@@ -72,13 +72,15 @@ def stalled_client(gateway, ops: list[dict]) -> socket.socket:
 
 
 async def warm_up(sub: Client, publish, topic: str, timeout: float = 20.0) -> None:
-    """Until DDS has matched the publisher with the gateway's subscription of topic."""
+    """Until DDS has matched the publisher with the gateway's subscription of topic: one of its own
+    warm-up messages arrived (a late message of another source on the topic proves nothing)."""
     deadline = asyncio.get_running_loop().time() + timeout
     while True:
         assert asyncio.get_running_loop().time() < deadline, f'{topic}: the subscription never matched'
         publish('warm-up')
         try:
-            await sub.expect(lambda m: m.get('op') == 'publish' and m.get('topic') == topic, timeout=0.2)
+            await sub.expect(lambda m: m.get('op') == 'publish' and m.get('topic') == topic
+                             and 'warm-up' in json.dumps(m.get('msg')), timeout=0.2)
             return
         except asyncio.TimeoutError:
             continue

@@ -7,7 +7,8 @@ import statistics
 from pathlib import Path
 
 # The metrics most tables end with: the CPU of the server, the clients and the rest of the machine.
-CPU = [("server_cpu_pct", "srv CPU%"), ("client_cpu_pct", "cli CPU%"), ("other_cpu_pct", "other%")]
+CPU = [("server_cpu_pct", "srv CPU%"), ("client_cpu_pct", "cli CPU%"), ("other_cpu_pct", "other%"),
+       ("load1", "load")]   # load: the 1-minute load average as each run ended
 LATENCY = [("lat_p50_ms", "p50 ms"), ("lat_p95_ms", "p95 ms"), ("lat_p99_ms", "p99 ms")]
 # Per scenario: the metrics shown in its table, with their headings.
 COLUMNS = {
@@ -41,7 +42,7 @@ COLUMNS = {
     ],
 }
 
-NO_RATIO = {"other_cpu_pct", "failed"}  # load from elsewhere, and counts: no ratio
+NO_RATIO = {"other_cpu_pct", "failed", "load1"}  # load from elsewhere, and counts: no ratio
 
 TITLES = {
     "throughput": "1. Throughput and one-way latency: std_msgs/String, 1 publisher + 1 subscriber, W in flight",
@@ -90,20 +91,22 @@ def summarize(runs: list[dict]) -> dict:
     return out
 
 
-def finish_point(entry: dict, bases: tuple[str, ...] = ("ceiling",)) -> None:
+def finish_point(entry: dict, bases: tuple[str, ...] = ("ceiling",), baseline: str | None = None) -> None:
     """Add summary and ratios to one point's entry in place.
 
     `ratios[base][name]` is each other server's figure over the base's (the ceiling, or in
-    `--backend rclpy` the Rust server and the rclpy ceiling); `ratio` is the first base's."""
+    `--backend rclpy` the Rust server and the rclpy ceiling); `ratio` is the first base's. With a
+    `baseline` (another checkout's rosgate) its figures get ratios to the bases too, and the
+    others' to it."""
     entry["summary"] = {name: summarize(runs) for name, runs in entry["runs"].items() if runs}
     entry["ratios"] = {}
-    for base in bases:
+    for base in (*bases, baseline) if baseline else bases:
         reference = entry["summary"].get(base)
         if not reference:
             continue
         entry["ratios"][base] = {}
         for name, summary in entry["summary"].items():
-            if name in bases:
+            if name in bases or name == base:
                 continue
             ratios = {}
             for key, stats in summary.items():
@@ -228,7 +231,11 @@ def goals(results: dict, target: str) -> list[dict]:
     v = _median(results, "slow_consumer", {}, target, "rss_growth_mb")
     add("slow_consumer", "a stalled client costs the server < 50 MB (RSS growth MB)", v,
         v is not None and v < 50)
-    return out
+    for size in (64, 1024):   # issue 51: past the bare tornado relay, on a faster websocket path
+        r = _ratio(results, "throughput", {"size": size, "window": 32}, target, "msg_per_s")
+        add("throughput", f">= the bare tornado relay's (ceiling's) msg/s at {size} B, W=32", r,
+            r is not None and r >= 1)
+    return out + not_slower(results, target)
 
 
 def goals_rclpy(results: dict, target: str) -> list[dict]:
@@ -245,11 +252,14 @@ def goals_rclpy(results: dict, target: str) -> list[dict]:
                 return entry.get("ratios", {}).get(base, {}).get(target, {}).get(key)
         return None
 
-    for size in (64, 1024):
+    for size in (64, 1024):   # issue 51
         r = vs("throughput", {"size": size, "window": 32}, "msg_per_s", "rust")
-        add("throughput", f">= 0.8x the Rust server's msg/s at {size} B, W=32", r, lambda v: v >= 0.8)
+        add("throughput", f">= 1.2x the Rust server's msg/s at {size} B, W=32", r, lambda v: v >= 1.2)
     r = vs("throughput", {"size": 65536, "window": 32}, "msg_per_s", "rust")
     add("throughput", ">= the Rust server's msg/s at 64 KiB, W=32", r, lambda v: v >= 1)
+    for size in (64, 1024):   # issue 51
+        r = vs("throughput", {"size": size, "window": 1}, "lat_p50_ms", "rust")
+        add("throughput", f"p50 one-way latency <= the Rust server's at {size} B, W=1 (ratio)", r, lambda v: v <= 1)
     v = _median(results, "throughput", {"size": 64, "window": 1}, target, "lat_p50_ms")
     add("throughput", "p50 one-way latency <= 0.5 ms at 64 B, W=1 (ms)", v, lambda v: v <= 0.5)
     r = vs("services", {"concurrency": 32}, "calls_per_s", "rust")
@@ -271,7 +281,27 @@ def goals_rclpy(results: dict, target: str) -> list[dict]:
     v = _median(results, "slow_consumer", {}, target, "healthy_loss_pct")
     add("slow_consumer", "a stalled client costs the others nothing (< 5% loss; others' loss %)", v,
         lambda v: v < 5)
-    return out
+    return out + not_slower(results, target)
+
+
+# per scenario, the figure that says faster (higher is better) for the baseline's goal
+FASTER = {"throughput": "msg_per_s", "services": "calls_per_s", "images": "sub_hz", "encodings": "hz"}
+NOT_SLOWER = 0.9   # below this share of the baseline's figure a point counts as slower (shared machines)
+
+
+def not_slower(results: dict, target: str, baseline: str = "before") -> list[dict]:
+    """Issue 51's "no probe slower than today": the lowest ratio target/baseline over the points
+    with a FASTER figure, when the run had a baseline (--baseline)."""
+    worst = None
+    for scenario, key in FASTER.items():
+        for entry in results.get(scenario, []):
+            r = entry.get("ratios", {}).get(baseline, {}).get(target, {}).get(key)
+            if r is not None and (worst is None or r < worst[0]):
+                worst = (r, f"{scenario} {entry['label']}")
+    if worst is None:
+        return []
+    return [{"goal": f"no point slower than --baseline (lowest ratio, at {worst[1]}; >= {NOT_SLOWER})",
+             "value": worst[0], "met": worst[0] >= NOT_SLOWER}]
 
 
 def goals_table(rows: list[dict], target: str) -> str:

@@ -26,7 +26,10 @@ from .servers import REPO, Target, _start, end
 
 ROS_VENV = REPO / ".venv-ros"
 ROS_PYTHON_ENV = "ROSGATE_BENCH_ROS_PYTHON"  # set by --ros-python; children inherit it
-RUST_SCRIPT = REPO.parent / "shared" / "bench" / "rosbridge_rs.sh"
+# shared/ beside the checkout (or beside the folder of worktrees it is in)
+RUST_SCRIPT = next((p for p in (REPO.parent / "shared" / "bench" / "rosbridge_rs.sh",
+                                REPO.parent.parent / "shared" / "bench" / "rosbridge_rs.sh") if p.exists()),
+                   REPO.parent / "shared" / "bench" / "rosbridge_rs.sh")
 NETNS_MARK = "ROSGATE_BENCH_NETNS"
 
 
@@ -135,11 +138,13 @@ def start_rclpy_ceiling() -> CeilingTarget:
     return target
 
 
-def start_rosgate_rclpy(extra_args: list[str] | None = None) -> Target:
+def start_rosgate_rclpy(extra_args: list[str] | None = None, checkout: Path = REPO,
+                        name: str = "rosgate") -> Target:
+    """rosgate on rclpy (the ROS environment's Python; from another checkout with ``--baseline``)."""
     programs = tempfile.mkdtemp(prefix="bench-programs-")
     args = extra_args if extra_args is not None else ["--backend", "rclpy", "--programs-dir", programs]
     argv = [str(ros_python()), "-m", "gateway", "--port", "0", "--address", "127.0.0.1", *args]
-    return _start("rosgate", "rosbridge", argv)
+    return _start(name, "rosbridge", argv, checkout=checkout)
 
 
 def rust_unavailable() -> str | None:

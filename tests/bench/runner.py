@@ -20,6 +20,7 @@ import platform
 import sys
 import time
 from dataclasses import asdict, dataclass, field
+from pathlib import Path
 
 import tornado
 import websockets
@@ -35,6 +36,7 @@ from .topics import encoding_max, encoding_rate, slow_consumer, throughput
 SCENARIOS = ("throughput", "fanout", "encodings", "services", "slow_consumer")
 ROS_SCENARIOS = ("throughput", "fanout", "images", "services", "slow_consumer")
 KIB = 1024
+BASELINE = "before"   # the target started from --baseline's checkout
 
 
 @dataclass
@@ -165,12 +167,15 @@ async def run_all(cfg: Config, targets: list[Target], log, ros: bool = False) ->
                     entry["errors"][target.name] = f"{type(exc).__name__}: {exc}"
                     log(f"  {scenario} {label} {target.name}: {entry['errors'][target.name]}", err=True)
                     continue
+                load = loadavg()
+                for r in runs:
+                    r["load1"] = load   # the machine's 1-minute load average as the point ended
                 entry["runs"][target.name].extend(runs)
                 first_key = report.COLUMNS[scenario][0][0]
                 shown = ", ".join(report.fmt(r.get(first_key)) for r in runs)
                 log(f"  {scenario} {label} {target.name} #{rep + 1}: {first_key}={shown} "
-                    f"({time.monotonic() - started:.1f} s)", err=True)
-        report.finish_point(entry, bases or ("ceiling",))
+                    f"({time.monotonic() - started:.1f} s, load {load:.2f})", err=True)
+        report.finish_point(entry, bases or ("ceiling",), BASELINE if BASELINE in names else None)
         results.setdefault(scenario, []).append(entry)
     if current is not None:
         log(f"\n{report.title(current, ros)}\n{report.table(current, results[current], names)}\n")
@@ -191,6 +196,10 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--server-pid", action="append", type=int, default=[],
                    help="pid of each --target, in order, for its CPU and RSS")
     p.add_argument("--with-rosgate", action="store_true", help="start rosgate as well as the --target(s)")
+    p.add_argument("--baseline", metavar="DIR", type=Path,
+                   help="also start the rosgate of another checkout (git worktree add DIR COMMIT), as "
+                        "'before', interleaved with the others; its ratios and the goal that no point "
+                        "is slower than it are printed")
     p.add_argument("--no-ceiling", action="store_true", help="skip the ceiling server (no ratios)")
     p.add_argument("--no-rosgate", action="store_true", help="do not start rosgate")
     p.add_argument("--no-rust", action="store_true", help="--backend rclpy: skip the Rust server")
@@ -208,6 +217,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--slow-seconds", type=float, help="slow-consumer duration (default 60)")
     p.add_argument("--sizes", help="throughput payload sizes in bytes, comma-separated "
                                    "(default 64,1024,65536,1048576)")
+    p.add_argument("--windows", help="throughput messages in flight, comma-separated (default 1,32)")
     p.add_argument("--fanout-rate", type=float, help="fan-out publish rate in Hz (default 10)")
     p.add_argument("--fanout-procs", type=int, help="subscriber worker processes (default 2)")
     p.add_argument("--no-malloc-tune", action="store_true",
@@ -232,6 +242,8 @@ def make_config(args: argparse.Namespace) -> Config:
         cfg.rate_s = max(args.duration, 0.5)
     if args.sizes:
         cfg.sizes = [int(v) for v in args.sizes.split(",") if v.strip()]
+    if args.windows:
+        cfg.windows = [int(v) for v in args.windows.split(",") if v.strip()]
     if args.slow_seconds:
         cfg.slow_s = args.slow_seconds
     if args.fanout_rate:
@@ -246,6 +258,15 @@ def make_config(args: argparse.Namespace) -> Config:
             raise SystemExit(f"unknown scenario(s): {', '.join(sorted(unknown))}")
         cfg.scenarios = wanted
     return cfg
+
+
+def loadavg() -> float:
+    """The machine's 1-minute load average (/proc/loadavg): printed beside every figure."""
+    try:
+        with open("/proc/loadavg") as f:
+            return float(f.read().split()[0])
+    except (OSError, ValueError, IndexError):
+        return float("nan")
 
 
 def log(text: str, err: bool = False) -> None:
@@ -266,6 +287,9 @@ def start_targets(args: argparse.Namespace) -> list[Target]:
                 raise SystemExit("rosgate is not there yet (no gateway/__main__.py): "
                                  "use --no-rosgate or --target")
             targets.insert(1 if not args.no_ceiling else 0, start_rosgate(args.rosgate_arg))
+            if args.baseline:
+                targets.insert(2 if not args.no_ceiling else 1,
+                               start_rosgate(args.rosgate_arg, checkout=args.baseline, name=BASELINE))
     except BaseException:
         for target in targets:
             target.stop()
@@ -281,6 +305,9 @@ def start_ros_targets(args: argparse.Namespace) -> list[Target]:
     try:
         if not args.no_rosgate:
             targets.append(rosgraph.start_rosgate_rclpy(args.rosgate_arg))
+            if args.baseline:
+                targets.append(rosgraph.start_rosgate_rclpy(args.rosgate_arg, checkout=args.baseline,
+                                                            name=BASELINE))
         if not args.no_rust:
             why = rosgraph.rust_unavailable()
             if why:
@@ -312,6 +339,7 @@ def main(argv: list[str] | None = None) -> int:
         if not args.no_netns and not rosgraph.isolated():
             rosgraph.reexec_isolated(sys.argv[1:] if argv is None else argv)
     cfg = make_config(args)
+    load_at_start = loadavg()
     if cfg.malloc_tune:
         tune_malloc()
     started = time.monotonic()
@@ -353,7 +381,7 @@ def main(argv: list[str] | None = None) -> int:
         log(report.goals_table(goal_rows, primary))
     total = time.monotonic() - started
     log(f"\nidle server CPU %: {', '.join(f'{k} {report.fmt(v)}' for k, v in idle.items())}; "
-        f"total {total:.0f} s")
+        f"total {total:.0f} s; load average {load_at_start:.2f} at the start, {loadavg():.2f} at the end")
     if args.out:
         doc = {
             "meta": {

@@ -44,10 +44,15 @@ class Target:
             end(self.process)
 
 
-def _start(name: str, kind: str, argv: list[str], timeout: float = 30.0) -> Target:
+def _start(name: str, kind: str, argv: list[str], timeout: float = 30.0, checkout: Path = REPO) -> Target:
+    """A server started in ``checkout`` (its code first on the path: another checkout's rosgate
+    runs with this interpreter's libraries)."""
     log = Path(tempfile.mkstemp(prefix=f"bench-{name}-", suffix=".log")[1])
     err = open(log, "wb")
-    proc = subprocess.Popen(argv, cwd=REPO, stdout=subprocess.PIPE, stderr=err, text=True)
+    env = None
+    if Path(checkout).resolve() != REPO:
+        env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(checkout), os.environ.get("PYTHONPATH")])))
+    proc = subprocess.Popen(argv, cwd=checkout, stdout=subprocess.PIPE, stderr=err, text=True, env=env)
     err.close()
     lines: list[str] = []
     got = threading.Event()
@@ -94,11 +99,15 @@ def default_rosgate_args() -> list[str]:
     return args
 
 
-def start_rosgate(extra_args: list[str] | None = None) -> Target:
+def start_rosgate(extra_args: list[str] | None = None, checkout: Path = REPO, name: str = "rosgate") -> Target:
+    """rosgate on the sim; from another checkout (``--baseline``) with that checkout's venv when it
+    has one."""
     if extra_args is None:
         extra_args = default_rosgate_args()
-    argv = [sys.executable, "-m", "gateway", "--port", "0", "--address", "127.0.0.1", *extra_args]
-    return _start("rosgate", "rosbridge", argv)
+    python = Path(checkout) / ".venv" / "bin" / "python"
+    python = str(python) if Path(checkout).resolve() != REPO and python.exists() else sys.executable
+    argv = [python, "-m", "gateway", "--port", "0", "--address", "127.0.0.1", *extra_args]
+    return _start(name, "rosbridge", argv, checkout=checkout)
 
 
 def rosgate_available() -> bool:

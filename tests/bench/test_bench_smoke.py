@@ -190,8 +190,29 @@ def test_ratios_to_each_base_and_rclpy_goals():
     assert "rust" not in entry["ratios"]["rclpy"]  # bases get no ratio rows of their own
     assert entry["ratio"] == entry["ratios"]["rust"]
     rows = {g["goal"]: g for g in goals_rclpy({"throughput": [entry]}, "rosgate")}
-    assert rows[">= 0.8x the Rust server's msg/s at 64 B, W=32"]["met"] is True
-    assert rows[">= 0.8x the Rust server's msg/s at 1024 B, W=32"]["met"] is None
+    assert rows[">= 1.2x the Rust server's msg/s at 64 B, W=32"]["met"] is False   # 0.9x
+    assert rows[">= 1.2x the Rust server's msg/s at 1024 B, W=32"]["met"] is None
+    assert not any("--baseline" in goal for goal in rows)   # no baseline in this run
+
+
+def test_a_baseline_gets_ratios_and_the_not_slower_goal():
+    """--baseline: the other checkout's rosgate ('before') gets ratios to the Rust server, rosgate
+    gets ratios to it, and the lowest of those is the goal that no point is slower."""
+    fast = {"point": {"size": 64, "window": 32}, "label": "64B W=32", "runs": {
+        "rosgate": [{"msg_per_s": 12000.0}], "before": [{"msg_per_s": 8000.0}], "rust": [{"msg_per_s": 10000.0}]}}
+    slow = {"point": {"size": 64, "window": 1}, "label": "64B W=1", "runs": {
+        "rosgate": [{"msg_per_s": 800.0, "lat_p50_ms": 0.2}], "before": [{"msg_per_s": 1000.0}],
+        "rust": [{"msg_per_s": 900.0, "lat_p50_ms": 0.25}]}}
+    for entry in (fast, slow):
+        finish_point(entry, ("rust",), "before")
+    assert fast["ratios"]["rust"]["before"]["msg_per_s"] == pytest.approx(0.8)
+    assert fast["ratios"]["before"]["rosgate"]["msg_per_s"] == pytest.approx(1.5)
+    assert "rust" not in fast["ratios"]["before"]
+    rows = {g["goal"]: g for g in goals_rclpy({"throughput": [fast, slow]}, "rosgate")}
+    assert rows[">= 1.2x the Rust server's msg/s at 64 B, W=32"]["met"] is True
+    assert rows["p50 one-way latency <= the Rust server's at 64 B, W=1 (ratio)"]["value"] == pytest.approx(0.8)
+    slower = next(g for g in rows.values() if "--baseline" in g["goal"])
+    assert slower["value"] == pytest.approx(0.8) and slower["met"] is False and "64B W=1" in slower["goal"]
 
 
 def test_lesson_run_yields_its_figures(tmp_path):

@@ -202,6 +202,8 @@ def test_a_close_frame_whose_reason_is_not_utf8_is_answered(gateway):
             chunk = s.recv(4096)
             assert chunk, f'the server dropped the connection without a close frame (got {answer!r})'
             answer += chunk
-        assert answer[:4] == b'\x88\x02' + struct.pack('!H', 1000)   # the close echoed, its code alone
+        # the connection fails with 1007 (RFC 6455 8.1: the reason is not UTF-8); on tornado's
+        # protocol (--no-fast-io, TLS, deflate) the close is echoed with its code alone: test_fast_io.py
+        assert answer[0] == 0x88 and struct.unpack('!H', answer[2:4])[0] == 1007, answer
     with Raw(gateway.ws_url) as other:
         other.sync()

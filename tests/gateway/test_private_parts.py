@@ -13,7 +13,7 @@ from importlib.metadata import version
 import pytest
 from packaging.requirements import Requirement
 
-from gateway.web import socket
+from gateway.web import fastio, socket
 from tests.support.process import ROOT, GatewayProcess
 from tests.support.runs import RUNTIME
 
@@ -26,7 +26,7 @@ def pinned() -> dict[str, Requirement]:
     return {r.name: r for r in map(Requirement, project['dependencies'])}
 
 
-@pytest.mark.parametrize('name', ['tornado', 'roslibpy', 'rosbags'])
+@pytest.mark.parametrize('name', ['tornado', 'roslibpy', 'rosbags', 'picows', 'uvloop'])
 def test_pins_have_an_upper_bound_and_hold_the_installed_release(name):
     req = pinned()[name]
     assert any(spec.operator == '<' for spec in req.specifier), f'{req} has no upper bound'
@@ -36,6 +36,15 @@ def test_pins_have_an_upper_bound_and_hold_the_installed_release(name):
 def test_the_sentences_name_the_pinned_ranges():
     assert pinned()['tornado'] == Requirement(socket.TORNADO_TESTED)
     assert pinned()['roslibpy'] == Requirement(RUNTIME_TESTED)
+
+
+def test_picows_is_pinned_to_the_range_whose_protocol_the_gateway_builds():
+    """fastio builds picows's server protocol itself (its constructor is not public API): a release
+    outside the tested range leaves every connection to tornado instead of failing."""
+    assert pinned()['picows'].specifier == Requirement(fastio.PICOWS_TESTED).specifier
+    assert fastio.available() == Requirement(fastio.PICOWS_TESTED).specifier.contains(version('picows'))
+    assert [fastio._tested(v) for v in ('2.3.1', '2.3.9', '2.3.0', '2.4.0', '3.0', 'x')] == [
+        True, True, False, False, False, False]
 
 
 def test_installed_tornado_has_the_private_parts():
