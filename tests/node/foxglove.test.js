@@ -451,9 +451,13 @@ describe('the Foxglove protocol under --auth', () => {
     const fox = new Fox(`${authUrl}?token=${encodeURIComponent(TOKENS.viewer)}`);
     try {
       await fox.channel('/turtle1/pose');
-      assert.equal(fox.services.size, 0);   // a viewer calls nothing
       fox.client.advertise({ topic: '/turtle1/cmd_vel', encoding: 'cdr', schemaName: TWIST });
       await fox.status(/role viewer may not publish to \/turtle1\/cmd_vel/);
+      // a viewer calls only what reads: the nodes' parameter reads (rules/access.py PARAM_READS), the rates
+      await fox.until(() => fox.services.size > 0, 'the reads a viewer may call');
+      const reads = /\/(list_parameters|get_parameters|get_parameter_types|describe_parameters)$|^\/rosgate\/topic_stats$/;
+      assert.deepEqual([...fox.services.keys()].filter((name) => !reads.test(name)), []);
+      assert.ok(!fox.services.has('/add_two_ints') && ![...fox.services.keys()].some((n) => n.endsWith('/set_parameters')));
     } finally {
       await fox.close();
     }
