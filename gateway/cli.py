@@ -22,6 +22,7 @@ from .backends.sim import SimBackend, robots
 from .server import serve
 from .settings import Refused, Settings, flat, from_flat
 from .web import logs
+from .web.description import check_urdf
 from .web.gauges import read_limits
 from .web.history import history_globs
 
@@ -138,7 +139,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help='serve the robots\' history fields and pose over OPC UA on this port (0: any free one)')
     h.add_argument('--urdf', dest='twin.urdf', type=Path, metavar='FILE',
                    help='the robot description the 3D twin draws (served at /urdf), in place of the '
-                        'robot_description topic')
+                        'robot_description topic: URDF or xacro ($(find PKG) through the package roots and '
+                        '--mesh-path)')
     h.add_argument('--mesh-path', dest='twin.mesh_path', type=Path, action='append', metavar='DIR',
                    help='a folder of description packages (DIR/PKG/meshes/...) whose files the twin loads '
                         'as package://PKG/..., besides AMENT_PREFIX_PATH\'s share folders (repeatable)')
@@ -231,6 +233,10 @@ def check(settings: Settings) -> Start:
             read_limits(twin.gauges)
         except (OSError, ValueError) as e:
             raise Refused('--gauges', str(e)) from None
+    try:
+        check_urdf(twin.urdf, twin.mesh_path)   # xacro is expanded now: a file it cannot expand stops here
+    except ValueError as e:
+        raise Refused('--urdf', str(e)) from None
     if twin.opcua is not None:
         if history_globs(twin.history) is False:
             raise Refused('--opcua, --history', '--opcua serves the history, and --history none keeps none')

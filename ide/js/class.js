@@ -72,7 +72,8 @@ function call(service, args = {}) {
 }
 
 // The stations: the lease's list, else the fleet's parameter, else top namespaces with a world
-// view or a velocity topic (two or more of them).
+// view of their own or a velocity topic (two or more of them); else the one robot of the gateway
+// ('/': turtlesim's /turtle1/cmd_vel and /world/markers are one robot, not two stations).
 async function stations() {
   if (view.lease.info?.stations?.length) return view.lease.info.stations;
   try {
@@ -80,11 +81,16 @@ async function stations() {
     if (Array.isArray(v) && v.length) return v;
   } catch { /* no fleet */ }
   const tops = new Set();
+  let root = false;
   view.topics.forEach((t, i) => {
     const parts = t.split('/').filter(Boolean);
-    if (parts.length > 1 && (t.endsWith('/world/markers') || isVelocityType(view.types[i]))) tops.add(`/${parts[0]}`);
+    const world = t.endsWith('/world/markers');
+    if (!world && !isVelocityType(view.types[i])) return;
+    if (parts.length > (world ? 2 : 1)) tops.add(`/${parts[0]}`);
+    else root = true;
   });
-  return tops.size > 1 ? [...tops].sort() : [];
+  if (tops.size > 1) return [...tops].sort();
+  return root ? ['/'] : [...tops];
 }
 
 async function refresh() {
@@ -93,7 +99,7 @@ async function refresh() {
     ({ services: view.services } = await call('/rosapi/services'));
     if (view.topics.includes(DRIVER_TOPIC)) view.lease.watch();
     await show(await stations());
-    for (const t of view.tiles.values()) t.show();
+    for (const t of view.tiles.values()) { t.look(); t.show(); }
   } catch (e) { notice(t('class.graph.failed', { error: e.message })); }
 }
 
@@ -125,8 +131,20 @@ class Tile {
 
   attach(ros) {
     this.ros = ros;
+    this.reporting = false;
     this.world.attach(ros);
+    this.look();
+  }
+
+  // What the station has, subscribed once it is on the graph (a subscription would put it there):
+  // its world and map, and the report of its IDE's program (there once a student's page reports).
+  look() {
+    const ros = this.ros;
+    if (!ros?.isConnected) return;
+    this.world.look(call);
     const topic = withNamespace(this.ns, '/rosgate/program');
+    if (this.reporting || !view.topics.includes(topic)) return;
+    this.reporting = true;
     ros.on(topic, (m) => {
       if (this.ros !== ros) return;
       try { this.report = JSON.parse(m.msg.data); } catch { this.report = null; }
@@ -205,7 +223,7 @@ function stop(ns) {
   }
   view.topics.forEach((topic, i) => {
     const type = view.types[i];
-    if (!topic.startsWith(`${ns}/`) || !isVelocityType(type)) return;
+    if ((ns !== '/' && !topic.startsWith(`${ns}/`)) || !isVelocityType(type)) return;
     view.ros.callOnConnection({ op: 'advertise', topic, type, id: `advertise:${topic}:class` });
     view.ros.callOnConnection({ op: 'publish', topic, msg: zeroVelocity(type) });
   });

@@ -152,6 +152,7 @@ async function start() {
       ide.ns = ns;
       workspace.updateToolbox(buildToolbox(base));   // the block sets for this robot
       world.setTopic(withNamespace(ns, '/world/markers'));
+      world.look((service, args) => graph.call(service, args));
       updateCode();
       consoleView.info(t('ide.ns.changed', { ns: ns || t('ide.ns.none') }));
     },
@@ -178,6 +179,7 @@ async function start() {
   });
   graph.addEventListener('change', () => {
     if (graph.topics.has(DRIVER_TOPIC)) lease.watch();
+    world.look((service, args) => graph.call(service, args));   // its markers and map, where published
     robotNs.claimable(graph.services.has(CLAIM_SERVICE));
     changedCode();            // names resolve against what the graph has
   });
@@ -212,6 +214,8 @@ async function start() {
   });
   link.addEventListener('state', (e) => { if (e.detail === 'connecting') setStatus('connecting', t('status.connecting')); });
   setInterval(() => { $('#link').textContent = link.describe(); }, 500);
+  // a robot that starts after the page: its world is drawn once it publishes one
+  setInterval(() => { if (ide.ros?.isConnected) world.look((service, args) => graph.call(service, args)); }, 10000);
   const connect = () => link.restart();
   $('#reconnect').onclick = connect;
   url.addEventListener('change', connect);
