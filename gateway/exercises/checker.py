@@ -16,6 +16,7 @@ goal never reached). A ``topic`` goal's topic stays open: it may be what the pro
 from __future__ import annotations
 
 import asyncio
+import hashlib
 import logging
 import secrets
 import time
@@ -39,6 +40,8 @@ class Exercise:
     start: dict = field(default_factory=dict)    # {"blocks": ...} or {"text": ...}
     pose_topic: str = 'pose'                     # relative to the station's namespace
     scan_topic: str = ''
+    titles: dict = field(default_factory=dict)   # the title in other languages: {lang: text}
+    instructions: str | dict = ''                # Markdown, or {lang: Markdown}
 
 
 @dataclass(frozen=True)
@@ -60,9 +63,23 @@ class AttemptResult:
         return dict(self.__dict__)
 
 
+def attempt_person(identity, browser: str | None = None, name: str = '') -> tuple[str, str]:
+    """(key, name) of whoever makes an attempt: a signed-in person (an LTI identity's key, a token's
+    name), else a browser without sign-in (``browser``: its id from the pages' cookie, kept here only
+    as a digest, since the id is what holds a station; ``name`` as the page gives it), else anyone."""
+    if identity is not None:
+        return identity.key or identity.name, identity.name
+    if browser:
+        digest = hashlib.sha256(browser.encode()).hexdigest()[:16]
+        return f'browser-{digest}', (name.strip()[:60] or f'browser {digest[:6]}')
+    return 'anyone', 'anyone'
+
+
 class Attempt:
-    def __init__(self, checker: 'Checker', exercise: Exercise, identity, station: str, program: str):
+    def __init__(self, checker: 'Checker', exercise: Exercise, identity, station: str, program: str,
+                 person: tuple[str, str] | None = None):
         self.checker, self.exercise, self.identity, self.station = checker, exercise, identity, station
+        self.person, self.name = person or attempt_person(identity)
         self.id = secrets.token_hex(8)
         self.program = program[:results.MAX_PROGRAM]
         self.evaluation = Evaluation(exercise.goal)
@@ -99,11 +116,10 @@ class Attempt:
         recording = self.checker.stop_recording(self)
         self.evaluation.time(time.time() - self.started)
         passed, score = self.evaluation.finish()
-        who = self.identity
         self.result = AttemptResult(
-            attempt=self.id, exercise=self.exercise.id, person=(who.key or who.name) if who else 'anyone',
-            name=who.name if who else 'anyone', station=self.station, passed=passed, score=score,
-            why=why, started_at=self.started, ended_at=time.time(), program=self.program, recording=recording)
+            attempt=self.id, exercise=self.exercise.id, person=self.person, name=self.name, station=self.station,
+            passed=passed, score=score, why=why, started_at=self.started, ended_at=time.time(),
+            program=self.program, recording=recording)
         self.checker.finished(self)
         if not self.done.done():
             self.done.set_result(self.result)
@@ -127,12 +143,14 @@ class Checker:
         ns = station.strip('/')
         return f'/{ns}/{name}' if ns else f'/{name}'
 
-    def start(self, exercise: Exercise, identity, station: str, program: str) -> Attempt:
+    def start(self, exercise: Exercise, identity, station: str, program: str,
+              person: tuple[str, str] | None = None) -> Attempt:
+        """An attempt of ``person`` ((key, name): ``attempt_person``; the identity's by default)."""
         for live in self.attempts.values():
             if live.station == station:
                 live.end('stopped')
                 break
-        attempt = Attempt(self, exercise, identity, station, program)
+        attempt = Attempt(self, exercise, identity, station, program, person)
         watch = [(self.topic(station, exercise.pose_topic), 'pose')]
         if exercise.scan_topic:
             watch.append((self.topic(station, exercise.scan_topic), 'scan'))

@@ -15,7 +15,7 @@ import { Link } from './link.js';
 import { mountBooking } from './booking.js';
 import { t, tn } from './i18n.js';
 import { keptRuns, runItem } from './runhistory.js';
-import { exerciseSummary, exerciseItem } from './classexercises.js';
+import { exerciseSummary, exerciseItem, exerciseTitles, showAttempts } from './classexercises.js';
 import { mountRoster } from './classroster.js';
 
 const $ = (s) => document.querySelector(s);
@@ -24,7 +24,7 @@ const TILE_RUNS = 3;     // a student's newest kept runs shown on their tile
 // A tile's world at 2 Hz: the gateway merges the markers of each half second (newest of each wins,
 // no change lost), so ten tiles fit a home line (docs/teacher.md)
 const TILE_STREAM = { throttle_rate: 500, queue_length: 4 };
-const view = { ros: null, lease: new DriverLease(), tiles: new Map(), topics: [], types: [], services: [], owners: {}, seq: 0, runs: [], exercises: [] };
+const view = { titles: {}, ros: null, lease: new DriverLease(), tiles: new Map(), topics: [], types: [], services: [], owners: {}, seq: 0, runs: [], exercises: [] };
 window.classView = view;
 
 function setStatus(s, text) { const el = $('#status'); el.dataset.state = s; el.textContent = text; document.body.dataset.connection = s; }
@@ -200,7 +200,7 @@ class Tile {
   showExercises(owner) {
     const entries = owner ? view.exercises.filter((e) => e.name === owner) : [];
     const list = this.el.querySelector('.exercises');
-    list.replaceChildren(...entries.map(exerciseItem));
+    list.replaceChildren(...entries.map((e) => exerciseItem(e, view.titles)));
     list.hidden = !entries.length;
     list.setAttribute('aria-label', t('class.ex.label'));
     this.el.dataset.passed = String(entries.filter((e) => e.best.passed).length);
@@ -210,6 +210,8 @@ class Tile {
 // The kept runs this page's person may see (an admin: everyone's), newest first.
 async function refreshRuns() {
   try { view.exercises = await exerciseSummary(); } catch { view.exercises = []; }   // not signed in: none
+  if (view.exercises.length) view.titles = await exerciseTitles();
+  showAttempts($('#attempts'), view.exercises, view.titles);
   try { view.runs = await keptRuns(); } catch { view.runs = []; }   // runs off, or not signed in: no list
   for (const tile of view.tiles.values()) tile.showRuns(view.owners[tile.ns]?.name);
 }
