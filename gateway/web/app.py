@@ -31,7 +31,7 @@ from .language import Texts
 from .packages import package_routes
 from .description import description_routes
 from .login import login_routes
-from .lti import lti_routes
+from .lti_setup import lti_routes
 from .roster import roster_routes
 from .pages import Application, PublicFileHandler, write_page
 from .programs import program_routes
