@@ -58,9 +58,10 @@ class AttemptResult:
     ended_at: float
     program: str
     recording: str | None = None
+    missed: str = ''      # the goal's parts not met, in words (the gradebook's comment; not kept in the store)
 
     def row(self) -> dict:
-        return dict(self.__dict__)
+        return {k: v for k, v in self.__dict__.items() if k != 'missed'}
 
 
 def attempt_person(identity, browser: str | None = None, name: str = '') -> tuple[str, str]:
@@ -119,7 +120,7 @@ class Attempt:
         self.result = AttemptResult(
             attempt=self.id, exercise=self.exercise.id, person=self.person, name=self.name, station=self.station,
             passed=passed, score=score, why=why, started_at=self.started, ended_at=time.time(),
-            program=self.program, recording=recording)
+            program=self.program, recording=recording, missed='' if passed else self.evaluation.missed())
         self.checker.finished(self)
         if not self.done.done():
             self.done.set_result(self.result)
