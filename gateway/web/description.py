@@ -177,9 +177,16 @@ class Descriptions:
         fan = gw.fanout(topic, 'std_msgs/msg/String')
         if fan.last is not None:
             return fan.last.get('data')
-        got = asyncio.get_running_loop().create_future()
+        loop = asyncio.get_running_loop()
+        got = loop.create_future()
         key = ('description', id(got))
-        fan.watch(key, lambda msg, _image: got.done() or got.set_result(msg))
+        latest: list = []
+
+        def take(msg, _image) -> None:   # the newest of what a late subscriber is handed at once
+            if not latest:
+                loop.call_soon(lambda: got.done() or got.set_result(latest[-1]))
+            latest.append(msg)
+        fan.watch(key, take)
         try:
             msg = await asyncio.wait_for(got, RETAINED_WAIT)
         except asyncio.TimeoutError:
