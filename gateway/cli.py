@@ -56,7 +56,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help='ping every websocket this often, so a proxy does not cut a quiet one (nginx: 60 s); '
                         '0 for never [%(default)s]')
     g.add_argument('--websocket-ping-timeout', type=float, metavar='S',
-                   help='close a websocket that has not answered a ping this long [%(default)s]')
+                   help='close a websocket that has not answered a ping this long, at most the ping interval '
+                        '(a longer one is cut to it, with a warning at start) [%(default)s, as rosbridge_server]')
     g.add_argument('--send-buffer-limit', type=int,
                    help='bytes queued per client before its topic messages are dropped [%(default)s]')
     g.add_argument('--body-timeout', type=float, metavar='S',
@@ -233,6 +234,11 @@ def check(settings: Settings) -> Start:
             read_limits(twin.gauges)
         except (OSError, ValueError) as e:
             raise Refused('--gauges', str(e)) from None
+    interval, timeout = settings.websocket_ping_interval, settings.websocket_ping_timeout
+    if interval and timeout and timeout > interval:   # tornado's ping waits for its pong one interval at most
+        logging.getLogger('rosgate').warning('--websocket-ping-timeout %g s is cut to --websocket-ping-interval %g s: '
+                                             'a ping is answered before the next one, or the socket closes',
+                                             timeout, interval)
     try:
         check_urdf(twin.urdf, twin.mesh_path)   # xacro is expanded now: a file it cannot expand stops here
     except ValueError as e:

@@ -15,6 +15,7 @@ server) are started by the server's start (``gateway.server``), not here.
 
 from __future__ import annotations
 
+import math
 import time
 
 import orjson
@@ -77,7 +78,8 @@ class IdeFileHandler(tornado.web.StaticFileHandler):
 def options(settings) -> dict:
     return {'websocket_max_message_size': settings.max_message_size * HARD_LIMIT_FACTOR,
             'websocket_ping_interval': settings.websocket_ping_interval or None,
-            'websocket_ping_timeout': settings.websocket_ping_timeout}
+            # at most the interval: tornado cuts a longer one itself, with a warning at every start (cli.check says it once)
+            'websocket_ping_timeout': min(settings.websocket_ping_timeout, settings.websocket_ping_interval or math.inf)}
 
 
 def websocket_route(gateway: Gateway) -> tuple:

@@ -41,7 +41,12 @@ function makeScene() {
   const view = $('#view');
   let renderer;
   try {
-    renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
+    // asked first, so that a browser without WebGL 2 (three's need) gets the page's words, not
+    // three's console errors
+    const canvas = document.createElement('canvas');
+    const context = canvas.getContext('webgl2', { antialias: true, preserveDrawingBuffer: true, alpha: false, stencil: false });
+    if (!context) throw new Error(t('twin.no.webgl2'));
+    renderer = new THREE.WebGLRenderer({ canvas, context, antialias: true, preserveDrawingBuffer: true });
   } catch (e) {
     view.textContent = t('twin.no.webgl', { error: e.message });
     view.dataset.webgl = 'none';   // (the mark, whatever the words' language: for tests)

@@ -81,6 +81,10 @@ def test_a_xacro_urdf_that_does_not_expand_stops_the_start(packages, tmp_path):
     assert '--urdf' in done.stderr and 'no_such_package' in done.stderr, done.stderr
 
 
+def test_the_start_line_names_the_twin(graph):
+    assert f'twin {graph.http_url}twin ' in graph.line, graph.line
+
+
 def test_the_sims_rover_description_comes_from_its_topic(graph):
     status, body = api(graph, 'GET', '/api/description')
     assert status == 200 and body['from'] == 'topic' and '<robot' in body['urdf'], body
