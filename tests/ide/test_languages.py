@@ -195,3 +195,22 @@ def test_the_code_tabs_fit_a_tablet_in_every_language(gw, context, lang):
     assert len(tabs) == 5, tabs
     assert all(t['inside'] for t in tabs), tabs
     assert all(t['height'] < 1.5 * tabs[0]['height'] for t in tabs), tabs   # one line each, as "Python"
+
+
+def test_examples_in_the_readers_language(gw, context):
+    """An example's title in the menu, its name and its blocks' comments in Spanish, and the
+    comments in the generated code; in English as they were written."""
+    ide = open_ide(context(), gw, '?lang=es')
+    options = ide.page.eval_on_selector_all('#examples option', 'os => os.map((o) => o.textContent)')
+    assert 'dibujar un cuadrado (turtlesim)' in options and 'rover PID hacia la meta (rover)' in options, options
+    ide.page.select_option('#examples', 'drive_square.json')
+    ide.page.wait_for_function("rosgateIde.programName === 'dibujar un cuadrado'")
+    comment = ide.js("rosgateIde.workspace.getBlockById('note-1').getCommentText()")
+    assert comment == 'Cuatro veces: un lado de 3 y luego un cuarto de vuelta (90°) a la izquierda.', comment
+    assert '# Cuatro veces: un lado de 3' in ide.python()
+    assert not ide.errors, ide.errors
+    english = open_ide(context(), gw, '?lang=en')
+    english.page.select_option('#examples', 'pid_goal.json')
+    english.page.wait_for_function("rosgateIde.programName === 'rover PID go-to-goal'")
+    notes = english.js("rosgateIde.workspace.getAllBlocks(false).map((b) => b.getCommentText()).filter(Boolean)")
+    assert 'Until within 10 cm of the goal, every 0.1 s.' in notes, notes
