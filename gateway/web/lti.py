@@ -175,7 +175,7 @@ PAGE = """<!doctype html><html lang="en"><head><meta charset="utf-8"><meta name=
 button{{font:inherit;padding:.4rem 1rem;margin:.3rem 0}}</style></head><body>{body}</body></html>"""
 
 
-class _Base(Handler):
+class LtiPage(Handler):
     def initialize(self, lti_: Lti) -> None:
         self.lti = lti_
         self.script_nonce = secrets.token_urlsafe(12)
@@ -213,7 +213,7 @@ class _Base(Handler):
                              f'<script nonce="{self.script_nonce}">document.getElementById("f").submit()</script>')
 
 
-class LoginInitHandler(_Base):
+class LoginInitHandler(LtiPage):
     async def get(self) -> None:
         arg = self.get_argument
         iss, hint = arg('iss', ''), arg('login_hint', '')
@@ -244,7 +244,7 @@ class LoginInitHandler(_Base):
     post = get
 
 
-class LaunchHandler(_Base):
+class LaunchHandler(LtiPage):
     async def post(self) -> None:
         if self.get_argument('error', None):
             self.refuse(f'the platform answered {self.get_argument("error")[:100]}: '
@@ -396,7 +396,7 @@ def landed_page(landing: str, ticket: str, identity, nonce: str, say) -> str:
             '.catch(()=>{document.getElementById("blocked").hidden=false})</script>')
 
 
-class ResumeHandler(_Base):
+class ResumeHandler(LtiPage):
     def get(self) -> None:
         found = self.lti.resume.take(self.get_argument('ticket', ''))
         if found is None:
@@ -407,7 +407,7 @@ class ResumeHandler(_Base):
         self.redirect(landing, status=303)
 
 
-class DeepLinkHandler(_Base):
+class DeepLinkHandler(LtiPage):
     def post(self) -> None:
         check_origin(self, self.lti.policy)   # the picker is this gateway's own page
         found = self.lti.picks.take(self.get_argument('ticket', ''))

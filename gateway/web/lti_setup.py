@@ -28,7 +28,7 @@ from ..rules.lti_dynamic import RegistrationError
 from ..rules.tokens import AuthError
 from .api import check_origin
 from .language import Texts
-from .lti import DeepLinkHandler, JwksHandler, LaunchHandler, LoginInitHandler, Lti, ResumeHandler, _Base, base_url
+from .lti import DeepLinkHandler, JwksHandler, LaunchHandler, LoginInitHandler, Lti, ResumeHandler, LtiPage, base_url
 
 log = logging.getLogger('rosgate.lti')
 MAX_ANSWER = 1 << 20      # bytes of the platform's configuration or registration answer
@@ -55,7 +55,7 @@ def _identity(handler):
         return None
 
 
-class ConfigHandler(_Base):
+class ConfigHandler(LtiPage):
     async def get(self) -> None:
         b = html.escape(base_url(self))
         hand = [
@@ -117,7 +117,7 @@ gradebook column, and each attempt's score goes there.</p>
 <ul>{regs}</ul>""")
 
 
-class RegisterLinkHandler(_Base):
+class RegisterLinkHandler(LtiPage):
     async def post(self) -> None:
         check_origin(self, self.lti.policy)
         who = _identity(self)
@@ -132,7 +132,7 @@ class RegisterLinkHandler(_Base):
                   'once. <a href="/lti/config">Back</a></p>')
 
 
-class RegisterHandler(_Base):
+class RegisterHandler(LtiPage):
     async def get(self) -> None:
         arg = self.get_argument
         config_url, token = arg('openid_configuration', ''), arg('registration_token', None)
