@@ -28,6 +28,8 @@ from .goals import Evaluation, topics_of
 
 log = logging.getLogger('rosgate.exercises')
 RECENT = 256   # ended attempts answered from memory: a poll right after the end finds it before the store does
+POSE_TYPES = frozenset({'turtlesim/msg/Pose', 'geometry_msgs/msg/Pose', 'geometry_msgs/msg/PoseStamped',
+                        'nav_msgs/msg/Odometry'})
 
 
 @dataclass(frozen=True)
@@ -144,6 +146,19 @@ class Checker:
         ns = station.strip('/')
         return f'/{ns}/{name}' if ns else f'/{name}'
 
+    def pose_topic(self, station: str, name: str) -> str:
+        """The station's pose topic: the exercise's name under the station, or where the robot has no
+        such topic, its one published pose-like topic (turtlesim's ``turtle1/pose``, a rover's ``odom``):
+        an exercise left at the default ``pose`` works on a single turtle or rover too."""
+        topic = self.topic(station, name)
+        gw = self.gateway
+        if name.startswith('/') or gw.topic_type(topic) is not None:
+            return topic
+        under = f'/{station.strip("/")}/' if station.strip('/') else '/'
+        found = [t for t, type_ in gw.backend.topics() if t.startswith(under) and type_ in POSE_TYPES
+                 and gw.backend.publishers(t)]
+        return found[0] if len(found) == 1 else topic
+
     def start(self, exercise: Exercise, identity, station: str, program: str,
               person: tuple[str, str] | None = None) -> Attempt:
         """An attempt of ``person`` ((key, name): ``attempt_person``; the identity's by default)."""
@@ -152,7 +167,7 @@ class Checker:
                 live.end('stopped')
                 break
         attempt = Attempt(self, exercise, identity, station, program, person)
-        watch = [(self.topic(station, exercise.pose_topic), 'pose')]
+        watch = [(self.pose_topic(station, exercise.pose_topic), 'pose')]
         if exercise.scan_topic:
             watch.append((self.topic(station, exercise.scan_topic), 'scan'))
         watch += [(t, 'topic') for t in sorted(topics_of(attempt.evaluation.root))]

@@ -15,7 +15,7 @@ from tests.support.http import api, http
 from tests.support.ide import TABLET
 from tests.support.wait import wait_for
 
-ANYWHERE = {'title': 'Be in the world', 'time_limit': 20, 'pose_topic': 'turtle1/pose',
+ANYWHERE = {'title': 'Be in the world', 'time_limit': 20,   # pose_topic left at 'pose': turtle1's is found
             'titles': {'es': 'Estar en el mundo'},
             'goal': {'region': {'xmin': 0, 'xmax': 11.1, 'ymin': 0, 'ymax': 11.1}}}
 CORNER = {'title': 'The far corner', 'time_limit': 1, 'pose_topic': 'turtle1/pose',
