@@ -152,7 +152,9 @@ function applyGraph(topics, types, ns, present) {
   const mine = topics.map((t, i) => [t, types[i]]).filter(([t]) => present.has(t));
   const found = dash.board.show(mine.map(([t]) => t), mine.map(([, type]) => type), ns);   // every gauge it has
   for (const spec of [...fixedSeries(ns), ...dash.board.plots()]) {                       // and its history
-    if (!dash.series[spec.id] && present.has(spec.id === 'battery' ? $('#battery-topic').value.trim() : spec.topic)) addSeries(spec);
+    if (!dash.series[spec.id] && present.has(spec.id === 'battery' ? $('#battery-topic').value.trim() : spec.topic)) {
+      addSeries(spec, false);   // resubscribe() subscribes it, after this
+    }
   }
   if (found) $('#battery-card').hidden = false;
   showCameras({ ros: state.ros, topics: mine.map(([t]) => t), types: mine.map(([, type]) => type), ns,
@@ -435,11 +437,12 @@ function showImage(msg) {
 }
 
 // A plotted field: {id, label, unit, topic, path, type, last}; also drives a gauge when named.
-function addSeries(spec) {
+// subscribe: now (a plot added by hand), or not (applyGraph's, which resubscribe() subscribes).
+function addSeries(spec, subscribeNow = true) {
   const s = { last: null, ...spec };
   dash.series[s.id] = s;
   dash.history.add(s);
-  if (s.topic && state.ros?.isConnected) subscribePlot(s);
+  if (subscribeNow && s.topic && state.ros?.isConnected) subscribePlot(s);
   return s;
 }
 
