@@ -151,11 +151,14 @@ function applyGraph(topics, types, ns, present) {
   fixedGauges(ns);
   const mine = topics.map((t, i) => [t, types[i]]).filter(([t]) => present.has(t));
   const found = dash.board.show(mine.map(([t]) => t), mine.map(([, type]) => type), ns);   // every gauge it has
+  let added = 0;
   for (const spec of [...fixedSeries(ns), ...dash.board.plots()]) {                       // and its history
     if (!dash.series[spec.id] && present.has(spec.id === 'battery' ? $('#battery-topic').value.trim() : spec.topic)) {
       addSeries(spec, false);   // resubscribe() subscribes it, after this
+      added += 1;
     }
   }
+  if (added) dash.loadSpan?.();   // the span shown, with the gateway's history of the plots just added
   if (found) $('#battery-card').hidden = false;
   showCameras({ ros: state.ros, topics: mine.map(([t]) => t), types: mine.map(([, type]) => type), ns,
     main: $('#camera-topic').value.trim(), after: $('#camera-card') });
@@ -488,6 +491,7 @@ function setupDashboard() {
     to: $('#plot-to'), show: $('#plot-show'), csv: $('#plot-csv'), png: $('#plot-png') }, dash.history, () => [
     ...dash.history.series.filter((s) => s.topic && s.path).map((s) => ({ id: s.id, topic: s.topic, field: s.path, scale: s.scale })),
     { id: 'battery', topic: $('#battery-topic').value, field: 'percentage', scale: 100 }]);
+  dash.loadSpan = loadSpan;
   loadSpan();
   setInterval(() => dash.history.sample(), SAMPLE_EVERY);
   setInterval(() => dash.history.save(), 5000);
