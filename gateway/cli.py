@@ -23,6 +23,7 @@ from .server import serve
 from .settings import Refused, Settings, flat, from_flat
 from .web import logs
 from .web.fastio import loop_factory
+from .web.description import check_urdf
 from .web.gauges import read_limits
 from .web.history import history_globs
 
@@ -56,7 +57,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help='ping every websocket this often, so a proxy does not cut a quiet one (nginx: 60 s); '
                         '0 for never [%(default)s]')
     g.add_argument('--websocket-ping-timeout', type=float, metavar='S',
-                   help='close a websocket that has not answered a ping this long [%(default)s]')
+                   help='close a websocket that has not answered a ping this long, at most the ping interval '
+                        '(a longer one is cut to it, with a warning at start) [%(default)s, as rosbridge_server]')
     g.add_argument('--send-buffer-limit', type=int,
                    help='bytes queued per client before its topic messages are dropped [%(default)s]')
     g.add_argument('--body-timeout', type=float, metavar='S',
@@ -142,7 +144,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help='serve the robots\' history fields and pose over OPC UA on this port (0: any free one)')
     h.add_argument('--urdf', dest='twin.urdf', type=Path, metavar='FILE',
                    help='the robot description the 3D twin draws (served at /urdf), in place of the '
-                        'robot_description topic')
+                        'robot_description topic: URDF or xacro ($(find PKG) through the package roots and '
+                        '--mesh-path)')
     h.add_argument('--mesh-path', dest='twin.mesh_path', type=Path, action='append', metavar='DIR',
                    help='a folder of description packages (DIR/PKG/meshes/...) whose files the twin loads '
                         'as package://PKG/..., besides AMENT_PREFIX_PATH\'s share folders (repeatable)')
@@ -235,6 +238,15 @@ def check(settings: Settings) -> Start:
             read_limits(twin.gauges)
         except (OSError, ValueError) as e:
             raise Refused('--gauges', str(e)) from None
+    interval, timeout = settings.websocket_ping_interval, settings.websocket_ping_timeout
+    if interval and timeout and timeout > interval:   # tornado's ping waits for its pong one interval at most
+        logging.getLogger('rosgate').warning('--websocket-ping-timeout %g s is cut to --websocket-ping-interval %g s: '
+                                             'a ping is answered before the next one, or the socket closes',
+                                             timeout, interval)
+    try:
+        check_urdf(twin.urdf, twin.mesh_path)   # xacro is expanded now: a file it cannot expand stops here
+    except ValueError as e:
+        raise Refused('--urdf', str(e)) from None
     if twin.opcua is not None:
         if history_globs(twin.history) is False:
             raise Refused('--opcua, --history', '--opcua serves the history, and --history none keeps none')

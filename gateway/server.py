@@ -75,7 +75,8 @@ def start(gateway: Gateway, files: rules.Files) -> Parts:
 def pages_box(base: str) -> str:
     """The pages' addresses framed, after the start-up line: with --fleet 30 the line came after
     some 60 lines of log and a teacher did not find it. The line above stays one line for scripts."""
-    rows = [('IDE (students)', base), ('teleop (driving)', f'{base}teleop'), ('class (teacher)', f'{base}class')]
+    rows = [('IDE (students)', base), ('teleop (driving)', f'{base}teleop'), ('twin (3D robot)', f'{base}twin'),
+            ('class (teacher)', f'{base}class')]
     lines = ['rosgate is ready. Open in a browser:', *(f'  {name:<17} {url}' for name, url in rows)]
     if '//localhost:' in base:
         lines.append('  (other machines: this machine\'s address in place of localhost)')
@@ -111,7 +112,7 @@ async def serve(settings: Settings, files: rules.Files, backend, sockets: list[s
     path = settings.url_path if settings.url_path.startswith('/') else '/' + settings.url_path
     problem = ide_problem(settings.ide_dir)
     base = f'{http}://{host}:{port}/'
-    ide = (f'IDE {base} teleop {base}teleop class {base}class' if problem is None
+    ide = (f'IDE {base} teleop {base}teleop twin {base}twin class {base}class' if problem is None
            else f'IDE unavailable ({problem})')
     announce(f'rosgate: {ide} websocket {ws}://{host}:{port}{path} backend {backend.name} '
              f'node {backend.node_name}')

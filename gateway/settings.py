@@ -170,8 +170,8 @@ class Settings:
     unregister_timeout: float = 10.0           # grace before an unadvertised publisher is destroyed
     use_compression: bool = False              # permessage-deflate
     default_call_service_timeout: float = 5.0
-    websocket_ping_interval: float = 20.0      # below the idle timeouts of common proxies (nginx 60 s)
-    websocket_ping_timeout: float = 30.0
+    websocket_ping_interval: float = 30.0      # below the idle timeouts of common proxies (nginx 60 s)
+    websocket_ping_timeout: float = 30.0       # rosbridge_server's; tornado waits one interval at most (cli.check)
     send_buffer_limit: int = 16 * 2**20        # per-client queued bytes before topic messages drop
     fast_io: bool = True                       # picows for plain websockets and uvloop, where installed
     body_timeout: float = 30.0                 # s to send a request body before the connection closes

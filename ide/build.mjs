@@ -17,6 +17,8 @@ const bundles = {
   'uplot.mjs': "export { default } from 'uplot';",
   // the ROS 2 package download (generators/package.js): a zip made in the page
   'fflate.mjs': "export { zipSync, strToU8 } from 'fflate';",
+  // an exercise's instructions (js/exercise.js): Markdown, its HTML escaped (markdown-it's html: false)
+  'markdown-it.mjs': "export { default } from 'markdown-it';",
   // one copy of three for the twin, with the orbit controls, the URDF loader built on it and
   // three's own mesh loaders for a description's STL, Collada and OBJ (+ MTL) files
   'three.mjs': "export * from 'three'; export { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js'; "

@@ -3,11 +3,16 @@
 An exercise is a JSON file ``ID.json`` in ``--exercises-dir`` (an admin's POST /api/exercises
 writes one there too)::
 
-    {"title": "Reach the corner", "station_kind": "turtlesim", "time_limit": 60,
+    {"title": "Reach the corner", "titles": {"es": "Llega a la esquina", "de": "Erreiche die Ecke"},
+     "instructions": "Drive the turtle to the **top right** corner ..." or {"en": "...", "es": "..."},
+     "station_kind": "turtlesim", "time_limit": 60,
      "start": {"blocks": {...}} or {"text": "..."},
      "pose_topic": "pose", "scan_topic": "scan",
      "goal": {"all": [{"region": {"xmin": 8, "xmax": 11, "ymin": 8, "ymax": 11}}, {"within": 45}]}}
 
+The title and the instructions (Markdown, shown beside the editor: the IDE renders it with no HTML
+of its own) are a text or one per language (``{"en": ..., "es": ...}``; ``title`` may be such an
+object too, or ``titles`` gives the other languages): the pages show the reader's.
 ``goals`` turns the goal into an evaluator (pure); ``checker`` watches the robot's own topics during
 an attempt and keeps each result (``store``: table ``exercise_attempts``), then calls the hook list
 ``Checker.on_result``. Files are read on each request (a class has tens), so an edit needs no restart.
@@ -20,14 +25,16 @@ import math
 import re
 from pathlib import Path
 
-from .checker import AttemptResult, Checker, Exercise
+from .checker import AttemptResult, Checker, Exercise, attempt_person
 from .goals import GoalError, build
 
-__all__ = ['AttemptResult', 'Checker', 'Exercise', 'ExerciseError', 'Library', 'parse']
+__all__ = ['AttemptResult', 'Checker', 'Exercise', 'ExerciseError', 'Library', 'attempt_person', 'parse']
 
 ID = re.compile(r'^[A-Za-z0-9][A-Za-z0-9_-]{0,63}$')
 TOPIC = re.compile(r'^/?[A-Za-z_][A-Za-z0-9_/]{0,200}$')
+LANG = re.compile(r'^[A-Za-z]{2,3}([-_][A-Za-z0-9]{1,8}){0,3}$')
 MAX_FILE = 256 * 1024
+MAX_INSTRUCTIONS = 64 * 1024
 MAX_TIME = 3600.0
 
 
@@ -58,14 +65,35 @@ def parse(ex_id: str, data) -> Exercise:
             raise ExerciseError(f'{ex_id}: {key} is a topic name')
         topics[key] = value
     title, kind = data.get('title', ex_id), data.get('station_kind', '')
-    if not isinstance(title, str) or not isinstance(kind, str):
-        raise ExerciseError(f'{ex_id}: title and station_kind are text')
+    if not isinstance(kind, str):
+        raise ExerciseError(f'{ex_id}: station_kind is text')
+    if not isinstance(data.get('titles', {}), dict):
+        raise ExerciseError(f'{ex_id}: titles is an object of language -> title')
+    titles = _texts(ex_id, 'titles', data.get('titles', {}), 200, empty=True)
+    if isinstance(title, dict):
+        titles = {**_texts(ex_id, 'title', title, 200), **titles}
+        title = titles.get('en') or next(iter(titles.values()))
+    elif not isinstance(title, str):
+        raise ExerciseError(f'{ex_id}: title is a text, or an object of language -> text')
+    instructions = _texts(ex_id, 'instructions', data.get('instructions', ''), MAX_INSTRUCTIONS, empty=True)
     return Exercise(id=ex_id, title=title[:200], goal=data['goal'], time_limit=float(limit),
-                    station_kind=kind[:100], start=start, **topics)
+                    station_kind=kind[:100], start=start, titles=titles, instructions=instructions, **topics)
+
+
+def _texts(ex_id: str, key: str, value, limit: int, empty: bool = False):
+    """A text or {language: text}, as given and checked (each text cut at ``limit``)."""
+    if isinstance(value, str):
+        return value[:limit]
+    if isinstance(value, dict) and (value or empty) and all(
+            isinstance(k, str) and LANG.match(k) and isinstance(v, str) for k, v in value.items()):
+        return {k: v[:limit] for k, v in value.items()}
+    raise ExerciseError(f'{ex_id}: {key} is a text, or an object of language -> text '
+                        '({"en": "...", "es": "..."})')
 
 
 def public(ex: Exercise) -> dict:
-    return {'id': ex.id, 'title': ex.title, 'station_kind': ex.station_kind, 'time_limit': ex.time_limit,
+    return {'id': ex.id, 'title': ex.title, 'titles': ex.titles, 'instructions': ex.instructions,
+            'station_kind': ex.station_kind, 'time_limit': ex.time_limit,
             'start': ex.start, 'goal': ex.goal, 'pose_topic': ex.pose_topic, 'scan_topic': ex.scan_topic}
 
 

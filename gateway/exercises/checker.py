@@ -16,6 +16,7 @@ goal never reached). A ``topic`` goal's topic stays open: it may be what the pro
 from __future__ import annotations
 
 import asyncio
+import hashlib
 import logging
 import secrets
 import time
@@ -27,6 +28,8 @@ from .goals import Evaluation, topics_of
 
 log = logging.getLogger('rosgate.exercises')
 RECENT = 256   # ended attempts answered from memory: a poll right after the end finds it before the store does
+POSE_TYPES = frozenset({'turtlesim/msg/Pose', 'geometry_msgs/msg/Pose', 'geometry_msgs/msg/PoseStamped',
+                        'nav_msgs/msg/Odometry'})
 
 
 @dataclass(frozen=True)
@@ -39,6 +42,8 @@ class Exercise:
     start: dict = field(default_factory=dict)    # {"blocks": ...} or {"text": ...}
     pose_topic: str = 'pose'                     # relative to the station's namespace
     scan_topic: str = ''
+    titles: dict = field(default_factory=dict)   # the title in other languages: {lang: text}
+    instructions: str | dict = ''                # Markdown, or {lang: Markdown}
 
 
 @dataclass(frozen=True)
@@ -55,14 +60,29 @@ class AttemptResult:
     ended_at: float
     program: str
     recording: str | None = None
+    missed: str = ''      # the goal's parts not met, in words (the gradebook's comment; not kept in the store)
 
     def row(self) -> dict:
-        return dict(self.__dict__)
+        return {k: v for k, v in self.__dict__.items() if k != 'missed'}
+
+
+def attempt_person(identity, browser: str | None = None, name: str = '') -> tuple[str, str]:
+    """(key, name) of whoever makes an attempt: a signed-in person (an LTI identity's key, a token's
+    name), else a browser without sign-in (``browser``: its id from the pages' cookie, kept here only
+    as a digest, since the id is what holds a station; ``name`` as the page gives it), else anyone."""
+    if identity is not None:
+        return identity.key or identity.name, identity.name
+    if browser:
+        digest = hashlib.sha256(browser.encode()).hexdigest()[:16]
+        return f'browser-{digest}', (name.strip()[:60] or f'browser {digest[:6]}')
+    return 'anyone', 'anyone'
 
 
 class Attempt:
-    def __init__(self, checker: 'Checker', exercise: Exercise, identity, station: str, program: str):
+    def __init__(self, checker: 'Checker', exercise: Exercise, identity, station: str, program: str,
+                 person: tuple[str, str] | None = None):
         self.checker, self.exercise, self.identity, self.station = checker, exercise, identity, station
+        self.person, self.name = person or attempt_person(identity)
         self.id = secrets.token_hex(8)
         self.program = program[:results.MAX_PROGRAM]
         self.evaluation = Evaluation(exercise.goal)
@@ -99,11 +119,10 @@ class Attempt:
         recording = self.checker.stop_recording(self)
         self.evaluation.time(time.time() - self.started)
         passed, score = self.evaluation.finish()
-        who = self.identity
         self.result = AttemptResult(
-            attempt=self.id, exercise=self.exercise.id, person=(who.key or who.name) if who else 'anyone',
-            name=who.name if who else 'anyone', station=self.station, passed=passed, score=score,
-            why=why, started_at=self.started, ended_at=time.time(), program=self.program, recording=recording)
+            attempt=self.id, exercise=self.exercise.id, person=self.person, name=self.name, station=self.station,
+            passed=passed, score=score, why=why, started_at=self.started, ended_at=time.time(),
+            program=self.program, recording=recording, missed='' if passed else self.evaluation.missed())
         self.checker.finished(self)
         if not self.done.done():
             self.done.set_result(self.result)
@@ -127,13 +146,28 @@ class Checker:
         ns = station.strip('/')
         return f'/{ns}/{name}' if ns else f'/{name}'
 
-    def start(self, exercise: Exercise, identity, station: str, program: str) -> Attempt:
+    def pose_topic(self, station: str, name: str) -> str:
+        """The station's pose topic: the exercise's name under the station, or where the robot has no
+        such topic, its one published pose-like topic (turtlesim's ``turtle1/pose``, a rover's ``odom``):
+        an exercise left at the default ``pose`` works on a single turtle or rover too."""
+        topic = self.topic(station, name)
+        gw = self.gateway
+        if name.startswith('/') or gw.topic_type(topic) is not None:
+            return topic
+        under = f'/{station.strip("/")}/' if station.strip('/') else '/'
+        found = [t for t, type_ in gw.backend.topics() if t.startswith(under) and type_ in POSE_TYPES
+                 and gw.backend.publishers(t)]
+        return found[0] if len(found) == 1 else topic
+
+    def start(self, exercise: Exercise, identity, station: str, program: str,
+              person: tuple[str, str] | None = None) -> Attempt:
+        """An attempt of ``person`` ((key, name): ``attempt_person``; the identity's by default)."""
         for live in self.attempts.values():
             if live.station == station:
                 live.end('stopped')
                 break
-        attempt = Attempt(self, exercise, identity, station, program)
-        watch = [(self.topic(station, exercise.pose_topic), 'pose')]
+        attempt = Attempt(self, exercise, identity, station, program, person)
+        watch = [(self.pose_topic(station, exercise.pose_topic), 'pose')]
         if exercise.scan_topic:
             watch.append((self.topic(station, exercise.scan_topic), 'scan'))
         watch += [(t, 'topic') for t in sorted(topics_of(attempt.evaluation.root))]

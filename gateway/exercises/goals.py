@@ -16,6 +16,8 @@ Each node answers ``verdict()``: True (met now), False (can never be met), None 
 attempt passes when the root says True, fails when it says False, and a root still None at the time
 limit or the program's stop fails. ``score()`` is 1 for a met leaf else 0, the mean over ``all`` and
 the best over ``any``: a partial credit that says how many parts a failed attempt reached.
+``missed()`` says in words which parts were not met (the gradebook's comment: "failed (stopped)"
+told a teacher nothing of what to look at).
 """
 
 from __future__ import annotations
@@ -80,6 +82,13 @@ class Node:
     def leaves(self) -> list['Node']:
         return [self]
 
+    def missed(self) -> list[str]:
+        """What of this part was not met, in words ([] when it was)."""
+        return [] if self.verdict() is True else [self.shortfall()]
+
+    def shortfall(self) -> str:
+        raise NotImplementedError
+
     def on_pose(self, x: float, y: float) -> None:
         """A pose from the robot's own topic."""
 
@@ -111,6 +120,10 @@ class Region(Node):
     def verdict(self):
         return True if self.reached else None
 
+    def shortfall(self):
+        b = self.box
+        return f'region x {b["xmin"]:g}..{b["xmax"]:g}, y {b["ymin"]:g}..{b["ymax"]:g} not reached'
+
 
 class Within(Node):
     def __init__(self, seconds):
@@ -123,6 +136,9 @@ class Within(Node):
 
     def verdict(self):
         return self.t <= self.limit
+
+    def shortfall(self):
+        return f'took {self.t:.1f} s, over the {self.limit:g} s allowed'
 
 
 class Clearance(Node):
@@ -148,6 +164,9 @@ class Clearance(Node):
     def verdict(self):
         return False if self.closest < self.distance else True
 
+    def shortfall(self):
+        return f'came within {self.closest:.2f} m of a wall ({self.distance:g} m of clearance asked)'
+
 
 class TopicValue(Node):
     def __init__(self, spec: dict):
@@ -163,6 +182,7 @@ class TopicValue(Node):
         if 'value' not in spec:
             raise GoalError('topic needs a value')
         self.op, self.value, self.reached = _OPS[op], spec['value'], False
+        self.op_text = op
 
     def on_topic(self, topic, msg):
         if topic != self.topic or self.reached:
@@ -176,6 +196,9 @@ class TopicValue(Node):
     def verdict(self):
         return True if self.reached else None
 
+    def shortfall(self):
+        return f'{self.topic} {self.field} {self.op_text} {self.value!r} not reached'
+
 
 class All(Node):
     def __init__(self, parts: list[Node]):
@@ -183,6 +206,9 @@ class All(Node):
 
     def leaves(self):
         return [leaf for p in self.parts for leaf in p.leaves()]
+
+    def missed(self):
+        return [m for p in self.parts for m in p.missed()]
 
     def verdict(self):
         vs = [p.verdict() for p in self.parts]
@@ -199,6 +225,11 @@ class Any_(All):
 
     def score(self):
         return max(p.score() for p in self.parts)
+
+    def missed(self):
+        if self.verdict() is True:
+            return []
+        return ['none of: ' + ' | '.join('; '.join(p.missed()) for p in self.parts)]
 
 
 def build(spec: Any, _depth: int = 0, _count: list | None = None) -> Node:
@@ -259,6 +290,10 @@ class Evaluation:
 
     def outcome(self) -> bool | None:
         return self.root.verdict()
+
+    def missed(self) -> str:
+        """The parts of the goal not met, in words ('' when it is met)."""
+        return '; '.join(self.root.missed())
 
     def finish(self) -> tuple[bool, float]:
         """(passed, score) when the attempt ends: a goal not yet met has failed."""

@@ -216,7 +216,11 @@ class Outbox:
                 link = await link_of(self.store, person, exercise)
             if link is None:
                 return False
-            comment = f'{"passed" if attempt.passed else "failed"} ({attempt.why}), attempt {attempt.attempt}'
+            missed = getattr(attempt, 'missed', '')   # which part of the goal was not met
+            comment = (f'{"passed" if attempt.passed else "failed"} ({attempt.why})'
+                       + (f': {missed}' if missed else '') + f', attempt {attempt.attempt}')
+            if len(comment) > 200:   # the outbox keeps 200 characters: the attempt's id stays whole
+                comment = comment[:200 - len(attempt.attempt) - 11] + f'…, attempt {attempt.attempt}'
             queued = await post_result(self.store, person, link, attempt.score, attempt.attempt,
                                        now=attempt.ended_at, comment=comment)
         except Exception:

@@ -7,7 +7,9 @@ list of them (several client ids of one platform), each with ``client_id``, ``au
 none: one kept in the data directory, made at first start). ``auth_token_url`` is the platform's
 token endpoint for LTI Advantage's services (scores: ``grades``; the roster: ``roster``), and
 ``memberships_urls`` (optional) the courses whose roster is read at start; ``auth_audience`` is
-accepted and not needed.
+accepted and not needed. ``{}`` is a file with no platform yet: platforms then register through
+LTI Dynamic Registration (``lti_dynamic``), whose registrations join these (``add``); one without a
+deployment id takes any deployment of its own client id.
 
 ``check_launch`` judges an id_token with PyJWT: RS256 against the platform's key, iss, aud (and
 azp when aud lists several), exp and iat with ``LEEWAY`` seconds of skew, the nonce this browser's
@@ -100,7 +102,7 @@ class LtiConfig:
     def load(cls, path: str | Path) -> LtiConfig:
         path = Path(path)
         data = json.loads(path.read_text())
-        if not isinstance(data, dict) or not data:
+        if not isinstance(data, dict):   # {}: no platform yet (one registers by LTI Dynamic Registration)
             raise ValueError(f'{path}: expected an object of issuer -> registration(s)')
         regs, keys, key_files = [], {}, set()
         for issuer, items in data.items():
@@ -129,6 +131,12 @@ class LtiConfig:
         for key in private:
             keys[_key_id(key.public_key())] = key
         return cls(regs, keys, str(path))
+
+    def add(self, reg: Registration) -> None:
+        """A registration made by LTI Dynamic Registration (``lti_dynamic``), in place of an earlier one
+        of the same platform and client id."""
+        self.registrations = [r for r in self.registrations if (r.issuer, r.client_id) != (reg.issuer, reg.client_id)]
+        self.registrations.append(reg)
 
     def find(self, issuer: str, client_id: str | None = None) -> Registration | None:
         for reg in self.registrations:
@@ -203,7 +211,7 @@ def check_launch(id_token: str, key, reg: Registration, nonce: str, now: float |
         raise LaunchError(f'message type {str(kind)[:60]!r} is not one this tool takes '
                           f'({RESOURCE_LINK}, {DEEP_LINKING})')
     deployment = claims.get(CLAIM + 'deployment_id')
-    if deployment not in reg.deployment_ids:
+    if not isinstance(deployment, str) or (reg.deployment_ids and deployment not in reg.deployment_ids):
         raise LaunchError(f'deployment {str(deployment)[:100]!r} of {reg.issuer} is not registered with this tool')
     if kind == RESOURCE_LINK and not isinstance((claims.get(CLAIM + 'resource_link') or {}).get('id'), str):
         raise LaunchError('a resource link launch without resource_link.id')

@@ -5,7 +5,8 @@
 API apps (``/api/programs``, ``/api/runs``, ``/api/recordings``, ``/api/history``, ``/api/bookings``),
 the login pages and LTI's (``/lti/...``, with ``--lti``);
 web_video_server's camera URLs (``/stream``, ``/snapshot``, ``/stream_viewer``, ``/streams``: ``video``);
-the robot's description and meshes (``/urdf``, ``/package/PKG/PATH``: ``packages``); the gauges' limits
+the robot's meshes (``/package/PKG/PATH``: ``packages``) and description (``/api/description``, ``/urdf``:
+``description``, xacro expanded); the gauges' limits
 (``/api/gauges``: ``gauges``); block sets and the class's shared blocks (``/api/blocks``: ``blocksets``); exercises, their attempts and results (``/api/exercises``,
 ``/api/attempts``, ``/api/exercise-results``: ``exercises``); the LMS courses' roster (``/api/roster``: ``roster``);
 the IDE's static files last. The parts behind the routes (runs, recordings, history, the OPC UA
@@ -14,6 +15,7 @@ server) are started by the server's start (``gateway.server``), not here.
 
 from __future__ import annotations
 
+import math
 import time
 
 import orjson
@@ -28,8 +30,9 @@ from .gauges import gauge_routes
 from .history_api import history_routes
 from .language import Texts
 from .packages import package_routes
+from .description import description_routes
 from .login import login_routes
-from .lti import lti_routes
+from .lti_setup import lti_routes
 from .roster import roster_routes
 from .pages import Application, PublicFileHandler, write_page
 from .programs import program_routes
@@ -84,7 +87,8 @@ class IdeFileHandler(tornado.web.StaticFileHandler):
 def options(settings) -> dict:
     return {'websocket_max_message_size': settings.max_message_size * HARD_LIMIT_FACTOR,
             'websocket_ping_interval': settings.websocket_ping_interval or None,
-            'websocket_ping_timeout': settings.websocket_ping_timeout}
+            # at most the interval: tornado cuts a longer one itself, with a warning at every start (cli.check says it once)
+            'websocket_ping_timeout': min(settings.websocket_ping_timeout, settings.websocket_ping_interval or math.inf)}
 
 
 def websocket_route(gateway: Gateway) -> tuple:
@@ -122,6 +126,7 @@ def make_app(gateway: Gateway, parts) -> tornado.web.Application:
     routes += run_routes(parts.runs, parts.recordings) + recording_routes(parts.recordings)
     routes += booking_routes(gateway) + video_routes(gateway) + history_routes(parts.history)
     routes += package_routes(gateway) + gauge_routes(gateway) + block_routes(gateway)
+    routes += description_routes(gateway)
     if parts.checker is not None:
         routes += exercise_routes(gateway, parts.exercises, parts.checker)
     routes.append((r'/(.*)', PublicFileHandler, {'path': str(settings.ide_dir), 'default_filename': 'index.html'}))

@@ -3,8 +3,10 @@
 GET  /api/exercises                 -> {"exercises": [...], "problems": [...]}   (anyone who may read)
 GET  /api/exercises/ID              -> the exercise (its start program, goal, time limit)
 POST /api/exercises  {"id", ...}    -> saved into --exercises-dir (admins)
-POST /api/exercises/ID/attempts {"station": NS, "program": TEXT}
-                                    -> {"attempt": ATTEMPT_ID}: the goal is now watched on NS's topics
+POST /api/exercises/ID/attempts {"station": NS, "program": TEXT, "name": NAME}
+                                    -> {"attempt": ATTEMPT_ID}: the goal is now watched on NS's topics;
+                                       the attempt is the signed-in person's, else this browser's
+                                       (NAME: how the page names its student; ``exercises.attempt_person``)
 GET  /api/attempts/ATTEMPT_ID       -> {"live": true} while it runs, else its result (the starter or an admin)
 POST /api/attempts/ATTEMPT_ID/stop  -> the attempt ends ("stopped"), its result
 GET  /api/exercise-results[?exercise=ID][&person=KEY]
@@ -19,7 +21,7 @@ from __future__ import annotations
 
 import tornado.web
 
-from ..exercises import ExerciseError, Library, public
+from ..exercises import ExerciseError, Library, attempt_person, public
 from ..exercises import store as results
 from ..rules.stations import person_of
 from .api import JsonHandler, body_json, caller
@@ -79,17 +81,20 @@ class AttemptsHandler(JsonHandler):
             raise tornado.web.HTTPError(500, str(e)) from None
         if ex is None:
             raise tornado.web.HTTPError(404, f'no exercise {ex_id[:64]!r}')
-        station, program = body.get('station', ''), body.get('program', '')
+        station, program, name = body.get('station', ''), body.get('program', ''), body.get('name', '')
         if not isinstance(station, str) or not isinstance(program, str):
             raise tornado.web.HTTPError(400, '"station" is a namespace and "program" the program\'s text')
+        if not isinstance(name, str):
+            raise tornado.web.HTTPError(400, '"name" is the student\'s name as the page has it (without sign-in)')
         ns = '/' + station.strip('/') if station.strip('/') else ''
         lease = self.gateway.policy.lease
         person = person_of(identity, self.request.cookies) or ''
         why = lease.run_refusal(person, identity.role if identity else None, ns) if lease is not None else None
         if why is not None:
             raise tornado.web.HTTPError(409, why)
+        browser = person[len('browser '):] if person.startswith('browser ') else None
         try:
-            attempt = self.checker.start(ex, identity, ns, program)
+            attempt = self.checker.start(ex, identity, ns, program, attempt_person(identity, browser, name))
         except LookupError as e:
             raise tornado.web.HTTPError(409, str(e.args[0])) from None
         self.set_status(201)

@@ -15,7 +15,9 @@ Points wait in a list on the event loop and go to the store's thread as one batc
 
 Which topics: ``--history GLOBS`` (topic names), or by default every topic of a type the
 dashboards and the world view show (``DEFAULT_TYPES``: battery, temperatures, odometry, a turtle's pose); ``--history none`` keeps
-nothing. Only topics the name globs let a client subscribe to are kept. The reading side
+nothing. Only topics the name globs let a client subscribe to are kept, and only while something
+publishes them: ROS 2 lists a topic that only has subscribers (a page looking for /odom on a
+turtle), and the history's own subscription would keep such a name listed for ever. The reading side
 (``/api/history``) is in ``history_api``.
 """
 
@@ -161,12 +163,16 @@ class History(Hook):
         return any(fnmatchcase(topic, g) for g in self.globs)
 
     def match(self) -> None:
-        policy = self.gateway.policy
-        for topic, type in self.gateway.backend.topics():
+        policy, backend = self.gateway.policy, self.gateway.backend
+        for topic in [t for t in self.taps if not backend.publishers(t)]:
+            self.release(topic)   # its robot is gone: the history's subscription must not keep the name listed
+        for topic, type in backend.topics():
             if topic in self.taps or topic in self.refused or not self.wants(topic, type):
                 continue
             if may(policy, None, 'subscribe', topic) is not None:
                 continue
+            if not backend.publishers(topic):
+                continue   # only looked for (a page's subscription): nothing of the robot's to keep
             fan = None
             try:
                 fan = self.gateway.fanout(topic, type)
@@ -180,6 +186,11 @@ class History(Hook):
                 continue
             self.taps[topic] = (fan, tap)
             log.info('history keeps %s (%s)', topic, type)
+
+    def release(self, topic: str) -> None:
+        fan, tap = self.taps.pop(topic)
+        fan.remove(tap, None)
+        log.info('history no longer keeps %s: nothing publishes it', topic)
 
     def kept_fields(self, topic: str) -> tuple[str, ...] | None:
         """The fields of a live kept topic (None: not kept, or no message seen yet)."""

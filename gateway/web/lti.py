@@ -18,7 +18,8 @@
   lands in the IDE on that exercise and its AGS line item is kept for that exercise (``rules.grades``).
 - ``GET /lti/resume``: where a launch whose cookie the browser refused (Safari in an iframe)
   continues in a new window, with a ticket good for one use within ``RESUME_TTL`` s.
-- ``GET /lti/jwks``: the tool's public keys; ``GET /lti/config``: what to paste into the LMS.
+- ``GET /lti/jwks``: the tool's public keys. The LMS set-up (``/lti/config``, LTI Dynamic
+  Registration) and the route table: ``lti_setup``.
 """
 
 from __future__ import annotations
@@ -39,7 +40,7 @@ import tornado.ioloop
 import tornado.web
 
 from ..exercises import ID as EXERCISE_ID, ExerciseError
-from ..rules import grades, lti, roster
+from ..rules import grades, lti, lti_dynamic, roster
 from ..rules.access import is_admin
 from ..rules.lti import LaunchError
 from .api import Handler, check_origin
@@ -53,6 +54,7 @@ RESUME_TTL = 120.0       # s a "continue in a new window" ticket stays good
 MAX_PENDING = 10000      # logins in flight kept at most (the oldest are forgotten)
 JWKS_REFRESH = 60.0      # s before a key id missing from a platform's JWKS makes it fetched again
 JWKS_FETCHES = 10        # fetches of one platform's JWKS a minute at most
+RELOAD = 5.0             # s between reads of the platforms registered by LTI Dynamic Registration
 STATE_COOKIE = 'rosgate_lti_'
 TEXT_LANGS = ('python', 'javascript')   # the IDE's text programs
 LOCALE = re.compile(r'[A-Za-z]{2,3}([-_][A-Za-z0-9]{1,8}){0,3}')   # a BCP 47 tag, as LMSs send it
@@ -144,6 +146,22 @@ class Lti:
         self.picks = Expiring(PENDING_TTL)         # deep linking requests waiting for the teacher's pick
         self.keys = KeySets()
         self.reading: set[str] = set()             # rosters being read from the LMS now (their URLs)
+        self.loaded = -1e9                         # monotonic time the platforms registered here were read
+        if store is not None:
+            tornado.ioloop.IOLoop.current().spawn_callback(self.load_registered)
+
+    async def load_registered(self) -> bool:
+        """The platforms registered by LTI Dynamic Registration, read into the configuration (at most
+        every ``RELOAD`` s: a launch from an unknown platform reads them again); whether it read."""
+        if self.store is None or time.monotonic() - self.loaded < RELOAD:
+            return False
+        self.loaded = time.monotonic()
+        try:
+            await self.store.run(lambda c: lti_dynamic.load(c, self.config))
+        except Exception:
+            log.exception('lti: the registered platforms cannot be read')
+            return False
+        return True
 
 
 def base_url(handler: tornado.web.RequestHandler) -> str:
@@ -157,7 +175,7 @@ PAGE = """<!doctype html><html lang="en"><head><meta charset="utf-8"><meta name=
 button{{font:inherit;padding:.4rem 1rem;margin:.3rem 0}}</style></head><body>{body}</body></html>"""
 
 
-class _Base(Handler):
+class LtiPage(Handler):
     def initialize(self, lti_: Lti) -> None:
         self.lti = lti_
         self.script_nonce = secrets.token_urlsafe(12)
@@ -195,19 +213,21 @@ class _Base(Handler):
                              f'<script nonce="{self.script_nonce}">document.getElementById("f").submit()</script>')
 
 
-class LoginInitHandler(_Base):
-    def get(self) -> None:
+class LoginInitHandler(LtiPage):
+    async def get(self) -> None:
         arg = self.get_argument
         iss, hint = arg('iss', ''), arg('login_hint', '')
         if not iss or not hint:
             raise tornado.web.HTTPError(400, 'an LTI login initiation needs iss and login_hint (start the launch '
                                              'from the course, not from a bookmark)')
         reg = self.lti.config.find(iss, arg('client_id', None) or None)
+        if reg is None and await self.lti.load_registered():   # registered through another gateway of a fleet
+            reg = self.lti.config.find(iss, arg('client_id', None) or None)
         if reg is None:
             raise tornado.web.HTTPError(400, f'the platform {iss[:200]!r} (client id {arg("client_id", "")[:100]!r}) '
                                              'is not registered with this tool (--lti)')
         deployment = arg('lti_deployment_id', None)
-        if deployment is not None and deployment not in reg.deployment_ids:
+        if deployment is not None and reg.deployment_ids and deployment not in reg.deployment_ids:
             raise tornado.web.HTTPError(400, f'deployment {deployment[:100]!r} of {iss[:200]} is not registered with '
                                              'this tool')
         state, nonce = secrets.token_urlsafe(24), secrets.token_urlsafe(24)
@@ -224,7 +244,7 @@ class LoginInitHandler(_Base):
     post = get
 
 
-class LaunchHandler(_Base):
+class LaunchHandler(LtiPage):
     async def post(self) -> None:
         if self.get_argument('error', None):
             self.refuse(f'the platform answered {self.get_argument("error")[:100]}: '
@@ -376,7 +396,7 @@ def landed_page(landing: str, ticket: str, identity, nonce: str, say) -> str:
             '.catch(()=>{document.getElementById("blocked").hidden=false})</script>')
 
 
-class ResumeHandler(_Base):
+class ResumeHandler(LtiPage):
     def get(self) -> None:
         found = self.lti.resume.take(self.get_argument('ticket', ''))
         if found is None:
@@ -387,7 +407,7 @@ class ResumeHandler(_Base):
         self.redirect(landing, status=303)
 
 
-class DeepLinkHandler(_Base):
+class DeepLinkHandler(LtiPage):
     def post(self) -> None:
         check_origin(self, self.lti.policy)   # the picker is this gateway's own page
         found = self.lti.picks.take(self.get_argument('ticket', ''))
@@ -440,35 +460,3 @@ class JwksHandler(tornado.web.RequestHandler):
         self.set_header('Content-Type', 'application/json')
         self.set_header('Cache-Control', 'max-age=300')
         self.finish(json.dumps(self.lti.config.jwks()))
-
-
-class ConfigHandler(_Base):
-    def get(self) -> None:
-        b = html.escape(base_url(self))
-        rows = [
-            ('Tool URL / Target Link URI', 'Tool URL', 'Target Link URI', f'{b}/'),
-            ('Login initiation', 'Initiate login URL', 'OpenID Connect Initiation Url', f'{b}/lti/login'),
-            ('Redirect URI', 'Redirection URI(s)', 'Redirect URIs', f'{b}/lti/launch'),
-            ('Tool keys', 'Public keyset (Public key type: Keyset URL)', 'Public JWK URL (JWK Method)',
-             f'{b}/lti/jwks'),
-            ('Deep linking', 'Content Selection URL (tick Supports Deep Linking)',
-             'Link Selection placement, message type LtiDeepLinkingRequest', f'{b}/lti/launch'),
-        ]
-        table = ''.join(f'<tr><td>{w}</td><td>{m}</td><td>{c}</td><td><code>{u}</code></td></tr>'
-                        for w, m, c, u in rows)
-        regs = ''.join(f'<li><code>{html.escape(r.issuer)}</code> client <code>{html.escape(r.client_id)}</code>, '
-                       f'deployments {html.escape(", ".join(r.deployment_ids))}</li>'
-                       for r in self.lti.config.registrations)
-        self.page('rosgate: LTI 1.3 configuration',
-                  '<h1>Add rosgate to an LMS (LTI 1.3)</h1><table><tr><th></th><th>Moodle (External tool)</th>'
-                  f'<th>Canvas (Developer key, LTI key)</th><th>Value</th></tr>{table}</table>'
-                  '<p>Custom parameters (optional): <code>page=teleop</code> (or ide, class), '
-                  '<code>station=s03</code>, <code>program=NAME</code>.</p>'
-                  f'<h2>Platforms registered (--lti {html.escape(self.lti.config.path)})</h2><ul>{regs}</ul>')
-
-
-def lti_routes(config, policy, examples_dir, texts: Texts, store=None, exercises=None) -> list:
-    shared = {'lti_': Lti(config, policy, examples_dir, texts, store, exercises)}
-    return [(r'/lti/login', LoginInitHandler, shared), (r'/lti/launch', LaunchHandler, shared),
-            (r'/lti/deeplink', DeepLinkHandler, shared), (r'/lti/resume', ResumeHandler, shared),
-            (r'/lti/jwks', JwksHandler, shared), (r'/lti/config', ConfigHandler, shared)]

@@ -4,7 +4,7 @@ GET /package/PKG/PATH     a file of description package PKG: ``<prefix>/share/PK
                           prefix of ``AMENT_PREFIX_PATH`` (the robot's installed packages), then
                           ``DIR/PKG/PATH`` for each ``--mesh-path DIR`` (a folder of packages). What
                           a URDF's ``package://PKG/PATH`` (and ``file://`` under those roots) names.
-GET /urdf                 the ``--urdf FILE`` given at start-up (404 without one)
+(``/urdf`` and ``/api/description``, the description itself: ``description``.)
 
 Read-only, and only files under those roots: a path with ``..``, ``.``, an empty or hidden
 segment (``.git``), a backslash or a NUL byte is refused (403) whatever its encoding (tornado
@@ -103,28 +103,6 @@ class PackageHandler(tornado.web.StaticFileHandler):
         return super().get_content_type()
 
 
-class UrdfHandler(PackageHandler):
-    """GET /urdf: the --urdf file."""
-
-    def initialize(self, gateway, urdf: Path | None) -> None:
-        tornado.web.StaticFileHandler.initialize(self, path='/')
-        self.gateway, self.urdf = gateway, urdf
-
-    async def get(self, include_body: bool = True) -> None:
-        caller(self, self.gateway)
-        if self.urdf is None or not self.urdf.is_file():
-            raise tornado.web.HTTPError(404, 'no --urdf given')
-        real = Path(os.path.realpath(self.urdf))
-        self.root = str(real.parent)
-        await tornado.web.StaticFileHandler.get(self, real.name, include_body)
-
-    def head(self):
-        return self.get(include_body=False)
-
-
 def package_routes(gateway) -> list:
-    twin = gateway.settings.twin
-    roots = package_roots(twin.mesh_path)
-    urdf = Path(twin.urdf).expanduser() if twin.urdf else None
-    return [(r'/package/([^/]*)/(.*)', PackageHandler, {'gateway': gateway, 'roots': roots}),
-            (r'/urdf', UrdfHandler, {'gateway': gateway, 'urdf': urdf})]
+    roots = package_roots(gateway.settings.twin.mesh_path)
+    return [(r'/package/([^/]*)/(.*)', PackageHandler, {'gateway': gateway, 'roots': roots})]

@@ -15,7 +15,7 @@ import { Link } from './link.js';
 import { mountBooking } from './booking.js';
 import { t, tn } from './i18n.js';
 import { keptRuns, runItem } from './runhistory.js';
-import { exerciseSummary, exerciseItem } from './classexercises.js';
+import { exerciseSummary, exerciseItem, exerciseTitles, showAttempts } from './classexercises.js';
 import { mountRoster } from './classroster.js';
 
 const $ = (s) => document.querySelector(s);
@@ -24,7 +24,7 @@ const TILE_RUNS = 3;     // a student's newest kept runs shown on their tile
 // A tile's world at 2 Hz: the gateway merges the markers of each half second (newest of each wins,
 // no change lost), so ten tiles fit a home line (docs/teacher.md)
 const TILE_STREAM = { throttle_rate: 500, queue_length: 4 };
-const view = { ros: null, lease: new DriverLease(), tiles: new Map(), topics: [], types: [], services: [], owners: {}, seq: 0, runs: [], exercises: [] };
+const view = { titles: {}, ros: null, lease: new DriverLease(), tiles: new Map(), topics: [], types: [], services: [], owners: {}, seq: 0, runs: [], exercises: [] };
 window.classView = view;
 
 function setStatus(s, text) { const el = $('#status'); el.dataset.state = s; el.textContent = text; document.body.dataset.connection = s; }
@@ -72,7 +72,8 @@ function call(service, args = {}) {
 }
 
 // The stations: the lease's list, else the fleet's parameter, else top namespaces with a world
-// view or a velocity topic (two or more of them).
+// view of their own or a velocity topic (two or more of them); else the one robot of the gateway
+// ('/': turtlesim's /turtle1/cmd_vel and /world/markers are one robot, not two stations).
 async function stations() {
   if (view.lease.info?.stations?.length) return view.lease.info.stations;
   try {
@@ -80,11 +81,16 @@ async function stations() {
     if (Array.isArray(v) && v.length) return v;
   } catch { /* no fleet */ }
   const tops = new Set();
+  let root = false;
   view.topics.forEach((t, i) => {
     const parts = t.split('/').filter(Boolean);
-    if (parts.length > 1 && (t.endsWith('/world/markers') || isVelocityType(view.types[i]))) tops.add(`/${parts[0]}`);
+    const world = t.endsWith('/world/markers');
+    if (!world && !isVelocityType(view.types[i])) return;
+    if (parts.length > (world ? 2 : 1)) tops.add(`/${parts[0]}`);
+    else root = true;
   });
-  return tops.size > 1 ? [...tops].sort() : [];
+  if (tops.size > 1) return [...tops].sort();
+  return root ? ['/'] : [...tops];
 }
 
 async function refresh() {
@@ -93,7 +99,7 @@ async function refresh() {
     ({ services: view.services } = await call('/rosapi/services'));
     if (view.topics.includes(DRIVER_TOPIC)) view.lease.watch();
     await show(await stations());
-    for (const t of view.tiles.values()) t.show();
+    for (const t of view.tiles.values()) { t.look(); t.show(); }
   } catch (e) { notice(t('class.graph.failed', { error: e.message })); }
 }
 
@@ -125,8 +131,20 @@ class Tile {
 
   attach(ros) {
     this.ros = ros;
+    this.reporting = false;
     this.world.attach(ros);
+    this.look();
+  }
+
+  // What the station has, subscribed once it is on the graph (a subscription would put it there):
+  // its world and map, and the report of its IDE's program (there once a student's page reports).
+  look() {
+    const ros = this.ros;
+    if (!ros?.isConnected) return;
+    this.world.look(call);
     const topic = withNamespace(this.ns, '/rosgate/program');
+    if (this.reporting || !view.topics.includes(topic)) return;
+    this.reporting = true;
     ros.on(topic, (m) => {
       if (this.ros !== ros) return;
       try { this.report = JSON.parse(m.msg.data); } catch { this.report = null; }
@@ -182,7 +200,7 @@ class Tile {
   showExercises(owner) {
     const entries = owner ? view.exercises.filter((e) => e.name === owner) : [];
     const list = this.el.querySelector('.exercises');
-    list.replaceChildren(...entries.map(exerciseItem));
+    list.replaceChildren(...entries.map((e) => exerciseItem(e, view.titles)));
     list.hidden = !entries.length;
     list.setAttribute('aria-label', t('class.ex.label'));
     this.el.dataset.passed = String(entries.filter((e) => e.best.passed).length);
@@ -192,6 +210,8 @@ class Tile {
 // The kept runs this page's person may see (an admin: everyone's), newest first.
 async function refreshRuns() {
   try { view.exercises = await exerciseSummary(); } catch { view.exercises = []; }   // not signed in: none
+  if (view.exercises.length) view.titles = await exerciseTitles();
+  showAttempts($('#attempts'), view.exercises, view.titles);
   try { view.runs = await keptRuns(); } catch { view.runs = []; }   // runs off, or not signed in: no list
   for (const tile of view.tiles.values()) tile.showRuns(view.owners[tile.ns]?.name);
 }
@@ -205,7 +225,7 @@ function stop(ns) {
   }
   view.topics.forEach((topic, i) => {
     const type = view.types[i];
-    if (!topic.startsWith(`${ns}/`) || !isVelocityType(type)) return;
+    if ((ns !== '/' && !topic.startsWith(`${ns}/`)) || !isVelocityType(type)) return;
     view.ros.callOnConnection({ op: 'advertise', topic, type, id: `advertise:${topic}:class` });
     view.ros.callOnConnection({ op: 'publish', topic, msg: zeroVelocity(type) });
   });

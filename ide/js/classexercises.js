@@ -1,8 +1,11 @@
 // The class view's exercise results: for each student, their best and last attempt per exercise
-// (GET api/exercise-results: an admin's answer holds the class's; a student's, their own), shown on
-// their station's tile with a "passed" mark, the score and the program as it ran. The gateway
-// checked each attempt on the robot's own topics (gateway/exercises), not on what a page said.
-import { t } from './i18n.js';
+// (GET api/exercise-results: an admin's answer holds the class's; a student's, their own), shown by
+// person in the page's Attempts section (whatever the set-up: one robot or a fleet, signed in by
+// LTI or a token, or browsers without sign-in: each attempt names its person's key), and on the
+// tile of the station its student owns now, with a "passed" mark, the score, the program as it ran
+// and its replay. The gateway checked each attempt on the robot's own topics (gateway/exercises),
+// not on what a page said.
+import { t, localized } from './i18n.js';
 
 export async function exerciseSummary() {
   const res = await fetch('api/exercise-results', { cache: 'no-store' });
@@ -19,7 +22,7 @@ function attemptLine(key, row) {
 }
 
 // One entry: "✓ title · best 100% · last 50% (n attempts)", the program of the best attempt underneath.
-export function exerciseItem(entry) {
+export function exerciseItem(entry, titles = {}) {
   const li = document.createElement('li');
   li.dataset.exercise = entry.exercise;
   li.toggleAttribute('data-passed', Boolean(entry.best.passed));
@@ -28,7 +31,7 @@ export function exerciseItem(entry) {
     title: t(entry.best.passed ? 'class.ex.passed' : 'class.ex.failed'),
   });
   const text = document.createElement('span');
-  text.textContent = `${entry.exercise} · ${attemptLine('class.ex.best', entry.best)} · ${attemptLine('class.ex.last', entry.last)} · ${t('class.ex.attempts', { n: entry.attempts })}`;
+  text.textContent = `${titles[entry.exercise] ?? entry.exercise} · ${attemptLine('class.ex.best', entry.best)} · ${attemptLine('class.ex.last', entry.last)} · ${t('class.ex.attempts', { n: entry.attempts })}`;
   const details = document.createElement('details');
   details.append(Object.assign(document.createElement('summary'), { textContent: t('class.ex.program') }),
     Object.assign(document.createElement('pre'), { textContent: entry.best.program }));
@@ -39,4 +42,42 @@ export function exerciseItem(entry) {
     }));
   }
   return li;
+}
+
+// The exercises' titles in the reader's language, by id ({} when none can be read).
+export async function exerciseTitles() {
+  try {
+    const res = await fetch('api/exercises', { cache: 'no-store' });
+    if (!res.ok) return {};
+    return Object.fromEntries((await res.json()).exercises.map((e) => [e.id, localized(e.titles && Object.keys(e.titles).length ? { en: e.title, ...e.titles } : e.title)]));
+  } catch { return {}; }
+}
+
+// Every person's attempts (the summary of api/exercise-results), by person: their name (and, where
+// two people share one, which sign-in or browser), then each exercise's best and last attempt.
+export function showAttempts(section, summary, titles = {}) {
+  const people = new Map();
+  for (const entry of summary) {
+    if (!people.has(entry.person)) people.set(entry.person, { name: entry.name, entries: [] });
+    people.get(entry.person).entries.push(entry);
+  }
+  const names = new Map();
+  for (const p of people.values()) names.set(p.name, (names.get(p.name) ?? 0) + 1);
+  const rows = [...people].sort(([, a], [, b]) => a.name.localeCompare(b.name)).map(([key, p]) => {
+    const el = document.createElement('article');
+    el.className = 'person';
+    el.dataset.person = key;
+    el.dataset.passed = String(p.entries.filter((e) => e.best.passed).length);
+    const h = document.createElement('h4');
+    h.textContent = names.get(p.name) > 1 ? `${p.name} (${key.slice(0, 14)})` : p.name;
+    const list = document.createElement('ul');
+    list.className = 'exercises';
+    list.setAttribute('aria-label', t('class.ex.label'));
+    list.replaceChildren(...p.entries.map((e) => exerciseItem(e, titles)));
+    el.append(h, list);
+    return el;
+  });
+  section.querySelector('.people').replaceChildren(...rows);
+  section.hidden = !rows.length;
+  section.dataset.people = String(rows.length);
 }

@@ -12,6 +12,19 @@ export function nameGlob(glob) {
   return new RegExp(`^${String(glob).replace(/[.+^${}()|[\]\\]/g, '\\$&').replace(/\*/g, '[^/]*').replace(/\?/g, '[^/]')}$`);
 }
 
+/**
+ * The topics among `names` that something publishes: what the robot has. The graph also lists a
+ * topic that only has subscribers (ROS 2 does: a subscription is an endpoint of its topic), so a
+ * page that looked for /odom on a turtle would find it there next time, and a model or a gauge
+ * chosen by its name would be wrong. call(service, args) -> Promise of the reply's values.
+ */
+export async function publishedOf(call, names) {
+  const unique = [...new Set(names.filter(Boolean))];
+  const found = await Promise.all(unique.map((topic) => call('/rosapi/publishers', { topic })
+    .then((r) => (r?.publishers?.length ? topic : null), () => null)));
+  return new Set(found.filter(Boolean));
+}
+
 export class RosGraph extends EventTarget {
   constructor() {
     super();

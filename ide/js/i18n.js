@@ -82,6 +82,15 @@ export function t(key, vars = {}) {
   return text.replace(/\{(\w+)\}/g, (m, name) => (name in vars ? String(vars[name]) : m));
 }
 
+// A text given in several languages ({en: ..., es: ...}: an exercise's title, an example's words)
+// in the reader's: exact, then its base language, then English, then the first given; a plain
+// string is as it is.
+export function localized(value) {
+  if (value === null || typeof value !== 'object') return value ?? '';
+  const found = pick([lang], Object.keys(value));
+  return value[found ?? 'en'] ?? Object.values(value)[0] ?? '';
+}
+
 // A text that depends on a count: key.one, key.other ... chosen by the language's plural rules.
 export function tn(key, n, vars = {}) {
   const form = new Intl.PluralRules(lang).select(n);

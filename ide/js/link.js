@@ -45,6 +45,8 @@ export class Link extends EventTarget {
     this.rttvar = 0;
     this.heardAt = null;       // performance.now() of the last frame from the gateway
     this.dataAt = null;        // ... of the last frame that was not a pong
+    this.currentAt = null;     // ... when the page sent the ping whose pong came last: all the gateway
+                               // had for the page by then has arrived (one queue, in order)
     this.pings = true;         // the server answers pings (rosgate does)
     this.pongs = 0;
     this.tries = 0;
@@ -75,8 +77,19 @@ export class Link extends EventTarget {
     if (this.state !== 'connected') return '';
     const parts = [];
     if (this.rtt !== null) parts.push(t('link.rtt', { ms: Math.round(this.rtt) }));
-    if (this.dataAt !== null) parts.push(t('link.age', { s: num((now - this.dataAt) / 1000, 1) }));
+    const age = this.age(now);
+    if (age !== null) parts.push(t('link.age', { s: num(age / 1000, 1) }));
     return parts.join(' · ');
+  }
+
+  // How old (ms) what the page shows may be: since its newest message, or since the ping of its
+  // newest pong, whichever is later. The gateway sends a client's messages and replies in one
+  // queue, in order, so a pong says the page has everything sent before it: a robot that is idle
+  // (turtlesim's markers change only when the turtle moves) shows current data, not an age that
+  // grows; a link that lags makes the pongs late and the age grow. null: nothing received yet.
+  age(now = performance.now()) {
+    if (this.dataAt === null) return null;
+    return now - Math.max(this.dataAt, this.currentAt ?? -Infinity);
   }
 
   _set(state) {
@@ -140,6 +153,7 @@ export class Link extends EventTarget {
     this.tries = 0;
     this.heardAt = performance.now();
     this.dataAt = null;
+    this.currentAt = null;
     this.rtt = null;
     this.pongs = 0;
     this.pings = true;
@@ -193,7 +207,10 @@ export class Link extends EventTarget {
     this.heardAt = now;
     if (m?.op === 'pong') {
       this.pongs += 1;
-      if (typeof m.t === 'number') this._measured(now - m.t);
+      if (typeof m.t === 'number') {
+        this._measured(now - m.t);
+        this.currentAt = Math.max(this.currentAt ?? -Infinity, Math.min(m.t, now));
+      }
     } else if (m?.op === 'status' && m.id === PING_ID) {
       // not rosgate ("Unknown operation"): no pings, no silence detection; another refusal
       // (not signed in yet) leaves them on

@@ -28,7 +28,7 @@ import { mountRecorder } from './recorder.js';
 import { mountBooking } from './booking.js';
 import { TextMode, blocksAsText, bundlePython, LANGS } from './textmode.js';
 import { TextRunner } from './textrun.js';
-import { t } from './i18n.js';
+import { t, localized, pick, lang } from './i18n.js';
 import { mountExercise } from './exercise.js';
 
 const $ = (sel) => document.querySelector(sel);
@@ -152,6 +152,7 @@ async function start() {
       ide.ns = ns;
       workspace.updateToolbox(buildToolbox(base));   // the block sets for this robot
       world.setTopic(withNamespace(ns, '/world/markers'));
+      world.look((service, args) => graph.call(service, args));
       updateCode();
       consoleView.info(t('ide.ns.changed', { ns: ns || t('ide.ns.none') }));
     },
@@ -178,6 +179,7 @@ async function start() {
   });
   graph.addEventListener('change', () => {
     if (graph.topics.has(DRIVER_TOPIC)) lease.watch();
+    world.look((service, args) => graph.call(service, args));   // its markers and map, where published
     robotNs.claimable(graph.services.has(CLAIM_SERVICE));
     changedCode();            // names resolve against what the graph has
   });
@@ -212,6 +214,8 @@ async function start() {
   });
   link.addEventListener('state', (e) => { if (e.detail === 'connecting') setStatus('connecting', t('status.connecting')); });
   setInterval(() => { $('#link').textContent = link.describe(); }, 500);
+  // a robot that starts after the page: its world is drawn once it publishes one
+  setInterval(() => { if (ide.ros?.isConnected) world.look((service, args) => graph.call(service, args)); }, 10000);
   const connect = () => link.restart();
   $('#reconnect').onclick = connect;
   url.addEventListener('change', connect);
@@ -502,6 +506,23 @@ function setupLibrary(program) {
   $('#library-close').onclick = () => dlg.close();
 }
 
+// An example in the reader's language: its name, its about and its blocks' comments (by block id;
+// examples/make_examples.py writes them), which the generated code carries as comments too.
+export function localizeExample(program) {
+  const words = program.translations?.[pick([lang], Object.keys(program.translations ?? {}))];
+  if (!words) return program;
+  const out = structuredClone(program);
+  out.name = words.name || out.name;
+  out.about = words.about || out.about;
+  const visit = (node) => {
+    if (!node || typeof node !== 'object') return;
+    if (typeof node.id === 'string' && node.icons?.comment && words.comments?.[node.id]) node.icons.comment.text = words.comments[node.id];
+    for (const value of Object.values(node)) visit(value);
+  };
+  visit(out.workspace);
+  return out;
+}
+
 async function setupExamples() {
   const menu = $('#examples');
   let index = [];
@@ -510,7 +531,7 @@ async function setupExamples() {
   for (const ex of index) {
     const opt = document.createElement('option');
     opt.value = ex.file;
-    opt.textContent = `${ex.title} (${ex.robot})`;
+    opt.textContent = `${localized({ en: ex.title, ...ex.titles })} (${ex.robot})`;
     menu.append(opt);
   }
   menu.onchange = async () => {
@@ -518,7 +539,7 @@ async function setupExamples() {
     menu.value = '';
     if (!file) return;
     try {
-      await ide.loadProgram(await getJson(`examples/${file}`));
+      await ide.loadProgram(localizeExample(await getJson(`examples/${file}`)));
       ide.console.info(t('ide.example.loaded', { name: ide.programName }));
     } catch (e) { ide.console.error(t('ide.example.failed', { error: e.message })); }
   };

@@ -11,6 +11,7 @@ import { DriverLease, bindDriverBadge, DRIVER_TOPIC } from './driver.js';
 import { bindNamespace, CLAIM_SERVICE, STOPPED } from './robotns.js';
 import { gauge, History, SAMPLE_EVERY } from './dashboard.js';
 import { Gauges, batteryPercent, batteryLevel, fileLimits } from './gauges.js';
+import { publishedOf } from './graph.js';
 import { WorldView } from './worldview.js';
 import { bindSpan } from './history.js';
 import { HomeEstimate } from './gohome.js';
@@ -33,6 +34,7 @@ const state = {
   battery: null,
   frames: 0,
   subs: [],
+  present: new Set(),                        // the topics the robot publishes, of those the page shows
   limits: { linear: null, angular: null },   // from the robot's node parameters, when it has them
   blocked: '',                               // why this page may not drive now ('' : it may)
 };
@@ -106,13 +108,8 @@ async function onConnected() {
     if (topics.includes(DRIVER_TOPIC)) lease.watch();
     await claiming;                          // its answer, not this notice, has the last word
     const ns = state.robotNs.get();
-    showWhatTheRobotHas(topics, ns);
     await dash.board.ready;
-    fixedGauges(ns);
-    const found = dash.board.show(topics, types, ns);   // every gauge the robot's graph has
-    for (const spec of dash.board.plots()) if (!dash.series[spec.id]) addSeries(spec);   // and its history
-    if (found) $('#battery-card').hidden = false;
-    showCameras({ ros: state.ros, topics, types, ns, main: $('#camera-topic').value.trim(), after: $('#camera-card') });
+    applyGraph(topics, types, ns, await robotTopics(topics, types, ns));
     if (fleet && !ns) {
       block(state.robotNs.whyNot());
       resubscribe();
@@ -135,9 +132,57 @@ async function onConnected() {
 }
 
 // ---- what the robot has: a world view where it publishes markers (turtlesim, the rover, a real
-// robot with /world/markers), the camera and gauges only where their topics exist -----------------
-function showWhatTheRobotHas(topics, ns) {
-  const has = (t) => topics.includes(t);
+// robot with /world/markers), the camera, gauges and plots only where something publishes their
+// topics. Nothing else is subscribed: a subscription to a topic the robot does not have would put
+// it on the graph (ROS 2 lists a topic with subscribers only), where the history, the twin and the
+// next page would take it for the robot's (a turtle "with" a battery and motors). -------------------
+const SHOWN_TYPES = /^(sensor_msgs\/(msg\/)?(BatteryState|Temperature|JointState|Image|CompressedImage)|nav_msgs\/(msg\/)?(Odometry|OccupancyGrid)|visualization_msgs\/(msg\/)?MarkerArray)$/;
+
+// The topics of the robot's graph this page could show, that something publishes.
+function robotTopics(topics, types, ns) {
+  const listed = new Set(topics);
+  const fields = [...Object.values(fixedTopics(ns)), $('#camera-topic').value.trim(), withNamespace(ns, '/odom')];
+  const shown = topics.filter((t, i) => SHOWN_TYPES.test(types[i] ?? '') && (!ns || t.startsWith(`${ns}/`)));
+  return publishedOf(callRosapi, [...shown, ...fields.filter((t) => listed.has(t))]);
+}
+
+// The page as the graph says: present, the set of robotTopics.
+function applyGraph(topics, types, ns, present) {
+  state.present = present;
+  state.graph = { topics, types };
+  showWhatTheRobotHas(ns);
+  fixedGauges(ns);
+  const mine = topics.map((t, i) => [t, types[i]]).filter(([t]) => present.has(t));
+  const found = dash.board.show(mine.map(([t]) => t), mine.map(([, type]) => type), ns);   // every gauge it has
+  let added = 0;
+  for (const spec of [...fixedSeries(ns), ...dash.board.plots()]) {                       // and its history
+    if (!dash.series[spec.id] && present.has(spec.id === 'battery' ? $('#battery-topic').value.trim() : spec.topic)) {
+      addSeries(spec, false);   // resubscribe() subscribes it, after this
+      added += 1;
+    }
+  }
+  if (added) dash.loadSpan?.();   // the span shown, with the gateway's history of the plots just added
+  if (found) $('#battery-card').hidden = false;
+  showCameras({ ros: state.ros, topics: mine.map(([t]) => t), types: mine.map(([, type]) => type), ns,
+    main: $('#camera-topic').value.trim(), after: $('#camera-card') });
+}
+
+// The graph read again: a robot that started (or a topic that appeared) after the page is shown.
+async function lookAgain(force = false) {
+  if (!state.ros?.isConnected || document.hidden) return;
+  try {
+    const { topics, types } = await callRosapi('/rosapi/topics');
+    const ns = state.robotNs.get();
+    const present = await robotTopics(topics, types, ns);
+    const same = present.size === state.present.size && [...present].every((t) => state.present.has(t));
+    if (same && !force) return;
+    applyGraph(topics, types, ns, present);
+    resubscribe();
+  } catch { /* rosapi unavailable: as it was */ }
+}
+
+function showWhatTheRobotHas(ns) {
+  const has = (t) => state.present.has(t);
   const world = withNamespace(ns, '/world/markers');
   const drawn = has(world) || has(withNamespace(ns, '/map'));   // its markers, or only its map
   const camera = has($('#camera-topic').value.trim());
@@ -146,7 +191,8 @@ function showWhatTheRobotHas(topics, ns) {
   if (drawn) {
     if (!state.world) state.world = new WorldView($('#world'), world);
     state.world.setTopic(world);
-    state.world.attach(state.ros);
+    if (state.world.ros !== state.ros) state.world.attach(state.ros);
+    state.world.look(callRosapi);
   }
   $('#camera-card').hidden = !camera;
   for (const [el, topic] of Object.entries(fixedTopics(ns))) $(el).hidden = !has(topic);
@@ -335,16 +381,20 @@ addEventListener('blur', () => { if (state.keys.size) { state.keys.clear(); upda
 
 // ---- what the robot reports ----------------------------------------------------
 const dash = { gauges: {}, history: null, series: {} };
+const GRAPH_EVERY = 10000;   // ms between looks at the graph for what the robot has
 
 function resubscribe() {
   for (const s of state.subs) s.close();
   state.subs = [];
-  subscribe($('#battery-topic').value, 'sensor_msgs/msg/BatteryState', showBattery, { throttle_rate: 500, queue_length: 1 });
+  if (!state.ros?.isConnected) return;
+  const has = (t) => state.present.has(t);
+  const battery = $('#battery-topic').value.trim(), odom = withNamespace(state.robotNs.get(), '/odom');
+  if (has(battery)) subscribe(battery, 'sensor_msgs/msg/BatteryState', showBattery, { throttle_rate: 500, queue_length: 1 });
   dash.board.subscribe(subscribe);
   cam.sub = null;
-  subscribeCamera();
+  if (has($('#camera-topic').value.trim())) subscribeCamera();
   for (const s of dash.history.series) if (s.topic) subscribePlot(s);
-  subscribe(withNamespace(state.robotNs.get(), '/odom'), 'nav_msgs/msg/Odometry', (m) => home.odom(m), { throttle_rate: 200, queue_length: 1 });
+  if (has(odom)) subscribe(odom, 'nav_msgs/msg/Odometry', (m) => home.odom(m), { throttle_rate: 200, queue_length: 1 });
 }
 
 // The camera as the link sustains it: the subscribe extension `image` asks the gateway for a
@@ -388,7 +438,7 @@ function showBattery(msg) {
   home.battery(msg);
   const pct = Number.isFinite(batteryPercent(msg)) ? batteryPercent(msg) : null;
   dash.gauges.battery.set(pct ?? NaN, batteryLevel(msg));
-  dash.series.battery.last = pct;
+  if (dash.series.battery) dash.series.battery.last = pct;
   $('#battery-text').textContent = pct === null ? '?' : `${num(pct, 0)} %`;
   const v = Number.isFinite(msg.voltage) ? `${num(msg.voltage, 2)} V` : '';
   const a = Number.isFinite(msg.current) ? ` · ${num(msg.current, 2)} A` : '';
@@ -407,15 +457,21 @@ function showImage(msg) {
 }
 
 // A plotted field: {id, label, unit, topic, path, type, last}; also drives a gauge when named.
-function addSeries(spec) {
+// subscribe: now (a plot added by hand), or not (applyGraph's, which resubscribe() subscribes).
+function addSeries(spec, subscribeNow = true) {
   const s = { last: null, ...spec };
   dash.series[s.id] = s;
   dash.history.add(s);
-  if (s.topic && state.ros?.isConnected) subscribePlot(s);
+  if (subscribeNow && s.topic && state.ros?.isConnected) subscribePlot(s);
   return s;
 }
 
 async function subscribePlot(s) {
+  if (!state.present.has(s.topic)) {   // a topic asked for by name (the plot form): only if published
+    const found = await publishedOf(callRosapi, [s.topic]).catch(() => new Set());
+    if (!found.has(s.topic)) return;
+    state.present.add(s.topic);
+  }
   let type = s.type;
   if (!type) {
     try { type = (await callRosapi('/rosapi/topic_type', { topic: s.topic })).type; } catch { type = ''; }
@@ -442,21 +498,17 @@ function fixedGauges(ns) {
 }
 
 function setupDashboard() {
-  const ns = (name) => withNamespace(state.robotNs.get(), name);
   dash.board = new Gauges($('#gauges'), () => Object.values(fixedTopics(state.robotNs.get())));
   state.gauges = dash.board;
   fixedGauges(state.robotNs.get());
   dash.history = new History($('#plot'), `rosgate.history:${state.robotNs.get() || '/'}`);
   state.history = dash.history;
-  addSeries({ id: 'left', label: t('teleop.motor.left'), unit: '°C', topic: ns('/motor/left/temperature'), path: 'temperature', type: 'sensor_msgs/msg/Temperature' });
-  addSeries({ id: 'right', label: t('teleop.motor.right'), unit: '°C', topic: ns('/motor/right/temperature'), path: 'temperature', type: 'sensor_msgs/msg/Temperature' });
-  addSeries({ id: 'speed', label: t('teleop.speed.label'), unit: 'm/s', topic: ns('/odom'), path: 'twist.twist.linear.x', type: 'nav_msgs/msg/Odometry' });
-  addSeries({ id: 'battery', label: t('teleop.battery'), unit: '%' });
   dash.history.bindPinch();
   const loadSpan = bindSpan({ select: $('#plot-span'), range: $('#plot-range'), day: $('#plot-day'), from: $('#plot-from'),
     to: $('#plot-to'), show: $('#plot-show'), csv: $('#plot-csv'), png: $('#plot-png') }, dash.history, () => [
     ...dash.history.series.filter((s) => s.topic && s.path).map((s) => ({ id: s.id, topic: s.topic, field: s.path, scale: s.scale })),
     { id: 'battery', topic: $('#battery-topic').value, field: 'percentage', scale: 100 }]);
+  dash.loadSpan = loadSpan;
   loadSpan();
   setInterval(() => dash.history.sample(), SAMPLE_EVERY);
   setInterval(() => dash.history.save(), 5000);
@@ -468,8 +520,21 @@ function setupDashboard() {
     const topic = f.topic.value.trim(), path = f.field.value.trim();
     if (topic && path) addSeries({ id: `${topic} ${path}`, label: `${topic} ${path}`, unit: '', topic, path });
   });
-  $('#battery-topic').addEventListener('change', resubscribe);
-  $('#camera-topic').addEventListener('change', resubscribe);
+  $('#battery-topic').addEventListener('change', () => lookAgain(true));
+  $('#camera-topic').addEventListener('change', () => lookAgain(true));
+  setInterval(lookAgain, GRAPH_EVERY);
+}
+
+// The page's own plots (the rover's motors and speed, the battery field's topic), each shown once
+// the robot publishes its topic (applyGraph).
+function fixedSeries(ns) {
+  const at = (name) => withNamespace(ns, name);
+  return [
+    { id: 'left', label: t('teleop.motor.left'), unit: '°C', topic: at('/motor/left/temperature'), path: 'temperature', type: 'sensor_msgs/msg/Temperature' },
+    { id: 'right', label: t('teleop.motor.right'), unit: '°C', topic: at('/motor/right/temperature'), path: 'temperature', type: 'sensor_msgs/msg/Temperature' },
+    { id: 'speed', label: t('teleop.speed.label'), unit: 'm/s', topic: at('/odom'), path: 'twist.twist.linear.x', type: 'nav_msgs/msg/Odometry' },
+    { id: 'battery', label: t('teleop.battery'), unit: '%' },
+  ];
 }
 
 // The robot namespace and the driver lease: a change of robot reloads the page under it.

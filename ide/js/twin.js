@@ -1,7 +1,9 @@
-// /twin: the robot in 3D (three.js), as it is now. The model: the robot's own URDF (urdf.js: the
-// gateway's --urdf file, else its robot_description topic, else robot_state_publisher's
-// parameter) with its meshes and its joints moved by its joint_states; else a built-in one for
-// the sim's rover and turtle. Placed by TF (frames.js: its base link in the root of the tree),
+// /twin: the robot in 3D (three.js), as it is now. The model: the robot's own description first
+// (GET api/description: the gateway's --urdf file, else its robot_description topic, else
+// robot_state_publisher's parameter, xacro expanded by the gateway; urdf.js) with its meshes and
+// its joints moved by its joint_states; else by what the robot really publishes (the graph's
+// publishers, not its topic names: a page that once looked for /odom on a turtle left the name
+// there), a built-in one for the sim's rover and turtle. Only published topics are subscribed. Placed by TF (frames.js: its base link in the root of the tree),
 // else odometry (the rover: tf_static world -> odom, then odom), the turtle by its pose; its map
 // and paths on the floor (map3d.js); the laser scan as points
 // around it; the world's markers (walls, bounds); the body blinks red below 20 % battery and
@@ -10,7 +12,8 @@
 import { Ros, Topic, Service } from 'roslib';
 import * as THREE from 'three';
 import { OrbitControls } from 'three';
-import { loadUrdf, applyJointState, fileUrdf, paramUrdf } from './urdf.js';
+import { loadUrdf, applyJointState, description, isXacro } from './urdf.js';
+import { publishedOf } from './graph.js';
 import { COLOURS, rover, turtle, markerObject } from './models.js';
 import { Frames } from './frames.js';
 import { MapLayer } from './map3d.js';
@@ -39,7 +42,12 @@ function makeScene() {
   const view = $('#view');
   let renderer;
   try {
-    renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
+    // asked first, so that a browser without WebGL 2 (three's need) gets the page's words, not
+    // three's console errors
+    const canvas = document.createElement('canvas');
+    const context = canvas.getContext('webgl2', { antialias: true, preserveDrawingBuffer: true, alpha: false, stencil: false });
+    if (!context) throw new Error(t('twin.no.webgl2'));
+    renderer = new THREE.WebGLRenderer({ canvas, context, antialias: true, preserveDrawingBuffer: true });
   } catch (e) {
     view.textContent = t('twin.no.webgl', { error: e.message });
     view.dataset.webgl = 'none';   // (the mark, whatever the words' language: for tests)
@@ -89,6 +97,7 @@ function notice(text) {
 }
 
 function useUrdf(xml, from) {
+  state.urdfText = xml;
   const problems = [];
   const model = loadUrdf(xml, { onProblem: (p) => problems.push(p) });
   state.meshes = 'loading';
@@ -256,6 +265,28 @@ async function topics(ros) {
     (r) => resolve(new Map(r.topics.map((t, i) => [t, r.types[i]]))), () => resolve(new Map())));
 }
 
+let calls = 0;
+// A rosapi call's values (rejected on a refusal).
+function rosapi(ros, service, args = {}) {
+  const id = `call_service:${service}:twin.${++calls}`;
+  return new Promise((resolve, reject) => {
+    ros.once(id, (m) => (m.result === false ? reject(new Error(m.values)) : resolve(m.values)));
+    ros.callOnConnection({ op: 'call_service', id, service, args });
+  });
+}
+
+// The topics this page may draw from, of those on the graph: what the robot publishes.
+const DRAWN_TYPES = new Set(['sensor_msgs/msg/JointState', 'tf2_msgs/msg/TFMessage', 'nav_msgs/msg/OccupancyGrid',
+  'nav_msgs/msg/Path', 'nav_msgs/msg/Odometry', 'sensor_msgs/msg/LaserScan', 'sensor_msgs/msg/BatteryState',
+  'sensor_msgs/msg/Temperature', 'turtlesim/msg/Pose', 'visualization_msgs/msg/MarkerArray', 'std_msgs/msg/String',
+  'visualization_msgs/msg/Marker', 'sensor_msgs/msg/PointCloud2', 'geometry_msgs/msg/PoseStamped']);
+function published(ros, types) {
+  const norm = (type) => (String(type).split('/').length === 2 ? type.replace('/', '/msg/') : type);
+  const wanted = [...types].filter(([t, type]) => DRAWN_TYPES.has(norm(type)) && (!ns || t.startsWith(`${ns}/`)
+    || ['/tf', '/tf_static', '/map'].includes(t))).map(([t]) => t);
+  return publishedOf((service, args) => rosapi(ros, service, args), wanted);
+}
+
 // The map made to measure (grid.js).
 function listenMap(ros, topic) {
   ros.on(topic, (m) => {
@@ -265,23 +296,33 @@ function listenMap(ros, topic) {
   ros.callOnConnection(mapSubscribe(topic, `subscribe:${topic}:twin`));
 }
 
+// The robot's description as the gateway finds it (api/description); then, where it came from the
+// robot_description topic, a new one published there replaces it (xacro: expanded by the gateway).
 async function describe(ros, has) {
-  const file = await fileUrdf();
-  if (file) { useUrdf(file, '--urdf'); return true; }
-  if (has(name('/robot_description'))) {
-    listen(ros, name('/robot_description'), 'std_msgs/msg/String', (msg) => {
-      try { useUrdf(msg.data, 'topic'); } catch (e) { state.error = `robot_description: ${e.message}`; notice(state.error); }
+  const found = await description(ns);
+  const use = (xml, from) => {
+    try { if (xml && xml !== state.urdfText) useUrdf(xml, from); } catch (e) { state.error = `robot_description: ${e.message}`; notice(state.error); }
+  };
+  if (found.error) notice(t('twin.description.error', { error: found.error }));
+  if (found.urdf) use(found.urdf, found.from);
+  if (found.from !== '--urdf' && has(name('/robot_description'))) {
+    let last = null;
+    listen(ros, name('/robot_description'), 'std_msgs/msg/String', async (msg) => {
+      if (msg.data === last) return;
+      last = msg.data;
+      if (!isXacro(msg.data)) { use(msg.data, 'topic'); return; }
+      const again = await description(ns);
+      if (again.urdf) use(again.urdf, again.from);
     });
-    return true;
   }
-  const param = has(name('/joint_states')) ? await paramUrdf(ros, name('/robot_state_publisher')) : '';
-  if (param) { useUrdf(param, 'parameter'); return true; }
-  return false;
+  return Boolean(found.urdf);
 }
 
 async function start(ros) {
   const types = await topics(ros);
-  const has = (t) => types.has(t);
+  const present = await published(ros, types);
+  const has = (t) => present.has(t);
+  state.published = [...present].sort();
   const described = await describe(ros, has);
   if (has(name('/joint_states'))) {
     listen(ros, name('/joint_states'), 'sensor_msgs/msg/JointState', (msg) => {
@@ -300,12 +341,13 @@ async function start(ros) {
   }
   if (has(name('/odom')) || has(name('/battery_state'))) {
     if (!twin.model && !described) useModel('rover', rover());
-    listen(ros, name('/tf_static'), 'tf2_msgs/msg/TFMessage', onTfStatic);
-    listen(ros, name('/odom'), 'nav_msgs/msg/Odometry', onOdom, 40);
-    listen(ros, name('/scan'), 'sensor_msgs/msg/LaserScan', onScan, 200);
-    listen(ros, name('/battery_state'), 'sensor_msgs/msg/BatteryState', onBattery, 500);
+    const listenIf = (topic, ...rest) => { if (has(topic)) listen(ros, topic, ...rest); };
+    listenIf(name('/tf_static'), 'tf2_msgs/msg/TFMessage', onTfStatic);
+    listenIf(name('/odom'), 'nav_msgs/msg/Odometry', onOdom, 40);
+    listenIf(name('/scan'), 'sensor_msgs/msg/LaserScan', onScan, 200);
+    listenIf(name('/battery_state'), 'sensor_msgs/msg/BatteryState', onBattery, 500);
     for (const side of ['left', 'right']) {
-      listen(ros, name(`/motor/${side}/temperature`), 'sensor_msgs/msg/Temperature', (m) => onTemperature(side, m), 500);
+      listenIf(name(`/motor/${side}/temperature`), 'sensor_msgs/msg/Temperature', (m) => onTemperature(side, m), 500);
     }
   } else if (has(name('/turtle1/pose'))) {
     if (!twin.model && !described) useModel('turtle', turtle());
@@ -314,9 +356,9 @@ async function start(ros) {
     state.error = t('twin.no.robot', { ns: ns || '/' });
     $('#model').textContent = state.error;
   }
-  listen(ros, name('/world/markers'), 'visualization_msgs/msg/MarkerArray', onMarkers);
+  if (has(name('/world/markers'))) listen(ros, name('/world/markers'), 'visualization_msgs/msg/MarkerArray', onMarkers);
   twin.drawables = new Drawables(twin, ns);   // point clouds, markers, goals (drawables.js)
-  twin.drawables.attach(ros, types);
+  twin.drawables.attach(ros, new Map([...types].filter(([t]) => has(t))));
   twin.goals = await offerGoals(ros, twin, {
     ns, frame: () => twin.map.frame || state.rootFrame || 'map', onState: (text) => { state.goal = text; notice(text); },
   });

@@ -9,7 +9,6 @@ import { URDFLoader, STLLoader, ColladaLoader, OBJLoader, MTLLoader } from 'thre
 import { t } from './i18n.js';
 
 const PLACEHOLDER = 0x9097a8;
-let calls = 0;
 
 // The gateway's URL of a mesh named in a URDF ('' when it names no package file).
 export function meshUrl(uri) {
@@ -159,20 +158,19 @@ export function applyJointState(robot, msg) {
   return n;
 }
 
-// The gateway's --urdf file ('' without one).
-export async function fileUrdf() {
+// The robot's description as the gateway finds it for namespace ns: {urdf, from} with from one
+// of '--urdf', 'topic', 'parameter' (urdf '' and from null when it has none; error: why it could
+// not read or expand one). Always answered (a gateway without --urdf has no /urdf to ask for).
+export async function description(ns = '') {
   try {
-    const r = await fetch('urdf', { credentials: 'same-origin' });
-    return r.ok ? await r.text() : '';
-  } catch { return ''; }
+    const r = await fetch(`api/description?${new URLSearchParams({ ns })}`, { credentials: 'same-origin', cache: 'no-store' });
+    const body = await r.json();
+    return r.ok ? { urdf: body.urdf || '', from: body.from ?? null, error: body.error ?? null }
+      : { urdf: '', from: null, error: body.error ?? `HTTP ${r.status}` };
+  } catch (e) { return { urdf: '', from: null, error: e.message }; }
 }
 
-// robot_state_publisher's robot_description parameter ('' if none); node: its full name.
-export function paramUrdf(ros, node) {
-  const id = `call_service:/rosapi/get_param:urdf.${++calls}`;
-  return new Promise((resolve) => {
-    ros.once(id, (m) => { try { resolve(m.result === false ? '' : JSON.parse(m.values.value) || ''); } catch { resolve(''); } });
-    ros.callOnConnection({ op: 'call_service', id, service: '/rosapi/get_param',
-      args: { name: `${node}:robot_description`, default_value: '' } });
-  });
+// Whether a description is xacro (the gateway expands it), not URDF.
+export function isXacro(text) {
+  return /xmlns:xacro\s*=|<xacro:/.test(String(text));
 }

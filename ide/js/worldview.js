@@ -7,6 +7,7 @@
 // the markers of its frame, or alone when there are none.
 import { yaw } from '../runtime/util.js';
 import { gridImage, mapSubscribe } from './grid.js';
+import { publishedOf } from './graph.js';
 import { t } from './i18n.js';
 
 const ARROW = 0, CUBE = 1, SPHERE = 2, CYLINDER = 3, LINE_STRIP = 4, LINE_LIST = 5,
@@ -32,6 +33,7 @@ export class WorldView {
     this.dirty = true;
     this.count = 0;             // MarkerArrays received
     this.ros = null;
+    this.subscribed = new Set();   // the topics subscribed on this connection
     this.frame = null;          // the chosen world (a frame id); null: the remembered or first one
     try { this.frame = localStorage.getItem(KEY); } catch { /* storage off */ }
     this.big = null;            // the enlarged view's canvas while it is open
@@ -49,35 +51,55 @@ export class WorldView {
     requestAnimationFrame(loop);
   }
 
+  // The connection to draw from. Nothing is subscribed until look() has seen a topic published:
+  // a subscription to a topic the robot does not have would make it appear on the graph.
   attach(ros) {
-    if (this.ros) this.ros.off(this.topic, this.listener);
+    if (this.ros) { this.ros.off(this.topic, this.listener); this.ros.off(this.mapTopic, this.mapListener); }
     this.ros = ros;
+    this.subscribed = new Set();
     this.markers.clear();
     this.dirty = true;
-    const id = `subscribe:${this.topic}:worldview`;
-    ros.on(this.topic, this.listener);
-    ros.callOnConnection({
-      op: 'subscribe', id, topic: this.topic, type: 'visualization_msgs/msg/MarkerArray', ...this.stream,
-    });
-    ros.on(this.mapTopic, this.mapListener);
-    ros.callOnConnection(mapSubscribe(this.mapTopic, `subscribe:${this.mapTopic}:worldview`));
   }
 
   get mapTopic() { return this.topic.replace(/world\/markers$/, 'map'); }
 
-  // Draws another topic (the world of another robot namespace).
+  // Subscribes to the markers and the map where something publishes them (call: a rosapi call,
+  // for /rosapi/publishers); a topic already subscribed is not asked about again.
+  async look(call) {
+    const ros = this.ros;
+    if (!ros?.isConnected) return;
+    const wanted = [this.topic, this.mapTopic].filter((t) => !this.subscribed.has(t));
+    if (!wanted.length) return;
+    const topic = this.topic;
+    const present = await publishedOf(call, wanted);
+    if (this.ros !== ros || this.topic !== topic) return;   // another connection, or another topic, since
+    if (present.has(this.topic) && !this.subscribed.has(this.topic)) {
+      this.subscribed.add(this.topic);
+      ros.on(this.topic, this.listener);
+      ros.callOnConnection({
+        op: 'subscribe', id: `subscribe:${this.topic}:worldview`, topic: this.topic,
+        type: 'visualization_msgs/msg/MarkerArray', ...this.stream,
+      });
+    }
+    if (present.has(this.mapTopic) && !this.subscribed.has(this.mapTopic)) {
+      this.subscribed.add(this.mapTopic);
+      ros.on(this.mapTopic, this.mapListener);
+      ros.callOnConnection(mapSubscribe(this.mapTopic, `subscribe:${this.mapTopic}:worldview`));
+    }
+  }
+
+  // Draws another topic (the world of another robot namespace); look() subscribes it.
   setTopic(topic) {
     if (topic === this.topic) return;
     const ros = this.ros;
     if (ros) {
       ros.off(this.topic, this.listener);
-      ros.callOnConnection({ op: 'unsubscribe', id: `subscribe:${this.topic}:worldview`, topic: this.topic });
       ros.off(this.mapTopic, this.mapListener);
-      ros.callOnConnection({ op: 'unsubscribe', id: `subscribe:${this.mapTopic}:worldview`, topic: this.mapTopic });
+      for (const t of this.subscribed ?? []) ros.callOnConnection({ op: 'unsubscribe', id: `subscribe:${t}:worldview`, topic: t });
     }
     this.grid = null;
-    this.ros = null;
     this.topic = topic;
+    this.subscribed = new Set();
     this.markers.clear();
     this.dirty = true;
     if (ros?.isConnected) this.attach(ros);

@@ -37,6 +37,19 @@ async def test_topic_endpoints_follow_create_and_destroy(world, topic):
     await until(lambda: topic not in backend.node_info(me).subscribing, what='node not subscribing')
 
 
+async def test_a_subscription_alone_lists_its_topic_with_no_publisher(world, topic):
+    """As ``ros2 topic list`` does (rcl's graph lists a topic with any endpoint): a page that looks
+    for a topic the robot does not have puts the name on the graph while it looks. So the pages
+    subscribe only to what has a publisher, and the sim does as ROS 2 does."""
+    backend, me = world.backend, world.backend.node_name
+    sub = backend.subscribe(topic, 'sensor_msgs/msg/BatteryState', lambda msg: None)
+    await until(lambda: (topic, 'sensor_msgs/msg/BatteryState') in backend.topics(), what='topic listed')
+    await until(lambda: backend.subscribers(topic) == [me], what='subscriber listed')
+    assert backend.publishers(topic) == []
+    sub.destroy()
+    await until(lambda: topic not in dict(backend.topics()), what='topic gone with its subscriber')
+
+
 async def test_services_and_providers(world):
     backend = world.backend
     assert dict(backend.services())['/add_two_ints'] == world.add_type

@@ -118,3 +118,17 @@ def test_all_and_any():
 def test_bad_goals_are_refused(bad):
     with pytest.raises(GoalError):
         build(bad)
+
+
+def test_missed_says_which_parts_of_the_goal_were_not_met():
+    ev = Evaluation({'all': [{'region': {'xmin': 7, 'xmax': 10, 'ymin': 7, 'ymax': 10}}, {'within': 20},
+                             {'clearance': 0.5}, {'topic': '/count', 'op': '>=', 'value': 3}]})
+    ev.pose({'x': 9, 'y': 0.3})           # 0.3 m from the bottom wall, not in the region
+    ev.topic('/count', {'data': 3})
+    ev.time(25)
+    assert ev.missed() == ('region x 7..10, y 7..10 not reached; took 25.0 s, over the 20 s allowed; '
+                           'came within 0.30 m of a wall (0.5 m of clearance asked)')
+    either = Evaluation({'any': [{'region': BOX}, {'topic': '/done', 'value': True}]})
+    assert either.missed().startswith('none of: region x ') and either.missed().endswith('/done data == True not reached')
+    either.topic('/done', {'data': True})
+    assert either.missed() == ''

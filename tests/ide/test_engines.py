@@ -11,6 +11,7 @@ their words (the pages are translated). The robots are watched by independent ro
 from __future__ import annotations
 
 import json
+import re
 import time
 
 import pytest
@@ -62,6 +63,16 @@ def signed(start_gateway, tmp_path_factory):
     path = tmp_path_factory.mktemp("engines-auth") / "tokens.toml"
     path.write_text(f'[[tokens]]\nname = "alice"\nrole = "operator"\ntoken = "{TOKEN}"\n')
     return start_gateway("--robot", "turtlesim", "--auth", str(path), "--auth-backoff", "0.05")
+
+
+@pytest.fixture(scope="module")
+def turtle_only(start_gateway):
+    return start_gateway("--robot", "turtlesim")
+
+
+@pytest.fixture(scope="module")
+def rover_only(start_gateway):
+    return start_gateway("--robot", "rover")
 
 
 @pytest.fixture
@@ -235,3 +246,31 @@ def test_login_signs_in_and_opens_the_ide(engine, signed):
     engine.wait("location.pathname === '/' && " + READY, 30, "the IDE, signed in and connected")
     assert engine.js("rosgateIde.me.name") == "alice"
     assert engine.js("document.querySelector('#who-name').textContent") == "alice"
+
+
+# Every page, and what says it has started: its graph read (the IDE, teleop), its model chosen (the twin), its tiles.
+PAGES = {"": "rosgateIde.graph.loaded", "teleop": "window.teleop.graph !== undefined",
+         "twin": "twin.state.model !== null || !!twin.state.error", "class": "document.body.dataset.tiles === '1'"}
+FAILED = re.compile(r"tornado\.access: ([45]\d\d) (\S+ \S+)")
+
+
+def test_every_page_starts_with_no_error_no_failed_request_and_no_invented_topic(engine, turtle_only, rover_only):
+    """A normal start of each page on turtlesim and on the rover: nothing the page asks for is
+    missing (no 404: the twin once asked for /urdf on every load), no error in its console, and the
+    graph afterwards is what it was (the pages subscribe only to what the robot publishes). The
+    gateway's own log sees every engine's failed requests (WebKitWebDriver tells of none)."""
+    for gw in (turtle_only, rover_only):
+        with RosClient(gw) as ros:
+            before = set(ros.call("/rosapi/topics", "rosapi/Topics")["topics"])
+        log_at = len(gw.log_text())
+        for path, started in PAGES.items():
+            engine.open(gw.http_url + path)
+            # (the twin connects only where it can draw: without WebGL it says why and is done)
+            engine.wait(READY if path != "twin" else "document.body?.dataset.ready === 'true'", 60, f"/{path} ready")
+            engine.wait(started, 60, f"/{path} started")
+            assert not engine.problems(), (engine.name, path, engine.problems())
+        engine.open("about:blank")
+        with RosClient(gw) as ros:
+            after = set(ros.call("/rosapi/topics", "rosapi/Topics")["topics"])
+        assert after == before, (engine.name, sorted(after - before), sorted(before - after))
+        assert not FAILED.findall(gw.log_text()[log_at:]), (engine.name, FAILED.findall(gw.log_text()[log_at:]))

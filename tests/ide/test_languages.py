@@ -180,3 +180,37 @@ def test_the_login_page_follows_lang_and_the_browser(gw):
     assert 'Iniciar sesión' in spanish and 'Esta pasarela no necesita token.' in spanish
     assert 'Sign in' in login(**{'Accept-Language': 'ja, zh;q=0.8'})          # not offered: English
     assert 'Entrar' in login(**{'Cookie': 'rosgate-lang=pt'})
+
+
+@pytest.mark.parametrize('lang', ['en', 'es', 'de', 'fr', 'pt'])
+def test_the_code_tabs_fit_a_tablet_in_every_language(gw, context, lang):
+    """At 1180 px (a tablet) the code panel's tabs stay whole inside it, each on one line: in
+    Spanish "ocultar código" once ran out of the panel."""
+    ide = open_ide(context(viewport={'width': 1180, 'height': 820}), gw, f'?lang={lang}')
+    tabs = ide.js("""() => { const side = document.querySelector('#side').getBoundingClientRect();
+      return [...document.querySelectorAll('#side .tabs button')].filter((b) => b.offsetParent).map((b) => {
+        const r = b.getBoundingClientRect();
+        return { text: b.textContent, inside: r.left >= side.left - 0.5 && r.right <= side.right + 0.5,
+                 height: r.height }; }); }""")
+    assert len(tabs) == 5, tabs
+    assert all(t['inside'] for t in tabs), tabs
+    assert all(t['height'] < 1.5 * tabs[0]['height'] for t in tabs), tabs   # one line each, as "Python"
+
+
+def test_examples_in_the_readers_language(gw, context):
+    """An example's title in the menu, its name and its blocks' comments in Spanish, and the
+    comments in the generated code; in English as they were written."""
+    ide = open_ide(context(), gw, '?lang=es')
+    options = ide.page.eval_on_selector_all('#examples option', 'os => os.map((o) => o.textContent)')
+    assert 'dibujar un cuadrado (turtlesim)' in options and 'rover PID hacia la meta (rover)' in options, options
+    ide.page.select_option('#examples', 'drive_square.json')
+    ide.page.wait_for_function("rosgateIde.programName === 'dibujar un cuadrado'")
+    comment = ide.js("rosgateIde.workspace.getBlockById('note-1').getCommentText()")
+    assert comment == 'Cuatro veces: un lado de 3 y luego un cuarto de vuelta (90°) a la izquierda.', comment
+    assert '# Cuatro veces: un lado de 3' in ide.python()
+    assert not ide.errors, ide.errors
+    english = open_ide(context(), gw, '?lang=en')
+    english.page.select_option('#examples', 'pid_goal.json')
+    english.page.wait_for_function("rosgateIde.programName === 'rover PID go-to-goal'")
+    notes = english.js("rosgateIde.workspace.getAllBlocks(false).map((b) => b.getCommentText()).filter(Boolean)")
+    assert 'Until within 10 cm of the goal, every 0.1 s.' in notes, notes

@@ -223,6 +223,8 @@ def test_a_missed_goal_is_posted_as_failed_and_nothing_for_who_did_not_launch(co
     scores = wait_for(lambda: platform.scores(link), what='the failed attempt\'s score')
     assert len(scores) == 1 and scores[0]['userId'] == 'stu-cleo'
     assert scores[0]['scoreGiven'] == 0.0 and scores[0]['comment'].startswith('failed (time)')
+    # the comment names the part of the goal that was missed, for the teacher in the gradebook
+    assert scores[0]['comment'].startswith('failed (time): region x 0..0.5, y 0..0.5 not reached, attempt '), scores
     assert (scores[0]['activityProgress'], scores[0]['gradingProgress']) == ('Completed', 'FullyGraded')
     assert platform.gradebook[len(before):] == [(platform.links[link]['lineitem'], scores[0])]   # alice: none
 

@@ -6,6 +6,8 @@
 //   {"op": "click" | "fill", "selector": S, "text": T}
 //   {"op": "key", "key": "ArrowUp", "down": true}
 //   {"op": "touch", "phase": "start" | "move" | "end", "x": X, "y": Y}
+//   {"op": "problems"}                                   the page's console errors, uncaught errors,
+//                                                        failed requests and HTTP errors since it opened
 //   {"op": "quit"}
 // The first line out is {"ready": true, "version": ...} once the browser runs. Nothing is
 // downloaded: the browser is FIREFOX (default /usr/bin/firefox-esr).
@@ -22,15 +24,22 @@ const browser = await puppeteer.launch({
     'datareporting.policy.dataSubmissionEnabled': false, 'toolkit.telemetry.enabled': false },
 });
 let page = null;
+let problems = [];
 
 const ops = {
   async open({ url, width = 1280, height = 860 }) {
     if (page) await page.close();
     page = await browser.newPage();
+    const seen = problems = [];
+    page.on('console', (m) => { if (m.type() === 'error') seen.push(`console: ${m.text()}`); });
+    page.on('pageerror', (e) => seen.push(`error: ${e.message ?? e}`));
+    page.on('requestfailed', (r) => seen.push(`failed: ${r.url()} ${r.failure()?.errorText ?? ''}`));
+    page.on('response', (r) => { if (r.status() >= 400) seen.push(`${r.status()}: ${r.url()}`); });
     await page.setViewport({ width, height, hasTouch: true });
     await page.goto(url, { waitUntil: 'load' });
   },
   js: ({ expr }) => page.evaluate(expr),
+  problems: () => [...problems],
   click: ({ selector }) => page.click(selector),
   async fill({ selector, text }) {
     await page.$eval(selector, (el) => { el.value = ''; el.focus(); });

@@ -87,3 +87,32 @@ test('a link shows its round trip, and heals by itself when the gateway comes ba
   link._drop();
   again.proc.kill('SIGKILL');
 });
+
+test('an idle robot\'s data is current: its age counts from the newest pong, not from the last message', async () => {
+  const gw = await startGateway();
+  const link = new Link(gw.url);
+  const opened = event(link, 'open', 10000, 'open');
+  link.start();
+  const ros = (await opened).detail;
+  // one latched message, then nothing: a robot at rest (turtlesim's markers change only when it moves)
+  ros.callOnConnection({ op: 'advertise', topic: '/idle', type: 'std_msgs/msg/String', latch: true });
+  ros.callOnConnection({ op: 'publish', topic: '/idle', msg: { data: 'at rest' } });
+  ros.callOnConnection({ op: 'subscribe', topic: '/idle', type: 'std_msgs/msg/String' });
+  while (link.dataAt === null) await new Promise((r) => setTimeout(r, 20));
+  const last = link.dataAt;
+  // a pong of a ping sent a second after the last message: everything sent before it has arrived
+  const deadline = performance.now() + 30000;
+  while (!(link.currentAt > last + 1000)) {
+    assert.ok(performance.now() < deadline, 'no pong of a ping sent a second after the last message');
+    await new Promise((r) => setTimeout(r, 20));
+  }
+  const now = performance.now();
+  assert.equal(link.dataAt, last, 'no other message came');
+  assert.ok(link.age(now) <= now - link.currentAt + 1e-6, `age ${link.age(now)} ms`);
+  assert.ok(link.age(now) < now - last - 1000, 'the age does not count from the last message');
+  const shown = Number(/data ([\d.]+) s old/.exec(link.describe(now))[1]);
+  assert.ok(shown * 1000 <= now - link.currentAt + 50, `shown ${shown} s`);
+  link.restart = () => {};
+  link._drop();
+  gw.proc.kill('SIGKILL');
+});

@@ -57,6 +57,12 @@ class Engine:
     def close(self) -> None:
         raise NotImplementedError
 
+    def problems(self) -> list[str]:
+        """What went wrong in the page since it was opened, as far as the driver tells: console
+        errors, uncaught errors, failed requests and HTTP errors (Chromium and Firefox); WebKitWebDriver
+        tells none of these (check the server's log for its requests)."""
+        return []
+
     def wait(self, expr: str, timeout: float = 20, what: str = "") -> object:
         """Poll ``expr`` until it is truthy; its value, or AssertionError at the deadline. An error
         while a page is being replaced (a form sent, a reload) is polled over too."""
@@ -103,7 +109,15 @@ class Chromium(Engine):
         self.ctx = self.browser.new_context(viewport={"width": SIZE[0], "height": SIZE[1]}, has_touch=True)
         self.page = self.ctx.new_page()
         self.cdp = self.ctx.new_cdp_session(self.page)
+        seen = self.seen = []
+        self.page.on("console", lambda m: m.type == "error" and seen.append(f"console: {m.text}"))
+        self.page.on("pageerror", lambda e: seen.append(f"error: {e}"))
+        self.page.on("requestfailed", lambda r: seen.append(f"failed: {r.url} {r.failure}"))
+        self.page.on("response", lambda r: r.status >= 400 and seen.append(f"{r.status}: {r.url}"))
         self.page.goto(url)
+
+    def problems(self):
+        return list(getattr(self, "seen", []))
 
     def js(self, expr):
         return self.page.evaluate(expr)
@@ -277,6 +291,9 @@ class Firefox(Engine):
 
     def key(self, key, down):
         self._send("key", key=key, down=down)
+
+    def problems(self):
+        return self._send("problems")
 
     def _touch(self, phase, x, y):
         self._send("touch", phase=phase, x=x, y=y)

@@ -14,6 +14,14 @@ leaves to its host (the course, its links, the gradebook, the members) is kept h
   link of the course, and its ``lineItem`` a gradebook column (line item) bound to it.
 
 ``gradebook`` is every score the tool posted, as (line item id, score JSON).
+
+LTI Dynamic Registration 1.0, which the package does not do, is this platform's own (as Moodle 4.x
+does it): ``/.well-known/openid-configuration`` (only with the registration token as a bearer),
+``/register`` (the tool's client registration, with that token, once: it gets a new client id and
+deployment, and its login, launch and key set URLs become the platform's registration of the tool),
+and ``/lms-admin?tool_url=URL``: the admin's page that opens the tool's registration URL in a frame
+with ``openid_configuration`` and ``registration_token``, and closes it on the tool's
+``org.imsglobal.lti.close`` message (``body[data-closed]``).
 """
 
 from __future__ import annotations
@@ -23,7 +31,8 @@ import itertools
 import json
 import re
 import typing as t
-from urllib.parse import urlencode
+from urllib.parse import quote, urlencode, urlsplit
+import secrets
 
 import tornado.web
 from cryptography.hazmat.primitives import serialization
@@ -175,11 +184,16 @@ class Platform:
         self.gradebook: list[tuple[str, dict]] = []
         self.members: list[dict] = []
         self.returned: list[list[dict]] = []     # content items of each deep linking response
+        self.registration_token: str | None = None   # a Dynamic Registration's token, good once
+        self.registered: list[dict] = []         # the tool registrations posted, as posted
+        self.tool_urls: dict | None = None       # the registered tool's login, launch and key set URLs
         self.served = Served([
             (r'/jwks', Jwks), (r'/start', Start), (r'/auth', Auth), (r'/token', Token),
             (r'/lineitems/?', LineItems), (r'/lineitems/([^/]+)', LineItem),
             (r'/lineitems/([^/]+)/scores', Scores), (r'/lineitems/([^/]+)/results', Results),
-            (r'/memberships', Memberships), (r'/dl-return', DlReturn)], {'p': self})
+            (r'/memberships', Memberships), (r'/dl-return', DlReturn),
+            (r'/.well-known/openid-configuration', OpenIdConfiguration), (r'/register', Register),
+            (r'/lms-admin', LmsAdmin)], {'p': self})
         self.issuer = f'http://127.0.0.1:{self.served.port}'
 
     def url(self, path: str) -> str:
@@ -189,11 +203,36 @@ class Platform:
         self.served.stop()
 
     def conf(self) -> PlatformConf:
+        urls = self.tool_urls or {'launch': self.tool + '/', 'deeplink': self.tool + '/lti/launch',
+                                  'login': self.tool + '/lti/login', 'jwks': self.tool + '/lti/jwks'}
         reg = (Registration().set_iss(self.issuer).set_client_id(self.client_id).set_deployment_id(self.deployment)
-               .set_launch_url(self.tool + '/').set_deeplink_launch_url(self.tool + '/lti/launch')
-               .set_oidc_login_url(self.tool + '/lti/login').set_tool_key_set_url(self.tool + '/lti/jwks')
+               .set_launch_url(urls['launch']).set_deeplink_launch_url(urls['deeplink'])
+               .set_oidc_login_url(urls['login']).set_tool_key_set_url(urls['jwks'])
                .set_platform_public_key(self.public_pem).set_platform_private_key(self.private_pem))
         return PlatformConf(registration=reg)
+
+    def openid_configuration(self) -> dict:
+        return {
+            'issuer': self.issuer, 'authorization_endpoint': self.url('/auth'), 'token_endpoint': self.url('/token'),
+            'jwks_uri': self.url('/jwks'), 'registration_endpoint': self.url('/register'),
+            'token_endpoint_auth_methods_supported': ['private_key_jwt'],
+            'token_endpoint_auth_signing_alg_values_supported': ['RS256'],
+            'scopes_supported': ['openid', 'https://purl.imsglobal.org/spec/lti-ags/scope/lineitem',
+                                 'https://purl.imsglobal.org/spec/lti-ags/scope/lineitem.readonly',
+                                 'https://purl.imsglobal.org/spec/lti-ags/scope/result.readonly',
+                                 'https://purl.imsglobal.org/spec/lti-ags/scope/score',
+                                 'https://purl.imsglobal.org/spec/lti-nrps/scope/contextmembership.readonly'],
+            'response_types_supported': ['id_token'], 'subject_types_supported': ['public', 'pairwise'],
+            'id_token_signing_alg_values_supported': ['RS256'], 'claims_supported': ['sub', 'iss', 'name'],
+            'https://purl.imsglobal.org/spec/lti-platform-configuration': {
+                'product_family_code': 'rosgate-test-lms', 'version': '1.0',
+                'messages_supported': [{'type': 'LtiResourceLinkRequest'}, {'type': 'LtiDeepLinkingRequest'}]},
+        }
+
+    def registration_page(self, tool_url: str) -> str:
+        """A new registration token, and the LMS admin's page that opens ``tool_url`` with it."""
+        self.registration_token = secrets.token_urlsafe(16)
+        return self.url(f'/lms-admin?tool_url={quote(tool_url, safe="")}')
 
     def tool_config(self, private_key_file: str, memberships: bool = True) -> dict:
         """This platform in the tool's configuration (PyLTI1p3's format)."""
@@ -341,6 +380,67 @@ class DlReturn(_H):
             if item.get('type') == 'ltiResourceLink':
                 self.p.add_link(item.get('title', ''), item.get('custom'), item.get('lineItem'))
         self.finish('<!doctype html><p id="done">added to the course</p>')
+
+
+TOOL_CONFIG = 'https://purl.imsglobal.org/spec/lti-tool-configuration'
+
+
+class OpenIdConfiguration(_H):
+    def get(self) -> None:
+        if not self.p.registration_token or \
+                self.request.headers.get('Authorization') != f'Bearer {self.p.registration_token}':
+            self.set_status(401)
+            self.finish({'error': 'the registration token is required'})
+            return
+        self.finish(self.p.openid_configuration())
+
+
+class Register(_H):
+    """The tool's client registration (OpenID Connect Dynamic Client Registration, LTI's claim)."""
+
+    def post(self) -> None:
+        token, self.p.registration_token = self.p.registration_token, None    # good once
+        if not token or self.request.headers.get('Authorization') != f'Bearer {token}':
+            self.set_status(401)
+            self.finish({'error': 'invalid_token'})
+            return
+        body = json.loads(self.request.body)
+        self.p.registered.append(body)
+        tool = body.get(TOOL_CONFIG) or {}
+        problems = [k for k, ok in (
+            ('application_type', body.get('application_type') == 'web'),
+            ('grant_types', {'implicit', 'client_credentials'} <= set(body.get('grant_types', []))),
+            ('response_types', body.get('response_types') == ['id_token']),
+            ('initiate_login_uri', str(body.get('initiate_login_uri', '')).startswith('http')),
+            ('redirect_uris', bool(body.get('redirect_uris'))), ('jwks_uri', bool(body.get('jwks_uri'))),
+            ('token_endpoint_auth_method', body.get('token_endpoint_auth_method') == 'private_key_jwt'),
+            ('messages', {m.get('type') for m in tool.get('messages', [])} >= {'LtiDeepLinkingRequest'}),
+            ('domain', tool.get('domain') == urlsplit(body.get('initiate_login_uri', '')).netloc)) if not ok]
+        if problems:
+            self.set_status(400)
+            self.finish({'error': 'invalid_client_metadata', 'error_description': ', '.join(problems)})
+            return
+        n = len(self.p.registered)
+        self.p.client_id, self.p.deployment = f'dr-client-{n}', f'dr-deployment-{n}'
+        deeplink = next(m['target_link_uri'] for m in tool['messages'] if m['type'] == 'LtiDeepLinkingRequest')
+        self.p.tool_urls = {'launch': tool['target_link_uri'], 'deeplink': deeplink,
+                            'login': body['initiate_login_uri'], 'jwks': body['jwks_uri']}
+        self.p.tool = tool['target_link_uri'].rstrip('/')
+        self.finish({**body, 'client_id': self.p.client_id,
+                     TOOL_CONFIG: {**tool, 'deployment_id': self.p.deployment}})
+
+
+class LmsAdmin(_H):
+    def get(self) -> None:
+        tool_url = self.get_argument('tool_url')
+        params = urlencode({'openid_configuration': self.p.url('/.well-known/openid-configuration'),
+                            'registration_token': self.p.registration_token or ''})
+        src = tool_url + ('&' if '?' in tool_url else '?') + params
+        self.finish('<!doctype html><title>LMS admin</title><h1>Register a tool</h1>'
+                    f'<iframe id="tool" width="900" height="500" src="{html.escape(src)}"></iframe><script>'
+                    "addEventListener('message', (e) => { if (e.data?.subject === 'org.imsglobal.lti.close') {"
+                    " document.body.dataset.closed = 'yes'; document.getElementById('tool').remove(); } });"
+                    '</script>')
 
 
 FORM_FIELD = re.compile(r'<input type="hidden" name="([^"]+)" value="([^"]*)">')
