@@ -52,7 +52,8 @@ def start(gateway: Gateway, files: rules.Files) -> Parts:
     settings = gateway.settings
     runs, runs_socket = start_runs(gateway)
     checker = Checker(gateway)
-    gateway.install(rules.compose(gateway, files, reads=rosapi.handles, runs=runs, watched=checker.watching))
+    gateway.install(rules.compose(gateway, files, reads=rosapi.handles, runs=runs, attempts=checker.live,
+                                  keepers=(runs.keeper,)))
     recordings = start_recordings(gateway)
     checker.recorder = recordings
     history = start_history(gateway)

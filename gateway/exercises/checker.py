@@ -7,10 +7,12 @@ the exercise's time limit, or when the program stops (``stop``); its result is w
 and handed to every callable in ``on_result(identity, exercise, attempt_result)``: the grades code
 subscribes there. With a ``recorder`` (the gateway's recordings), each attempt records the robot's
 pose (and scan, and the topics of its goal) and the station's velocity commands, owned by the
-student: the teacher's replay of the run. While an attempt is live, the robot's pose and scan topics it reads are the
-robot's alone: ``watching`` is the publish door's rule that refuses a client's or a run's message
-on them (on the sim a client's /turtle1/pose reached the fan-out as the robot's own, and passed a
-goal never reached). A ``topic`` goal's topic stays open: it may be what the program publishes.
+student: the teacher's replay of the run. While an attempt is live (``live()``), its station is
+kept for it by ``rules.attempts``: the pose and scan it reads (``Attempt.kept``) are the robot's
+alone (on the sim a client's /turtle1/pose reached the fan-out as the robot's own, and passed a goal
+never reached), its station is the attempter's, and no service moves the robot without driving it
+(the exercise's ``allow_services`` excepted, its ``refuse_services`` besides). A ``topic`` goal's
+topic stays open: it may be what the program publishes.
 """
 
 from __future__ import annotations
@@ -39,6 +41,8 @@ class Exercise:
     start: dict = field(default_factory=dict)    # {"blocks": ...} or {"text": ...}
     pose_topic: str = 'pose'                     # relative to the station's namespace
     scan_topic: str = ''
+    allow_services: tuple = ()                   # the station's services it allows that move the robot
+    refuse_services: tuple = ()                  # and those it refuses besides (names or globs)
 
 
 @dataclass(frozen=True)
@@ -61,8 +65,14 @@ class AttemptResult:
 
 
 class Attempt:
-    def __init__(self, checker: 'Checker', exercise: Exercise, identity, station: str, program: str):
+    def __init__(self, checker: 'Checker', exercise: Exercise, identity, station: str, program: str,
+                 person: str | None = None):
         self.checker, self.exercise, self.identity, self.station = checker, exercise, identity, station
+        self.person = person or ''                   # whose station it is while it is live (rules.attempts)
+        self.name = identity.name if identity is not None else 'anyone'
+        self.kept: frozenset[str] = frozenset()     # the pose and scan topics it reads
+        self.allow = tuple(checker.topic(station, n) for n in exercise.allow_services)
+        self.refuse = tuple(checker.topic(station, n) for n in exercise.refuse_services)
         self.id = secrets.token_hex(8)
         self.program = program[:results.MAX_PROGRAM]
         self.evaluation = Evaluation(exercise.goal)
@@ -127,15 +137,18 @@ class Checker:
         ns = station.strip('/')
         return f'/{ns}/{name}' if ns else f'/{name}'
 
-    def start(self, exercise: Exercise, identity, station: str, program: str) -> Attempt:
+    def start(self, exercise: Exercise, identity, station: str, program: str, person: str | None = None) -> Attempt:
+        """A new attempt of ``person`` on ``station`` (rules.attempts has let it start): the one of
+        theirs live there ends as stopped."""
         for live in self.attempts.values():
             if live.station == station:
                 live.end('stopped')
                 break
-        attempt = Attempt(self, exercise, identity, station, program)
+        attempt = Attempt(self, exercise, identity, station, program, person)
         watch = [(self.topic(station, exercise.pose_topic), 'pose')]
         if exercise.scan_topic:
             watch.append((self.topic(station, exercise.scan_topic), 'scan'))
+        attempt.kept = frozenset(t for t, _ in watch)
         watch += [(t, 'topic') for t in sorted(topics_of(attempt.evaluation.root))]
         self.attempts[attempt.id] = attempt
         try:
@@ -153,7 +166,8 @@ class Checker:
         who = attempt.identity
         try:
             attempt.recording = self.recorder.start(tuple(globs), attempt.exercise.time_limit + 1,
-                                                    who.owner if who else None, counted=False)
+                                                    who.owner if who else None, counted=False, who=who,
+                                                    attempt=attempt.id)
         except Exception as e:   # a full disk: the attempt is checked all the same, without its replay
             log.warning('attempt %s is not recorded: %s', attempt.id, e)
 
@@ -165,14 +179,9 @@ class Checker:
         self.recorder.stop(rec, f'attempt {attempt.id} ended')
         return rec.id if rec.state == 'done' else None
 
-    def watching(self, topic: str) -> str | None:
-        """Why ``topic`` may not be published through the gateway now (a live attempt reads it as the
-        robot's pose or scan), or None."""
-        for attempt in self.attempts.values():
-            if any(fan.topic == topic and key[2] in ('pose', 'scan') for fan, key in attempt.taps):
-                return (f'{topic} is read by a live exercise attempt on {attempt.station or "/"}: its goal is '
-                        'checked on the robot\'s own messages, not on a client\'s')
-        return None
+    def live(self):
+        """The attempts going now (rules.attempts keeps their stations)."""
+        return self.attempts.values()
 
     def _tap(self, attempt: Attempt, topic: str, kind: str) -> None:
         gw = self.gateway

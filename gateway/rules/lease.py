@@ -30,6 +30,7 @@ JSON: {"driver": <holder of "/"> | null, "drivers": {group: holder | null}, "sta
 being {"client", "name", "role", "remote", "since", "owner": whether it is the station's owner's,
 "run": its run id or null; in a fleet of gateways, one driving through another gateway has
 "elsewhere": true and only "name" and "owner"}.
+A station's other names (services, actions, other topics) are its holder's too: ``stationnames``.
 """
 
 from __future__ import annotations
@@ -44,11 +45,13 @@ from fnmatch import fnmatchcase
 from protocol.errors import ProtocolError
 
 from ..backends.base import QoS
+from .access import role_of
 from .policy import CONTROL_TOPIC, GATEWAY_ROLE
 
 log = logging.getLogger('rosgate.lease')
 from .safety import moving_command
 from .stations import Stations, person
+from .stationnames import StationNames
 from .hooks import Hook
 
 DRIVER_TOPIC = '/rosgate/driver'
@@ -82,6 +85,7 @@ class Lease(Hook):
         self.halted: dict[str, str] = {}         # group -> who stopped it, until "take" by its owner
         self.lent: dict[str, object] = {}        # group -> the session a run of the same person took it from
         self.fleet = None                        # store.fleet.Fleet: the other gateways' leases (rules.fleet)
+        self.names = StationNames(self)          # a station's services, actions and other topics: the holder's
         backend = gateway.backend
         self._driver = gateway.own_topic(DRIVER_TOPIC, STRING, QoS(depth=1, transient_local=True))
         # declares the control topic so clients may publish to it without a type
@@ -216,11 +220,16 @@ class Lease(Hook):
         if pub.topic == CONTROL_TOPIC:
             self._command(session, str(msg.get('data', '')).split())
             return None
+        if not self.is_command(pub.topic, pub.type):   # a station's other topics: its holder's (stationnames)
+            why = self.names.refusal(session, pub.topic)
+            if why is not None:
+                raise ProtocolError(why)
+            return msg
         self.require(session, pub.topic, pub.type, msg)
         return msg
 
     def _may_override(self, session) -> bool:
-        return self.may_take_over(session.attrs.get('role'))
+        return self.may_take_over(role_of(session))
 
     def may_take_over(self, role: str | None) -> bool:
         return self.takeover_role is None or role == self.takeover_role

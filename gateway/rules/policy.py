@@ -88,8 +88,9 @@ class Policy:
     the driver lease and stations. Every reader asks ``policy.auth``, ``.sessions``, ``.lease``
     and ``.stations`` the same way: None where this gateway has none."""
 
-    def __init__(self, settings, *, reads: Callable[[str], bool] = lambda name: False):
+    def __init__(self, settings, *, reads: Callable[[str], bool] = lambda name: False, keepers: tuple = ()):
         self.auth: Authenticator | None = None
+        self.keepers = keepers  # (who, action, name) -> why not | None: parts keeping names (rules.access.KEEPERS)
         self.sessions: Sessions | None = None
         self.lease = None       # rules.lease.Lease with --exclusive-control
         self.stations = None    # rules.stations.Stations on a fleet
@@ -131,6 +132,11 @@ class Policy:
         """The one access rule (``rules.access.may``): None, or why ``who`` may not ``action`` ``name``."""
         if name is not None and not self.allows(who, action, name):
             return f'{name} is not allowed for {action} by this gateway'
+        if name is not None and who is not None and role_of(who) != GATEWAY_ROLE:   # nor from the gateway itself
+            for keeper in self.keepers:
+                why = keeper(who, action, name)
+                if why is not None:
+                    return why
         return None
 
     def check(self, session, action: str, name: str, op: str, id: str | None) -> None:
@@ -198,8 +204,9 @@ class Limits:
 
 class SecurePolicy(Policy):
     def __init__(self, settings, *, auth: Authenticator | None = None, limits: Limits = Limits(), lease=None,
-                 stations=None, reads: Callable[[str], bool] = lambda name: False, sessions: Sessions | None = None):
-        super().__init__(settings, reads=reads)
+                 stations=None, reads: Callable[[str], bool] = lambda name: False, sessions: Sessions | None = None,
+                 keepers: tuple = ()):
+        super().__init__(settings, reads=reads, keepers=keepers)
         self.auth, self.limits, self.lease, self.stations = auth, limits, lease, stations
         self.sessions = sessions
 

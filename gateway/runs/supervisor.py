@@ -37,11 +37,10 @@ from pathlib import Path
 import tornado.httpserver
 import tornado.netutil
 
-from protocol import ops
 from protocol.errors import ProtocolError
 
 from ..backends.base import QoS
-from ..rules.access import ADMINS, owns
+from ..rules.access import ADMINS, owns, person_of
 from ..rules.errors import Refusal
 from ..rules.hooks import Hook
 from ..rules.safety import Safety, moving_command
@@ -365,17 +364,19 @@ class RunManager(Hook):
             except ProtocolError as e:
                 self._line(run, f'[driver lease: {e.message}]\n', ours=True)
 
-    def subscribe_guard(self, session, op) -> None:
-        """A run's output and state topics are its starter's and the admins', as GET is."""
-        found = RUN_TOPIC.fullmatch(op.topic) if isinstance(op, ops.Subscribe) else None
+    def keeper(self, who, action: str, name: str) -> str | None:
+        """A run's output and state topics are its starter's and the admins', as GET is: a keeper of
+        ``rules.access``, so a recording or a stream is refused them as a subscription is."""
+        found = RUN_TOPIC.fullmatch(name) if action == 'subscribe' else None
         run = self.runs.get(found.group(1)) if found else None
         if run is None or self.gateway.policy.auth is None:
-            return
-        attrs = session.attrs
-        if owns(session, attrs.get('run') == run.id or (run.owner is not None and attrs.get('person') == run.person)):
-            return
-        raise ProtocolError(f'{op.topic}: run {run.id} was started by {run.owner or "someone else"}; its output '
-                            'and state are for them and admins', op=op.OP, id=op.id)
+            return None
+        attrs = getattr(who, 'attrs', {})
+        mine = attrs.get('run') == run.id or (run.owner is not None and person_of(who) == run.person)
+        if owns(who, mine):
+            return None
+        return (f'{name}: run {run.id} was started by {run.owner or "someone else"}; its output and state '
+                'are for them and admins')
 
     def publish_hook(self, session, pub, msg, issued=None):
         """A run being stopped may still send commands before its SIGINT lands: those that would

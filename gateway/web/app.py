@@ -33,7 +33,7 @@ from .lti import lti_routes
 from .roster import roster_routes
 from .pages import Application, PublicFileHandler, write_page
 from .programs import program_routes
-from .recordings import recording_routes
+from .recordings_api import recording_routes
 from .runs import run_routes
 from .socket import RosbridgeHandler
 from .video import video_routes

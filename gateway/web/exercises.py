@@ -12,7 +12,8 @@ GET  /api/exercise-results[?exercise=ID][&person=KEY]
 
 Results are private: a student reads only their own (another's ``person`` is a 403); an admin
 reads everyone's. An attempt may be started only on a station the caller could run a program on
-(the driver lease's ``run_refusal``: not another person's station), since it is graded for them.
+(not another person's station, nor over another's live attempt), since it is graded for them, and
+within the per-person caps: ``rules.attempts`` decides, with the status that says why (409, 429).
 """
 
 from __future__ import annotations
@@ -83,15 +84,14 @@ class AttemptsHandler(JsonHandler):
         if not isinstance(station, str) or not isinstance(program, str):
             raise tornado.web.HTTPError(400, '"station" is a namespace and "program" the program\'s text')
         ns = '/' + station.strip('/') if station.strip('/') else ''
-        lease = self.gateway.policy.lease
         person = person_of(identity, self.request.cookies) or ''
-        why = lease.run_refusal(person, identity.role if identity else None, ns) if lease is not None else None
-        if why is not None:
-            raise tornado.web.HTTPError(409, why)
+        rule = self.gateway.ruleset.attempts
+        rule.start_refusal(identity, person, ns)    # another's station or live attempt, past a cap: its status
         try:
-            attempt = self.checker.start(ex, identity, ns, program)
+            attempt = self.checker.start(ex, identity, ns, program, person)
         except LookupError as e:
             raise tornado.web.HTTPError(409, str(e.args[0])) from None
+        rule.started(person)
         self.set_status(201)
         self.finish({'attempt': attempt.id, 'exercise': ex.id, 'station': ns, 'time_limit': ex.time_limit})
 
