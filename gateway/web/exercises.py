@@ -7,8 +7,9 @@ POST /api/exercises/ID/attempts {"station": NS, "program": TEXT}
                                     -> {"attempt": ATTEMPT_ID}: the goal is now watched on NS's topics
 GET  /api/attempts/ATTEMPT_ID       -> {"live": true} while it runs, else its result (the starter or an admin)
 POST /api/attempts/ATTEMPT_ID/stop  -> the attempt ends ("stopped"), its result
-GET  /api/exercise-results[?exercise=ID][&person=KEY]
+GET  /api/exercise-results[?exercise=ID][&person=KEY][&summary=1]
                                     -> {"results": [...], "summary": [{person, exercise, best, last, attempts}]}
+                                       (summary=1: the summary alone)
 
 Results are private: a student reads only their own (another's ``person`` is a 403); an admin
 reads everyone's. An attempt may be started only on a station the caller could run a program on
@@ -145,6 +146,9 @@ class ResultsHandler(JsonHandler):
         summary = [{'person': p, 'exercise': e, 'name': v['last']['name'], 'attempts': v['attempts'],
                     'best': v['best'], 'last': v['last']}
                    for (p, e), v in results.best_and_last(rows).items()]
+        if self.get_query_argument('summary', '') not in ('', '0'):   # the class view's look every 10 s
+            self.finish({'summary': summary})
+            return
         self.finish({'results': rows, 'summary': summary})
 
 

@@ -26,7 +26,7 @@ function define(def, colour) {
 
 export async function showProgram(report, ns) {
   const dlg = document.querySelector('#dlg-program');
-  document.querySelector('#program-title').textContent = `${ns} · ${report?.user || t('class.student')} · ${report?.name ?? ''}`;
+  document.querySelector('#program-title').textContent = `${ns} · ${report?.by?.name || t('class.student')} · ${report?.name ?? ''}`;
   document.querySelector('#program-close').onclick = () => dlg.close();
   dlg.showModal();
   const view = document.querySelector('#program-view');
