@@ -103,6 +103,43 @@ def test_a_recording_takes_only_what_its_starter_may_subscribe_to(school):
     assert alices_file.status == 200 and b'secret answer 42' in alices_file.body
 
 
+# --- 2. blocks from outside are data (the page's own check: tests/ide/test_shared_content.py) -------------
+
+def made(**json_) -> dict:
+    return {'json': {'type': 'my_hello', 'message0': 'say hello %1', 'previousStatement': None, 'nextStatement': None,
+                     'args0': [{'type': 'input_value', 'name': 'F0', 'check': 'String'}], 'tooltip': 'publish /chatter',
+                     **json_},
+            'spec': {'kind': 'publish', 'topic': '/chatter', 'type': 'std_msgs/msg/String', 'msg': {'data': '$F0'}},
+            'toolboxInputs': {'F0': {'shadow': {'type': 'text', 'fields': {'TEXT': 'hi'}}}}}
+
+
+@pytest.mark.parametrize('field, bad', [
+    ('helpUrl', 'javascript:fetch("/api/blocks/shared")'), ('helpUrl', ' JaVa\tScRiPt:alert(1)'),
+    ('helpUrl', 'data:text/html,<script>alert(1)</script>'), ('tooltip', 'javascript:alert(1)'),
+    ('message0', 'say <img src=x onerror=alert(1)> %1'), ('args0', [{'type': 'field_image', 'src': 'javascript:alert(1)'}]),
+    ('extensions', ['ros_typed_name']), ('type', 'controls_if'), ('onchange', 'alert(1)')])
+def test_the_class_library_takes_blocks_as_data_only(school, field, bad):
+    status, body = api(school, 'POST', '/api/blocks/shared', made(**{field: bad}), TEACHER)
+    assert status == 400 and field in body['error'], body
+    assert all(m['json']['type'] != 'controls_if' for m in api(school, 'GET', '/api/blocks', token=ALICE)[1]['shared'])
+
+
+def test_a_good_block_is_published_and_a_bad_set_or_kept_block_is_left_out(school, base):
+    status, body = api(school, 'POST', '/api/blocks/shared', made(helpUrl='https://docs.ros.org/'), TEACHER)
+    assert status == 200, body
+    (base / 'blocks' / 'evil.json').write_text(json.dumps({'name': 'evil', 'blocks': [
+        {'type': 'evil_help', 'message0': 'help me', 'helpUrl': 'javascript:alert(document.cookie)'}]}))
+    (base / 'blocks' / 'fine.json').write_text(json.dumps({'name': 'fine', 'blocks': [
+        {'type': 'fine_block', 'message0': 'fine', 'helpUrl': 'https://example.org/help'}]}))
+    shared = base / 'blocks' / 'shared.json'
+    kept = json.loads(shared.read_text())
+    shared.write_text(json.dumps({'made': kept['made'] + [made(type='my_evil', helpUrl='javascript:alert(1)')]}))
+    got = api(school, 'GET', '/api/blocks', token=ALICE)[1]
+    assert [s['name'] for s in got['sets']] == ['fine'] and 'evil.json' in got['skipped'][0]['file']
+    assert 'helpUrl' in got['skipped'][0]['why']
+    assert [m['json']['type'] for m in got['shared']] == ['my_hello']
+
+
 # --- 3. a station's services are its holder's; an attempt is driven, not teleported ---------------
 
 def test_a_stations_services_and_topics_are_its_holders(school):
