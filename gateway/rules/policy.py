@@ -52,6 +52,18 @@ def permission(action: str, name: str, reads: Callable[[str], bool]) -> str:
 
 
 
+RANKS = ('viewer', 'operator', 'admin')
+
+
+def lowered(role: str, asked) -> str:
+    """``role``, or the lower one a connection asks for (``?as=operator``: a page running a program
+    from another person's share link lends it no admin rights, ide/js/foreign.js); never higher."""
+    want = asked[-1].decode('ascii', 'replace') if isinstance(asked, list) and asked else asked
+    if isinstance(want, str) and want in RANKS and role in RANKS and RANKS.index(want) < RANKS.index(role):
+        return want
+    return role
+
+
 def token_from_request(request) -> str | None:
     """A token given with a request: ?token= or Authorization: Bearer (the session cookie of
     /login is not a token: see ``sessions``)."""
@@ -350,7 +362,8 @@ class SecurePolicy(Policy):
             attrs['auth_error'] = str(e)
         else:
             if identity is not None:
-                attrs.update(role=identity.role, name=identity.name, person=person_of(identity, {}))
+                attrs.update(role=lowered(identity.role, request.query_arguments.get('as')),
+                             name=identity.name, person=person_of(identity, {}))
         return attrs
 
 
