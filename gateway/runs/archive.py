@@ -114,7 +114,7 @@ class Archive:
         if where is not None:
             free = shutil.disk_usage(where).free
             if free < need + DISK_RESERVE:
-                raise ArchiveFull(507, f'only {free // 2**20} MiB free in {where}; a kept run needs '
+                raise ArchiveFull(507, f'only {free // 2**20} MiB free on the store\'s disk; a kept run needs '
                                        f'{(need + DISK_RESERVE) // 2**20} MiB')
 
     def begin(self, run, source: str, kind: str) -> None:

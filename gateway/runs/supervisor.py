@@ -119,8 +119,9 @@ class RunManager(Hook):
         try:
             workdir.mkdir(parents=True, mode=0o700)
             (workdir / 'program.py').write_text(program)
-        except OSError as e:
-            raise RunError(500, f'cannot prepare the run directory: {e}') from None
+        except OSError:     # the log says where (a path is the admins')
+            log.exception('run %s: cannot prepare %s', run_id, workdir)
+            raise RunError(500, 'cannot prepare the run directory (the gateway\'s log says why)') from None
         run = Run(run_id, name, ns, timeout, workdir)
         run.kind = kind
         run.role, run.person, run.owner, run.who = role, person, owner, who

@@ -199,14 +199,16 @@ class RecordingManager(Hook):
         self.dir.mkdir(parents=True, exist_ok=True)
         free = shutil.disk_usage(self.dir).free
         if free < lim.max_bytes + lim.disk_reserve:
-            raise tornado.web.HTTPError(507, f'only {free // 2**20} MiB free in {self.dir}; a recording needs '
+            log.warning('recordings: only %d MiB free in %s', free // 2**20, self.dir)   # the folder: the admins'
+            raise tornado.web.HTTPError(507, f'only {free // 2**20} MiB free for recordings; a recording needs '
                                              f'{(lim.max_bytes + lim.disk_reserve) // 2**20} MiB')
         rec_id = f"rec-{time.strftime('%Y%m%d-%H%M%S')}-{secrets.token_hex(2)}"
         try:
             rec = Recording(self, rec_id, globs, max_seconds, owner, who, attempt)
             rec.counted = counted
-        except Exception as e:   # rosbags' WriterError, OSError
-            raise tornado.web.HTTPError(500, f'cannot create the recording in {self.dir}: {e}') from None
+        except Exception:   # rosbags' WriterError, OSError: the log says where (a path is the admins')
+            log.exception('cannot create recording %s in %s', rec_id, self.dir)
+            raise tornado.web.HTTPError(500, 'cannot create the recording (the gateway\'s log says why)') from None
         self.recordings[rec_id] = rec
         try:
             self._match(rec)

