@@ -105,8 +105,8 @@ class BlockSchema:
             kind = self.s['made'].get(key)
             if kind is None:
                 return f'{where}.{key}: not a key of a made block (json, spec, toolboxInputs)'
-            why = self.block_problem(value, f'{where}.json', made=True) if kind == 'block' else \
-                self._value(kind, value, f'{where}.{key}', True)
+            why = self.block_problem(value, f'{where}.json', made=True) if kind == 'block' else (
+                self.data_problem(value, f'{where}.{key}') or self._value(kind, value, f'{where}.{key}', True))
             if why:
                 return why
         return None

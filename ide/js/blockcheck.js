@@ -135,7 +135,8 @@ export function madeProblem(made, where = 'block') {
   for (const [key, value] of Object.entries(made)) {
     const kind = schema.made[key];
     if (!kind) return `${where}.${key}: not a key of a made block (json, spec, toolboxInputs)`;
-    const why = kind === 'block' ? blockProblem(value, `${where}.json`, { made: true }) : valueProblem(kind, value, `${where}.${key}`, true);
+    const why = kind === 'block' ? blockProblem(value, `${where}.json`, { made: true })
+      : dataProblem(value, `${where}.${key}`) ?? valueProblem(kind, value, `${where}.${key}`, true);
     if (why) return why;
   }
   return null;
