@@ -8,12 +8,13 @@ robot's. So a station's services and actions (``name_refusal``, a keeper of ``ru
 for every call, goal and advertise) and what is published on its other topics (``refusal``, at the
 publish door, where the topic's type tells a command from the rest) are the holder's (any client
 of the holder's person: her IDE, her teleop, her run), else the station's owner's (a walk-in's
-where nobody owns it, as a command would take it), and the admins'. Nobody's while the teacher's
-stop holds. What reads (``READS``: parameters' getters) and the gateway's own services (the
-stations' claims, which know who calls) stay as they were.
+where nobody owns it, as a command would take it), and the admins'; its services nobody's while
+the teacher's stop holds (its topics stay its owner's: her page still reports its program). What
+reads (``READS``: parameters' getters) and the gateway's own services (the stations' claims,
+which know who calls) stay as they were.
 
 ``MOVERS``: the services that move a robot without driving it. A live exercise attempt refuses
-them to everyone on its station (``exercises.checker``): a teleport passed a goal in a second.
+them to everyone on its station (``rules.attempts``): a teleport passed a goal in a second.
 """
 
 from __future__ import annotations
@@ -45,10 +46,12 @@ class StationNames:
         name is no station's)."""
         if action not in KEPT or name in self.lease.gateway.own_services or name.rsplit('/', 1)[-1] in READS:
             return None
-        return self.refusal(asker, name)
+        return self.refusal(asker, name, call=True)
 
-    def refusal(self, asker, name: str) -> str | None:
-        """Why ``asker`` (a session, a sender or an Identity) may not use ``name`` of a station."""
+    def refusal(self, asker, name: str, call: bool = False) -> str | None:
+        """Why ``asker`` (a session, a sender or an Identity) may not use ``name`` of a station: a
+        topic it publishes on, or (``call``) a service or action, which nobody calls while the
+        teacher's stop holds (a teleport moves the robot; a program report does not)."""
         lease = self.lease
         group = lease.group(name)
         if group not in lease.stations() or (lease.takeover_role is not None and role_of(asker) == lease.takeover_role):
@@ -62,7 +65,7 @@ class StationNames:
             driver = f'{label} (client {holder.id})' if label else f'client {holder.id}'
             return (f'{name}: {driver} is driving {group} (exclusive control), and its services and topics are '
                     f'theirs; {lease._way_out(asker, group)}')
-        stopper = lease.halted.get(group)
+        stopper = lease.halted.get(group) if call else None
         if stopper is not None:
             return f'{name}: {stopper} stopped {group}; send "take {group}" (the Take button) first'
         elsewhere = lease.elsewhere(group, key)
