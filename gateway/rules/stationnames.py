@@ -40,6 +40,21 @@ class StationNames:
 
     def __init__(self, lease):
         self.lease = lease
+        self._stations: tuple = ()
+        self._groups: dict[str, str] = {}   # name -> its group, while the stations stay the same
+
+    def _group(self, name: str) -> tuple[str, tuple]:
+        """(name's group, the stations): remembered per name, as the door asks for every message
+        (measured: the lookup over 30 stations was most of a non-command message's cost)."""
+        stations = self.lease.stations()
+        if stations is not self._stations:
+            self._stations, self._groups = stations, {}
+        group = self._groups.get(name)
+        if group is None:
+            if len(self._groups) > 4096:
+                self._groups.clear()
+            group = self._groups[name] = self.lease.group(name)
+        return group, stations
 
     def name_refusal(self, asker, action: str, name: str) -> str | None:
         """Why ``asker`` may not call, send a goal to or advertise ``name`` (None: it may, or the
@@ -53,11 +68,13 @@ class StationNames:
         topic it publishes on, or (``call``) a service or action, which nobody calls while the
         teacher's stop holds (a teleport moves the robot; a program report does not)."""
         lease = self.lease
-        group = lease.group(name)
-        if group not in lease.stations() or (lease.takeover_role is not None and role_of(asker) == lease.takeover_role):
+        group, stations = self._group(name)
+        if group not in stations or (lease.takeover_role is not None and role_of(asker) == lease.takeover_role):
+            return None
+        holder = lease.holders.get(group)
+        if holder is asker:
             return None
         key = person_of(asker) or person(asker)
-        holder = lease.holders.get(group)
         if holder is not None:
             if person(holder) == key:
                 return None
