@@ -337,6 +337,34 @@ def test_an_attempts_recording_is_read_by_its_student_and_kept_for_the_teacher(s
     assert api(school, 'DELETE', f'/api/recordings/{rec}', token=TEACHER)[0] == 204
 
 
+@pytest.fixture(scope='module')
+def small_archive(launch, base):
+    """Runs kept in a small archive: 16 KiB in all, 4 KiB a run (a person's share: a quarter)."""
+    return launch('--auth', str(base / 'tokens.toml'), '--allow-runs', '--runs-dir', str(base / 'runs-small'),
+                  '--run-output-cap', '4K', '--runs-keep-bytes', '16K')
+
+
+def kept_run(gw, token: str, text: str, times: int) -> str:
+    source = f'print({text!r} * {times}, flush=True)\n'
+    status, run = api(gw, 'POST', '/api/runs', {'source': source, 'name': 'output'}, token)
+    assert status == 201, run
+    wait_for(lambda: api(gw, 'GET', f"/api/runs/{run['id']}", token=token)[1]['state'] not in ('starting', 'running'),
+             60, 0.1, what='the run ended')
+    return run['id']
+
+
+def test_one_persons_runs_do_not_evict_everyone_elses(small_archive):
+    """The runs archive had one budget for all: one person's runs evicted every other person's kept
+    runs. Now a person's runs past their share evict their own oldest."""
+    alices = kept_run(small_archive, ALICE, 'alice was here. ', 190)   # 3 KB
+    bobs = [kept_run(small_archive, BOB, 'bob fills the archive with this line. ', 90) for _ in range(8)]   # 3.4 KB each
+    kept = lambda token: {r['id'] for r in api(small_archive, 'GET', '/api/runs?all=1', token=token)[1]['runs']}   # noqa: E731
+    wait_for(lambda: bobs[0] not in kept(BOB), WAIT, 0.1, what="bob's oldest run evicted")
+    assert alices in kept(ALICE) and alices in kept(TEACHER)
+    assert bobs[-1] in kept(BOB)
+    assert 'alice was here.' in http(small_archive, f'/api/runs/{alices}/output', token=ALICE).body.decode()
+
+
 # --- 6. secrets and errors ------------------------------------------------------------------------
 
 def test_no_secret_and_no_server_path_in_an_answer(school, base):
