@@ -122,6 +122,9 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument('--runs-keep-bytes', dest='runs.runs_keep_bytes', type=_size, metavar='BYTES',
                    help='the kept runs in all (2G, 500M ...): the oldest go past it, and a run that could not '
                         'fit is refused (507) [%(default)s]')
+    r.add_argument('--runs-keep-share', dest='runs.runs_keep_share', type=_share, metavar='F',
+                   help='the most of --runs-keep-bytes one person\'s kept runs may take (0.25: a quarter); past it '
+                        'their own oldest go, never another\'s [%(default)s]')
     r.add_argument('--recordings-dir', dest='storage.recordings_dir', type=Path, metavar='DIR',
                    help='where recordings made from the pages and /api/recordings go '
                         '[--record\'s DIR, else $XDG_DATA_HOME/rosgate/recordings]')
@@ -166,6 +169,13 @@ def _at_least_one(text: str) -> int:
     value = int(text)
     if value < 1:
         raise argparse.ArgumentTypeError(f'at least 1, not {value}')
+    return value
+
+
+def _share(text: str) -> float:
+    value = float(text)
+    if not 0 < value <= 1:
+        raise argparse.ArgumentTypeError(f'a share above 0 and at most 1 (0.25: a quarter), not {text!r}')
     return value
 
 

@@ -53,7 +53,8 @@ def start(gateway: Gateway, files: rules.Files) -> Parts:
     runs, runs_socket = start_runs(gateway)
     checker = Checker(gateway)
     reads = lambda name: rosapi.handles(name) or name == topicstats.SERVICE   # noqa: E731 (what viewers may call)
-    gateway.install(rules.compose(gateway, files, reads=reads, runs=runs, watched=checker.watching))
+    gateway.install(rules.compose(gateway, files, reads=reads, runs=runs, attempts=checker.live,
+                                  keepers=(runs.keeper,)))
     topicstats.TopicStats(gateway)   # /rosgate/topic_stats: the rates /inspect shows
     recordings = start_recordings(gateway)
     checker.recorder = recordings

@@ -129,6 +129,7 @@ class RunSettings:
     runs_keep_days: float = 180.0              # kept runs older than this are deleted
     runs_keep_count: int = 500                 # each person's newest kept runs
     runs_keep_bytes: int = 2 * 2**30           # the kept runs' output, sources and recordings in all
+    runs_keep_share: float = 0.25              # of runs_keep_bytes, the most one person's kept runs take
 
 
 @dataclass(frozen=True)

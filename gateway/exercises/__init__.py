@@ -8,7 +8,13 @@ writes one there too)::
      "station_kind": "turtlesim", "time_limit": 60,
      "start": {"blocks": {...}} or {"text": "..."},
      "pose_topic": "pose", "scan_topic": "scan",
-     "goal": {"all": [{"region": {"xmin": 8, "xmax": 11, "ymin": 8, "ymax": 11}}, {"within": 45}]}}
+     "goal": {"all": [{"region": {"xmin": 8, "xmax": 11, "ymin": 8, "ymax": 11}}, {"within": 45}]},
+     "allow_services": ["turtle1/set_pen"], "refuse_services": ["turtle1/rotate_absolute"]}
+
+During an attempt the station's services that move the robot without driving it (teleport, reset,
+spawn, kill: ``rules.stationnames.MOVERS``) are refused to everyone, and so are those the exercise
+names in ``refuse_services``; ``allow_services`` lets some through (names relative to the station,
+or globs).
 
 The title and the instructions (Markdown, shown beside the editor: the IDE renders it with no HTML
 of its own) are a text or one per language (``{"en": ..., "es": ...}``; ``title`` may be such an
@@ -33,6 +39,7 @@ __all__ = ['AttemptResult', 'Checker', 'Exercise', 'ExerciseError', 'Library', '
 ID = re.compile(r'^[A-Za-z0-9][A-Za-z0-9_-]{0,63}$')
 TOPIC = re.compile(r'^/?[A-Za-z_][A-Za-z0-9_/]{0,200}$')
 LANG = re.compile(r'^[A-Za-z]{2,3}([-_][A-Za-z0-9]{1,8}){0,3}$')
+SERVICE = re.compile(r'^/?[A-Za-z_*?][A-Za-z0-9_/*?]{0,200}$')
 MAX_FILE = 256 * 1024
 MAX_INSTRUCTIONS = 64 * 1024
 MAX_TIME = 3600.0
@@ -64,6 +71,12 @@ def parse(ex_id: str, data) -> Exercise:
         if not isinstance(value, str) or (value and not TOPIC.match(value)):
             raise ExerciseError(f'{ex_id}: {key} is a topic name')
         topics[key] = value
+    services = {}
+    for key in ('allow_services', 'refuse_services'):
+        value = data.get(key, [])
+        if not isinstance(value, list) or len(value) > 64 or not all(isinstance(v, str) and SERVICE.match(v) for v in value):
+            raise ExerciseError(f'{ex_id}: {key} is a list of service names or globs (64 at most)')
+        services[key] = tuple(value)
     title, kind = data.get('title', ex_id), data.get('station_kind', '')
     if not isinstance(kind, str):
         raise ExerciseError(f'{ex_id}: station_kind is text')
@@ -77,7 +90,8 @@ def parse(ex_id: str, data) -> Exercise:
         raise ExerciseError(f'{ex_id}: title is a text, or an object of language -> text')
     instructions = _texts(ex_id, 'instructions', data.get('instructions', ''), MAX_INSTRUCTIONS, empty=True)
     return Exercise(id=ex_id, title=title[:200], goal=data['goal'], time_limit=float(limit),
-                    station_kind=kind[:100], start=start, titles=titles, instructions=instructions, **topics)
+                    station_kind=kind[:100], start=start, titles=titles, instructions=instructions, **topics,
+                    **services)
 
 
 def _texts(ex_id: str, key: str, value, limit: int, empty: bool = False):
@@ -94,7 +108,8 @@ def _texts(ex_id: str, key: str, value, limit: int, empty: bool = False):
 def public(ex: Exercise) -> dict:
     return {'id': ex.id, 'title': ex.title, 'titles': ex.titles, 'instructions': ex.instructions,
             'station_kind': ex.station_kind, 'time_limit': ex.time_limit,
-            'start': ex.start, 'goal': ex.goal, 'pose_topic': ex.pose_topic, 'scan_topic': ex.scan_topic}
+            'start': ex.start, 'goal': ex.goal, 'pose_topic': ex.pose_topic, 'scan_topic': ex.scan_topic,
+            'allow_services': list(ex.allow_services), 'refuse_services': list(ex.refuse_services)}
 
 
 class Library:
@@ -112,11 +127,11 @@ class Library:
         except OSError:
             return None
         if len(text) > MAX_FILE:
-            raise ExerciseError(f'{path}: larger than {MAX_FILE} bytes')
+            raise ExerciseError(f'{path.name}: larger than {MAX_FILE} bytes')
         try:
             return parse(ex_id, json.loads(text))
-        except ValueError as e:
-            raise ExerciseError(f'{path}: {e}') from None
+        except (ValueError, RecursionError) as e:
+            raise ExerciseError(f'{path.name}: {e}') from None
 
     def all(self) -> tuple[list[Exercise], list[str]]:
         """(the exercises, what is wrong with the files that are not)."""

@@ -7,10 +7,12 @@ the exercise's time limit, or when the program stops (``stop``); its result is w
 and handed to every callable in ``on_result(identity, exercise, attempt_result)``: the grades code
 subscribes there. With a ``recorder`` (the gateway's recordings), each attempt records the robot's
 pose (and scan, and the topics of its goal) and the station's velocity commands, owned by the
-student: the teacher's replay of the run. While an attempt is live, the robot's pose and scan topics it reads are the
-robot's alone: ``watching`` is the publish door's rule that refuses a client's or a run's message
-on them (on the sim a client's /turtle1/pose reached the fan-out as the robot's own, and passed a
-goal never reached). A ``topic`` goal's topic stays open: it may be what the program publishes.
+student: the teacher's replay of the run. While an attempt is live (``live()``), its station is
+kept for it by ``rules.attempts``: the pose and scan it reads (``Attempt.kept``) are the robot's
+alone (on the sim a client's /turtle1/pose reached the fan-out as the robot's own, and passed a goal
+never reached), its station is the attempter's, and no service moves the robot without driving it
+(the exercise's ``allow_services`` excepted, its ``refuse_services`` besides). A ``topic`` goal's
+topic stays open: it may be what the program publishes.
 """
 
 from __future__ import annotations
@@ -44,6 +46,8 @@ class Exercise:
     scan_topic: str = ''
     titles: dict = field(default_factory=dict)   # the title in other languages: {lang: text}
     instructions: str | dict = ''                # Markdown, or {lang: Markdown}
+    allow_services: tuple = ()                   # the station's services it allows that move the robot
+    refuse_services: tuple = ()                  # and those it refuses besides (names or globs)
 
 
 @dataclass(frozen=True)
@@ -80,9 +84,13 @@ def attempt_person(identity, browser: str | None = None, name: str = '') -> tupl
 
 class Attempt:
     def __init__(self, checker: 'Checker', exercise: Exercise, identity, station: str, program: str,
-                 person: tuple[str, str] | None = None):
+                 person: str | None = None, who: tuple[str, str] | None = None):
         self.checker, self.exercise, self.identity, self.station = checker, exercise, identity, station
-        self.person, self.name = person or attempt_person(identity)
+        self.person = person or ''                   # whose station it is while it is live (rules.attempts)
+        self.key, self.name = who or attempt_person(identity)   # whose result it is (key, name)
+        self.kept: frozenset[str] = frozenset()     # the pose and scan topics it reads
+        self.allow = tuple(checker.topic(station, n) for n in exercise.allow_services)
+        self.refuse = tuple(checker.topic(station, n) for n in exercise.refuse_services)
         self.id = secrets.token_hex(8)
         self.program = program[:results.MAX_PROGRAM]
         self.evaluation = Evaluation(exercise.goal)
@@ -120,7 +128,7 @@ class Attempt:
         self.evaluation.time(time.time() - self.started)
         passed, score = self.evaluation.finish()
         self.result = AttemptResult(
-            attempt=self.id, exercise=self.exercise.id, person=self.person, name=self.name, station=self.station,
+            attempt=self.id, exercise=self.exercise.id, person=self.key, name=self.name, station=self.station,
             passed=passed, score=score, why=why, started_at=self.started, ended_at=time.time(),
             program=self.program, recording=recording, missed='' if passed else self.evaluation.missed())
         self.checker.finished(self)
@@ -159,17 +167,20 @@ class Checker:
                  and gw.backend.publishers(t)]
         return found[0] if len(found) == 1 else topic
 
-    def start(self, exercise: Exercise, identity, station: str, program: str,
-              person: tuple[str, str] | None = None) -> Attempt:
-        """An attempt of ``person`` ((key, name): ``attempt_person``; the identity's by default)."""
+    def start(self, exercise: Exercise, identity, station: str, program: str, person: str | None = None,
+              who: tuple[str, str] | None = None) -> Attempt:
+        """A new attempt on ``station`` (rules.attempts has let it start), the station held for
+        ``person`` while it is live, its result ``who``'s ((key, name): ``attempt_person``; the identity's by
+        default): the one live there ends as stopped."""
         for live in self.attempts.values():
             if live.station == station:
                 live.end('stopped')
                 break
-        attempt = Attempt(self, exercise, identity, station, program, person)
+        attempt = Attempt(self, exercise, identity, station, program, person, who)
         watch = [(self.pose_topic(station, exercise.pose_topic), 'pose')]
         if exercise.scan_topic:
             watch.append((self.topic(station, exercise.scan_topic), 'scan'))
+        attempt.kept = frozenset(t for t, _ in watch)
         watch += [(t, 'topic') for t in sorted(topics_of(attempt.evaluation.root))]
         self.attempts[attempt.id] = attempt
         try:
@@ -187,7 +198,8 @@ class Checker:
         who = attempt.identity
         try:
             attempt.recording = self.recorder.start(tuple(globs), attempt.exercise.time_limit + 1,
-                                                    who.owner if who else None, counted=False)
+                                                    who.owner if who else None, counted=False, who=who,
+                                                    attempt=attempt.id)
         except Exception as e:   # a full disk: the attempt is checked all the same, without its replay
             log.warning('attempt %s is not recorded: %s', attempt.id, e)
 
@@ -199,14 +211,9 @@ class Checker:
         self.recorder.stop(rec, f'attempt {attempt.id} ended')
         return rec.id if rec.state == 'done' else None
 
-    def watching(self, topic: str) -> str | None:
-        """Why ``topic`` may not be published through the gateway now (a live attempt reads it as the
-        robot's pose or scan), or None."""
-        for attempt in self.attempts.values():
-            if any(fan.topic == topic and key[2] in ('pose', 'scan') for fan, key in attempt.taps):
-                return (f'{topic} is read by a live exercise attempt on {attempt.station or "/"}: its goal is '
-                        'checked on the robot\'s own messages, not on a client\'s')
-        return None
+    def live(self):
+        """The attempts going now (rules.attempts keeps their stations)."""
+        return self.attempts.values()
 
     def _tap(self, attempt: Attempt, topic: str, kind: str) -> None:
         gw = self.gateway

@@ -26,9 +26,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import NamedTuple
 
-from protocol.errors import ProtocolError
 
 from .access import ADMINS
+from .attempts import AttemptRule
 from .bookings import BookingLimits, Slots, Timetable
 from .fleet import join as join_fleet
 from .hooks import Hook, Hooks  # noqa: F401 (for the bridge and web)
@@ -36,6 +36,7 @@ from .lease import Lease
 from .names import parse_globs, parse_networks
 from .policy import GATEWAY_ROLE, Limits, SecurePolicy  # noqa: F401 (GATEWAY_ROLE: for the bridge)
 from .queue import Queue
+from .reports import Reports
 from .safety import Clamp, Safety, VelocityLimits
 from .lti import LtiConfig
 from .sessions import Sessions, cookie_secret
@@ -178,24 +179,30 @@ class Rules:
     slots: Slots | None = None
     lti: LtiConfig | None = None
     fleet: Fleet | None = None    # with --db on PostgreSQL: the other gateways (store.fleet)
+    reports: Reports | None = None   # the program reports' stamp and readers (rules.reports)
+    attempts: AttemptRule | None = None   # live exercise attempts' stations (rules.attempts)
 
 
-def compose(gateway, files: Files = Files(), *, reads=lambda name: False, runs=None, watched=None) -> Rules:
+def compose(gateway, files: Files = Files(), *, reads=lambda name: False, runs=None, attempts=None,
+            keepers: tuple = ()) -> Rules:
     """Every rule, built from the settings, in the one order they apply.
 
     At the publish door (``Gateway.publish``), in this order: (0) a live exercise attempt's pose and
-    scan topics are the robot's alone (``watched``), (1) the runs' guard (``runs``: a run
+    scan topics are the robot's alone and its station the attempter's (``attempts``), (1) the runs' guard (``runs``: a run
     publishes nothing its starter's station does not own, and its output topics are its own), (2) the
     driver lease (``--exclusive-control``: a command from someone not holding the group's lease is
-    refused), (3) safety (clamps, stamps, stream tracking for the stops) last, so a clamp acts on what
-    will be published. The ops' guards: the runs' (a run's output for its starter alone). Hooks
+    refused, and so is a message on a station's other topics, ``stationnames``), (3) program reports
+    stamped (``reports``), (4) safety (clamps, stamps, stream tracking for the stops) last, so a clamp
+    acts on what will be published. The keepers of names (``access.KEEPERS``), asked by ``may`` on
+    every door after the role and the globs: the runs' and the exercises' (``keepers``, from outside
+    the rules), the program reports', the stations' (with the lease). Hooks
     hear events in the order: stations, lease, safety, slots, runs (so a slot's end stops a
     station's commands before its run is stopped).
 
     reads: the gateway's own read-only services (rosapi), which viewers may call. runs: the run
-    manager (its ``publish_hook``, ``subscribe_guard``), or None. watched: topic -> why it may not be
-    published now, or None (the exercises' checker: the pose and scan a live attempt reads are the
-    robot's alone, so no client or run can publish a pose that reaches the goal); first at the door.
+    manager (its ``publish_hook``), or None. attempts: () -> the live exercise attempts (the
+    exercises' checker), whose stations ``rules.attempts`` keeps: first at the door and a keeper.
+    keepers: more (who, action, name) -> why not, from outside the rules (the runs').
     """
     settings = gateway.settings
     sec, safe, st, lab = settings.security, settings.safety, settings.stations, settings.lab
@@ -251,8 +258,12 @@ def compose(gateway, files: Files = Files(), *, reads=lambda name: False, runs=N
                       stop_group=stop_group, zero_group=zero_group)
     limits = Limits(max_subscriptions=sec.max_subscriptions, max_publishers=sec.max_publishers,
                     max_pending_calls=sec.max_pending_calls, max_op_rate=sec.max_op_rate)
+    reports = Reports(stations, auth=auth is not None)
+    live = AttemptRule(attempts, lease=lease, stations=stations) if attempts is not None else None
+    keepers = (*keepers, *((live.keeper,) if live is not None else ()), reports.keeper,
+               *((lease.names.name_refusal,) if lease is not None else ()))
     policy = SecurePolicy(settings, auth=auth, limits=limits, lease=lease, stations=stations, reads=reads,
-                          sessions=sessions)
+                          sessions=sessions, keepers=keepers)
     slots = None
     if timetable is not None:
         if lease is None:
@@ -266,18 +277,12 @@ def compose(gateway, files: Files = Files(), *, reads=lambda name: False, runs=N
         fleet = Fleet.of(gateway.store)
         part = join_fleet(fleet, lease=lease, stations=stations, sessions=sessions, timetable=timetable)
 
-    def robots_own(sender, pub, msg, issued=None):
-        why = watched(pub.topic)
-        if why is not None:
-            raise ProtocolError(why)
-        return msg
-
-    publish = (*((robots_own,) if watched is not None else ()), *((runs.publish_hook,) if runs is not None else ()),
-               *((lease.publish_hook,) if lease is not None else ()), safety.publish_hook)
-    guards = (runs.subscribe_guard,) if runs is not None else ()
+    publish = (*((live.publish_hook,) if live is not None else ()), *((runs.publish_hook,) if runs is not None else ()),
+               *((lease.publish_hook,) if lease is not None else ()), reports.publish_hook, safety.publish_hook)
+    guards = ()
     hooks = tuple(h for h in (stations, lease, safety, slots, runs, part) if h is not None)
     log.info('security: auth %s, exclusive control %s, stop on disconnect %s, cmd timeout %s s, '
              'cmd max age %s s%s', 'on' if auth else 'off', 'on' if lease else 'off', safety.stop_on_disconnect,
              safety.cmd_timeout, safety.cmd_max_age, ', stamps required' if safety.require_stamp else '')
     return Rules(policy=policy, publish=publish, guards=guards, hooks=hooks, safety=safety, stations=stations,
-                 lease=lease, slots=slots, lti=files.lti, fleet=fleet)
+                 lease=lease, slots=slots, lti=files.lti, fleet=fleet, reports=reports, attempts=live)

@@ -31,6 +31,7 @@ being {"client", "name", "role", "remote", "since", "owner": whether it is the s
 "run": its run id or null; in a fleet of gateways, one driving through another gateway has
 "elsewhere": true and only "name" and "owner"}; in a fleet, "fleet": {"gateway": its id,
 "unreachable": unix time since when it cannot reach its database, or null}.
+A station's other names (services, actions, other topics) are its holder's too: ``stationnames``.
 """
 
 from __future__ import annotations
@@ -45,12 +46,14 @@ from fnmatch import fnmatchcase
 from protocol.errors import ProtocolError
 
 from ..backends.base import QoS
+from .access import role_of
 from .policy import CONTROL_TOPIC, GATEWAY_ROLE
 
 log = logging.getLogger('rosgate.lease')
 from .safety import moving_command
 from .settle import FleetLease, Wait
 from .stations import Stations, person
+from .stationnames import StationNames
 from .hooks import Hook
 
 DRIVER_TOPIC = '/rosgate/driver'
@@ -85,6 +88,7 @@ class Lease(FleetLease, Hook):
         self.lent: dict[str, object] = {}        # group -> the session a run of the same person took it from
         self.fleet = None                        # store.fleet.Fleet: the other gateways' leases (rules.fleet)
         self.settling: dict[str, tuple] = {}     # group -> (person, who, Wait): a free lease asked of PostgreSQL
+        self.names = StationNames(self)          # a station's services, actions and other topics: the holder's
         backend = gateway.backend
         self._driver = gateway.own_topic(DRIVER_TOPIC, STRING, QoS(depth=1, transient_local=True))
         # declares the control topic so clients may publish to it without a type
@@ -226,10 +230,15 @@ class Lease(FleetLease, Hook):
     def publish_hook(self, session, pub, msg, issued=None):
         if pub.topic == CONTROL_TOPIC:
             return self._command(session, str(msg.get('data', '')).split())
+        if not self.is_command(pub.topic, pub.type):   # a station's other topics: its holder's (stationnames)
+            why = self.names.refusal(session, pub.topic)
+            if why is not None:
+                raise ProtocolError(why)
+            return msg
         return self.require(session, pub.topic, pub.type, msg) or msg
 
     def _may_override(self, session) -> bool:
-        return self.may_take_over(session.attrs.get('role'))
+        return self.may_take_over(role_of(session))
 
     def may_take_over(self, role: str | None) -> bool:
         return self.takeover_role is None or role == self.takeover_role

@@ -55,6 +55,18 @@ def permission(action: str, name: str, reads: Callable[[str], bool]) -> str:
 
 
 
+RANKS = ('viewer', 'operator', 'admin')
+
+
+def lowered(role: str, asked) -> str:
+    """``role``, or the lower one a connection asks for (``?as=operator``: a page running a program
+    from another person's share link lends it no admin rights, ide/js/foreign.js); never higher."""
+    want = asked[-1].decode('ascii', 'replace') if isinstance(asked, list) and asked else asked
+    if isinstance(want, str) and want in RANKS and role in RANKS and RANKS.index(want) < RANKS.index(role):
+        return want
+    return role
+
+
 def token_from_request(request) -> str | None:
     """A token given with a request: ?token= or Authorization: Bearer (the session cookie of
     /login is not a token: see ``sessions``)."""
@@ -91,8 +103,9 @@ class Policy:
     the driver lease and stations. Every reader asks ``policy.auth``, ``.sessions``, ``.lease``
     and ``.stations`` the same way: None where this gateway has none."""
 
-    def __init__(self, settings, *, reads: Callable[[str], bool] = lambda name: False):
+    def __init__(self, settings, *, reads: Callable[[str], bool] = lambda name: False, keepers: tuple = ()):
         self.auth: Authenticator | None = None
+        self.keepers = keepers  # (who, action, name) -> why not | None: parts keeping names (rules.access.KEEPERS)
         self.sessions: Sessions | None = None
         self.lease = None       # rules.lease.Lease with --exclusive-control
         self.stations = None    # rules.stations.Stations on a fleet
@@ -134,6 +147,11 @@ class Policy:
         """The one access rule (``rules.access.may``): None, or why ``who`` may not ``action`` ``name``."""
         if name is not None and not self.allows(who, action, name):
             return f'{name} is not allowed for {action} by this gateway'
+        if name is not None and who is not None and role_of(who) != GATEWAY_ROLE:   # nor from the gateway itself
+            for keeper in self.keepers:
+                why = keeper(who, action, name)
+                if why is not None:
+                    return why
         return None
 
     def check(self, session, action: str, name: str, op: str, id: str | None) -> None:
@@ -201,8 +219,9 @@ class Limits:
 
 class SecurePolicy(Policy):
     def __init__(self, settings, *, auth: Authenticator | None = None, limits: Limits = Limits(), lease=None,
-                 stations=None, reads: Callable[[str], bool] = lambda name: False, sessions: Sessions | None = None):
-        super().__init__(settings, reads=reads)
+                 stations=None, reads: Callable[[str], bool] = lambda name: False, sessions: Sessions | None = None,
+                 keepers: tuple = ()):
+        super().__init__(settings, reads=reads, keepers=keepers)
         self.auth, self.limits, self.lease, self.stations = auth, limits, lease, stations
         self.sessions = sessions
 
@@ -354,7 +373,8 @@ class SecurePolicy(Policy):
             attrs['auth_error'] = str(e)
         else:
             if identity is not None:
-                attrs.update(role=identity.role, name=identity.name, person=person_of(identity, {}))
+                attrs.update(role=lowered(identity.role, request.query_arguments.get('as')),
+                             name=identity.name, person=person_of(identity, {}))
                 if self.sessions is not None and not token_from_request(request):   # closed when it ends
                     attrs['signin'] = self.sessions.key_of(session_cookie(request))
         return attrs

@@ -8,11 +8,15 @@ as one batch every ``FLUSH`` s (``Store.submit``): one insert a run a batch, not
 SQLite (``make bench ARGS=runs``). Past the cap (``--run-output-cap``, 1 MiB) nothing more is
 kept but a line saying where the output was cut; the row keeps how much came in all.
 
-Retention (``--runs-keep-days``, ``--runs-keep-count`` a person, ``--runs-keep-bytes`` in all)
-deletes the oldest ended runs, their output and their recording, at the gateway's start, at each
-run's start and hourly (a run its gateway never ended, having died, is ``interrupted`` then). A run is refused (507) when it could not fit: the runs going now, each
-counted at its cap, would pass ``--runs-keep-bytes``, or the disk has less than a run's cap and
-``DISK_RESERVE`` free. Only this module writes these tables.
+Retention (``--runs-keep-days``, ``--runs-keep-count`` a person, ``--runs-keep-bytes`` in all,
+``--runs-keep-share`` of it a person) deletes the oldest ended runs, their output and their
+recording, at the gateway's start, at each run's start and hourly (a run its gateway never ended,
+having died, is ``interrupted`` then). One budget for everyone let one person's runs evict every
+other person's: now a person's runs past their share go first (their own oldest), and past the
+whole budget the oldest of whoever keeps the most. A run is refused (507) when it could not fit:
+the runs going now, each counted at its cap, would pass ``--runs-keep-bytes`` (or, theirs, the
+starter's share: 429), or the disk has less than a run's cap and ``DISK_RESERVE`` free. Only this
+module writes these tables.
 
 May import: ``store``, ``rules`` (a part of ``runs``).
 """
@@ -80,9 +84,12 @@ class Kept:
 
 
 class Archive:
-    def __init__(self, store, *, cap: int, keep_days: float, keep_count: int, keep_bytes: int):
+    def __init__(self, store, *, cap: int, keep_days: float, keep_count: int, keep_bytes: int,
+                 keep_share: float = 1.0):
         self.store, self.cap = store, cap
         self.keep_days, self.keep_count, self.keep_bytes = keep_days, keep_count, keep_bytes
+        self.share = int(keep_bytes * keep_share)   # the most one person's kept runs take
+        self.owners: dict[str, str | None] = {}     # run going -> its starter's key
         self.going: dict[str, Kept] = {}
         self.timer: asyncio.TimerHandle | None = None
         self.pruner: asyncio.TimerHandle | None = None
@@ -90,27 +97,37 @@ class Archive:
 
     # --- a run --------------------------------------------------------------------------------
 
-    def room(self, record_bytes: int = 0) -> None:
-        """Refuse (ArchiveFull, 507) a run the archive or the disk could not hold."""
+    def room(self, record_bytes: int = 0, owner: str | None = None) -> None:
+        """Refuse (ArchiveFull, 507) a run the archive or the disk could not hold, and (429) one past
+        its starter's share (``owner``: their key; None, with auth off, has the whole archive)."""
         need = self.cap + record_bytes
         reserved = len(self.going) * self.cap
         if reserved + need > self.keep_bytes:
             raise ArchiveFull(507, f'the run archive holds at most {self.keep_bytes} bytes (--runs-keep-bytes) and '
                                    f'{len(self.going)} runs going may take {reserved} of them (--run-output-cap '
                                    f'{self.cap}); wait for one to end')
+        theirs = sum(1 for o in self.owners.values() if owner is not None and o == owner) * self.cap
+        if owner is not None and theirs + need > self.share:
+            raise ArchiveFull(429, f'{owner}\'s runs going may take {theirs} bytes of their share of the run '
+                                   f'archive, {self.share} bytes (--runs-keep-share); wait for one to end')
         where = self.store.path.parent if self.store.path is not None else None
         if where is not None:
             free = shutil.disk_usage(where).free
             if free < need + DISK_RESERVE:
-                raise ArchiveFull(507, f'only {free // 2**20} MiB free in {where}; a kept run needs '
+                raise ArchiveFull(507, f'only {free // 2**20} MiB free on the store\'s disk; a kept run needs '
                                        f'{(need + DISK_RESERVE) // 2**20} MiB')
 
     def begin(self, run, source: str, kind: str) -> None:
         self.going[run.id] = Kept()
+        self.owners[run.id] = run.owner
         row = dict(id=run.id, name=run.name, kind=kind, owner=run.owner, who=run.who, ns=run.ns,
                    started=run.started, state=run.state, source=source)
         budget = self.keep_bytes - len(self.going) * self.cap
-        self.store.submit(lambda c: (c.execute(RUNS.insert().values(**row)), self.prune(c, budget=budget)))
+        reserved = {}
+        for owner in self.owners.values():
+            reserved[owner] = reserved.get(owner, 0) + self.cap
+        self.store.submit(lambda c: (c.execute(RUNS.insert().values(**row)),
+                                     self.prune(c, budget=budget, reserved=reserved)))
         self._schedule_prune()
 
     def line(self, run_id: str, line: str) -> None:
@@ -149,6 +166,7 @@ class Archive:
             return
         self.flush()
         del self.going[run.id]
+        self.owners.pop(run.id, None)
         values = dict(ended=run.ended, state=run.state, exit_code=run.exit_code, reason=run.reason,
                       output_bytes=k.kept, output_seen=k.seen, cut=k.cut)
         if recording is not None:
@@ -199,26 +217,39 @@ class Archive:
         ids = conn.execute(sa.select(RUNS.c.id).where(sa.or_(RUNS.c.owner == person, RUNS.c.who == person))).scalars()
         return self.delete(conn, list(ids))
 
-    def prune(self, conn: sa.Connection, now: float | None = None, budget: int | None = None) -> int:
+    def prune(self, conn: sa.Connection, now: float | None = None, budget: int | None = None,
+              reserved: dict | None = None) -> int:
         """Retention: ended runs past --runs-keep-days, beyond each person's --runs-keep-count
-        newest, and the oldest while the archive passes ``budget`` (--runs-keep-bytes less what the
-        runs going may take)."""
+        newest, a person's oldest past their share (less what their runs going may take:
+        ``reserved``), and while the archive passes ``budget`` (--runs-keep-bytes less what the runs
+        going may take) the oldest of whoever keeps the most."""
         now = time.time() if now is None else now
         budget = self.keep_bytes if budget is None else budget
+        reserved = reserved or {}
         # no run lasts LOST_AFTER (--max-timeout is at most an hour): one that never ended went with its gateway
         conn.execute(RUNS.update().where(RUNS.c.ended.is_(None), RUNS.c.started < now - LOST_AFTER).values(
             state='interrupted', ended=RUNS.c.started, reason='the gateway stopped before the run ended'))
         size = (sa.func.length(RUNS.c.source) + RUNS.c.output_bytes + RUNS.c.recording_bytes).label('size')
         rows = conn.execute(sa.select(RUNS.c.id, RUNS.c.owner, RUNS.c.started, size)
                             .where(RUNS.c.ended.is_not(None)).order_by(RUNS.c.started.desc())).all()
-        gone, counts, total = [], {}, 0
+        gone, counts, held, kept = [], {}, {}, {}
         for run_id, owner, started, bytes_ in rows:                  # newest first
             counts[owner] = counts.get(owner, 0) + 1
+            size = bytes_ or 0
+            share = self.share - reserved.get(owner, 0) if owner is not None else budget
             if started < now - self.keep_days * 86400 or counts[owner] > self.keep_count \
-                    or total + (bytes_ or 0) > budget:
+                    or held.get(owner, 0) + size > share:
                 gone.append(run_id)
             else:
-                total += bytes_ or 0
+                held[owner] = held.get(owner, 0) + size
+                kept.setdefault(owner, []).append((run_id, size))    # newest first
+        total = sum(held.values())
+        while total > budget and total > 0:      # the oldest run of whoever keeps the most goes first
+            owner = max((o for o in kept if kept[o]), key=lambda o: held[o])
+            run_id, size = kept[owner].pop()
+            held[owner] -= size
+            total -= size
+            gone.append(run_id)
         if gone:
             log.info('run archive: %d runs past retention deleted', len(gone))
         return self.delete(conn, gone) if gone else 0

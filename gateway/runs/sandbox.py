@@ -43,6 +43,7 @@ bwrap's init reports a program killed by signal N as exit code 128 + N, as a she
 
 from __future__ import annotations
 
+import fcntl
 import functools
 import logging
 import os
@@ -53,6 +54,8 @@ import signal
 import site
 import subprocess
 import sys
+import tempfile
+import time
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -391,3 +394,56 @@ def kill_box(outer: int, sig: int) -> None:
             kill(pid, sig)
         except (ProcessLookupError, PermissionError):
             pass
+
+
+# --- the gateway's folder of box files (its unix socket, staged views) ------------------------------
+
+HOME_PREFIX = 'rosgate-box-'
+LOCK = '.lock'           # in the folder: flock'ed by its gateway as long as it lives
+UNLOCKED_STALE = 86400   # s: a folder with no lock file (an older gateway's) is left this long
+
+
+def make_home() -> tuple[Path, int]:
+    """A fresh folder in the temporary directory for this gateway's box files, and the descriptor of
+    its lock file, flock'ed as long as the gateway lives (kept open; the kernel lets go when the
+    process dies, however it dies). Folders of gateways that are gone are swept first. A PID in a
+    folder's name was the old test, and a gateway in another PID namespace on the same /tmp found
+    none of its neighbour's PIDs and deleted its live folder (its runs then failed with exit 125,
+    "mount point does not exist"); a lock is the same lock in every namespace."""
+    sweep_homes()
+    home = Path(tempfile.mkdtemp(prefix=f'{HOME_PREFIX}{os.getpid()}-'))
+    fd = os.open(home / f'{LOCK}.new', os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o600)
+    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)    # locked before any sweep can see it by its name
+    os.rename(home / f'{LOCK}.new', home / LOCK)
+    return home, fd
+
+
+def sweep_homes(folder: Path | None = None, now: float | None = None) -> list[Path]:
+    """Remove the box folders of gateways that are gone: those whose lock nobody holds (an older
+    gateway's folder without a lock file, once a day old). The folders removed."""
+    gone = []
+    now = time.time() if now is None else now
+    for d in Path(folder or tempfile.gettempdir()).glob(f'{HOME_PREFIX}*'):
+        try:
+            fd = os.open(d / LOCK, os.O_RDWR | os.O_NOFOLLOW | os.O_CLOEXEC)
+        except FileNotFoundError:
+            try:
+                if d.is_dir() and not d.is_symlink() and now - d.stat().st_mtime > UNLOCKED_STALE \
+                        and not (d / f'{LOCK}.new').exists():
+                    shutil.rmtree(d, ignore_errors=True)
+                    gone.append(d)
+            except OSError:
+                pass
+            continue
+        except OSError:
+            continue              # not ours to open (another user's gateway): not ours to remove
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            shutil.rmtree(d, ignore_errors=True)      # removed while the lock is ours
+            gone.append(d)
+        except OSError:
+            pass                  # held: a live gateway's
+        finally:
+            os.close(fd)
+    return gone
+

@@ -30,18 +30,16 @@ import signal
 import socket
 import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 
 import tornado.httpserver
 import tornado.netutil
 
-from protocol import ops
 from protocol.errors import ProtocolError
 
 from ..backends.base import QoS
-from ..rules.access import ADMINS, owns
+from ..rules.access import ADMINS, owns, person_of
 from ..rules.errors import Refusal
 from ..rules.hooks import Hook
 from ..rules.safety import Safety, moving_command
@@ -50,7 +48,7 @@ from . import launcher, node
 from .archive import Archive
 from .cgroups import Cgroups, RunCgroup, limits_in_force
 from .process import Run, RunLimits, RunOutput
-from .sandbox import HOME, SOCKET, Sandbox, SandboxUnavailable, exit_code, kill_box, run_user
+from .sandbox import HOME, SOCKET, Sandbox, SandboxUnavailable, exit_code, kill_box, make_home, run_user
 
 log = logging.getLogger('rosgate.runs')
 STRING = 'std_msgs/msg/String'
@@ -77,6 +75,7 @@ class RunManager(Hook):
         self.runs: dict[str, Run] = {}
         self.server: tornado.httpserver.HTTPServer | None = None
         self.home: Path | None = None       # the box's files of the gateway's: the unix socket, staged views
+        self.home_lock: int | None = None   # the descriptor whose flock keeps ``home`` this gateway's
 
     def serve(self, app, sock) -> None:
         """Serve ``app`` (the rosbridge websocket alone) on the unix socket that the boxes bind in:
@@ -111,7 +110,7 @@ class RunManager(Hook):
             raise RunError(429, f'{person} has {len(mine)} runs going ({", ".join(r.id for r in mine)}), '
                                              'the most one person may (--max-runs-per-person); stop one first')
         if self.archive is not None:
-            self.archive.room(record_bytes)
+            self.archive.room(record_bytes, owner)
         run_id = 'r' + secrets.token_hex(4)
         person = person or f'run {run_id}'
         self._lease_free_for(person, role, ns)
@@ -120,8 +119,9 @@ class RunManager(Hook):
         try:
             workdir.mkdir(parents=True, mode=0o700)
             (workdir / 'program.py').write_text(program)
-        except OSError as e:
-            raise RunError(500, f'cannot prepare the run directory: {e}') from None
+        except OSError:     # the log says where (a path is the admins')
+            log.exception('run %s: cannot prepare %s', run_id, workdir)
+            raise RunError(500, 'cannot prepare the run directory (the gateway\'s log says why)') from None
         run = Run(run_id, name, ns, timeout, workdir)
         run.kind = kind
         run.role, run.person, run.owner, run.who = role, person, owner, who
@@ -365,17 +365,19 @@ class RunManager(Hook):
             except ProtocolError as e:
                 self._line(run, f'[driver lease: {e.message}]\n', ours=True)
 
-    def subscribe_guard(self, session, op) -> None:
-        """A run's output and state topics are its starter's and the admins', as GET is."""
-        found = RUN_TOPIC.fullmatch(op.topic) if isinstance(op, ops.Subscribe) else None
+    def keeper(self, who, action: str, name: str) -> str | None:
+        """A run's output and state topics are its starter's and the admins', as GET is: a keeper of
+        ``rules.access``, so a recording or a stream is refused them as a subscription is."""
+        found = RUN_TOPIC.fullmatch(name) if action == 'subscribe' else None
         run = self.runs.get(found.group(1)) if found else None
         if run is None or self.gateway.policy.auth is None:
-            return
-        attrs = session.attrs
-        if owns(session, attrs.get('run') == run.id or (run.owner is not None and attrs.get('person') == run.person)):
-            return
-        raise ProtocolError(f'{op.topic}: run {run.id} was started by {run.owner or "someone else"}; its output '
-                            'and state are for them and admins', op=op.OP, id=op.id)
+            return None
+        attrs = getattr(who, 'attrs', {})
+        mine = attrs.get('run') == run.id or (run.owner is not None and person_of(who) == run.person)
+        if owns(who, mine):
+            return None
+        return (f'{name}: run {run.id} was started by {run.owner or "someone else"}; its output and state '
+                'are for them and admins')
 
     def publish_hook(self, session, pub, msg, issued=None):
         """A run being stopped may still send commands before its SIGINT lands: those that would
@@ -419,6 +421,9 @@ class RunManager(Hook):
             await self.server.close_all_connections()
         if self.home is not None:
             shutil.rmtree(self.home, ignore_errors=True)
+        if self.home_lock is not None:
+            os.close(self.home_lock)
+            self.home_lock = None
         if self.archive is not None:
             self.archive.close()
         left = [r.cgroup for r in self.runs.values() if r.cgroup is not None]
@@ -440,8 +445,7 @@ def start_runs(gateway) -> tuple[RunManager, socket.socket | None]:
     if flags.allow_runs:
         private = [settings.storage.programs_dir, runs_dir, settings.storage.record, data_dir(''), settings.certfile,
                    settings.keyfile, Path.home(), *(a for a in sys.argv[1:] if a.startswith('/'))]
-        sweep_homes()
-        home = Path(tempfile.mkdtemp(prefix=f'{HOME_PREFIX}{os.getpid()}-'))
+        home, home_lock = make_home()
         try:
             user = run_user()
             sock = None     # a trusted run, on the machine's network, reaches the gateway's port itself
@@ -456,6 +460,7 @@ def start_runs(gateway) -> tuple[RunManager, socket.socket | None]:
                                  graph=flags.trusted_runs)
         except SandboxUnavailable as e:
             shutil.rmtree(home, ignore_errors=True)
+            os.close(home_lock)
             raise Refused('--allow-runs', str(e)) from None
         cgroups, how = Cgroups.find()
         if cgroups is not None:
@@ -469,23 +474,14 @@ def start_runs(gateway) -> tuple[RunManager, socket.socket | None]:
             cgroups, how, memory_mb=lim.memory_mb, processes=lim.processes, cpus=lim.cpus,
             cpu_seconds=lim.cpu_seconds, open_files=lim.open_files))
     archive = Archive(gateway.store, cap=flags.run_output_cap, keep_days=flags.runs_keep_days,
-                      keep_count=flags.runs_keep_count, keep_bytes=flags.runs_keep_bytes)
+                      keep_count=flags.runs_keep_count, keep_bytes=flags.runs_keep_bytes,
+                      keep_share=flags.runs_keep_share)
     manager = RunManager(gateway, allowed=flags.allow_runs, runs_dir=runs_dir, box=box, cgroups=cgroups,
                          max_runs=flags.max_runs, max_per_person=flags.max_runs_per_person, archive=archive)
     manager.home = home          # removed at shutdown
+    manager.home_lock = home_lock if flags.allow_runs else None   # held while the gateway lives (make_home)
     return manager, sock
 
 
 def default_runs_dir() -> Path:
     return data_dir('runs')
-
-
-HOME_PREFIX = 'rosgate-box-'
-
-
-def sweep_homes() -> None:
-    """Remove the socket folders of gateways that are gone (killed before they could)."""
-    for d in Path(tempfile.gettempdir()).glob(f'{HOME_PREFIX}*-*'):
-        pid = d.name[len(HOME_PREFIX):].split('-')[0]
-        if pid.isdigit() and not Path(f'/proc/{pid}').exists():
-            shutil.rmtree(d, ignore_errors=True)

@@ -38,8 +38,14 @@ def default_url() -> str:
     return f"sqlite:///{data_dir('rosgate.db')}"
 
 
+SECRET_KEYS = ('password', 'passwd', 'pwd', 'secret', 'token', 'key')   # query parameters masked in a shown URL
+
+
 def _public(url: sa.engine.URL) -> str:
-    return url.render_as_string(hide_password=True)
+    """The URL as it may be shown: its password masked, in the user part and in the query too
+    (libpq takes ``?password=``, ``?sslpassword=``)."""
+    query = {k: ('***' if any(word in k.lower() for word in SECRET_KEYS) else v) for k, v in url.query.items()}
+    return url.set(query=query).render_as_string(hide_password=True)
 
 
 def pg_connect_args(role: str) -> dict:

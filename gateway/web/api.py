@@ -92,9 +92,32 @@ def body_json(handler: tornado.web.RequestHandler, limit: int) -> dict:
         value = json.loads(body)
     except ValueError as e:
         raise tornado.web.HTTPError(400, f'body is not JSON: {e}') from None
+    except RecursionError:   # deeper than the parser goes: it was a 500 with a traceback
+        raise tornado.web.HTTPError(400, f'body: nested deeper than {MAX_DEPTH} levels') from None
     if not isinstance(value, dict):
         raise tornado.web.HTTPError(400, 'the body is a JSON object')
+    for key, item in value.items():
+        if depth(item) > MAX_DEPTH - 1:
+            raise tornado.web.HTTPError(400, f'"{str(key)[:64]}" is nested deeper than {MAX_DEPTH} levels')
     return value
+
+
+MAX_DEPTH = 512   # levels of a JSON body: a stack of 250 blocks nests 500 deep (each "next" is two)
+
+
+def depth(value) -> int:
+    """How deep a JSON value nests (a scalar: 0), without recursion."""
+    deepest, todo = 0, [(value, 1)]
+    while todo:
+        item, level = todo.pop()
+        children = item.values() if isinstance(item, dict) else item if isinstance(item, list) else None
+        if children is None:
+            continue
+        deepest = max(deepest, level)
+        if level > MAX_DEPTH:
+            return level
+        todo.extend((child, level + 1) for child in children)
+    return deepest
 
 
 def query_number(handler: tornado.web.RequestHandler, name: str, default, what: str, *, kind=float,

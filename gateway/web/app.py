@@ -36,8 +36,9 @@ from .lti_setup import lti_routes
 from .roster import roster_routes
 from .pages import Application, PublicFileHandler, write_page
 from .programs import program_routes
-from .recordings import recording_routes
+from .recordings_api import recording_routes
 from .runs import run_routes
+from .share import share_routes
 from .socket import RosbridgeHandler
 from .video import video_routes
 
@@ -127,6 +128,7 @@ def make_app(gateway: Gateway, parts) -> tornado.web.Application:
     routes += booking_routes(gateway) + video_routes(gateway) + history_routes(parts.history)
     routes += package_routes(gateway) + gauge_routes(gateway) + block_routes(gateway)
     routes += description_routes(gateway)
+    routes += share_routes(gateway)
     if parts.checker is not None:
         routes += exercise_routes(gateway, parts.exercises, parts.checker)
     routes.append((r'/(.*)', PublicFileHandler, {'path': str(settings.ide_dir), 'default_filename': 'index.html'}))

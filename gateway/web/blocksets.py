@@ -13,6 +13,9 @@ a file that is not a set is left out with its reason in ``skipped``, so one typo
 Published blocks are kept in ``DIR/shared.json`` (``{"made": [MADE, ...]}``, one per block type,
 a new publish of a type replacing it), written whole (``programs.write_whole``). Without
 --blocks-dir the lists are empty and a publish gets 404. With --auth, a valid token reads.
+What is published, kept and served is data: checked against the IDE's block schema (``blockcheck``:
+no ``javascript:`` or other non-http(s) address, no HTML); a publish that is not is a 400 naming
+the field, and a set or a kept block that is not is left out (``skipped``).
 """
 
 from __future__ import annotations
@@ -25,16 +28,18 @@ import tornado.web
 
 from ..rules.access import is_admin
 from .api import JsonHandler, body_json, caller
+from .blockcheck import BlockSchema
 from .programs import write_whole
 
 SHARED = 'shared.json'
+SCHEMA = 'blockschema.json'       # in the IDE's folder: what a block from outside may hold (blockcheck)
 MAX_BLOCK_BYTES = 256 * 1024       # a made block with eight inputs is ~3 KB
 MAX_SHARED = 500                   # blocks in the class's library
 MAX_SET_BYTES = 2 * 1024 * 1024
 _TYPE = re.compile(r'[A-Za-z][A-Za-z0-9_]{0,99}')
 
 
-def read_sets(folder: Path) -> tuple[list[dict], list[dict]]:
+def read_sets(folder: Path, schema: BlockSchema) -> tuple[list[dict], list[dict]]:
     """The block sets in ``folder`` (every *.json but shared.json, by name) and what was skipped."""
     sets, skipped = [], []
     for path in sorted(folder.glob('*.json')):
@@ -48,6 +53,9 @@ def read_sets(folder: Path) -> tuple[list[dict], list[dict]]:
                 raise ValueError('not a block set: it needs "blocks": [...]')
             if not all(isinstance(b, dict) and _TYPE.fullmatch(str(b.get('type', ''))) for b in data['blocks']):
                 raise ValueError('each block needs a "type" of letters, digits and _')
+            problem = schema.set_problem(data, path.name)
+            if problem:
+                raise ValueError(problem)
         except (OSError, ValueError) as e:
             skipped.append({'file': path.name, 'why': str(e)[:300]})
             continue
@@ -57,28 +65,34 @@ def read_sets(folder: Path) -> tuple[list[dict], list[dict]]:
     return sets, skipped
 
 
-def read_shared(folder: Path) -> list[dict]:
+def read_shared(folder: Path, schema: BlockSchema) -> list[dict]:
+    """The class's library: the kept blocks the schema takes (one written before it was checked
+    is left out)."""
     try:
         made = json.loads((folder / SHARED).read_bytes()).get('made', [])
-    except (OSError, ValueError, AttributeError):
+    except (OSError, ValueError, AttributeError, RecursionError):
         return []
-    return made if isinstance(made, list) else []
+    return [m for m in made if schema.made_problem(m) is None] if isinstance(made, list) else []
 
 
-def check_made(made: dict) -> str:
-    """The type of a made block (``makeblock.buildDefinition``'s {json, spec, toolboxInputs}), or 400."""
+def check_made(made: dict, schema: BlockSchema) -> str:
+    """The type of a made block (``makeblock.buildDefinition``'s {json, spec, toolboxInputs}), or 400
+    naming what the schema refuses."""
     block = made.get('json')
     if not isinstance(block, dict) or not isinstance(made.get('spec'), dict):
         raise tornado.web.HTTPError(400, 'a made block is {"json": {...Blockly JSON}, "spec": {...}}')
     kind = str(block.get('type', ''))
     if not _TYPE.fullmatch(kind):
         raise tornado.web.HTTPError(400, f'the block\'s "type" {kind[:100]!r} is not letters, digits and _')
+    problem = schema.made_problem(made, 'body')
+    if problem:
+        raise tornado.web.HTTPError(400, problem)
     return kind
 
 
 class BlocksHandler(JsonHandler):
-    def initialize(self, gateway, folder: Path | None) -> None:
-        self.gateway, self.folder = gateway, folder
+    def initialize(self, gateway, folder: Path | None, schema: BlockSchema) -> None:
+        self.gateway, self.folder, self.schema = gateway, folder, schema
 
     def get(self) -> None:
         who = caller(self, self.gateway)
@@ -86,13 +100,14 @@ class BlocksHandler(JsonHandler):
         if self.folder is None:
             self.finish({'sets': [], 'shared': [], 'publish': False})
             return
-        sets, skipped = read_sets(self.folder)
-        self.finish({'sets': sets, 'shared': read_shared(self.folder), 'skipped': skipped, 'publish': admin})
+        sets, skipped = read_sets(self.folder, self.schema)
+        self.finish({'sets': sets, 'shared': read_shared(self.folder, self.schema), 'skipped': skipped,
+                     'publish': admin})
 
 
 class SharedHandler(JsonHandler):
-    def initialize(self, gateway, folder: Path | None) -> None:
-        self.gateway, self.folder = gateway, folder
+    def initialize(self, gateway, folder: Path | None, schema: BlockSchema) -> None:
+        self.gateway, self.folder, self.schema = gateway, folder, schema
 
     def post(self) -> None:
         who = caller(self, self.gateway, change=True)
@@ -101,8 +116,8 @@ class SharedHandler(JsonHandler):
         if self.folder is None:
             raise tornado.web.HTTPError(404, 'this gateway keeps no shared blocks (start it with --blocks-dir DIR)')
         made = body_json(self, MAX_BLOCK_BYTES)
-        kind = check_made(made)
-        shared = [m for m in read_shared(self.folder) if (m.get('json') or {}).get('type') != kind] + [made]
+        kind = check_made(made, self.schema)
+        shared = [m for m in read_shared(self.folder, self.schema) if (m.get('json') or {}).get('type') != kind] + [made]
         if len(shared) > MAX_SHARED:
             raise tornado.web.HTTPError(507, f'the class\'s library holds {MAX_SHARED} blocks; this one is one more')
         write_whole(self.folder / SHARED, json.dumps({'made': shared}, separators=(',', ':')).encode())
@@ -111,5 +126,6 @@ class SharedHandler(JsonHandler):
 
 def block_routes(gateway) -> list:
     folder = gateway.settings.storage.blocks_dir
-    kw = {'gateway': gateway, 'folder': Path(folder).expanduser() if folder else None}
+    kw = {'gateway': gateway, 'folder': Path(folder).expanduser() if folder else None,
+          'schema': BlockSchema.load(gateway.settings.ide_dir / SCHEMA)}
     return [(r'/api/blocks/?', BlocksHandler, kw), (r'/api/blocks/shared', SharedHandler, kw)]

@@ -69,7 +69,7 @@ class _Handler(JsonHandler):
         return float(value)
 
     def arg_time(self, name: str) -> float | None:
-        return query_number(self, name, None, 'a time in epoch seconds')
+        return query_number(self, name, None, 'a time in epoch seconds', low=0, high=1e11)
 
 
 def _view(booking, key: str | None) -> dict:

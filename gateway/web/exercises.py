@@ -9,12 +9,14 @@ POST /api/exercises/ID/attempts {"station": NS, "program": TEXT, "name": NAME}
                                        (NAME: how the page names its student; ``exercises.attempt_person``)
 GET  /api/attempts/ATTEMPT_ID       -> {"live": true} while it runs, else its result (the starter or an admin)
 POST /api/attempts/ATTEMPT_ID/stop  -> the attempt ends ("stopped"), its result
-GET  /api/exercise-results[?exercise=ID][&person=KEY]
+GET  /api/exercise-results[?exercise=ID][&person=KEY][&summary=1]
                                     -> {"results": [...], "summary": [{person, exercise, best, last, attempts}]}
+                                       (summary=1: the summary alone)
 
 Results are private: a student reads only their own (another's ``person`` is a 403); an admin
 reads everyone's. An attempt may be started only on a station the caller could run a program on
-(the driver lease's ``run_refusal``: not another person's station), since it is graded for them.
+(not another person's station, nor over another's live attempt), since it is graded for them, and
+within the per-person caps: ``rules.attempts`` decides, with the status that says why (409, 429).
 """
 
 from __future__ import annotations
@@ -87,16 +89,15 @@ class AttemptsHandler(JsonHandler):
         if not isinstance(name, str):
             raise tornado.web.HTTPError(400, '"name" is the student\'s name as the page has it (without sign-in)')
         ns = '/' + station.strip('/') if station.strip('/') else ''
-        lease = self.gateway.policy.lease
         person = person_of(identity, self.request.cookies) or ''
-        why = lease.run_refusal(person, identity.role if identity else None, ns) if lease is not None else None
-        if why is not None:
-            raise tornado.web.HTTPError(409, why)
+        rule = self.gateway.ruleset.attempts
+        rule.start_refusal(identity, person, ns)    # another's station or live attempt, past a cap: its status
         browser = person[len('browser '):] if person.startswith('browser ') else None
         try:
-            attempt = self.checker.start(ex, identity, ns, program, attempt_person(identity, browser, name))
+            attempt = self.checker.start(ex, identity, ns, program, person, attempt_person(identity, browser, name))
         except LookupError as e:
             raise tornado.web.HTTPError(409, str(e.args[0])) from None
+        rule.started(person)
         self.set_status(201)
         self.finish({'attempt': attempt.id, 'exercise': ex.id, 'station': ns, 'time_limit': ex.time_limit})
 
@@ -150,6 +151,9 @@ class ResultsHandler(JsonHandler):
         summary = [{'person': p, 'exercise': e, 'name': v['last']['name'], 'attempts': v['attempts'],
                     'best': v['best'], 'last': v['last']}
                    for (p, e), v in results.best_and_last(rows).items()]
+        if self.get_query_argument('summary', '') not in ('', '0'):   # the class view's look every 10 s
+            self.finish({'summary': summary})
+            return
         self.finish({'results': rows, 'summary': summary})
 
 

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import tornado.web
 
+from ..rules.access import acts_as_admin
 from .api import JsonHandler, caller
 
 KEYS = frozenset({'min', 'max', 'warn', 'danger', 'low'})
@@ -61,14 +62,17 @@ class GaugesHandler(JsonHandler):
         self.gateway, self.path = gateway, path
 
     def get(self) -> None:
-        caller(self, self.gateway)
+        identity = caller(self, self.gateway)
         if self.path is None:
             self.finish({'limits': {}})
             return
         try:
             limits = read_limits(self.path)
-        except (OSError, ValueError) as e:
-            raise tornado.web.HTTPError(500, f'the --gauges file: {e}') from None
+        except (OSError, ValueError, RecursionError) as e:
+            why = str(e) if acts_as_admin(identity) else str(e).replace(str(self.path), self.path.name)
+            if not acts_as_admin(identity) and isinstance(e, OSError):
+                why = f'{self.path.name}: {e.strerror or "cannot be read"}'   # the server's paths are the admins'
+            raise tornado.web.HTTPError(500, f'the --gauges file: {why}') from None
         self.finish({'limits': limits})
 
 

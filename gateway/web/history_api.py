@@ -22,11 +22,12 @@ import orjson
 import sqlalchemy as sa
 import tornado.web
 
-from ..rules.access import may
+from ..rules.access import acts_as_admin, may
 from .api import JsonHandler, caller, query_number
 from .history import MINUTE, MINUTES, POINTS, SERIES, History
 
 DEFAULT_SPAN = 600.0
+LATEST = 1e11        # s since 1970 (the year 5138): a larger from, to or step is no time the store can hold
 RAW = 'SELECT CAST(t AS DOUBLE PRECISION) / 1000, v FROM history_points WHERE series = {s} AND t >= {lo} AND t <= {hi} ORDER BY t'
 
 
@@ -188,16 +189,20 @@ class HistoryHandler(_Handler):
                                   **({'step': step_ms / 1000} if step_ms else {}), **data}))
 
     def number(self, name: str, default: float) -> float:
-        return query_number(self, name, default, 'a number (seconds since 1970 for from and to)')
+        return query_number(self, name, default, 'a number of seconds (since 1970 for from and to)',
+                            low=0, high=LATEST)
 
 
 class HistoryStatsHandler(_Handler):
     async def get(self) -> None:
         h = self.history
-        caller(self, h.gateway)
+        identity = caller(self, h.gateway)
         used = await h.store.run(h.used_bytes)
         size = await h.store.run(lambda conn: h.store.size()) if not h.store.sqlite else h.store.size()
-        self.finish(h.stats(size, used))
+        stats = h.stats(size, used)
+        if not acts_as_admin(identity):   # where the database is (a path, a host) is the admins'
+            stats['db'] = stats['db'].split(':', 1)[0]
+        self.finish(stats)
 
 
 def history_routes(history: History | None) -> list:

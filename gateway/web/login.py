@@ -4,6 +4,7 @@ the token: ``rules.sessions``), sign-out that ends it on the server, and /whoami
 from __future__ import annotations
 
 import html
+from urllib.parse import unquote
 
 import tornado.web
 
@@ -28,8 +29,13 @@ input,button{{font:inherit;width:100%;box-sizing:border-box;padding:.5rem;margin
 
 
 def _safe_next(value: str) -> str:
-    """Only paths on this server, never another site."""
-    return value if value.startswith('/') and not value.startswith('//') and '\\' not in value else '/'
+    """Only a path of this server, never another site: one slash then no second one, no backslash, and
+    nothing a browser drops from a URL (tabs, newlines, spaces and other controls: /%09/evil was
+    //evil to the browser, another site)."""
+    def bad(text: str) -> bool:
+        return text[:1] != '/' or text[1:2] in ('/', '\\') or '\\' in text or len(text) > 2048 \
+            or any(ord(c) <= 0x20 or 0x7f <= ord(c) <= 0x9f for c in text)
+    return '/' if bad(value) or bad(unquote(value)) else value   # nor its percent-encoded form
 
 
 class LoginHandler(tornado.web.RequestHandler):

@@ -9,7 +9,9 @@ GET /package/PKG/PATH     a file of description package PKG: ``<prefix>/share/PK
 Read-only, and only files under those roots: a path with ``..``, ``.``, an empty or hidden
 segment (``.git``), a backslash or a NUL byte is refused (403) whatever its encoding (tornado
 decodes ``%2e%2e`` and ``%2f`` before the check); a symlink whose target leaves its root is
-refused (the real path is checked, not the spelled one); only mesh, texture and description
+refused (the real path is checked, not the spelled one) unless it lands under another root: with
+colcon's ``--symlink-install`` a share folder's files are symlinks into the source tree, served when
+that folder is given with ``--mesh-path`` (as docs/robot-builder.md says); only mesh, texture and description
 files are served (``SUFFIXES``), so a package's scripts or config stay private. Cached by the
 browser (ETag and Last-Modified from tornado's StaticFileHandler, revalidated after
 ``MAX_AGE``): a Husky's meshes are some 8 MB, which a page reload need not fetch again.
@@ -57,16 +59,24 @@ def find(roots: list[Path], package: str, path: str) -> Path | None:
         raise tornado.web.HTTPError(403, 'not a file of a package')
     if Path(parts[-1]).suffix.lower() not in SUFFIXES:
         raise tornado.web.HTTPError(403, f'only {", ".join(sorted(SUFFIXES))} files are served')
+    left = False
     for root in roots:
         base = root / package
         candidate = base.joinpath(*parts)
         if not candidate.is_file():
             continue
-        real, real_base = os.path.realpath(candidate), os.path.realpath(base)
-        if os.path.commonpath([real, real_base]) != real_base:
-            raise tornado.web.HTTPError(403, 'the file leaves its package')
+        real = os.path.realpath(candidate)
+        if not any(_under(real, os.path.realpath(r)) for r in (base, *roots)):
+            left = True          # perhaps another root has it (a symlink-install's source folder)
+            continue
         return Path(real)
+    if left:
+        raise tornado.web.HTTPError(403, 'the file leaves its package (give its real folder with --mesh-path)')
     return None
+
+
+def _under(path: str, folder: str) -> bool:
+    return os.path.commonpath([path, folder]) == folder
 
 
 class PackageHandler(tornado.web.StaticFileHandler):

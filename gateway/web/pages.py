@@ -17,6 +17,7 @@
 from __future__ import annotations
 
 import os
+import re
 from pathlib import Path
 
 import tornado.web
@@ -27,12 +28,32 @@ from ..rules.names import forwarded
 # files, the build script) is for building them, and class.html only goes out through /class,
 # which checks who asks.
 PUBLIC_DIRS = frozenset({'blocks', 'css', 'generators', 'i18n', 'js', 'runtime', 'vendor'})
-PUBLIC_FILES = frozenset({'index.html', 'teleop.html', 'twin.html', 'inspect.html', 'toolbox.json'})
+PUBLIC_FILES = frozenset({'index.html', 'teleop.html', 'twin.html', 'inspect.html', 'toolbox.json', 'blockschema.json'})
 # The IDE page is cross-origin isolated, so its Python worker may share memory with it
 # (SharedArrayBuffer: a blocked program wakes on the gateway's messages, ide/js/pyrun.js). Everything
 # the page loads is from the gateway itself; a page of another origin cannot embed these files.
 ISOLATION = {'Cross-Origin-Opener-Policy': 'same-origin', 'Cross-Origin-Embedder-Policy': 'require-corp',
              'Cross-Origin-Resource-Policy': 'same-origin'}
+# A program from another person's share link runs in a worker of its own whose policy gives it no
+# way to the gateway but the page's (ide/js/foreign.js): the scripts it needs and nothing else, no
+# fetch, no XMLHttpRequest, no websocket (connect-src), and no import() of a page or an API (a JSON
+# module reads the opener's data with her cookies: script-src and connect-src by path). Paths are
+# given without a scheme (the page's own, behind a TLS proxy too). path -> (scripts, connections)
+GUEST_WORKERS = {
+    'js/guestworker.js': (('js/guestworker.js', 'vendor/roslib.mjs', 'runtime/'), ()),
+    'js/pyworker.js': (('js/pyworker.js', 'vendor/pyodide/'), ('vendor/pyodide/', 'runtime/')),   # ?guest=1
+}
+
+
+def guest_policy(host: str, allowed: tuple) -> str:
+    scripts, connections = allowed
+    if not re.fullmatch(r'[A-Za-z0-9.\-]+(:\d+)?', host):
+        host = ''          # a name CSP cannot say (an IPv6 literal): nothing is allowed, the guest fails closed
+    where = lambda paths: ' '.join(f'{host}/{p}' for p in paths if host) or "'none'"   # noqa: E731
+    return (f"default-src 'none'; script-src {where(scripts)} 'unsafe-eval' 'wasm-unsafe-eval'; "
+            f"connect-src {where(connections)}")
+
+
 MAX_HTTP_BODY = 4 * 2**20   # the largest request body any route takes (a program is at most 2 MiB)
 # What the pages cannot work without (the bundles come from `npm run build` in ide/).
 IDE_REQUIRED = ('index.html', 'teleop.html', 'vendor/roslib.mjs', 'vendor/blockly/blockly_compressed.js')
@@ -111,6 +132,9 @@ class PublicFileHandler(tornado.web.StaticFileHandler):
         self.set_header('Cache-Control', 'no-cache')
         for name, value in ISOLATION.items():
             self.set_header(name, value)
+        guest = GUEST_WORKERS.get(path.replace(os.sep, '/'))
+        if guest is not None and (path.endswith('guestworker.js') or self.get_query_argument('guest', '') == '1'):
+            self.set_header('Content-Security-Policy', guest_policy(self.request.host or '', guest))
 
     async def get(self, path: str, include_body: bool = True) -> None:
         # Pyodide's 9.6 MB wasm goes out as the build's gzip of it (3.5 MB) to browsers that take

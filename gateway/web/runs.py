@@ -2,7 +2,8 @@
 
 POST   /api/runs       {"source": "<python>", "name", "ns", "timeout"} or {"program": "<library name>", "owner", ...}
                        -> 201 {"id"}; 409 naming the run already going in that namespace
-                       "kind": what the source is ("python" by default); "record": true records the
+                       "kind": what the source is ("python" by default); "as": "operator" runs it with an
+                       operator's rights, not the starter's higher ones; "record": true records the
                        station's topics (NS/*, or every topic in the root) for the run's length
 GET    /api/runs       -> {"allowed": bool, "runs": [summary, ...]} (the runs of this gateway's life)
 GET    /api/runs?all=1 -> {"allowed", "runs": [kept run, ...]}: every kept run the caller may see, newest
@@ -25,12 +26,14 @@ from pathlib import Path
 import tornado.web
 
 from ..rules.access import ADMINS, OPERATORS, acts_as_admin, owns
+from ..rules.policy import lowered
 from ..rules.stations import person_of
 from ..runs import Run, RunManager
 from ..runs.archive import Archive
 from .api import JsonHandler, body_json, caller
 from .programs import space_owner, stored_program
-from .recordings import RecordingManager, send_file
+from .recordings import RecordingManager
+from .recordings_api import send_file
 
 MAX_SOURCE = 1024 * 1024
 NAMESPACE = re.compile(r'(/[A-Za-z_][A-Za-z0-9_]{0,63}){0,8}')   # ROS names, ASCII, a few levels
@@ -138,7 +141,7 @@ class RunListHandler(_Handler):
         record = body.get('record', False)
         if not isinstance(record, bool):
             raise tornado.web.HTTPError(400, '"record" is true or false')
-        role = identity.role if identity is not None else None
+        role = lowered(identity.role, body.get('as')) if identity is not None else None   # "as": "operator" lends less
         owner, who = (identity.owner, identity.name) if identity is not None else (None, None)
         run = m.start(source, name, ns, float(timeout), role, _local_address(self),
                       person_of(identity, self.request.cookies), owner=owner, who=who, kind=kind,

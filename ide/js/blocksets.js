@@ -6,6 +6,7 @@
 // program opens where the library is not.
 import { t } from './i18n.js';
 import { nameGlob } from './graph.js';
+import { madeProblem, setProblem } from './blockcheck.js';
 
 /** A set's robot glob (`/husky*`, `/`, `*`) against a robot namespace ('' : the one robot, '/'). */
 export function robotMatches(glob, ns) {
@@ -27,15 +28,26 @@ export class BlockSets {
       if (!res.ok) return;
       body = await res.json();
     } catch { return; }   // a gateway without the route: the IDE's own sets alone
-    this.sets = body.sets ?? [];
-    this.shared = body.shared ?? [];
+    // data, checked as the gateway checked them (js/blockcheck.js): one that is not is left out
+    this.sets = (body.sets ?? []).filter((set) => {
+      const why = setProblem(set, set.file);
+      if (why) console.warn(why);
+      return !why;
+    });
+    this.shared = (body.shared ?? []).filter((made) => {
+      const why = madeProblem(made, 'shared');
+      if (why) console.warn(why);
+      return !why;
+    });
     this.publishable = !!body.publish;
     for (const set of this.sets) {
       for (const def of set.blocks) {
         try { define(def, set.colour, set.namespaced); } catch (e) { console.warn(set.file, e);   /* the developer's console: which set, and why */ }
       }
     }
-    for (const made of this.shared) define({ ...made.json, rosgate: made.spec }, 330);
+    for (const made of this.shared) {
+      try { define({ ...made.json, rosgate: made.spec }, 330, false, { made: true }); } catch (e) { console.warn(e); }
+    }
   }
 
   /** The toolbox categories for the robot in namespace ns; entries(set) gives a set's blocks. */

@@ -158,8 +158,10 @@ class Tile {
     const owner = view.owners[this.ns]?.name;
     const halted = view.lease.info?.halted?.[this.ns];
     // the present only: a free station shows no program (the last class's is gone), and a report
-    // is shown only when it is the owner's (not what another student's page left on this station)
-    const r = (owner || d) && (!owner || !this.report?.user || this.report.user === owner) ? this.report : null;
+    // is shown only when it is the owner's (not what another student's page left on this station),
+    // by the gateway's stamp of who sent it (rules/reports.py), never the report's own word
+    const by = this.report?.by?.name;
+    const r = (owner || d) && by && (!owner || by === owner) ? this.report : null;
     let text;
     if (d && (!owner || d.owner)) text = t('class.drives', { who: d.run && owner ? t('class.run.of', { owner }) : d.name });
     else if (d) text = t('class.station.driven', { owner, who: d.name });

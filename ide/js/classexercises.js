@@ -8,7 +8,7 @@
 import { t, localized } from './i18n.js';
 
 export async function exerciseSummary() {
-  const res = await fetch('api/exercise-results', { cache: 'no-store' });
+  const res = await fetch('api/exercise-results?summary=1', { cache: 'no-store' });   // not every attempt's program
   const body = await res.json().catch(() => null);
   if (!res.ok) throw new Error(body?.error || `HTTP ${res.status}`);
   return body.summary;

@@ -5,14 +5,16 @@
 import './fields.js';
 import './msgblock.js';
 import { t } from './i18n.js';
+import { loadSchema, madeProblem, guardHelp } from './blockcheck.js';
 
 let workspace = null;
 let defined = null;
 
 async function defineBlocks() {
   if (!defined) {
-    defined = Promise.all(['ros', 'turtlesim', 'rover'].map((n) => fetch(`blocks/${n}.json`).then((r) => r.json())))
-      .then((sets) => { for (const set of sets) for (const def of set.blocks) define(def, set.colour); });
+    guardHelp();      // Help opens an http(s) page, nothing else
+    defined = Promise.all([...['ros', 'turtlesim', 'rover'].map((n) => fetch(`blocks/${n}.json`).then((r) => r.json())), loadSchema()])
+      .then(([...sets]) => { for (const set of sets.slice(0, 3)) for (const def of set.blocks) define(def, set.colour); });
   }
   return defined;
 }
@@ -26,7 +28,7 @@ function define(def, colour) {
 
 export async function showProgram(report, ns) {
   const dlg = document.querySelector('#dlg-program');
-  document.querySelector('#program-title').textContent = `${ns} · ${report?.user || t('class.student')} · ${report?.name ?? ''}`;
+  document.querySelector('#program-title').textContent = `${ns} · ${report?.by?.name || t('class.student')} · ${report?.name ?? ''}`;
   document.querySelector('#program-close').onclick = () => dlg.close();
   dlg.showModal();
   const view = document.querySelector('#program-view');
@@ -34,7 +36,8 @@ export async function showProgram(report, ns) {
   view.hidden = false;
   document.querySelector('#program-text')?.remove();
   await defineBlocks();
-  for (const custom of report?.program?.blocks ?? []) if (custom.json) define(custom.json, 330);
+  // a student's own blocks are data from outside this page: checked, and never in a block's place
+  for (const custom of report?.program?.blocks ?? []) if (!madeProblem(custom)) define(custom.json, 330);
   if (!workspace) {
     workspace = Blockly.inject(document.querySelector('#program-view'), {
       readOnly: true, renderer: 'zelos', media: 'vendor/blockly/media/', sounds: false,

@@ -12,6 +12,7 @@ export const DRIVER_TOPIC = '/rosgate/driver';
 const CONTROL_TOPIC = '/rosgate/control';
 const STRING = 'std_msgs/msg/String';
 const HOLDER = /you hold the driver lease as client (\d+)/;
+const REPORT = /^publish(?: \(id [^)]*\))?: [^:\s]*\/rosgate\/program: /;
 const REFUSED = /^publish(?: \(id [^)]*\))?: [^:\s]+: (.* (?:is driving|stopped|released|station)\b.*)$/s;
 
 // The lease group of a robot namespace, given the gateway's announcement.
@@ -126,7 +127,8 @@ export class DriverLease extends EventTarget {
       this._changed();
       return;
     }
-    const refused = m.level === 'error' && REFUSED.exec(m.msg ?? '');
+    // (a program report refused on a station that is not this person's is no refused command)
+    const refused = m.level === 'error' && !REPORT.test(m.msg ?? '') && REFUSED.exec(m.msg ?? '');
     if (refused) this.dispatchEvent(new CustomEvent('refused', { detail: refused[1] }));
   }
 

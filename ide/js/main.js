@@ -30,6 +30,8 @@ import { TextMode, blocksAsText, bundlePython, LANGS } from './textmode.js';
 import { TextRunner } from './textrun.js';
 import { t, localized, pick, lang } from './i18n.js';
 import { mountExercise } from './exercise.js';
+import { loadSchema, blockProblem, madeProblem, guardHelp } from './blockcheck.js';
+import { guard as foreignGuard, asLowered, signProgram, whose } from './foreign.js';
 
 const $ = (sel) => document.querySelector(sel);
 const getJson = async (url) => {
@@ -39,7 +41,12 @@ const getJson = async (url) => {
 };
 
 // ---- blocks ----------------------------------------------------------------
-function defineBlock(def, colour, namespaced = false) {
+// Every definition is data checked against the block schema (js/blockcheck.js) and never takes the
+// place of a block already defined (a shared "controls_if" would have replaced the IDE's own).
+function defineBlock(def, colour, namespaced = false, { made = false } = {}) {
+  const why = blockProblem(def, def?.type ?? 'block', { made });
+  if (why) throw new Error(why);
+  if (Blockly.Blocks[def.type]) return;
   const { rosgate: found, ...json } = def;
   if (json.colour === undefined) json.colour = colour;
   Blockly.common.defineBlocksWithJsonArray([json]);
@@ -85,8 +92,10 @@ function buildToolbox(base) {
 }
 
 export function addCustomBlock(def) {
+  const why = madeProblem(def);
+  if (why) throw new Error(why);
   if (!ide.custom.some((c) => c.json.type === def.json.type)) ide.custom.push(def);
-  if (!Blockly.Blocks[def.json.type]) defineBlock({ ...def.json, rosgate: def.spec }, 330);
+  if (!Blockly.Blocks[def.json.type]) defineBlock({ ...def.json, rosgate: def.spec }, 330, false, { made: true });
   ide.workspace?.updateToolbox(buildToolbox(ide.baseToolbox));
 }
 
@@ -103,13 +112,14 @@ function foldRuntime(code) {
 async function start() {
   const [ros_, turtlesim, rover, base, runtimePy] = await Promise.all([
     getJson('blocks/ros.json'), getJson('blocks/turtlesim.json'), getJson('blocks/rover.json'),
-    getJson('toolbox.json'), fetch('runtime/rosgate_runtime.py').then((r) => r.text()),
+    getJson('toolbox.json'), fetch('runtime/rosgate_runtime.py').then((r) => r.text()), loadSchema(),
   ]);
   const nodeRuntime = fetch('runtime/rosgate_node.py').then((r) => r.text());
   ide.sets = { ros: ros_, turtlesim, rover };
   ide.baseToolbox = base;
   setRuntimeSource(runtimePy);
   registerMakeBlock();
+  guardHelp();               // Help opens an http(s) page, nothing else
   for (const set of Object.values(ide.sets)) for (const def of set.blocks) defineBlock(def, set.colour, set.namespaced);
   await ide.blockSets.load(defineBlock);
 
@@ -194,7 +204,7 @@ async function start() {
     el.textContent = text;
     document.body.dataset.connection = s;
   };
-  const link = new Link(() => url.value);
+  const link = new Link(() => asLowered(ide, url.value));   // as an operator once it runs another's program
   ide.link = link;
   link.addEventListener('open', (e) => {
     const ros = e.detail;
@@ -245,14 +255,18 @@ async function start() {
   // a program drives only this person's robot, and not while the teacher's stop holds: said here
   // once per press, not as an error of the program's blocks
   const mayDrive = () => { const why = robotNs.whyNot(); if (why) consoleView.warn(why); return !why; };
-  $('#run').onclick = () => {
-    if (!mayDrive()) return;
+  // a program from another person's link runs once its opener says so, without her admin rights
+  ide.mayRun = foreignGuard(ide, {
+    reconnect: () => new Promise((resolve) => { link.addEventListener('open', () => resolve(), { once: true }); link.restart(); }),
+  });
+  $('#run').onclick = async () => {
+    if (!mayDrive() || !(await ide.mayRun())) return;
     if (textMode.active) textRunner.run(textMode.text, textMode.lang);
     else if (runner.state === 'paused') runner.resume();
     else runner.run();
   };
   $('#pause').onclick = () => runner.pause();
-  $('#step').onclick = () => mayDrive() && runner.step();
+  $('#step').onclick = async () => mayDrive() && (await ide.mayRun()) && runner.step();
   $('#stop').onclick = () => { runner.stop(); textRunner.stop(); };
 
   // code panel, live
@@ -306,6 +320,7 @@ async function start() {
   // resolves once the program shows (a text program's editor loads at the first one)
   ide.loadProgram = async (p) => {
     storage.checkProgram(p);
+    ide.foreign = null;                  // a program of the opener's own (a link's is marked after it opens)
     runner.stop();
     textRunner.stop();
     if (storage.isText(p)) {
@@ -384,7 +399,8 @@ async function start() {
     try { await ide.loadProgram(JSON.parse(text)); consoleView.info(t('ide.opened', { name: ide.programName })); } catch (e) { consoleView.error(t('ide.open.failed', { error: e.message })); }
   };
   $('#share').onclick = async () => {
-    const link = await storage.shareLink(program());
+    const p = program();
+    const link = await storage.shareLink(p, await signProgram(JSON.stringify(p)));   // whose it is, signed
     ide.lastShareLink = link;
     history.replaceState(null, '', link);
     try { await navigator.clipboard.writeText(link); consoleView.info(t('ide.share.copied')); } catch {
@@ -415,8 +431,11 @@ async function start() {
     const query = new URLSearchParams(location.search);
     const byName = query.get('program');
     const lang = query.get('lang') in LANGS ? query.get('lang') : 'python';
-    if (shared_) await ide.loadProgram(shared_);
-    else if (byName) {
+    if (shared_) {
+      await ide.loadProgram(shared_.program);
+      const who = await whose(shared_.text, shared_.shared);
+      if (!who.mine) ide.foreign = { ...who, confirmed: false };     // another person's: asked before it runs
+    } else if (byName) {
       await ide.loadProgram(await programNamed(byName));
       // a text exercise (the LMS's deep link): a block program written as text in `lang`
       if (query.get('mode') === 'text' && !textMode.active) await editAsText(lang, ide.programName);

@@ -31,8 +31,10 @@ addEventListener('pagehide', () => stopPython());   // a closed page stops its r
 // on it), 1 the lock, 2 bytes used, 3 the running line. The bytes follow, newline-separated JSON.
 const SEQ = 0, LOCK = 1, USED = 2, LINE = 3, HEAD = 16;
 
-function startWorker() {
-  const worker = new Worker(new URL('./pyworker.js', import.meta.url), { type: 'module' });
+// guest: a program from another person's share link, in a worker the gateway serves with a policy
+// that lets it reach nothing but Pyodide's and the runtime's files (js/foreign.js)
+function startWorker(guest = false) {
+  const worker = new Worker(new URL(guest ? './pyworker.js?guest=1' : './pyworker.js', import.meta.url), { type: 'module' });
   const ready = new Promise((resolve, reject) => {
     const onMessage = (e) => {
       if (e.data?.kind === 'ready') { worker.removeEventListener('message', onMessage); resolve(worker); }
@@ -77,7 +79,7 @@ export async function checkPython(source) {
  * onLine(lineNo) for the running line of the program, onError({line, message, traceback}) with
  * the program's own line numbers (the traceback keeps only the program's frames; it reaches log too).
  */
-export async function runPython(source, { ros, namespace = '', log = () => {}, onLine = null, onError = () => {} } = {}) {
+export async function runPython(source, { ros, namespace = '', log = () => {}, onLine = null, onError = () => {}, guest = false } = {}) {
   stopPython();
   const run = ++runs;
   const say = (text, level = 'info') => { try { log(text, level); } catch { /* the page's problem */ } };
@@ -92,7 +94,7 @@ export async function runPython(source, { ros, namespace = '', log = () => {}, o
   }
   const prog = new Program(run, ros, { log: say, onLine, onError });
   current = prog;
-  const w = takeSpare();
+  const w = guest ? startWorker(true) : takeSpare();
   prog.worker = w.worker;
   try {
     await Promise.race([w.ready, prog.ended]);

@@ -64,6 +64,7 @@ export class RobotRuns extends EventTarget {
   async start() {
     const why = this.ide.robotNs?.whyNot();
     if (why) { this.ide.console.error(t('robot.run.failed', { why })); return; }
+    if (this.ide.mayRun && !(await this.ide.mayRun())) return;   // another person's program: asked first (js/foreign.js)
     let source;
     try { source = this.ide.generatePython(); } catch (e) { this.ide.console.error(t('robot.codegen.failed', { error: e.message })); return; }
     try {
@@ -72,6 +73,7 @@ export class RobotRuns extends EventTarget {
         body: JSON.stringify({
           source, name: this.ide.programName, ns: this.ide.ns || '', timeout: 600,
           record: this.record.querySelector('input').checked,
+          ...(this.ide.foreign ? { as: 'operator' } : {}),     // with no admin rights lent
         }),
       });
       await this.attach(run, { replay: false });

@@ -1,5 +1,8 @@
 // Programs as JSON: autosave in the browser, files, the gateway's library, share links.
+// What comes from a link, a file or the library is checked before it is opened: its own blocks
+// against the block schema (js/blockcheck.js), as data.
 /* global Blockly */
+import { madeProblem } from './blockcheck.js';
 
 export const FORMAT = 'rosgate-program';
 const AUTOSAVE_KEY = 'rosgate.autosave';
@@ -26,6 +29,11 @@ export const isText = (p) => p?.kind === 'text';
 
 export function checkProgram(p) {
   if (!p || typeof p !== 'object' || p.format !== FORMAT) throw new Error('not a rosgate program');
+  if (p.blocks !== undefined && !Array.isArray(p.blocks)) throw new Error('not a rosgate program: "blocks" is a list');
+  for (const [i, made] of (p.blocks ?? []).entries()) {
+    const why = madeProblem(made, `blocks[${i}]`);
+    if (why) throw new Error(why);
+  }
   if (isText(p)) {
     if (typeof p.text !== 'string' || !TEXT_LANGS.includes(p.lang)) throw new Error('not a rosgate text program');
   } else if (!p.workspace) {
@@ -96,8 +104,9 @@ async function pipe(bytes, stream) {
   return new Uint8Array(await out.arrayBuffer());
 }
 
-export async function shareLink(program) {
-  const bytes = new TextEncoder().encode(JSON.stringify(program));
+// shared: the sharer's signature of the program's JSON text ({by, sig}: js/foreign.js), carried with it
+export async function shareLink(program, shared = null) {
+  const bytes = new TextEncoder().encode(JSON.stringify(shared?.sig ? { ...program, shared } : program));
   const packed = await pipe(bytes, new CompressionStream('deflate-raw'));
   const url = new URL(location.href);
   url.search = '';
@@ -105,11 +114,14 @@ export async function shareLink(program) {
   return url.toString();
 }
 
+// {program, shared, text}: the link's program, the signature it carries and the program's JSON text
+// as it was signed (the signature is not part of the program)
 export async function programFromHash(hash = location.hash) {
   const m = /[#&]program=([A-Za-z0-9_-]+)/.exec(hash);
   if (!m) return null;
   const bytes = await pipe(fromBase64Url(m[1]), new DecompressionStream('deflate-raw'));
-  return checkProgram(JSON.parse(new TextDecoder().decode(bytes)));
+  const { shared = null, ...program } = JSON.parse(new TextDecoder().decode(bytes));
+  return { program: checkProgram(program), shared, text: JSON.stringify(program) };
 }
 
 // ---- the gateway's program library ------------------------------------------

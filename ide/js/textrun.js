@@ -194,6 +194,7 @@ export class TextRunner extends EventTarget {
   async _javascript(run, text) {
     await this.ready();
     if (this.run_ !== run) return;
+    if (this.ide.foreign) { await this._guest(run, text); return; }   // another person's: apart (js/foreign.js)
     const fn = compileJs(text, run.url);
     const door = run.door;
     const rt = new Runtime(door.ros, {
@@ -249,6 +250,22 @@ export class TextRunner extends EventTarget {
     this._finish(run, t('text.finished', { n: num(run.n) }));
   }
 
+  // A program from another person's share link: in a worker of its own, its ops through the door.
+  async _guest(run, text) {
+    compileJs(text, run.url);                    // its syntax errors, with their lines, here
+    const { runGuest } = await import('./foreign.js');
+    if (this.run_ !== run) return;
+    run.guest = runGuest(prepareJs(text), {
+      url: run.url, namespace: this.ide.ns ?? '', door: run.door, ros: this.ide.ros,
+      log: (text, level) => { if (this.run_ === run) { if (level === 'error') this.ide.console.error(text); else this.ide.console.log(text, level); } },
+      line: (n) => this._at(run, n),
+      error: ({ line, message, name }) => this._error(run, new ProgramError(line, name && name !== 'Error' ? `${name}: ${message}` : message)),
+      callbacks: () => { if (this.run_ === run) this.ide.console.info(t('text.callbacks')); },
+    });
+    await run.guest.ended;
+    if (this.run_ === run) this._finish(run, t('text.finished', { n: num(run.n) }));
+  }
+
   // ---- Python (js/pyrun.js: Pyodide in a worker, loaded at the first Python run) ----
   async _python(run, text) {
     let py;
@@ -273,6 +290,7 @@ export class TextRunner extends EventTarget {
     await this.ready();
     if (this.run_ !== run) return;
     await py.runPython(text, {
+      guest: Boolean(this.ide.foreign),          // another person's program: a worker apart (js/foreign.js)
       ros: run.door.ros,
       namespace: this.ide.ns ?? '',
       log: (t, level) => { if (this.run_ === run) this.ide.console.log(t, level); },
@@ -306,6 +324,7 @@ export class TextRunner extends EventTarget {
     if (this.run_ !== run) return;
     this.run_ = null;
     run.rt?.stop();                        // the runtime's waits end, its goals are cancelled, robot zeroed
+    run.guest?.stop();                     // a foreign program's worker ends (its goals cancelled)
     // Python's worker ends first: pyrun's own cleanup (its goals cancelled, subscriptions and
     // advertisements ended, zero on what it drove) still passes the open door
     if (run.py) {

@@ -106,8 +106,10 @@ async def test_the_rules_are_composed_in_their_documented_order(tmp_path):
     runs = RunManager(gateway, allowed=False, runs_dir=tmp_path)
     composed = rules.compose(gateway, runs=runs)
     try:
-        assert composed.publish == (runs.publish_hook, composed.lease.publish_hook, composed.safety.publish_hook)
-        assert composed.guards == (runs.subscribe_guard,)
+        assert composed.publish == (runs.publish_hook, composed.lease.publish_hook, composed.reports.publish_hook,
+                                    composed.safety.publish_hook)
+        assert composed.policy.keepers == (composed.reports.keeper, composed.lease.names.name_refusal)
+        assert composed.guards == ()
         assert composed.hooks == (composed.stations, composed.lease, composed.safety, composed.slots, runs)
         gateway.install(composed)
         assert gateway.policy is composed.policy and gateway.rules == composed.publish

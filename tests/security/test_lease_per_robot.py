@@ -41,8 +41,10 @@ def test_each_fleet_station_has_its_own_driver(launch, tokens_file):
         assert holder(state, '/s01') == 'alice' and holder(state, '/s02') == 'bob' and state['driver'] is None
         refusal = bob.refusal({'op': 'publish', 'topic': s01, 'type': TWIST, 'msg': twist(-0.5)})
         assert 'alice (client' in refusal['msg'] and 'is driving /s01' in refusal['msg']
-        # without --control-glob a station's services are not commands
-        assert bob.call('/s01/turtle1/teleport_relative', {'linear': 0.0, 'angular': 0.0})['result']
+        # a station's services are not commands, but they are its holder's (a teleport moves the robot too)
+        refused = bob.call('/s01/turtle1/teleport_relative', {'linear': 0.0, 'angular': 0.0})
+        assert refused['result'] is False and 'alice (client' in refused['values'], refused
+        assert alice.call('/s01/turtle1/teleport_relative', {'linear': 0.0, 'angular': 0.0})['result']
         bob.publish('/rosgate/control', {'data': 'take /s01'}, id='take1')
         assert 'only an admin can take over' in bob.status('take1')['msg']
 

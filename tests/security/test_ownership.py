@@ -34,7 +34,7 @@ def recording(gw, who: str, topics: list, seconds: float = 600) -> dict:
 
 def finished(gw, rec_id: str) -> dict:
     return wait_for(lambda: (lambda b: b if b['state'] != 'recording' else None)(
-        api(gw, 'GET', f'/api/recordings/{rec_id}', token=TOKENS['viewer'])[1]), 30, 0.05)
+        api(gw, 'GET', f'/api/recordings/{rec_id}', token=TOKENS['admin'])[1]), 30, 0.05)
 
 
 def download(gw, rec_id: str, who: str) -> int:
@@ -42,7 +42,8 @@ def download(gw, rec_id: str, who: str) -> int:
 
 
 def listed(gw, rec_id: str) -> dict | None:
-    recs = api(gw, 'GET', '/api/recordings', token=TOKENS['viewer'])[1]['recordings']
+    """A recording as the teacher's listing shows it (a student's shows her own alone)."""
+    recs = api(gw, 'GET', '/api/recordings', token=TOKENS['admin'])[1]['recordings']
     return next((r for r in recs if r['id'] == rec_id), None)
 
 

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from protocol.msgdefs import Definitions, normalize
+from protocol.names import name_problem
 
 from .. import blame
 from ..base import (
@@ -33,6 +34,16 @@ from .timers import SimTimer, Ticker
 
 log = logging.getLogger('rosgate.sim')
 Message = dict[str, Any]
+
+
+def checked(node: Node, name: str, kind: str) -> str:
+    """``name`` resolved in ``node``'s namespace, if rcl would take it as a topic's, service's or
+    action's, else a BackendError saying why (what ROS 2 refuses is never created and listed)."""
+    full = resolve(name, node.namespace) if name else ''
+    problem = name_problem(full) or (name.endswith('/') and 'a name does not end with /') or None
+    if problem is not None:
+        raise BackendError(f'{name[:100]!r} is no valid ROS 2 {kind} name: {problem}')
+    return full
 
 
 def resolve(name: str, namespace: str = '/') -> str:
@@ -164,14 +175,14 @@ class Node:
 
     # topics
     def create_publisher(self, topic: str, type: str, qos: QoS = QoS()) -> SimPublisher:
-        pub = SimPublisher(self, self.graph._topic(self.resolve(topic), type), qos)
+        pub = SimPublisher(self, self.graph._topic(checked(self, topic, 'topic'), type), qos)
         pub._topic.publishers.append(pub)
         self._owned.add(pub)
         return pub
 
     def create_subscription(self, topic: str, type: str, callback: Callable[[Message], None],
                             qos: QoS | None = None) -> SimSubscription:
-        t = self.graph._topic(self.resolve(topic), type)
+        t = self.graph._topic(checked(self, topic, 'topic'), type)
         sub = SimSubscription(self, t, callback, qos)
         t.subscriptions.append(sub)
         self._owned.add(sub)
@@ -184,7 +195,7 @@ class Node:
 
     # services
     def create_service(self, name: str, type: str, handler: Callable[[Message], Any]) -> SimService:
-        name = self.resolve(name)
+        name = checked(self, name, 'service')
         type = self.graph.defs.srv(type).type   # also an action's X_SendGoal, X_GetResult
         old = self.graph._services.get(name)
         if old is not None and old.node is not self:
@@ -197,7 +208,7 @@ class Node:
 
     # actions
     def create_action_server(self, name: str, type: str, callbacks: ActionServerCallbacks) -> SimActionServer:
-        name = self.resolve(name)
+        name = checked(self, name, 'action')
         type = normalize(type, 'action')
         self.graph.defs.action(type)
         old = self.graph._actions.get(name)

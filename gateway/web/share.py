@@ -1,0 +1,85 @@
+"""Whose a share link is: the gateway signs a program for the person sharing it and says, to whoever
+opens the link, who signed it.
+
+POST /api/share        {"text": PROGRAM_JSON} -> {"by": NAME, "sig": SIG}  (nulls with auth off)
+POST /api/share/check  {"text", "by", "sig"}  -> {"signed": bool, "by": NAME | null, "mine": bool}
+
+A share link carries its program in the URL (``ide/js/storage.js``); anyone can write one and put
+any name in it. Opened by the teacher, a student's link ran its program with the teacher's whole
+session. The page now asks before a link's program first runs and runs it without admin rights
+(``ide/js/foreign.js``); to say whose it is, it asks here: ``sig`` is an HMAC of the signer's key,
+name and the program's exact text under the gateway's own secret (the session cookies' secret,
+``rules.sessions.cookie_secret``), so a name is shown only when this gateway signed it, and
+``mine`` (the signer is the caller) is the one case that needs no asking.
+"""
+
+from __future__ import annotations
+
+import base64
+import hashlib
+import hmac
+
+import tornado.web
+
+from ..rules.sessions import cookie_secret
+from .api import JsonHandler, body_json, caller
+
+MAX_TEXT = 3 * 2**20     # a program is at most 2 MiB (programs.MAX_PROGRAM_BYTES) and its JSON some more
+
+
+def _mac(secret: bytes, key: str, name: str, text: str) -> str:
+    data = b'\0'.join((b'rosgate share link', key.encode(), name.encode(), text.encode()))
+    return hmac.new(secret, data, hashlib.sha256).hexdigest()
+
+
+def sign(secret: bytes, key: str, name: str, text: str) -> str:
+    return base64.urlsafe_b64encode(key.encode()).decode().rstrip('=') + '.' + _mac(secret, key, name, text)
+
+
+def signer(secret: bytes, sig: str, name: str, text: str) -> str | None:
+    """The key of who signed ``text`` as ``name`` with ``sig``, or None when this gateway did not."""
+    encoded, _, mac = sig.partition('.')
+    try:
+        key = base64.urlsafe_b64decode(encoded + '=' * (-len(encoded) % 4)).decode()
+    except ValueError:
+        return None
+    return key if hmac.compare_digest(mac, _mac(secret, key, name, text)) else None
+
+
+class _Handler(JsonHandler):
+    def initialize(self, gateway, secret: bytes) -> None:
+        self.gateway, self.secret = gateway, secret
+
+    def _text(self, body: dict) -> str:
+        text = body.get('text')
+        if not isinstance(text, str):
+            raise tornado.web.HTTPError(400, '"text" is the program\'s JSON text')
+        return text
+
+
+class ShareHandler(_Handler):
+    def post(self) -> None:
+        identity = caller(self, self.gateway)
+        text = self._text(body_json(self, MAX_TEXT))
+        if identity is None:
+            self.finish({'by': None, 'sig': None})
+            return
+        self.finish({'by': identity.name, 'sig': sign(self.secret, identity.owner, identity.name, text)})
+
+
+class CheckHandler(_Handler):
+    def post(self) -> None:
+        identity = caller(self, self.gateway)
+        body = body_json(self, MAX_TEXT)
+        text, by, sig = self._text(body), body.get('by'), body.get('sig')
+        if not (isinstance(by, str) and isinstance(sig, str)) or identity is None:
+            self.finish({'signed': False, 'by': None, 'mine': False})
+            return
+        key = signer(self.secret, sig, by, text)
+        self.finish({'signed': key is not None, 'by': by if key is not None else None,
+                     'mine': key is not None and key == identity.owner})
+
+
+def share_routes(gateway) -> list:
+    kw = {'gateway': gateway, 'secret': cookie_secret() if gateway.policy.auth is not None else b''}
+    return [(r'/api/share', ShareHandler, kw), (r'/api/share/check', CheckHandler, kw)]
