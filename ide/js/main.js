@@ -26,7 +26,7 @@ import { NameScope } from '../generators/scope.js';
 import { markLooseBlocks } from './loose.js';
 import { mountRecorder } from './recorder.js';
 import { mountBooking } from './booking.js';
-import { TextMode, blocksAsText, bundlePython, LANGS } from './textmode.js';
+import { TextMode, blocksAsText, bundlePython, starter, LANGS } from './textmode.js';
 import { TextRunner } from './textrun.js';
 import { t } from './i18n.js';
 import { mountExercise } from './exercise.js';
@@ -208,7 +208,7 @@ async function start() {
   link.addEventListener('lost', () => {
     setStatus('lost', t('status.lost'));
     runner.stop();
-    textRunner.stop();
+    textRunner.stop(t('text.why.link'));
   });
   link.addEventListener('state', (e) => { if (e.detail === 'connecting') setStatus('connecting', t('status.connecting')); });
   setInterval(() => { $('#link').textContent = link.describe(); }, 500);
@@ -232,7 +232,7 @@ async function start() {
   textRunner.addEventListener('state', runState);
   lease.addEventListener('stop', () => {
     runner.stop();
-    textRunner.stop();
+    textRunner.stop(t('text.why.teacher'));
     consoleView.warn(t('ide.stopped.teacher', { robot: ide.ns || t('ide.this.robot') }));
   });
   ide.report = reportProgram(ide, { workspace, runners: [runner, textRunner], consoleEl: $('#console-lines') });
@@ -249,7 +249,7 @@ async function start() {
   };
   $('#pause').onclick = () => runner.pause();
   $('#step').onclick = () => mayDrive() && runner.step();
-  $('#stop').onclick = () => { runner.stop(); textRunner.stop(); };
+  $('#stop').onclick = () => { runner.stop(); textRunner.stop(t('text.why.button')); };
 
   // code panel, live
   let codeTimer = null;
@@ -343,8 +343,8 @@ async function start() {
     await ide.loadProgram({ format: storage.FORMAT, name: 'my program', workspace: {} });
     workspace.updateToolbox(buildToolbox(base));
   };
-  // a new text program (empty: the editor shows an example until the first key)
-  const newText = (lang) => ide.loadProgram(storage.makeTextProgram({ name: 'my program', lang, text: '' }));
+  // a new text program: a short one that runs as it is
+  const newText = (lang) => ide.loadProgram(storage.makeTextProgram({ name: 'my program', lang, text: starter(lang) }));
   $('#new-text').onchange = async () => {
     const lang = $('#new-text').value;
     $('#new-text').value = '';

@@ -1,12 +1,17 @@
 // The Python worker (started by pyrun.js): Pyodide from vendor/pyodide/, the roslibpy of the page
 // (runtime/browser/roslibpy.py) and the runtime the generated programs use. It checks programs'
 // syntax while idle and runs one program, then ends: a fresh worker runs the next.
-import { loadPyodide } from '../vendor/pyodide/pyodide.mjs';
+import { loadPyodide, version } from '../vendor/pyodide/pyodide.mjs';
 
-const FILES = {   // module file -> URL, put on Python's path
+const RCLPY = ['__init__', '_engine', 'callback_groups', 'client', 'clock', 'context', 'duration', 'exceptions',
+  'executors', 'logging', 'node', 'parameter', 'publisher', 'qos', 'service', 'signals', 'subscription', 'task',
+  'time', 'timer', 'utilities', 'action/__init__', 'action/client', 'action/server'];
+const FILES = {   // module file -> URL, put on Python's path (imported only when a program imports them)
   'roslibpy.py': '../runtime/browser/roslibpy.py',
   'rosgate_browser.py': '../runtime/browser/rosgate_browser.py',
+  'rosgate_interfaces.py': '../runtime/browser/rosgate_interfaces.py',
   'rosgate_runtime.py': '../runtime/rosgate_runtime.py',
+  ...Object.fromEntries(RCLPY.map((m) => [`rclpy/${m}.py`, `../runtime/browser/rclpy/${m}.py`])),
 };
 const SEQ = 0, LOCK = 1, USED = 2, LINE = 3, HEAD = 16;
 const MODULES = '/home/pyodide/rosgate';
@@ -45,9 +50,9 @@ globalThis.rosgateMemory = () => JSON.stringify({
   wasm: pyodide?._module?.HEAPU8?.byteLength ?? null, js: performance.memory?.usedJSHeapSize ?? null });
 
 async function start() {
-  const base = new URL('../vendor/pyodide/', import.meta.url).href;
+  const base = new URL(`../vendor/pyodide/${version}/`, import.meta.url).href;   // immutable: from the cache
   pyodide = await loadPyodide({ indexURL: base, stdout: () => {}, stderr: () => {} });
-  pyodide.FS.mkdirTree(MODULES);
+  pyodide.FS.mkdirTree(`${MODULES}/rclpy/action`);
   await Promise.all(Object.entries(FILES).map(async ([name, url]) => {
     const r = await fetch(new URL(url, import.meta.url));
     if (!r.ok) throw new Error(`${url}: HTTP ${r.status}`);
@@ -69,7 +74,7 @@ onmessage = (e) => {
     ctrl = new Int32Array(d.sab, 0, 4);
     bytes = new Uint8Array(d.sab, HEAD);
     const browser = pyodide.pyimport('rosgate_browser');
-    const error = browser.run(d.source, d.namespace, d.base);
+    const error = browser.run(d.source, d.namespace, d.base, pyodide.toPy(d.args ?? []));
     if (error) post({ kind: 'error', ...error.toJs({ dict_converter: Object.fromEntries }) });
     post({ kind: 'done' });
   }
