@@ -148,7 +148,7 @@ class RunManager(Hook):
             raise RunError(400, 'a ROS 2 node joins the ROS graph itself: this gateway runs nodes only with '
                                 '--trusted-runs; run the program as a script (kind "python") instead')
         try:
-            return node.node_program(source, self.gateway.settings.ide_dir / 'runtime')
+            return node.node_program(source)
         except ValueError as e:
             raise RunError(400, str(e)) from None
 

@@ -29,11 +29,18 @@ _timers = []                # (when, n, callback) of call_later
 _order = itertools.count()
 _ids = itertools.count(1)
 _sleep = time.sleep
+_ends = []                  # what runs when the program's lines have run (at_end)
 
 
 def next_id():
     """The N of an op id: above the run's base, so the page tells the program's replies apart."""
     return next(_ids)
+
+
+def at_end(hook):
+    """hook() runs when the program's top-level lines have run (the runtime's end of a program
+    with no main(): its handlers kept until Stop, the robot stopped)."""
+    _ends.append(hook)
 
 
 def attach(proto):
@@ -267,6 +274,8 @@ def run(source, namespace, base, args=()):
     try:
         exec(compile(source, PROGRAM, "exec", dont_inherit=True),
              {"__name__": "__main__", "__file__": PROGRAM, "__builtins__": builtins})
+        while _ends:
+            _ends.pop(0)()
     except SystemExit as e:
         if e.code not in (None, 0) and not isinstance(e.code, int):
             print(e.code, file=sys.stderr)
