@@ -139,6 +139,11 @@ class RunManager(Hook):
             'run %s: supervising it failed', run.id, exc_info=t.exception()))
         return run
 
+    @property
+    def nodes(self) -> bool:
+        """Whether a run may be a ROS 2 node (``runs.node``): runs on the graph (--trusted-runs)."""
+        return self.box is not None and bool(self.box.graph)
+
     def _program(self, source: str, kind: str) -> str:
         """What the run's program.py holds: the source, or for a ROS 2 node (``runs.node``) the
         node with the IDE's runtime; refused (400) where runs are not on the graph."""

@@ -903,6 +903,19 @@ const NODE_BLOCKS = {
     return ['self.elapsed()', Order.FUNCTION_CALL];
   },
 
+  // a count loop over whole numbers as a teacher writes it: for self.i in range(1, self.n + 1)
+  controls_for(block, g) {
+    const v = g.getVariableName(block.getFieldValue('VAR'));
+    const from = g.valueToCode(block, 'FROM', Order.NONE) || '0';
+    const to = g.valueToCode(block, 'TO', Order.ADDITIVE) || '0';
+    const by = g.valueToCode(block, 'BY', Order.NONE) || '1';
+    const whole = (c) => /^-?\d+$/.test(c);
+    if (!whole(from) || !whole(by) || Number(by) === 0) return pyGen.forBlock.controls_for.call(block, block, g);
+    const step = Number(by);
+    const stop = whole(to) ? String(Number(to) + Math.sign(step)) : `${to} ${step > 0 ? '+' : '-'} 1`;
+    return `for ${v} in range(${from}, ${stop}${step === 1 ? '' : `, ${step}`}):\n${g.statementToCode(block, 'DO') || g.PASS}`;
+  },
+
   // a procedure: a method (async: its calls may wait); its parameters are its own names
   procedures_defreturn(block, g) {
     const name = g.getProcedureName(block.getFieldValue('NAME'));

@@ -57,6 +57,13 @@ export function mountPackages(ide, { define, runtimePy }) {
     const code = tm.active ? bundlePython(tm.text, runtimePy) : (await nodeOf(ide, ide.workspace, ide.programName)).code;
     return rosPackage(ide.programName, [{ name: ide.programName, code }]);
   };
+  // the program shown as a ROS 2 node (a run on the graph takes it, js/robotruns.js): a block
+  // program's node, a Python program that imports rclpy as it is, null for any other
+  ide.rosNode = async () => {
+    const tm = ide.textMode;
+    if (!tm.active) return (await nodeOf(ide, ide.workspace, ide.programName)).code;
+    return tm.lang === 'python' && /^\s*(import rclpy\b|from rclpy(\.\w+)* import )/m.test(tm.text) ? tm.text : null;
+  };
   document.querySelector('#download-ros2').onclick = async () => {
     try {
       const { files } = await ide.packageShown();
