@@ -31,11 +31,21 @@ addEventListener('pagehide', () => stopPython());   // a closed page stops its r
 // on it), 1 the lock, 2 bytes used, 3 the running line. The bytes follow, newline-separated JSON.
 const SEQ = 0, LOCK = 1, USED = 2, LINE = 3, HEAD = 16;
 
+let lastTiming = null;   // the last worker's start: {pyodide, files, ready} ms in the worker, since: ms here
+
+/** The phases of the last Python worker's start (tests/bench/pyodide.py), or null. */
+export function startTiming() { return lastTiming; }
+
 function startWorker() {
+  const made = performance.now();
   const worker = new Worker(new URL('./pyworker.js', import.meta.url), { type: 'module' });
   const ready = new Promise((resolve, reject) => {
     const onMessage = (e) => {
-      if (e.data?.kind === 'ready') { worker.removeEventListener('message', onMessage); resolve(worker); }
+      if (e.data?.kind === 'ready') {
+        worker.removeEventListener('message', onMessage);
+        lastTiming = { ...e.data.timing, since: performance.now() - made };
+        resolve(worker);
+      }
       if (e.data?.kind === 'failed') { worker.removeEventListener('message', onMessage); reject(new Error(e.data.message)); }
     };
     worker.addEventListener('message', onMessage);
