@@ -16,6 +16,7 @@ import json
 
 import rosgate_browser as _browser
 import rosgate_interfaces as _interfaces
+from rclpy.logging import LoggingSeverity, _emit
 
 
 class Engine:
@@ -28,6 +29,7 @@ class Engine:
         self.action_servers = {}    # absolute action -> ActionServer
         self.replies = {}           # op id -> handler(message) of a client's call or goal
         self.wakeups = 0            # bumped by every message for the program: an executor waiting looks again
+        self.refusals = set()       # ops the gateway refused, said once each (_status)
         _browser.attach(self)
 
     # ---- out
@@ -55,9 +57,25 @@ class Engine:
             handler = self.replies.get(m.get("id"))
             if handler is not None:
                 handler(m)
+            elif op == "status":
+                self._status(m)
         else:
             return
         self.wakeups += 1
+
+    def _status(self, m):
+        """The gateway refused an op of the program (a publish the lease or the topic rules refuse,
+        a service name it already has ...): said once per op and name, as a ROS error line (rclpy
+        has no refusals: on a robot these would not happen)."""
+        if m.get("level") not in ("error", "warning"):
+            return
+        op_id = str(m.get("id") or "")
+        key = op_id.rsplit(":", 1)[0] or m.get("msg")
+        if key in self.refusals:
+            return
+        self.refusals.add(key)
+        severity = LoggingSeverity.ERROR if m.get("level") == "error" else LoggingSeverity.WARN
+        _emit(severity, "gateway", m.get("msg") or "refused %s" % op_id)
 
     # ---- types
     @staticmethod

@@ -21,7 +21,8 @@ class Service:
         self._destroyed = False
         engine = _engine.engine()
         engine.services[srv_name] = self
-        engine.send({"op": "advertise_service", "type": self._type, "service": srv_name})
+        engine.send({"op": "advertise_service", "id": engine.next_id("advertise_service", srv_name),
+                     "type": self._type, "service": srv_name})
 
     @property
     def service_name(self):

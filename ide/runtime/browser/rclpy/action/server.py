@@ -121,7 +121,8 @@ class ActionServer:
         engine = _engine.engine()
         engine.action_servers[self._name] = self
         node._action_servers.append(self)
-        engine.send({"op": "advertise_action", "action": self._name, "type": self._type})
+        engine.send({"op": "advertise_action", "id": engine.next_id("advertise_action", self._name),
+                     "action": self._name, "type": self._type})
 
     def register_execute_callback(self, execute_callback):
         self._execute_callback = execute_callback
