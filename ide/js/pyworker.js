@@ -71,6 +71,9 @@ async function start() {
   pyodide.setStderr({ batched: (text) => bridge.log(text, 'error') });
   pyodide.pyimport('rosgate_browser');
   timing.ready = performance.now();
+  // bytes that came over the network for Pyodide's files (0: from the browser's cache)
+  timing.transferred = Object.fromEntries(performance.getEntriesByType('resource')
+    .filter((r) => r.name.includes('/vendor/pyodide/')).map((r) => [r.name.split('/').pop(), r.transferSize]));
 }
 
 onmessage = (e) => {

@@ -67,9 +67,9 @@ class Engine:
         """The gateway refused an op of the program (a publish the lease or the topic rules refuse,
         a service name it already has ...): said once per op and name, as a ROS error line (rclpy
         has no refusals: on a robot these would not happen)."""
-        if m.get("level") not in ("error", "warning"):
-            return
         op_id = str(m.get("id") or "")
+        if m.get("level") not in ("error", "warning") or not op_id:
+            return   # (a status naming no op is about the page, not the program)
         key = op_id.rsplit(":", 1)[0] or m.get("msg")
         if key in self.refusals:
             return
