@@ -2,7 +2,7 @@
 `--robot turtlesim`: the ROS 2 Jazzy tutorials' Python nodes (tests/ide/ros2_tutorials/, their exact
 text) run unchanged with the page's Run and talk to roslibpy clients through the gateway; the
 publisher and the service are typed into the editor key by key. The node the IDE generates from
-each example runs there too and does what its blocks do (the rover's in tests/ide/test_rclpy_rover.py).
+each example runs there too and does what its blocks do (the rover's: tests/ide/test_rclpy_rover.py).
 Mistakes read as on a ROS 2 machine: rclpy's own field checks, an unknown type's ImportError."""
 
 from __future__ import annotations
