@@ -345,8 +345,9 @@ async function start() {
     await ide.loadProgram({ format: storage.FORMAT, name: 'my program', workspace: {} });
     workspace.updateToolbox(buildToolbox(base));
   };
-  // a new text program: a short one that runs as it is
-  const newText = (lang) => ide.loadProgram(storage.makeTextProgram({ name: 'my program', lang, text: starter(lang) }));
+  // a new text program: in Python a short one that runs as it is; in JavaScript empty (the editor
+  // shows an example until the first key)
+  const newText = (lang) => ide.loadProgram(storage.makeTextProgram({ name: 'my program', lang, text: lang === 'python' ? starter(lang) : '' }));
   $('#new-text').onchange = async () => {
     const lang = $('#new-text').value;
     $('#new-text').value = '';
