@@ -15,7 +15,7 @@ import traceback
 
 try:
     import roslibpy
-except ImportError:   # a ROS 2 node made from blocks (rosgate_node.py) uses the helpers alone
+except ImportError:   # said when a program starts the runtime (check_roslibpy)
     roslibpy = None
 
 # In the IDE page (Pyodide, ide/js/pyrun.js) the program has one thread: roslibpy is the page's
@@ -225,8 +225,7 @@ class Runtime:
         self.ros.factory.on_ready(self._take_status)
 
     def _program_state(self):
-        """What the program control (sleep, latest, on_message, drive ...) keeps; the ROS 2 node's
-        runtime (rosgate_node.py) keeps the same."""
+        """What the program control (sleep, latest, on_message, drive ...) keeps."""
         self.stopped = Event()
         self.error = None
         self.t0 = time.monotonic()

@@ -211,7 +211,11 @@ def rate(page, counter: Counter, seconds: float) -> dict:
         o = page.evaluate("window.pyOut")
         if o["errors"]:
             raise RuntimeError(o["errors"])
-        sent = int(next(t for _, _, t in o["logs"] if t.startswith("sent")).split()[1])
+        said = next((t for _, _, t in o["logs"] if t.startswith("sent")), None)
+        if said is None:     # the run ended early (the page's link dropped on a loaded machine ...)
+            print(f"rate {name}: no count; the run said {[t for _, _, t in o['logs']][-5:]}")
+            continue
+        sent = int(said.split()[1])
         out[name] = {"sent": sent / seconds, "received": counter.take() / seconds}
     counter.take()
     sent = page.evaluate(JS_LOOP, seconds)
