@@ -92,7 +92,10 @@ class RosNodeGenerator extends RosPythonGenerator {
     this.usesActionServer_ = false;
     this.serving_ = null;
     this.missingTypes_ = new Set();   // 'kind:type' the generator would have typed with typedefs
-    this.vars_ = workspace.getVariableMap().getAllVariables().map((v) => v.getId());
+    // block variables, but a procedure's parameters (its own names, not the node's attributes)
+    const params = new Set(workspace.getAllBlocks(false).filter((b) => /^procedures_def/.test(b.type))
+      .flatMap((b) => b.getVarModels().map((m) => m.getId())));
+    this.vars_ = workspace.getVariableMap().getAllVariables().map((v) => v.getId()).filter((id) => !params.has(id));
     // the robot sets' and made blocks' specs, in this generator's words
     for (const [type, fn] of Object.entries(pyGen.forBlock)) {
       if (fn?.spec && !Object.prototype.hasOwnProperty.call(NODE_BLOCKS, type)) {
@@ -691,6 +694,18 @@ function helperFunctions(g) {
   return out;
 }
 
+// `(await x())` as `await x()` where the parentheses hold the whole of it.
+function unwrap(code) {
+  if (!code.startsWith('(') || !code.endsWith(')')) return code;
+  let depth = 0;
+  for (let i = 0; i < code.length; i += 1) {
+    if (code[i] === '(') depth += 1;
+    else if (code[i] === ')') depth -= 1;
+    if (depth === 0 && i < code.length - 1) return code;      // closes before the end: (a) + (b)
+  }
+  return code.slice(1, -1);
+}
+
 // A field path as Python: 'pose.pose.position.x' -> .pose.pose.position.x, 'ranges.0' -> .ranges[0].
 function pathCode(path) {
   return String(path).split('.').filter(Boolean).map((p) => (/^-?\d+$/.test(p) ? `[${p}]` : `.${p}`)).join('');
@@ -889,7 +904,7 @@ const NODE_BLOCKS = {
   },
 
   ros_log(block, g) {
-    const v = g.valueToCode(block, 'VALUE', Order.NONE) || "''";
+    const v = unwrap(g.valueToCode(block, 'VALUE', Order.NONE) || "''");
     return `self.get_logger().info(${STRING.test(v) ? v : `str(${v})`})\n`;
   },
 
@@ -932,7 +947,7 @@ const NODE_BLOCKS = {
 
   procedures_callreturn(block, g) {
     const name = g.getProcedureName(block.getFieldValue('NAME'));
-    const args = block.getVars().map((_, i) => g.valueToCode(block, `ARG${i}`, Order.NONE) || 'None');
+    const args = block.getVarModels().map((_, i) => g.valueToCode(block, `ARG${i}`, Order.NONE) || 'None');
     return [`(await self.${name}(${args.join(', ')}))`, Order.ATOMIC];
   },
 

@@ -7,6 +7,7 @@ Mistakes read as on a ROS 2 machine: rclpy's own field checks, an unknown type's
 
 from __future__ import annotations
 
+import json
 import time
 from pathlib import Path
 
@@ -243,3 +244,26 @@ def test_mistakes_read_as_on_a_ros_machine(ide):
     run(ide)
     ended(ide)
     assert "No module named 'no_such_package_of_ros'" in logged(ide, "No module named 'no_such_package_of_ros'")
+
+
+# procedures (one with a parameter, that waits), a handler and a timer that call it
+PROCEDURES = json.loads(r"""{"format": "rosgate-program", "version": 1, "name": "procs", "robot": "turtlesim", "blocks": [], "workspace": {"blocks": {"languageVersion": 0, "blocks": [{"type": "procedures_defreturn", "x": 10, "y": 10, "extraState": {"params": [{"name": "n", "id": "var-n"}]}, "fields": {"NAME": "twice"}, "inputs": {"STACK": {"block": {"type": "ros_sleep", "inputs": {"SECONDS": {"shadow": {"type": "math_number", "fields": {"NUM": 0.1}}}}}}, "RETURN": {"block": {"type": "math_arithmetic", "fields": {"OP": "MULTIPLY"}, "inputs": {"A": {"block": {"type": "variables_get", "fields": {"VAR": {"id": "var-n"}}}}, "B": {"shadow": {"type": "math_number", "fields": {"NUM": 2}}}}}}}}, {"type": "ros_on_message", "x": 10, "y": 200, "fields": {"TOPIC": "/turtle1/pose", "TYPE": "turtlesim/msg/Pose", "VAR": {"id": "var-m"}}, "inputs": {"DO": {"block": {"type": "variables_set", "fields": {"VAR": {"id": "var-x"}}, "inputs": {"VALUE": {"block": {"type": "ros_field", "fields": {"FIELD": "x"}, "inputs": {"OBJ": {"block": {"type": "variables_get", "fields": {"VAR": {"id": "var-m"}}}}}}}}}}}}, {"type": "ros_every", "x": 10, "y": 300, "inputs": {"SECONDS": {"shadow": {"type": "math_number", "fields": {"NUM": 0.5}}}, "DO": {"block": {"type": "ros_log", "inputs": {"VALUE": {"block": {"type": "procedures_callreturn", "extraState": {"name": "twice", "params": ["n"]}, "inputs": {"ARG0": {"block": {"type": "variables_get", "fields": {"VAR": {"id": "var-x"}}}}}}}}}}}}, {"type": "ros_log", "x": 300, "y": 10, "inputs": {"VALUE": {"block": {"type": "procedures_callreturn", "extraState": {"name": "twice", "params": ["n"]}, "inputs": {"ARG0": {"shadow": {"type": "math_number", "fields": {"NUM": 21}}}}}}}}]}, "variables": [{"name": "n", "id": "var-n"}, {"name": "m", "id": "var-m"}, {"name": "x", "id": "var-x"}]}}""")
+
+
+def test_a_node_whose_procedures_wait_runs(ide):
+    """Procedures are the node's async methods (their parameters plain names); a timer whose
+    callback waits is async in a group of its own; a message handler stores what it reads."""
+    ide.js('(p) => rosgateIde.loadProgram(p)', PROCEDURES)
+    code = ide.js('async () => rosgateIde.rosNode()')
+    for line in ('    async def twice(self, n):', '        await self.sleep(0.1)', '        return n * 2',
+                 "        self.get_logger().info(str(await self.twice(21)))",
+                 '    async def every_tick(self):', 'callback_group=MutuallyExclusiveCallbackGroup())',
+                 '        self.x = self.m.x'):
+        assert line in code, (line, code)
+    assert 'self.n = None' not in code            # a parameter is not the node's attribute
+    load(ide, code, 'procedures')
+    run(ide)
+    text = logged(ide, '[procs]: 42')
+    wait_for(lambda: console(ide).count('[procs]: ') >= 3, what='the timer calling the procedure')
+    stop(ide)
+    assert 'Traceback' not in text
