@@ -68,6 +68,7 @@ function takeSpare() {
  * when it could not start); a later runPython or checkPython takes that worker.
  */
 export function prepare() {
+  if (!globalThis.crossOriginIsolated) return Promise.resolve(false);   // it could not run here (runPython says why)
   if (!spare) spare = startWorker();
   return spare.ready.then(() => true, () => false);
 }
