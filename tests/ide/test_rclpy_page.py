@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 
 from tests.support.ide import IdePage, error_line
+from tests.support.ros import Inbox, client
 from tests.support.servers import check_served, program as served_program
 from tests.support.wait import wait_for
 
@@ -267,3 +268,28 @@ def test_a_node_whose_procedures_wait_runs(ide):
     wait_for(lambda: console(ide).count('[procs]: ') >= 3, what='the timer calling the procedure')
     stop(ide)
     assert 'Traceback' not in text
+
+
+def test_a_node_in_the_page_obeys_the_gateways_rules(start_gateway, browser_ctx):
+    """The page's rclpy sends the page's own ops: a topic the gateway's globs refuse is refused (the
+    console says so, as a ROS error line), one they allow goes through."""
+    gw = start_gateway('--robot', 'turtlesim', '--topics-glob', "['/turtle1/*', '/rosgate/*', '/client_count']")
+    ide = page(browser_ctx, gw)
+    load(ide, '\n'.join([
+        'import rclpy', 'from rclpy.node import Node', 'from geometry_msgs.msg import Twist', '',
+        'rclpy.init()', "node = Node('ruled')",
+        "hidden = node.create_publisher(Twist, '/elsewhere/cmd_vel', 10)",
+        "allowed = node.create_publisher(Twist, 'turtle1/cmd_vel', 10)",
+        'msg = Twist()', 'msg.linear.x = 0.5',
+        'def tick():', '    hidden.publish(msg)', '    allowed.publish(msg)',
+        'node.create_timer(0.1, tick)', 'rclpy.spin(node)']))
+    with client(gw) as ros:
+        cmd = Inbox(ros, '/turtle1/cmd_vel', TWIST)
+        run(ide)
+        text = logged(ide, '[ERROR] [')
+        assert '/elsewhere/cmd_vel' in text.split('[ERROR] [')[1].split('\n')[0], text[-1000:]
+        cmd.wait(lambda m: m['linear']['x'] == 0.5, timeout=30)
+        time.sleep(1)     # ten more publishes of each
+        refusals = [line for line in console(ide).split('\n') if line.startswith('[ERROR]') and '/elsewhere/cmd_vel' in line]
+        assert 1 <= len(refusals) <= 2, refusals                  # its advertise and its publish, once each
+        stop(ide)
