@@ -73,6 +73,7 @@ test-rclpy: $(ROSVENV)/.installed ide
 
 bench: install-test $(if $(findstring rclpy,$(ARGS)),$(ROSVENV)/.installed-bench)
 	$(PY) -m tests.bench $(ARGS)
+	$(if $(ARGS),,$(PY) -m tests.bench pyodide --repeat 3)
 
 # `make bench ARGS="--backend rclpy"` also measures the Rust rosbridge server on the same wheels
 $(ROSVENV)/.installed-bench: $(ROSVENV)/.installed

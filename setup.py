@@ -17,7 +17,7 @@ HERE = Path(__file__).resolve().parent
 # Sources of the IDE's build and its developer notes; everything else in ide/ is served.
 IDE_BUILD_ONLY = ('node_modules', 'package.json', 'package-lock.json', 'build.mjs', 'README.md', '.*', '__pycache__')
 IDE_BUILT = ('vendor/roslib.mjs', 'vendor/nipplejs.mjs', 'vendor/uplot.mjs', 'vendor/blockly/blockly_compressed.js',
-             'vendor/blockly/media', 'vendor/pyodide/pyodide.asm.wasm')
+             'vendor/blockly/media', 'vendor/pyodide/pyodide.mjs')
 
 
 def require_built_ide() -> None:

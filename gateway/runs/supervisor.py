@@ -139,6 +139,11 @@ class RunManager(Hook):
             'run %s: supervising it failed', run.id, exc_info=t.exception()))
         return run
 
+    @property
+    def nodes(self) -> bool:
+        """Whether a run may be a ROS 2 node (``runs.node``): runs on the graph (--trusted-runs)."""
+        return self.box is not None and bool(self.box.graph)
+
     def _program(self, source: str, kind: str) -> str:
         """What the run's program.py holds: the source, or for a ROS 2 node (``runs.node``) the
         node with the IDE's runtime; refused (400) where runs are not on the graph."""
@@ -148,7 +153,7 @@ class RunManager(Hook):
             raise RunError(400, 'a ROS 2 node joins the ROS graph itself: this gateway runs nodes only with '
                                 '--trusted-runs; run the program as a script (kind "python") instead')
         try:
-            return node.node_program(source, self.gateway.settings.ide_dir / 'runtime')
+            return node.node_program(source)
         except ValueError as e:
             raise RunError(400, str(e)) from None
 

@@ -11,7 +11,8 @@
 - ``ide_problem`` says whether the IDE can be served from a directory at all.
 - ``PublicFileHandler`` serves only what the pages load from the IDE directory: the pages, their
   scripts, styles and block files, and the built ``vendor/`` bundles, never ``node_modules/``,
-  the build script or package files; with ``ISOLATION``'s headers (the IDE's Python needs them).
+  the build script or package files; with ``ISOLATION``'s headers (the IDE's Python needs them);
+  Pyodide's versioned files as immutable (``VERSIONED``), everything else revalidated.
 """
 
 from __future__ import annotations
@@ -54,6 +55,9 @@ def guest_policy(host: str, allowed: tuple) -> str:
             f"connect-src {where(connections)}")
 
 
+# Pyodide's files under their version (ide/build.mjs): their content never changes at that path.
+VERSIONED = re.compile(r'^vendor/pyodide/\d+\.\d+[\w.-]*/[^/]+$')
+IMMUTABLE = 'public, max-age=31536000, immutable'
 MAX_HTTP_BODY = 4 * 2**20   # the largest request body any route takes (a program is at most 2 MiB)
 # What the pages cannot work without (the bundles come from `npm run build` in ide/).
 IDE_REQUIRED = ('index.html', 'teleop.html', 'vendor/roslib.mjs', 'vendor/blockly/blockly_compressed.js')
@@ -129,7 +133,9 @@ class PublicFileHandler(tornado.web.StaticFileHandler):
         return super().validate_absolute_path(root, absolute_path)
 
     def set_extra_headers(self, path: str) -> None:
-        self.set_header('Cache-Control', 'no-cache')
+        # a versioned Pyodide file never changes: the browser keeps it, and the WebAssembly it
+        # compiled from it, without asking again (a page load starts Python from its cache)
+        self.set_header('Cache-Control', IMMUTABLE if VERSIONED.match(path.replace(os.sep, '/')) else 'no-cache')
         for name, value in ISOLATION.items():
             self.set_header(name, value)
         guest = GUEST_WORKERS.get(path.replace(os.sep, '/'))

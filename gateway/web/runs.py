@@ -5,7 +5,8 @@ POST   /api/runs       {"source": "<python>", "name", "ns", "timeout"} or {"prog
                        "kind": what the source is ("python" by default); "as": "operator" runs it with an
                        operator's rights, not the starter's higher ones; "record": true records the
                        station's topics (NS/*, or every topic in the root) for the run's length
-GET    /api/runs       -> {"allowed": bool, "runs": [summary, ...]} (the runs of this gateway's life)
+GET    /api/runs       -> {"allowed": bool, "nodes": bool, "runs": [summary, ...]} (the runs of this gateway's
+                           life; nodes: a run may be a ROS 2 node, kind "ros2_node", --trusted-runs)
 GET    /api/runs?all=1 -> {"allowed", "runs": [kept run, ...]}: every kept run the caller may see, newest
                        first (an admin's: everyone's; ``person=NAME`` narrows it)
 GET    /api/runs/ID    -> {"id", "name", "ns", "state", "exit_code", "reason", "started", "ended", "output"}
@@ -99,7 +100,7 @@ class RunListHandler(_Handler):
             runs = [kept(r) for r in rows if person is None or person in (r['owner'], r['who'])]
         else:
             runs = [r.summary() for r in self.manager.runs.values() if may_see(identity, r)]
-        self.finish({'allowed': self.manager.allowed, 'runs': runs})
+        self.finish({'allowed': self.manager.allowed, 'nodes': self.manager.allowed and self.manager.nodes, 'runs': runs})
 
     async def delete(self) -> None:
         """An admin deletes every kept run of a person (there is no other way a person leaves)."""

@@ -205,4 +205,5 @@ F.ros_elapsed = () => ['rt.elapsed()', Order.FUNCTION_CALL];
 
 export function registerSpec(type, spec) {
   F[type] = (block, g) => specToCode(g, block, spec, lang);
+  F[type].spec = spec;      // the ROS 2 node's generator writes the same spec in its words (node.js)
 }

@@ -26,11 +26,13 @@ export function inRobotNamespace(ns, kind, name, has = () => false) {
 }
 
 // The scope a generator writes names in: ns() is the page's robot namespace, has(kind, name) asks
-// its live graph (see main.js). Without a page: no namespace, no graph.
+// its live graph, types(kind, type) gives the rosapi typedefs the page has read of a type (the ROS 2
+// node's typed messages), or undefined (see main.js). Without a page: no namespace, no graph.
 export class NameScope {
-  constructor({ ns = () => '', has = () => false } = {}) {
+  constructor({ ns = () => '', has = () => false, types = () => undefined } = {}) {
     this.ns = ns;
     this.has = has;
+    this.types = types;
   }
 
   inNamespace(kind, name) { return inRobotNamespace(this.ns(), kind, name, this.has); }

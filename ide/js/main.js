@@ -7,8 +7,8 @@ import './fields.js';
 import './msgblock.js';
 import { gen as jsGen, registerSpec as registerJs } from '../generators/javascript.js';
 import { gen as pyGen, registerSpec as registerPy, setRuntimeSource } from '../generators/python.js';
-import { rosPackage } from '../generators/package.js';
-import { zipSync, strToU8 } from '../vendor/fflate.mjs';
+import { blockNode } from '../generators/package.js';
+import { mountPackages } from './rospackages.js';
 import { Runner } from './runner.js';
 import { Console } from './console.js';
 import { WorldView } from './worldview.js';
@@ -26,7 +26,7 @@ import { NameScope } from '../generators/scope.js';
 import { markLooseBlocks } from './loose.js';
 import { mountRecorder } from './recorder.js';
 import { mountBooking } from './booking.js';
-import { TextMode, blocksAsText, bundlePython, LANGS } from './textmode.js';
+import { TextMode, blocksAsText, bundlePython, starter, LANGS } from './textmode.js';
 import { TextRunner } from './textrun.js';
 import { t, localized, pick, lang } from './i18n.js';
 import { mountExercise } from './exercise.js';
@@ -114,7 +114,6 @@ async function start() {
     getJson('blocks/ros.json'), getJson('blocks/turtlesim.json'), getJson('blocks/rover.json'),
     getJson('toolbox.json'), fetch('runtime/rosgate_runtime.py').then((r) => r.text()), loadSchema(),
   ]);
-  const nodeRuntime = fetch('runtime/rosgate_node.py').then((r) => r.text());
   ide.sets = { ros: ros_, turtlesim, rover };
   ide.baseToolbox = base;
   setRuntimeSource(runtimePy);
@@ -150,7 +149,8 @@ async function start() {
   ide.graph = graph;
   // generic blocks' names are written in the page's robot namespace (a fleet's station) or as
   // they are, from what the live graph has (generators/scope.js)
-  const scope = new NameScope({ ns: () => ide.ns ?? '', has: (kind, name) => graph.has(kind, name) });
+  const scope = new NameScope({ ns: () => ide.ns ?? '', has: (kind, name) => graph.has(kind, name),
+    types: (kind, type) => graph.cachedDetails(kind, type) });
   shared.scope = scope;
   jsGen.scope = scope;
   pyGen.scope = scope;
@@ -220,7 +220,7 @@ async function start() {
   link.addEventListener('lost', () => {
     setStatus('lost', t('status.lost'));
     runner.stop();
-    textRunner.stop();
+    textRunner.stop(t('text.why.link'));
   });
   link.addEventListener('state', (e) => { if (e.detail === 'connecting') setStatus('connecting', t('status.connecting')); });
   setInterval(() => { $('#link').textContent = link.describe(); }, 500);
@@ -246,7 +246,7 @@ async function start() {
   textRunner.addEventListener('state', runState);
   lease.addEventListener('stop', () => {
     runner.stop();
-    textRunner.stop();
+    textRunner.stop(t('text.why.teacher'));
     consoleView.warn(t('ide.stopped.teacher', { robot: ide.ns || t('ide.this.robot') }));
   });
   ide.report = reportProgram(ide, { workspace, runners: [runner, textRunner], consoleEl: $('#console-lines') });
@@ -267,7 +267,7 @@ async function start() {
   };
   $('#pause').onclick = () => runner.pause();
   $('#step').onclick = async () => mayDrive() && (await ide.mayRun()) && runner.step();
-  $('#stop').onclick = () => { runner.stop(); textRunner.stop(); };
+  $('#stop').onclick = () => { runner.stop(); textRunner.stop(t('text.why.button')); };
 
   // code panel, live
   let codeTimer = null;
@@ -277,10 +277,12 @@ async function start() {
     pyGen.namespace = ide.ns;
     try { $('#code-python').textContent = foldRuntime(pyGen.workspaceToCode(workspace)); } catch (e) { $('#code-python').textContent = `# ${e.message}`; }
     try { $('#code-js').textContent = jsGen.generate(workspace); } catch (e) { $('#code-js').textContent = `// ${e.message}`; }
-    try { $('#code-node').textContent = ide.rosPackage({ 'rosgate_node.py': '', 'rosgate_runtime.py': '' }).code; } catch (e) { $('#code-node').textContent = `# ${e.message}`; }
+    try {   // the ROS 2 node; its messages typed once the gateway's definitions are read
+      const node = blockNode(workspace, { programName: ide.programName, namespace: ide.ns });
+      $('#code-node').textContent = node.code;
+      for (const key of node.missingTypes) graph.details(...key.split(':')).then(changedCode, () => {});
+    } catch (e) { $('#code-node').textContent = `# ${e.message}`; }
   };
-  // the block program as a ROS 2 package: {pkg, node, code, files}
-  ide.rosPackage = (runtime) => rosPackage(workspace, { programName: ide.programName, namespace: ide.ns, runtime });
   const blocksPython = () => {
     pyGen.programName = ide.programName;
     pyGen.namespace = ide.ns;
@@ -362,8 +364,9 @@ async function start() {
     await ide.loadProgram({ format: storage.FORMAT, name: 'my program', workspace: {} });
     workspace.updateToolbox(buildToolbox(base));
   };
-  // a new text program (empty: the editor shows an example until the first key)
-  const newText = (lang) => ide.loadProgram(storage.makeTextProgram({ name: 'my program', lang, text: '' }));
+  // a new text program: in Python a short one that runs as it is; in JavaScript empty (the editor
+  // shows an example until the first key)
+  const newText = (lang) => ide.loadProgram(storage.makeTextProgram({ name: 'my program', lang, text: lang === 'python' ? starter(lang) : '' }));
   $('#new-text').onchange = async () => {
     const lang = $('#new-text').value;
     $('#new-text').value = '';
@@ -388,11 +391,7 @@ async function start() {
     if (textMode.active) { textMode.download(ide.programName, runtimePy); return; }
     storage.download(`${storage.safeName(ide.programName).replace(/\W+/g, '_')}.py`, ide.generatePython(), 'text/x-python');
   };
-  $('#download-ros2').onclick = async () => {
-    const { files } = ide.rosPackage({ 'rosgate_runtime.py': runtimePy, 'rosgate_node.py': await nodeRuntime });
-    const zip = zipSync(Object.fromEntries(Object.entries(files).map(([p, text]) => [p, strToU8(text)])));
-    storage.download(`${storage.safeName(ide.programName)}.zip`, zip, 'application/zip');
-  };
+  mountPackages(ide, { runtimePy, define: (def) => Blockly.Blocks[def.json.type] || defineBlock({ ...def.json, rosgate: def.spec }, 330) });
   $('#upload').onclick = async () => {
     const text = await storage.pickFile();
     if (!text) return;
@@ -486,6 +485,7 @@ function setupLibrary(program) {
     try { items = await storage.library.list(); } catch (e) { list.textContent = t('lib.unavailable', { error: e.message }); return; }
     for (const item of items) {
       const li = document.createElement('li');
+      Object.assign(li.dataset, { name: item.name, owner: item.owner ?? '' });   // js/rospackages.js ticks it
       const open = document.createElement('button');
       const who = item.owner && item.owner !== me.name ? `${item.owner} / ` : '';
       open.textContent = `${who}${item.name}`;

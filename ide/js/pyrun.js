@@ -31,19 +31,31 @@ addEventListener('pagehide', () => stopPython());   // a closed page stops its r
 // on it), 1 the lock, 2 bytes used, 3 the running line. The bytes follow, newline-separated JSON.
 const SEQ = 0, LOCK = 1, USED = 2, LINE = 3, HEAD = 16;
 
+let lastTiming = null;   // the last worker's start: {pyodide, files, ready} ms in the worker, since: ms here
+
+/** The phases of the last Python worker's start (tests/bench/pyodide.py), or null. */
+export function startTiming() { return lastTiming; }
+
 // guest: a program from another person's share link, in a worker the gateway serves with a policy
 // that lets it reach nothing but Pyodide's and the runtime's files (js/foreign.js)
 function startWorker(guest = false) {
+  const made = performance.now();
   const worker = new Worker(new URL(guest ? './pyworker.js?guest=1' : './pyworker.js', import.meta.url), { type: 'module' });
   const ready = new Promise((resolve, reject) => {
     const onMessage = (e) => {
-      if (e.data?.kind === 'ready') { worker.removeEventListener('message', onMessage); resolve(worker); }
+      if (e.data?.kind === 'ready') {
+        worker.removeEventListener('message', onMessage);
+        lastTiming = { ...e.data.timing, since: performance.now() - made };
+        resolve(worker);
+      }
       if (e.data?.kind === 'failed') { worker.removeEventListener('message', onMessage); reject(new Error(e.data.message)); }
     };
     worker.addEventListener('message', onMessage);
     worker.addEventListener('error', (e) => reject(new Error(e.message || 'the Python worker did not start')));
   });
-  return { worker, ready };
+  const w = { worker, ready, isReady: false };
+  ready.then(() => { w.isReady = true; }, () => {});
+  return w;
 }
 
 function takeSpare() {
@@ -51,6 +63,20 @@ function takeSpare() {
   spare = null;
   return w;
 }
+
+/**
+ * Starts the Python worker ahead of the first run (a text program in Python opened): Pyodide
+ * loads while the student reads and types, not after Run. Resolves true once it is ready (false
+ * when it could not start); a later runPython or checkPython takes that worker.
+ */
+export function prepare() {
+  if (!globalThis.crossOriginIsolated) return Promise.resolve(false);   // it could not run here (runPython says why)
+  if (!spare) spare = startWorker();
+  return spare.ready.then(() => true, () => false);
+}
+
+/** Whether a worker with Pyodide loaded waits for the next run. */
+export function isReady() { return Boolean(spare?.isReady); }
 
 /** Python's own syntax check: [{line, col, message}] (line and col from 1), [] when it compiles. */
 export async function checkPython(source) {
@@ -79,7 +105,7 @@ export async function checkPython(source) {
  * onLine(lineNo) for the running line of the program, onError({line, message, traceback}) with
  * the program's own line numbers (the traceback keeps only the program's frames; it reaches log too).
  */
-export async function runPython(source, { ros, namespace = '', log = () => {}, onLine = null, onError = () => {}, guest = false } = {}) {
+export async function runPython(source, { ros, namespace = '', args = [], log = () => {}, onLine = null, onError = () => {}, guest = false } = {}) {
   stopPython();
   const run = ++runs;
   const say = (text, level = 'info') => { try { log(text, level); } catch { /* the page's problem */ } };
@@ -104,7 +130,7 @@ export async function runPython(source, { ros, namespace = '', log = () => {}, o
     return;
   }
   if (current !== prog) return prog.ended;          // stopped while Pyodide was loading
-  prog.start(source, namespace);
+  prog.start(source, namespace, args);
   return prog.ended;
 }
 
@@ -136,6 +162,8 @@ class Program {
     this.queue = [];              // encoded messages not yet in the mailbox
     this.topics = new Map();      // subscribed topic -> set of subscription ids
     this.advertised = new Map();  // topic -> type
+    this.services = new Set();    // services the program serves (advertise_service)
+    this.actions = new Set();     // actions the program serves (advertise_action)
     this.velocity = new Map();    // topic -> type, published velocity topics
     this.goals = new Map();       // goal id -> action, while waiting for the result
     this.encoder = new TextEncoder();
@@ -149,7 +177,7 @@ class Program {
     };
   }
 
-  start(source, namespace) {
+  start(source, namespace, args = []) {
     this.ros.transport?.on('message', this.onRaw);
     this.ros.on('close', this.onClose);
     this.worker.addEventListener('message', (e) => this.fromWorker(e.data));
@@ -164,7 +192,7 @@ class Program {
         if (line !== last && line > 0) { last = line; this.hooks.onLine(line); }
       }, LINE_EVERY);
     }
-    this.worker.postMessage({ kind: 'run', source: String(source), namespace, sab: this.sab, base: this.base });
+    this.worker.postMessage({ kind: 'run', source: String(source), namespace, args: args.map(String), sab: this.sab, base: this.base });
   }
 
   mine(id) {
@@ -178,6 +206,8 @@ class Program {
     if (this.done || !m || typeof m !== 'object') return;
     let keep = false;
     if (m.op === 'publish') keep = this.topics.has(m.topic);
+    else if (m.op === 'call_service') keep = this.services.has(m.service);     // a call of a service it serves
+    else if (m.op === 'send_action_goal' || m.op === 'cancel_action_goal') keep = this.actions.has(m.action);
     else if (m.op === 'status') keep = m.id === undefined || m.id === null || this.mine(m.id);
     else if (m.op === 'service_response' || m.op === 'action_feedback' || m.op === 'action_result') keep = this.mine(m.id);
     if (!keep) return;
@@ -245,7 +275,11 @@ class Program {
 
   // An op of the program, on the page's connection; what it starts is remembered for the end.
   send(msg) {
-    if (!msg || typeof msg !== 'object' || !this.ros.isConnected) return;
+    if (!msg || typeof msg !== 'object') return;
+    if (!this.ros.isConnected) {       // the page's link dropped this connection: nothing would arrive
+      if (current === this) { this.hooks.log(t('py.closed'), 'error'); stopPython(); }
+      return;
+    }
     const { op, topic } = msg;
     if (op === 'subscribe') {
       if (!this.topics.has(topic)) this.topics.set(topic, new Set());
@@ -258,6 +292,14 @@ class Program {
       this.advertised.set(topic, msg.type);
     } else if (op === 'unadvertise') {
       this.advertised.delete(topic);
+    } else if (op === 'advertise_service') {
+      this.services.add(msg.service);
+    } else if (op === 'unadvertise_service') {
+      this.services.delete(msg.service);
+    } else if (op === 'advertise_action') {
+      this.actions.add(msg.action);
+    } else if (op === 'unadvertise_action') {
+      this.actions.delete(msg.action);
     } else if (op === 'publish') {
       const type = this.advertised.get(topic);
       if (type && isVelocityType(type)) { this.velocity.set(topic, type); driven.set(topic, type); }
@@ -277,9 +319,13 @@ class Program {
     for (const [id, action] of this.goals) send({ op: 'cancel_action_goal', id, action });
     for (const [topic, ids] of this.topics) for (const id of ids) send({ op: 'unsubscribe', id, topic });
     for (const topic of this.advertised.keys()) send({ op: 'unadvertise', topic });
+    for (const service of this.services) send({ op: 'unadvertise_service', service });
+    for (const action of this.actions) send({ op: 'unadvertise_action', action });
     this.goals.clear();
     this.topics.clear();
     this.advertised.clear();
+    this.services.clear();
+    this.actions.clear();
   }
 
   end() {

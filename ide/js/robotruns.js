@@ -45,6 +45,7 @@ export class RobotRuns extends EventTarget {
     let listing;
     try { listing = await api(); } catch { return; }
     this.allowed = Boolean(listing.allowed);
+    this.nodes = Boolean(listing.nodes);     // runs join the ROS graph: a program runs as its ROS 2 node
     this.button.hidden = !this.allowed;
     this.record.hidden = !this.allowed;
     this.history.show(this.allowed);
@@ -66,12 +67,17 @@ export class RobotRuns extends EventTarget {
     if (why) { this.ide.console.error(t('robot.run.failed', { why })); return; }
     if (this.ide.mayRun && !(await this.ide.mayRun())) return;   // another person's program: asked first (js/foreign.js)
     let source;
-    try { source = this.ide.generatePython(); } catch (e) { this.ide.console.error(t('robot.codegen.failed', { error: e.message })); return; }
+    let kind = 'python';
+    try {
+      // where runs are nodes of the ROS graph, a block program (or an rclpy one) runs as its ROS 2 node
+      const node = this.nodes ? await this.ide.rosNode?.() : null;
+      if (node) { source = node; kind = 'ros2_node'; } else source = this.ide.generatePython();
+    } catch (e) { this.ide.console.error(t('robot.codegen.failed', { error: e.message })); return; }
     try {
       const run = await api('', {
         method: 'POST',
         body: JSON.stringify({
-          source, name: this.ide.programName, ns: this.ide.ns || '', timeout: 600,
+          source, kind, name: this.ide.programName, ns: this.ide.ns || '', timeout: 600,
           record: this.record.querySelector('input').checked,
           ...(this.ide.foreign ? { as: 'operator' } : {}),     // with no admin rights lent
         }),

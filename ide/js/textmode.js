@@ -3,7 +3,7 @@
 // block program as readable Python or JavaScript that imports the runtime), and the downloads
 // that run unchanged (the Python one with the runtime bundled on its import line).
 import * as storage from './storage.js';
-import { t } from './i18n.js';
+import { t, num } from './i18n.js';
 
 export const LANGS = { python: 'Python', javascript: 'JavaScript' };
 
@@ -26,21 +26,17 @@ export function fileName(name, lang) {
   return `${storage.safeName(name).replace(/\W+/g, '_')}.${lang === 'python' ? 'py' : 'js'}`;
 }
 
-// A new text program's first lines.
+// A new text program's first lines: a short program that runs as it is.
 export function starter(lang) {
   if (lang === 'python') {
     return [
       '"""A rosgate program in Python: ▶ Run runs it here; the .py download runs with roslibpy."""',
       'from rosgate_runtime import *',
       '',
-      '',
-      'def main():',
-      "    rt.publish('/turtle1/cmd_vel', 'geometry_msgs/msg/Twist', {'linear': {'x': 1.0}})",
-      '    rt.sleep(1)',
-      '',
-      '',
-      "if __name__ == '__main__':",
-      '    run(main)',
+      "print('driving turtle1 forward for a second')",
+      "rt.publish(rt.ns('turtle1/cmd_vel'), 'geometry_msgs/msg/Twist', {'linear': {'x': 1.0}})",
+      'rt.sleep(1)',
+      "print('done')",
       '',
     ].join('\n');
   }
@@ -78,6 +74,41 @@ export class TextMode {
     this.lang = null;            // null: the page shows blocks
     this.editor = null;
     this.pending = null;
+    this.python = null;          // the Python loader's state shown in the editor's bar
+  }
+
+  // The words after the program's name when it runs (sys.argv[1:] of a Python program, as
+  // `ros2 run PKG NODE 2 3` passes them), split as a shell splits them.
+  get args() {
+    const text = this.editor?.tools.querySelector('.text-args')?.value ?? '';
+    return [...text.matchAll(/"([^"]*)"|'([^']*)'|(\S+)/g)].map((m) => m[1] ?? m[2] ?? m[3]);
+  }
+
+  // Python starts loading when a Python program opens (Pyodide's start is seconds on a 2-core
+  // machine): the bar shows it loading, with the time so far, and then ready. The page's link
+  // allows the longer silence a loaded machine shows meanwhile (link.js patient()).
+  _preparePython(editor) {
+    if (this.python) return;
+    const bar = editor.tools;
+    const state = Object.assign(document.createElement('span'), { className: 'text-python' });
+    const args = Object.assign(document.createElement('input'), {
+      className: 'text-args', type: 'text', placeholder: t('text.args'), title: t('text.args.title'),
+    });
+    args.setAttribute('aria-label', t('text.args.title'));
+    bar.querySelector('.text-lang').before(args, state);
+    const t0 = performance.now();
+    const seconds = () => num((performance.now() - t0) / 1000, 1);
+    const show = () => { state.textContent = t('text.python.loading.for', { s: seconds() }); };
+    show();
+    const ticker = setInterval(show, 200);
+    this.python = import('./pyrun.js').then((py) => py.prepare()).catch(() => false).then((ok) => {
+      clearInterval(ticker);
+      state.textContent = ok ? t('text.python.ready', { s: seconds() }) : t('text.python.failed');
+      state.dataset.state = ok ? 'ready' : 'failed';
+      return ok;
+    });
+    state.dataset.state = 'loading';
+    this.ide.link?.patient(this.python);
   }
 
   get active() { return this.lang !== null; }
@@ -111,6 +142,8 @@ export class TextMode {
     document.querySelector('#download-py').textContent = lang === 'python' ? '.py' : '.js';
     document.querySelector('#download-py').title = t('text.download', { lang: LANGS[lang] });
     editor.tools.querySelector('.text-lang').textContent = LANGS[lang];
+    if (lang === 'python') this._preparePython(editor);
+    editor.tools.dataset.python = lang === 'python' ? 'shown' : 'hidden';
   }
 
   blocks() {

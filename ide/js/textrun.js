@@ -142,7 +142,7 @@ export class TextRunner extends EventTarget {
     this.runs = 0;
     this.run_ = null;          // the run in progress: {n, door, rt, url, timers, lang, py}
     this.line = null;
-    addEventListener('pagehide', () => this.stop());
+    addEventListener('pagehide', () => this.stop(t('text.why.page')));
     addEventListener('error', (e) => this._uncaught(e.error));
     addEventListener('unhandledrejection', (e) => this._uncaught(e.reason));
   }
@@ -269,15 +269,17 @@ export class TextRunner extends EventTarget {
   // ---- Python (js/pyrun.js: Pyodide in a worker, loaded at the first Python run) ----
   async _python(run, text) {
     let py;
-    if (!this.pythonLoaded) this.ide.console.info(t('text.python.loading'));
     try {
       py = await import('./pyrun.js');
-      this.pythonLoaded = true;
     } catch (e) {
       throw new Error(t('text.python.noload', { error: e.message }));
     }
     if (this.run_ !== run) return;
     run.py = py;
+    if (!py.isReady()) {      // Python started loading when the program opened (textmode.js): say we wait
+      this.ide.console.info(t('text.python.loading'));
+      this.ide.link?.patient(py.prepare());
+    }
     const problems = await py.checkPython(text);
     if (this.run_ !== run) return;
     if (problems.length) {
@@ -293,6 +295,7 @@ export class TextRunner extends EventTarget {
       guest: Boolean(this.ide.foreign),          // another person's program: a worker apart (js/foreign.js)
       ros: run.door.ros,
       namespace: this.ide.ns ?? '',
+      args: this.ide.textMode?.args ?? [],
       log: (t, level) => { if (this.run_ === run) this.ide.console.log(t, level); },
       onLine: (line) => this._at(run, line),
       onError: ({ line, message }) => {   // (its traceback has reached log already)
@@ -339,8 +342,9 @@ export class TextRunner extends EventTarget {
     this.ide.console.info(text);
   }
 
-  stop() {
+  // Ends the run; `why` says what ended it (the Stop button's run says "stopped").
+  stop(why = null) {
     const run = this.run_;
-    if (run) this._finish(run, t('text.stopped'));
+    if (run) this._finish(run, why ? t('text.stopped.why', { why }) : t('text.stopped'));
   }
 }

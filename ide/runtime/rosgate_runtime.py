@@ -1,5 +1,6 @@
 # --- rosgate runtime: the same API the IDE's JavaScript runtime offers, over roslibpy ---
 import argparse
+import atexit
 import json
 import math
 import os
@@ -14,13 +15,14 @@ import traceback
 
 try:
     import roslibpy
-except ImportError:   # a ROS 2 node made from blocks (rosgate_node.py) uses the helpers alone
+except ImportError:   # said when a program starts the runtime (check_roslibpy)
     roslibpy = None
 
 # In the IDE page (Pyodide, ide/js/pyrun.js) the program has one thread: roslibpy is the page's
 # (ide/runtime/browser/roslibpy.py), waits deliver the messages, handlers run while the program waits.
 BROWSER = sys.platform == "emscripten"
 if BROWSER:
+    import rosgate_browser as _page
     from rosgate_browser import Condition, Event
 else:
     Condition, Event = threading.Condition, threading.Event
@@ -223,8 +225,7 @@ class Runtime:
         self.ros.factory.on_ready(self._take_status)
 
     def _program_state(self):
-        """What the program control (sleep, latest, on_message, drive ...) keeps; the ROS 2 node's
-        runtime (rosgate_node.py) keeps the same."""
+        """What the program control (sleep, latest, on_message, drive ...) keeps."""
         self.stopped = Event()
         self.error = None
         self.t0 = time.monotonic()
@@ -492,11 +493,25 @@ class Runtime:
     # ---- "every N s"
     def every(self, seconds, handler):
         """handler() every `seconds` in a thread of its own (a tick that comes while it still runs is
-        skipped), until the program stops."""
-        if BROWSER:
-            raise RosError("'every N s' needs the script or the blocks' Run, not Python in the page")
+        skipped), until the program stops. In the page: where the program waits, at its time."""
         period = max(0.01, float(seconds or 0))
         self.handlers += 1
+        if BROWSER:
+            busy = []
+
+            def tick():
+                if self.stopped.is_set():
+                    return
+                _page.call_later(period, tick)
+                if busy:
+                    return
+                busy.append(True)
+                try:
+                    self._handled(lambda _: handler(), None)
+                finally:
+                    busy.clear()
+            _page.call_later(period, tick)
+            return
 
         def worker():
             due = time.monotonic() + period
@@ -515,12 +530,14 @@ class Runtime:
 
     def _serve(self, op, name, t, answer):
         """Advertises; each request (a service call, a goal) is answered by answer(message) in a
-        thread of its own, so a slow one holds up neither the connection nor the others."""
-        if BROWSER:
-            raise RosError("serving a service or an action needs the script or the blocks' Run, not Python in the page")
+        thread of its own, so a slow one holds up neither the connection nor the others (in the
+        page: where the program waits, when the request comes)."""
         self._check()
         self.handlers += 1
-        self.ros.on(name, lambda m: self.stopped.is_set() or threading.Thread(target=answer, args=(m,), daemon=True).start())
+        if BROWSER:
+            self.ros.on(name, lambda m: self.stopped.is_set() or answer(m))
+        else:
+            self.ros.on(name, lambda m: self.stopped.is_set() or threading.Thread(target=answer, args=(m,), daemon=True).start())
         self.ros.send_on_ready(roslibpy.Message({"op": op, "type": t, op.split("_")[1]: name}))
 
     def serve_service(self, service, t, handler):
@@ -643,30 +660,59 @@ class Runtime:
         return not closing.is_alive()
 
 
-rt = None
+class _FirstUse:
+    """``rt`` until the runtime runs: a program of plain top-level lines (no main(), no run())
+    starts it at its first rt.* call, with the same --url and --ns as run() takes; the end of
+    the program then ends it as run() does (message handlers kept until Ctrl-C or Stop)."""
+
+    def __getattr__(self, name):
+        return getattr(_start_runtime(), name)
+
+    def __repr__(self):
+        return "<the rosgate runtime, started at its first use>"
 
 
-def run(main, namespace=""):
-    """Connects, runs main(), keeps message handlers alive until Ctrl-C, stops the robot."""
-    global rt
+rt = _FirstUse()
+_ending = {"done": False}
+
+
+def _arguments(namespace):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--url", default=os.environ.get("ROSBRIDGE_URL", "ws://localhost:9090/"),
                         help="rosbridge websocket URL (default: $ROSBRIDGE_URL or ws://localhost:9090/)")
     parser.add_argument("--ns", default=os.environ.get("ROSGATE_NS", namespace),
                         help="robot namespace of the robot blocks, e.g. /s07 (default: $ROSGATE_NS or %r)" % namespace)
-    args = parser.parse_args()
+    return parser.parse_known_args()[0]
+
+
+def _start_runtime(namespace=""):
+    """The program's runtime, connected at the first call (run() calls it; so does the first rt.*
+    of a program with no main())."""
+    global rt
+    if isinstance(rt, Runtime):
+        return rt
+    args = _arguments(namespace)
     # Ctrl-C (and a run's Stop, a SIGINT) ends the program even when it was started with SIGINT
     # ignored, as a background job of a shell is: Python then leaves it ignored
     if not BROWSER:   # in the page, Stop ends the worker
         signal.signal(signal.SIGINT, signal.default_int_handler)
         signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
     rt = Runtime(args.url, args.ns)
-    # a program that imports the runtime (from rosgate_runtime import *) bound rt when it was
-    # still None: its main() sees this one
-    main.__globals__["rt"] = rt
+    if BROWSER:
+        _page.at_end(_end_of_lines)
+    else:
+        atexit.register(_end_of_lines)
+    return rt
+
+
+def _end(main=None):
+    """Runs main() (when given), keeps message handlers alive until Ctrl-C, stops the robot; the
+    exit code."""
+    _ending["done"] = True
     code = 0
     try:
-        main()
+        if main is not None:
+            main()
         rt.settle()
         while rt.handlers and not rt.stopped.wait(0.2):
             pass
@@ -685,6 +731,28 @@ def run(main, namespace=""):
                   "when the connection goes)", file=sys.stderr)
     sys.stdout.flush()
     sys.stderr.flush()
+    return code
+
+
+def _end_of_lines():
+    """The end of a program of top-level lines (the runtime started at its first rt.* call)."""
+    if _ending["done"] or not isinstance(rt, Runtime):
+        return
+    code = _end()
+    if BROWSER:
+        if rt.error is not None:
+            raise rt.error
+        return
+    os._exit(code)
+
+
+def run(main, namespace=""):
+    """Connects, runs main(), keeps message handlers alive until Ctrl-C, stops the robot."""
+    runtime = _start_runtime(namespace)
+    # a program that imports the runtime (from rosgate_runtime import *) bound rt before it ran:
+    # its main() sees this one
+    main.__globals__["rt"] = runtime
+    code = _end(main)
     if BROWSER:
         if rt.error is not None:
             raise rt.error

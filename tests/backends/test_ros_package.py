@@ -1,8 +1,9 @@
-"""A block program downloaded from the IDE (Chromium) as a ROS 2 package: it builds with colcon
-against the Jazzy wheels and, run as a node on the graph, sends a robot node the same Twists as the
-roslibpy script of the same program run through the gateway (rclpy backend); Ctrl-C ends both with
-zero velocity. The server blocks, in the node, answer a roslibpy service call and an action goal
-through the gateway.
+"""A block program downloaded from the IDE (Chromium) as a ROS 2 package: its node is plain rclpy
+(no runtime beside it); it builds with colcon against the Jazzy wheels and, run as a node on the
+graph, sends a robot node the same Twists as the roslibpy script of the same program run through
+the gateway (rclpy backend); Ctrl-C ends both with zero velocity. The server blocks, in the node,
+answer a roslibpy service call and an action goal through the gateway. With --trusted-runs the
+gateway runs the node as a run of the graph.
 
 Run inside a loopback-only network namespace, as ``make test-rclpy`` does.
 """
@@ -118,7 +119,10 @@ def from_ide(chromium, gw, program: dict | str):
     else:
         ide.js('(p) => rosgateIde.loadProgram(p)', program)
     script = ide.python()
-    node_panel = ide.js("document.querySelector('#code-node').textContent")
+    node = ide.js('async () => rosgateIde.rosNode()')
+    # the code panel shows the same node once the gateway's types are read
+    wait_for(lambda: ide.js("document.querySelector('#code-node').textContent") == node, what='the node in the panel')
+    node_panel = node
     with ide.page.expect_download() as download:
         ide.page.click('#download-ros2')
     data = Path(download.value.path()).read_bytes()
@@ -169,12 +173,11 @@ def test_the_package_builds_and_drives_as_the_script_does(rover, chromium, ide_g
     name, data, script, node_panel = from_ide(chromium, ide_gateway, EXAMPLE)
     assert name == 'rover wall-follower.zip'
     pkg = 'rover_wall_follower'
-    node = f'{pkg}_node'
+    node = pkg
     archive = build(data, tmp_path)
     files = set(archive.namelist())
-    for f in ('package.xml', 'setup.py', 'setup.cfg', f'resource/{pkg}', f'{pkg}/__init__.py', f'{pkg}/{node}.py',
-              f'{pkg}/rosgate_node.py', f'{pkg}/rosgate_runtime.py', 'README.md'):
-        assert f'{pkg}/{f}' in files, files
+    assert files == {f'{pkg}/{f}' for f in ('package.xml', 'setup.py', 'setup.cfg', f'resource/{pkg}', f'{pkg}/__init__.py',
+                                             f'{pkg}/{node}.py', 'README.md')}, files
     xml = archive.read(f'{pkg}/package.xml').decode()
     for dep in ('rclpy', 'geometry_msgs', 'sensor_msgs'):
         assert f'<exec_depend>{dep}</exec_depend>' in xml
@@ -182,7 +185,9 @@ def test_the_package_builds_and_drives_as_the_script_does(rover, chromium, ide_g
     assert 'colcon build' in readme and f'ros2 run {pkg} {node}' in readme
     code = archive.read(f'{pkg}/{pkg}/{node}.py').decode()
     assert code == node_panel                    # the code panel shows the node the package carries
-    assert "self.publisher('cmd_vel', Twist)" in code and "self.subscription('scan', LaserScan)" in code
+    assert "self.cmd_vel_pub = self.create_publisher(Twist, 'cmd_vel', 10)" in code
+    assert "self.create_subscription(LaserScan, 'scan', self.on_scan, 10)" in code
+    assert 'import *' not in code and 'rosgate' not in code.split('"""', 2)[2]
 
     # the roslibpy script through a gateway on the graph
     (tmp_path / 'script.py').write_text(script)
@@ -208,10 +213,13 @@ def test_the_nodes_servers_answer_roslibpy_through_the_gateway(rclpy_helpers, ch
     add_type, fib_type = find('add')[0], find('fibonacci')[0]
     name, data, _, code = from_ide(chromium, ide_gateway, program(add_type, fib_type))
     assert name == 'served.zip'
-    assert f"rt.serve_service('/add_served', '{add_type}', on_call)" in code
-    assert "self.publisher('/served_ticks', String)" in code and 'rt.every(0.1, every_tick)' in code
+    srv, action = add_type.split('/')[-1], fib_type.split('/')[-1]
+    assert f"self.create_service({srv}, '/add_served', self.on_call, callback_group=self.group)" in code
+    assert f"ActionServer(self, {action}, '/count_served', self.on_goal, callback_group=self.group)" in code
+    assert "self.served_ticks_pub = self.create_publisher(String, '/served_ticks', 10)" in code
+    assert 'self.create_timer(0.1, self.every_tick, callback_group=self.group)' in code
     build(data, tmp_path)
-    proc = start_node(tmp_path, 'served', 'served_node')
+    proc = start_node(tmp_path, 'served', 'served')
     try:
         with client(graph_gateway) as ros:
             check_served(ros, add_type, fib_type)
@@ -232,25 +240,34 @@ def trusted_gateway(start_gateway, tmp_path_factory):
                          env={'FASTDDS_BUILTIN_TRANSPORTS': 'UDPv4', 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'SUBNET'})
 
 
-def test_with_trusted_runs_the_gateway_runs_the_node(rover, chromium, ide_gateway, trusted_gateway, graph_gateway):
-    """The node the code panel shows, sent as a run of kind ros2_node: the gateway starts it as a
-    node of the graph, the rover hears the script's Twists, and Stop (DELETE) ends it with zero
-    velocity. A source that is not such a node is refused, saying why."""
-    _name, _data, _script, node_code = from_ide(chromium, ide_gateway, EXAMPLE)
-    rover.begin()
-    status, body = api(trusted_gateway, 'POST', '/api/runs', {'source': node_code, 'name': 'wall follower',
-                                                              'kind': 'ros2_node'})
-    assert status == 201, body
-    run_id = body['id']
+def test_with_trusted_runs_the_ides_run_on_robot_runs_the_node(rover, chromium, trusted_gateway):
+    """The IDE on a gateway whose runs are nodes of the graph: "Run on robot" sends the block program
+    as its ROS 2 node (kind ros2_node); the gateway starts it as a node, the rover hears the script's
+    Twists, and Stop ends it with zero velocity. A source that is not an rclpy program is refused,
+    saying why."""
+    status, listing = api(trusted_gateway, 'GET', '/api/runs')
+    assert status == 200 and listing['nodes'] is True
+    ctx = chromium.new_context()
+    ide = IdePage(ctx.new_page(), trusted_gateway).open()
     try:
-        wait_for(lambda: len(rover.heard) - rover.start_at >= 2 * PHASE + 3, 60)
-    except AssertionError:
-        raise AssertionError(f'the rover heard {rover.sequence()}; the run: {api(trusted_gateway, "GET", f"/api/runs/{run_id}")}') from None
+        ide.load_example(EXAMPLE)
+        ide.page.wait_for_selector('#run-robot', state='visible')
+        rover.begin()
+        ide.page.click('#run-robot')
+        try:
+            wait_for(lambda: len(rover.heard) - rover.start_at >= 2 * PHASE + 3, 60)
+        except AssertionError:
+            raise AssertionError(f'the rover heard {rover.sequence()}; runs: {api(trusted_gateway, "GET", "/api/runs")}; '
+                                 f'console: {ide.console_text()[-2000:]}') from None
+        finally:
+            ide.page.click('#stop')
+        runs = api(trusted_gateway, 'GET', '/api/runs')[1]['runs']
+        final = ended(trusted_gateway, runs[-1]['id'])
     finally:
-        api(trusted_gateway, 'DELETE', f'/api/runs/{run_id}')
-    final = ended(trusted_gateway, run_id)
+        ctx.close()
     wait_for(lambda: rover.heard[-1] == (0.0, 0.0), 10)
     assert rover.sequence() == [(0.35, 0.0), (0.0, round(math.radians(60), 6)), (0.0, 0.0)], final['output'][-2000:]
-    # not a node of the IDE's generator: refused with the reason
+    # the node's own log lines (rclpy's format): the run was the node, not the roslibpy script
+    assert '[rover_wall_follower]: following the wall on the right' in final['output'], final['output'][-2000:]
     status, body = api(trusted_gateway, 'POST', '/api/runs', {'source': 'print(1)\n', 'kind': 'ros2_node'})
-    assert status == 400 and 'rosgate_node' in body['error'], body
+    assert status == 400 and 'rclpy' in body['error'], body

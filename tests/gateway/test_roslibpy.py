@@ -232,3 +232,25 @@ def test_client_count_and_connected_clients(start_gateway):
         wait_for(lambda: counts[-1]['data'] == 1 and len(clients[-1]['clients']) == 1)
     finally:
         ros.close()
+
+
+def test_a_client_serving_the_demos_add_two_ints_takes_it_over_until_it_goes(ros, gateway):
+    """The sim's demo /add_two_ints steps aside for a client that serves the name (the ROS 2
+    tutorial's server, run in the IDE page) and answers again once that client's service goes."""
+    def add_and_mark(request, response):
+        response['sum'] = request['a'] + request['b'] + 1000
+        return True
+
+    with client(gateway) as server:
+        mine = roslibpy.Service(server, '/add_two_ints', 'example_interfaces/srv/AddTwoInts')
+        mine.advertise(add_and_mark)
+        caller = roslibpy.Service(ros, '/add_two_ints', 'example_interfaces/srv/AddTwoInts')
+
+        def answer():
+            try:
+                return caller.call(roslibpy.ServiceRequest({'a': 1, 'b': 2}), timeout=5)['sum']
+            except roslibpy.core.ServiceException:   # a call that met the change of server
+                return None
+        wait_for(lambda: answer() == 1003, what="the client's server answering")
+        mine.unadvertise()
+        wait_for(lambda: answer() == 3, what='the demo answering again')

@@ -366,3 +366,24 @@ def test_trusted_runs_need_allow_runs(start_gateway):
     with pytest.raises(RuntimeError) as refused:
         start_gateway('--trusted-runs')
     assert 'rosgate: --trusted-runs: it is a kind of run: give --allow-runs too' in str(refused.value)
+
+
+def test_a_ros2_node_run_is_an_rclpy_program_on_a_trusted_gateway_only(runs_gw):
+    """Runs here are not nodes of the graph: the listing says so, and a node run is refused saying
+    why; what a node run takes is an rclpy program as it is (gateway/runs/node.py)."""
+    from gateway.runs.node import node_arguments, node_program
+    status, body = api(runs_gw, 'GET', '/api/runs')
+    assert status == 200 and body['allowed'] is True and body['nodes'] is False
+    status, body = api(runs_gw, 'POST', '/api/runs', {'source': 'import rclpy\n', 'kind': 'ros2_node'})
+    assert status == 400 and '--trusted-runs' in body['error'], body
+    node = 'import rclpy\nfrom rclpy.node import Node\n\nrclpy.init()\nNode("n")\n'
+    assert node_program(node) == node
+    assert node_program('from rclpy.node import Node\n') == 'from rclpy.node import Node\n'
+    for source in ('print(1)\n', '# import rclpy\n', 'import rclpyx\n'):
+        try:
+            node_program(source)
+        except ValueError as e:
+            assert 'rclpy' in str(e)
+        else:
+            raise AssertionError(f'{source!r} taken as a node')
+    assert node_arguments('/s07') == ['--ros-args', '-r', '__ns:=/s07'] and node_arguments('') == []

@@ -56,19 +56,45 @@ def logged(ide, level: str | None = None) -> str:
 
 def test_page_is_cross_origin_isolated_and_serves_pyodide(ide):
     assert ide.js("crossOriginIsolated") is True
-    assert not [u for u in ide.requests if "pyodide" in u], "Pyodide loads before a Python program runs"
+    assert not [u for u in ide.requests if "pyodide" in u], "Pyodide loads with a block program open"
     kinds = ide.js("""async () => {
-      const out = {};
-      for (const f of ['pyodide.asm.wasm', 'python_stdlib.zip', 'pyodide-lock.json', 'pyodide.mjs']) {
-        const r = await fetch('/vendor/pyodide/' + f);
-        out[f] = [r.status, r.headers.get('content-type'), r.headers.get('content-encoding')];
+      const { version } = await import('/vendor/pyodide/pyodide.mjs');
+      const out = { version };
+      for (const f of ['pyodide.asm.wasm', 'python_stdlib.zip', 'pyodide-lock.json', 'pyodide.asm.mjs', '../pyodide.mjs']) {
+        const r = await fetch(`/vendor/pyodide/${version}/${f}`);
+        out[f] = [r.status, r.headers.get('content-type'), r.headers.get('content-encoding'), r.headers.get('cache-control')];
       }
       return out;
     }""")
-    assert kinds["pyodide.asm.wasm"] == [200, "application/wasm", "gzip"]   # the build's gzip of it
+    immutable = "public, max-age=31536000, immutable"     # a versioned path never changes
+    assert kinds["pyodide.asm.wasm"] == [200, "application/wasm", "gzip", immutable]   # the build's gzip of it
     assert kinds["python_stdlib.zip"][0] == 200 and "zip" in kinds["python_stdlib.zip"][1]
     assert kinds["pyodide-lock.json"][0] == 200 and "json" in kinds["pyodide-lock.json"][1]
-    assert kinds["pyodide.mjs"][0] == 200 and "javascript" in kinds["pyodide.mjs"][1]
+    assert kinds["pyodide.asm.mjs"][0] == 200 and "javascript" in kinds["pyodide.asm.mjs"][1]
+    assert {k: v[3] for k, v in kinds.items() if isinstance(v, list) and k != "../pyodide.mjs"} == dict.fromkeys(
+        ["pyodide.asm.wasm", "python_stdlib.zip", "pyodide-lock.json", "pyodide.asm.mjs"], immutable)
+    # the loader names the version: it is revalidated at every load (a new install, a new version)
+    assert kinds["../pyodide.mjs"][:2] == [200, "text/javascript"] and kinds["../pyodide.mjs"][3] == "no-cache"
+
+
+def test_a_reload_starts_python_from_the_browsers_cache(chromium, turtle_gateway):
+    """A second page of the same browser starts Pyodide without its files crossing the network again."""
+    ctx = chromium.new_context()
+    try:
+        transferred = []
+        for _ in range(2):
+            page = ctx.new_page()
+            page.goto(turtle_gateway.http_url)
+            page.wait_for_function("document.body?.dataset.ready === 'true'", timeout=30000)
+            page.evaluate("async () => (await import('/js/pyrun.js')).prepare()")
+            transferred.append(page.evaluate("async () => (await import('/js/pyrun.js')).startTiming().transferred"))
+            page.close()
+        first, again = transferred
+        heavy = ("pyodide.asm.wasm", "python_stdlib.zip", "pyodide.asm.mjs")
+        assert all(first[f] > 100_000 for f in heavy), first
+        assert all(again[f] == 0 for f in heavy), again        # from the cache, not revalidated
+    finally:
+        ctx.close()
 
 
 def test_sleep_drives_the_turtle_and_prints_reach_the_log(ide, turtle_ros):

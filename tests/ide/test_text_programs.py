@@ -130,6 +130,8 @@ def test_errors_are_marked_on_their_line(ide):
 def test_completion_offers_the_graph(ide):
     open_text(ide, "python")
     ide.page.click(".cm-content")
+    ide.page.keyboard.press("Control+a")      # a new Python program holds a short one: typed over
+    ide.page.keyboard.press("Delete")
     ide.page.keyboard.type("rt.publish('/turtle1/cm")
     item = ide.page.locator(".cm-tooltip-autocomplete li:has-text('/turtle1/cmd_vel')")
     assert TWIST in item.inner_text()
@@ -234,6 +236,8 @@ def test_a_phone_indents_with_buttons(chromium, turtle_gateway):
         ide = IdePage(ctx.new_page(), turtle_gateway)
         open_text(ide, "python")
         ide.page.tap(".cm-content")
+        ide.page.keyboard.press("Control+a")      # a new Python program holds a short one: typed over
+        ide.page.keyboard.press("Delete")
         ide.page.keyboard.type("def main():\nrt.log('hi')")       # the editor indents the body itself
         ide.page.tap(".text-tools [data-cmd='outdent']")
         ide.page.tap(".text-tools [data-cmd='indent']")

@@ -4,7 +4,10 @@ it, run with the real js/pyrun.js (Pyodide in a worker) behind js/textrun.js's d
 roslibpy program (`roslibpy.Ros(host='example.org', port=9090)`, `run()`, a `Topic` publish,
 `time.sleep`) drives turtle1 (an independent roslibpy client sees its pose move) and its prints
 reach the IDE's console; Stop zeroes the turtle and nothing drives after; a runtime error is
-marked on its line, a syntax error before the run; a program that ends says so. One gateway and one browser page for the module."""
+marked on its line, a syntax error before the run; a program that ends says so, and one that
+stops says why. A newcomer's first minutes: a new program that runs as it opens (Python loading
+as it opens), top-level lines without main(), timers and served services in the page. One gateway
+and one browser page for the module (and a fresh page for the new program)."""
 
 from __future__ import annotations
 
@@ -147,3 +150,99 @@ def test_a_program_that_ends_says_so(ide):
     assert f"run {n} finished" in ide.console_text()
     assert not ide.page.query_selector(".cm-error-line")
     assert not page_errors(ide)
+
+
+# ---- a newcomer's first minutes -------------------------------------------------------------------
+
+def test_a_new_python_program_is_a_short_one_that_runs(ide_factory, turtle_gateway, turtle):
+    """"New Python" opens a program (not a grey placeholder) that runs as it is: its lines at the top
+    level, no main(), no run(); Python loaded as the program opened, the bar saying when it is ready."""
+    cmd = turtle.watch("/turtle1/cmd_vel", TWIST)
+    ide = ide_factory(turtle_gateway)
+    requests_before = len(ide.requests)
+    open_text(ide, "python")
+    text = ide.js("rosgateIde.textMode.text")
+    assert text.strip() and "rt.publish(" in text and "def main" not in text and "run(main)" not in text
+    # Pyodide loads now, before any Run, and the bar says so
+    ide.page.wait_for_selector(".text-python[data-state='ready']", timeout=PYODIDE_START * 1000)
+    assert any("/vendor/pyodide/" in u and u.endswith(".wasm") for u in ide.requests[requests_before:])
+    assert "Python ready (" in ide.page.inner_text(".text-python")
+    assert ide.js("rosgateIde.link.busy") == 0           # the link's patience ended with the load
+    t0 = time.monotonic()
+    ide.page.click("#run")
+    ide.page.wait_for_function("document.body.dataset.run === 'idle'", timeout=PYODIDE_START * 1000)
+    logs = ide.logs()
+    assert "driving turtle1 forward for a second" in logs and "done" in logs, ide.console_text()
+    assert any(m["linear"]["x"] == 1.0 for _, m in cmd.since(t0))
+    assert "finished" in ide.console_text()
+    assert not page_errors(ide)
+
+
+SERVING = [
+    "from rosgate_runtime import *",
+    "",
+    "ticks = []",
+    "rt.every(0.1, lambda: ticks.append(1))",
+    "",
+    "def add(request):",
+    "    return {'sum': request['a'] + request['b']}",
+    "",
+    "rt.serve_service('/page/add', 'example_interfaces/srv/AddTwoInts', add)",
+    "rt.sleep(1)",
+    "print('ticking', len(ticks) >= 3)",
+]
+ROSLIBPY_SERVING = [
+    "import roslibpy",
+    "",
+    "ros = roslibpy.Ros('localhost', 9090)",
+    "ros.run()",
+    "",
+    "def handler(request, response):",
+    "    response['success'] = request['data']",
+    "    response['message'] = 'set from the page'",
+    "    return True",
+    "",
+    "roslibpy.Service(ros, '/page/set', 'std_srvs/srv/SetBool').advertise(handler)",
+    "ros.call_later(0.3, lambda: print('later'))",
+    "ros.run_forever()",
+]
+
+
+def test_timers_and_served_services_work_in_the_page(ide, turtle):
+    """The runtime's every and serve_service at the top level (no main()), and a roslibpy server with
+    call_later: served through the gateway while the program waits; Stop ends them."""
+    type_python(ide, SERVING)
+    ide.page.click("#run")
+    ide.page.wait_for_function("[...document.querySelectorAll('#console-lines .line')].some((l) => l.textContent === 'ticking True')",
+                               timeout=PYODIDE_START * 1000)
+    assert turtle.call("/page/add", "example_interfaces/srv/AddTwoInts", {"a": 2, "b": 40})["sum"] == 42
+    assert ide.js("document.body.dataset.run") == "running"     # its handlers keep it going
+    ide.page.click("#stop")
+    ide.page.wait_for_function("document.body.dataset.run === 'idle'")
+    type_python(ide, ROSLIBPY_SERVING)
+    ide.page.click("#run")
+    ide.page.wait_for_function("[...document.querySelectorAll('#console-lines .line')].some((l) => l.textContent === 'later')",
+                               timeout=PYODIDE_START * 1000)
+    answer = wait_for(lambda: _call(turtle, "/page/set", "std_srvs/srv/SetBool", {"data": True}), what="/page/set")
+    assert answer == {"success": True, "message": "set from the page"}
+    ide.page.click("#stop")
+    ide.page.wait_for_function("document.body.dataset.run === 'idle'")
+    assert "stopped: Stop was pressed" in ide.console_text()
+
+
+def _call(turtle, service, type_, args):
+    try:
+        return turtle.call(service, type_, args, timeout=5)
+    except Exception:   # noqa: BLE001: not served yet
+        return None
+
+
+def test_a_run_the_lost_link_ends_says_why(ide, turtle):
+    type_python(ide, DRIVE)
+    ide.page.click("#run")
+    ide.page.wait_for_function("[...document.querySelectorAll('#console-lines .line')].some((l) => l.textContent === 'driving 6')",
+                               timeout=PYODIDE_START * 1000)
+    ide.js("rosgateIde.link._lose('silent')")      # what the link does when the gateway falls silent
+    ide.page.wait_for_function("document.body.dataset.run === 'idle'")
+    assert "■ stopped: the link to the gateway was lost (robot stopped)" in ide.console_text()
+    ide.page.wait_for_function("document.body?.dataset.connection === 'connected'", timeout=30000)

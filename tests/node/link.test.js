@@ -60,6 +60,25 @@ test('the silence that counts as lost: SILENCE on a steady link, longer where th
   assert.equal(link.silence(), 5000);                        // capped
 });
 
+test('while the page is busy with a heavy load it knows of (patient), the link allows the longest silence', async () => {
+  const link = new Link('ws://127.0.0.1:1/');
+  for (let i = 0; i < 40; i++) link._measured(20);          // a quick link: SILENCE
+  assert.equal(link.silence(), SILENCE);
+  let done;
+  const loading = new Promise((resolve) => { done = resolve; });
+  const failing = Promise.reject(new Error('no Pyodide'));
+  assert.equal(link.patient(loading), loading);
+  link.patient(failing);
+  assert.equal(link.silence(), 5000);                        // Pyodide compiling: pongs may come late
+  await failing.catch(() => {});
+  await new Promise((resolve) => { setTimeout(resolve, 0); });
+  assert.equal(link.silence(), 5000, 'one heavy moment still under way');
+  done();
+  await loading;
+  await new Promise((resolve) => { setTimeout(resolve, 0); });
+  assert.equal(link.silence(), SILENCE);                     // settled (or failed): the usual limit
+});
+
 test('a link shows its round trip, and heals by itself when the gateway comes back', async () => {
   const first = await startGateway();
   const port = Number(new URL(first.url).port);

@@ -12,6 +12,7 @@ INT64 = (-(2**63), 2**63 - 1)
 
 def start_demo_nodes(graph: Graph, *, talker: bool = False, fibonacci_interval: float = 1.0) -> None:
     adder = graph.node('add_two_ints_server')
+    adder.yields = True     # a program serving /add_two_ints (the ROS 2 tutorial's) takes it over meanwhile
 
     def add_two_ints(request):
         total = request['a'] + request['b']

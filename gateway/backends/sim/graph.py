@@ -152,8 +152,13 @@ class SimService:
     handler: Callable[[Message], Any]
 
     def destroy(self) -> None:
-        if self.node.graph._services.get(self.name) is self:
-            del self.node.graph._services[self.name]
+        graph = self.node.graph
+        if graph._services.get(self.name) is self:
+            del graph._services[self.name]
+            aside = graph._yielded.pop(self.name, None)   # a demo's service that stepped aside comes back
+            if aside is not None:
+                graph._services[self.name] = aside
+                graph._created('service', self.name)
         self.node._owned.discard(self)
 
 
@@ -167,6 +172,9 @@ class Node:
         self.param_descriptions: dict[str, dict] = {}   # name -> {description, constraints, read_only}
         self._param_hooks: dict[str, Callable[[Any], None]] = {}
         self._owned: set = set()
+        # a demo node's services step aside for another node's of the same name (the ROS 2 tutorial's
+        # /add_two_ints served from the IDE page), and come back when it goes
+        self.yields = False
         self._tasks: set[asyncio.Task] = set()
         self._timers: set[SimTimer] = set()
 
@@ -199,7 +207,9 @@ class Node:
         type = self.graph.defs.srv(type).type   # also an action's X_SendGoal, X_GetResult
         old = self.graph._services.get(name)
         if old is not None and old.node is not self:
-            raise BackendError(f'service {name} is already provided by {old.node.name}')
+            if not old.node.yields:
+                raise BackendError(f'service {name} is already provided by {old.node.name}')
+            self.graph._yielded[name] = old
         svc = SimService(self, name, type, handler)
         self.graph._services[name] = svc
         self._owned.add(svc)
@@ -302,6 +312,7 @@ class Graph:
         self._topics: dict[str, Topic] = {}
         self._services: dict[str, SimService] = {}
         self._actions: dict[str, SimActionServer] = {}
+        self._yielded: dict[str, SimService] = {}    # a demo's services stepped aside (Node.yields)
         self._nodes: dict[str, Node] = {}
         self._ids = itertools.count(1)
         self._waiting: dict[tuple[str, str], list[asyncio.Future]] = {}   # (kind, name) -> callers

@@ -18,6 +18,7 @@ import time
 import traceback
 
 import _rosgate_js as _js
+import rosgate_interfaces
 
 PROGRAM = "<program>"       # the file name of the student's code in tracebacks
 PUMP_EVERY = 2000           # lines run between looks at the mailbox in a program that does not block
@@ -28,11 +29,18 @@ _timers = []                # (when, n, callback) of call_later
 _order = itertools.count()
 _ids = itertools.count(1)
 _sleep = time.sleep
+_ends = []                  # what runs when the program's lines have run (at_end)
 
 
 def next_id():
     """The N of an op id: above the run's base, so the page tells the program's replies apart."""
     return next(_ids)
+
+
+def at_end(hook):
+    """hook() runs when the program's top-level lines have run (the runtime's end of a program
+    with no main(): its handlers kept until Stop, the robot stopped)."""
+    _ends.append(hook)
 
 
 def attach(proto):
@@ -57,6 +65,65 @@ def close():
 
 def call_later(delay, callback):
     heapq.heappush(_timers, (time.monotonic() + max(0.0, float(delay)), next(_order), callback))
+
+
+class _Replies:
+    """The gateway's answers to the page's own requests (request()), by op id."""
+
+    def __init__(self):
+        self.waiting = {}          # op id -> the answer, or None while it has not come
+
+    def on_message(self, message):
+        op_id = message.get("id")
+        if op_id in self.waiting and message.get("op") in ("service_response", "action_result", "status"):
+            if message.get("op") != "status" or message.get("level") == "error":
+                self.waiting[op_id] = message
+
+
+_replies = _Replies()
+_protocols.append(_replies)
+
+
+def request(message, timeout=10.0):
+    """Sends an op (with its id) and waits for the gateway's answer to it: its service_response
+    or action_result, or a status error naming it. TimeoutError after ``timeout`` s."""
+    op_id = message["id"]
+    _replies.waiting[op_id] = None
+    send(json.dumps(message))
+    end = time.monotonic() + timeout
+    try:
+        while _replies.waiting[op_id] is None:
+            left = end - time.monotonic()
+            if left <= 0:
+                raise TimeoutError("no answer to %s within %g s" % (op_id, timeout))
+            pump(left)
+        return _replies.waiting[op_id]
+    finally:
+        _replies.waiting.pop(op_id, None)
+
+
+def rosapi(name, args=None, timeout=60.0):
+    """The values of a /rosapi/NAME call; LookupError with the gateway's words when it fails."""
+    service = "/rosapi/" + name
+    answer = request({"op": "call_service", "id": "call_service:%s:%d" % (service, next_id()),
+                      "service": service, "args": args or {}}, timeout)
+    if answer.get("op") == "status" or answer.get("result") is False:
+        raise LookupError(answer.get("values") if answer.get("op") != "status" else answer.get("msg"))
+    return answer.get("values") or {}
+
+
+def _details(service, type_):
+    return rosapi(service, {"type": type_})["typedefs"]
+
+
+def _packages():
+    """The ROS packages whose types the gateway knows (None when it cannot say: a rosbridge
+    server without rosapi's ``interfaces``)."""
+    try:
+        names = rosapi("interfaces").get("interfaces") or []
+    except LookupError:
+        return None
+    return {n.split("/")[0] for n in names}
 
 
 def pump(timeout):
@@ -191,12 +258,15 @@ def check(source):
     return []
 
 
-def run(source, namespace, base):
-    """Runs the program as __main__; None when it ended, {line, message, traceback} on an error."""
+def run(source, namespace, base, args=()):
+    """Runs the program as __main__; None when it ended, {line, message, traceback} on an error.
+    ROS message, service and action modules (``from std_msgs.msg import String``) are made from
+    the gateway's definitions when the program imports them (rosgate_interfaces)."""
     global _ids
     _ids = itertools.count(int(base))
+    rosgate_interfaces.install(rosgate_interfaces.Interfaces(_details, _packages))
     os.environ["ROSGATE_NS"] = namespace or ""
-    sys.argv = ["program.py"]
+    sys.argv = ["program.py"] + [str(a) for a in args]
     time.sleep = sleep
     linecache.cache[PROGRAM] = (len(source), None, source.splitlines(True), PROGRAM)
     lines = _Lines()
@@ -204,6 +274,8 @@ def run(source, namespace, base):
     try:
         exec(compile(source, PROGRAM, "exec", dont_inherit=True),
              {"__name__": "__main__", "__file__": PROGRAM, "__builtins__": builtins})
+        while _ends:
+            _ends.pop(0)()
     except SystemExit as e:
         if e.code not in (None, 0) and not isinstance(e.code, int):
             print(e.code, file=sys.stderr)
