@@ -151,7 +151,7 @@ class Browsers:
             if not (ROOT / "ide" / "vendor" / "roslib.mjs").exists():
                 pytest.fail("the IDE's vendor/ is not built: cd ide && npm ci && npm run build")
             ARTIFACTS.mkdir(exist_ok=True)
-            self._chromium = self.driver().chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+            self._chromium = patient(self.driver().chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS))
         return self._chromium
 
     def stop(self) -> None:
@@ -164,6 +164,28 @@ class Browsers:
         finally:
             self._manager.__exit__(None, None, None)
             self._driver = self._chromium = None
+
+
+PATIENCE_MS = 90_000   # a page's waits, clicks and loads without a timeout of their own (Playwright's: 30 s)
+
+
+def patient(browser):
+    """The browser, whose new contexts and pages wait ``PATIENCE_MS`` where a call names no
+    timeout: a deadline is patience, not a bar (a page's load took over 30 s at load 50)."""
+    new_context, new_page = browser.new_context, browser.new_page
+
+    def patient_context(*args, **kwargs):
+        ctx = new_context(*args, **kwargs)
+        ctx.set_default_timeout(PATIENCE_MS)
+        return ctx
+
+    def patient_page(*args, **kwargs):
+        page = new_page(*args, **kwargs)
+        page.context.set_default_timeout(PATIENCE_MS)
+        return page
+
+    browser.new_context, browser.new_page = patient_context, patient_page
+    return browser
 
 
 @pytest.fixture(scope="session")
