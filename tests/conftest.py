@@ -7,4 +7,4 @@ import pytest
 
 pytest.register_assert_rewrite('tests.support.fleet')
 
-pytest_plugins = ['tests.support.fixtures', 'tests.support.schedule']
+pytest_plugins = ['tests.support.fixtures', 'tests.support.schedule', 'tests.support.cost']

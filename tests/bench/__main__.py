@@ -30,4 +30,7 @@ if __name__ == "__main__":
     if sys.argv[1:2] == ["stop"]:   # Stop to the robot's zero, blocks and Python (tests/bench/stop.py)
         from .stop import main as stop
         sys.exit(stop(sys.argv[2:]))
+    if sys.argv[1:2] == ["suite"]:   # the test suite's CPU per file (tests/bench/suite.py, pytest --cost)
+        from .suite import main as suite
+        sys.exit(suite(sys.argv[2:]))
     sys.exit(main())

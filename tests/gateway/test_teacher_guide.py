@@ -11,7 +11,7 @@ import urllib.request
 
 import roslibpy
 
-from tests.support.process import ROOT, Started
+from tests.support.process import ROOT, START, Started
 from tests.support.wait import wait_for
 
 GUIDE = ROOT / 'docs' / 'teacher.md'
@@ -42,7 +42,7 @@ def test_the_guides_class_command_runs_as_written(tmp_path):
     home.mkdir()
     env = {**os.environ, 'HOME': str(home), 'XDG_DATA_HOME': str(home / 'data'), 'PYTHONPATH': str(ROOT)}
     # the guide's port is 9090; here a free one (other tests run at the same time), and loopback
-    gw = Started([*argv, '--port', '0', '--address', '127.0.0.1'], cwd=tmp_path, env=env, timeout=60)
+    gw = Started([*argv, '--port', '0', '--address', '127.0.0.1'], cwd=tmp_path, env=env, timeout=START)
     try:
         rules, framed = 0, []
         while rules < 2:                      # the frame follows the one-line form at once

@@ -63,7 +63,7 @@ class Engine:
         tells none of these (check the server's log for its requests)."""
         return []
 
-    def wait(self, expr: str, timeout: float = 20, what: str = "") -> object:
+    def wait(self, expr: str, timeout: float = 60, what: str = "") -> object:
         """Poll ``expr`` until it is truthy; its value, or AssertionError at the deadline. An error
         while a page is being replaced (a form sent, a reload) is polled over too."""
         deadline = time.monotonic() + timeout

@@ -15,6 +15,7 @@ ARTIFACTS = ROOT / "tests" / "ide" / "artifacts"
 EXAMPLES = ROOT / "examples"
 CHROMIUM = os.environ.get("ROSGATE_CHROMIUM") or shutil.which("chromium") or "/usr/bin/chromium"
 TABLET, PHONE = {"width": 1180, "height": 820}, {"width": 390, "height": 844}   # viewports
+PATIENCE_MS = 90_000   # ms: how long a page's wait may take on a busy machine (a deadline, not a bar)
 CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
                  "--disable-component-update", "--no-first-run", "--disable-sync"]
 
@@ -33,8 +34,8 @@ class IdePage:
 
     def open(self, url: str | None = None):
         self.page.goto(url or self.gateway.http_url)
-        self.page.wait_for_function("document.body?.dataset.ready === 'true'", timeout=20000)
-        self.page.wait_for_function("document.body?.dataset.connection === 'connected'", timeout=10000)
+        self.page.wait_for_function("document.body?.dataset.ready === 'true'", timeout=PATIENCE_MS)
+        self.page.wait_for_function("document.body?.dataset.connection === 'connected'", timeout=PATIENCE_MS)
         return self
 
     def js(self, expr: str, arg=None):
@@ -66,7 +67,7 @@ class IdePage:
     def run(self):
         runs = self.js("rosgateIde.runner.runs")
         self.page.click("#run")
-        self.page.wait_for_function(f"rosgateIde.runner.runs > {runs}", timeout=5000)
+        self.page.wait_for_function(f"rosgateIde.runner.runs > {runs}", timeout=PATIENCE_MS)
 
     def wait_idle(self, timeout: float = 60):
         self.page.wait_for_function("document.body?.dataset.run === 'idle'", timeout=timeout * 1000)

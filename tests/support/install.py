@@ -9,7 +9,7 @@ import subprocess
 import venv
 from pathlib import Path
 
-from tests.support.process import ROOT, Started
+from tests.support.process import ROOT, START, Started
 
 # Tools a developer or a ROS 2 user has; they live in their own venv, not in the project's.
 TOOLS = ['build>=1', 'colcon-core>=0.15', 'colcon-ros>=0.4', 'setuptools>=77']   # colcon builds with this setuptools
@@ -44,4 +44,4 @@ def copy_source(dest: Path, *, with_built_ide: bool = True) -> Path:
 def started(cmd: list, cwd: Path, env: dict | None = None) -> Started:
     """An installed rosgate command started in cwd, without this checkout's Python environment."""
     clean = {k: v for k, v in os.environ.items() if k not in ('PYTHONPATH', 'VIRTUAL_ENV', 'PYTHONHOME')}
-    return Started(cmd, cwd, {**clean, **(env or {})}, timeout=60)
+    return Started(cmd, cwd, {**clean, **(env or {})}, timeout=START)

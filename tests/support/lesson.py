@@ -7,8 +7,8 @@ import json
 import threading
 import time
 
-from tests.support.ide import IdePage, ex, program
-from tests.support.wait import wait_for
+from tests.support.ide import PATIENCE_MS, IdePage, ex, program
+from tests.support.wait import TIMEOUT, wait_for
 
 TWIST = "geometry_msgs/msg/Twist"
 POSE = "turtlesim/msg/Pose"
@@ -32,7 +32,7 @@ class Teacher:
         import roslibpy
         self.roslibpy = roslibpy
         self.ros = roslibpy.Ros(f"ws://{gw.host}:{gw.port}/?token={TOKENS['teacher']}")
-        self.ros.run(timeout=10)
+        self.ros.run(timeout=TIMEOUT)
         self.lock = threading.Lock()
         self.stations: list[tuple[float, dict]] = []
         self.drivers: list[dict] = []
@@ -72,7 +72,7 @@ class Teacher:
     def round_trip(self):
         """Everything sent to the gateway before this has been handled."""
         self.roslibpy.Service(self.ros, "/rosapi/get_time", "rosapi/srv/GetTime").call(
-            self.roslibpy.ServiceRequest({}), timeout=10)
+            self.roslibpy.ServiceRequest({}), timeout=TIMEOUT)
 
     def close(self):
         self.ros.close()
@@ -84,12 +84,12 @@ def open_ide(ctx, gw, query: str = "") -> IdePage:
 
 def on_station(ide: IdePage, ns: str):
     ide.page.wait_for_function("([ns]) => rosgateIde.ns === ns && rosgateIde.robotNs.mine === ns "
-                               "&& rosgateIde.lease.state === 'you'", arg=[ns], timeout=15000)
+                               "&& rosgateIde.lease.state === 'you'", arg=[ns], timeout=PATIENCE_MS)
 
 
 def console_says(ide: IdePage, pattern: str):
     ide.page.wait_for_function("(p) => new RegExp(p).test(document.querySelector('#console-lines').innerText)",
-                               arg=pattern, timeout=10000)
+                               arg=pattern, timeout=PATIENCE_MS)
 
 
 def move(metres: float = 1.0) -> dict:

@@ -18,11 +18,16 @@ LINE = re.compile(r'websocket (wss?)://([^:/]+|\[[^\]]+\]):(\d+)(/\S*)')
 NODE = re.compile(r' node (\S+)')
 
 
+START = 150   # s: a gateway's start-up line on a 2-core machine at load 100 (imports alone took 13 s at load 7)
+
+
 class Started:
     """A rosgate command started in ``cwd``, its address read from its startup line. Its log goes
-    to a file: a pipe nobody reads would block a gateway that logs a lot."""
+    to a file: a pipe nobody reads would block a gateway that logs a lot. A command that exits
+    fails at once; one that says nothing fails after ``timeout`` (patience, not a bar: a busy
+    machine's full-suite run saw 61 gateways miss a deadline of 30 s)."""
 
-    def __init__(self, cmd: list, cwd: Path = ROOT, env: dict | None = None, timeout: float = 30):
+    def __init__(self, cmd: list, cwd: Path = ROOT, env: dict | None = None, timeout: float = START):
         self.log = tempfile.TemporaryFile(mode='w+', prefix='rosgate-log-')
         self.proc = subprocess.Popen([str(c) for c in cmd], cwd=cwd, stdout=subprocess.PIPE, stderr=self.log,
                                      text=True, env=env)

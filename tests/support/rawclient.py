@@ -8,10 +8,12 @@ import time
 import cbor2
 from websockets.sync.client import connect
 
+from tests.support.wait import TIMEOUT
+
 
 class Raw:
     def __init__(self, url: str, **kw):
-        self.ws = connect(url, max_size=None, compression=None, open_timeout=10, legacy=True, **kw)
+        self.ws = connect(url, max_size=None, compression=None, open_timeout=TIMEOUT, legacy=True, **kw)
         self.seen: list[dict] = []
 
     def send(self, op) -> None:
@@ -26,7 +28,7 @@ class Raw:
                 self.ws.protocol.send_text((op if isinstance(op, str) else json.dumps(op)).encode())
             self.ws.socket.sendall(b''.join(self.ws.protocol.data_to_send()))
 
-    def recv(self, timeout: float = 5.0) -> dict:
+    def recv(self, timeout: float = TIMEOUT) -> dict:
         frame = self.ws.recv(timeout=timeout)
         if isinstance(frame, bytes):
             return cbor2.loads(frame)
@@ -41,7 +43,7 @@ class Raw:
             except Exception:
                 continue
 
-    def expect(self, predicate, timeout: float = 5.0) -> dict:
+    def expect(self, predicate, timeout: float = TIMEOUT) -> dict:
         """The first message matching predicate; everything read before it lands in self.seen."""
         deadline = time.monotonic() + timeout
         while True:
@@ -56,10 +58,10 @@ class Raw:
                 return msg
             self.seen.append(msg)
 
-    def status(self, id=None, timeout: float = 5.0) -> dict:
+    def status(self, id=None, timeout: float = TIMEOUT) -> dict:
         return self.expect(lambda m: m.get('op') == 'status' and (id is None or m.get('id') == id), timeout)
 
-    def call(self, service: str, args: dict | None = None, timeout: float = 5.0) -> dict:
+    def call(self, service: str, args: dict | None = None, timeout: float = TIMEOUT) -> dict:
         self._calls = getattr(self, '_calls', 0) + 1
         id = f'raw-call-{self._calls}'
         self.send({'op': 'call_service', 'id': id, 'service': service, 'args': args or {}})
@@ -69,7 +71,7 @@ class Raw:
         """A round trip: every op this client sent before has been handled."""
         self.call('/rosapi/get_time')
 
-    def wait_listed(self, service: str, field: str, name: str, timeout: float = 5.0) -> None:
+    def wait_listed(self, service: str, field: str, name: str, timeout: float = TIMEOUT) -> None:
         """Until a rosapi listing (e.g. '/rosapi/services', 'services') shows name."""
         deadline = time.monotonic() + timeout
         while name not in self.call(service)['values'][field]:

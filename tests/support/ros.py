@@ -8,7 +8,7 @@ import threading
 import time
 from contextlib import contextmanager
 
-from tests.support.wait import wait_for
+from tests.support.wait import TIMEOUT, wait_for
 
 
 @contextmanager
@@ -16,7 +16,7 @@ def client(gw, token: str | None = None):
     """A roslibpy connection to a gateway (signed in with ``token`` if given), closed on leaving."""
     import roslibpy
     ros = roslibpy.Ros(f'ws://{gw.host}:{gw.port}/?token={token}') if token else roslibpy.Ros(gw.host, gw.port)
-    ros.run(timeout=10)
+    ros.run(timeout=TIMEOUT)
     try:
         yield ros
     finally:
@@ -56,7 +56,7 @@ class RosClient:
         import roslibpy
         self.roslibpy = roslibpy
         self.ros = roslibpy.Ros(gateway.host, gateway.port)
-        self.ros.run(timeout=10)
+        self.ros.run(timeout=TIMEOUT)
         self.watches: list[Watch] = []
 
     def watch(self, topic: str, type_: str) -> Watch:
@@ -64,7 +64,7 @@ class RosClient:
         self.watches.append(w)
         return w
 
-    def call(self, service: str, type_: str, args: dict | None = None, timeout: float = 10):
+    def call(self, service: str, type_: str, args: dict | None = None, timeout: float = TIMEOUT):
         srv = self.roslibpy.Service(self.ros, service, type_)
         return srv.call(self.roslibpy.ServiceRequest(args or {}), timeout=timeout)
 
@@ -112,7 +112,7 @@ class Inbox:
         with self.lock:
             return [m for at, m in self.items if at >= t]
 
-    def wait(self, predicate=lambda m: True, timeout: float = 5.0, after: float = 0.0) -> dict:
+    def wait(self, predicate=lambda m: True, timeout: float = TIMEOUT, after: float = 0.0) -> dict:
         """The first message (arrived after ``after``) that satisfies predicate."""
         def found():
             return next((m for m in self.since(after) if predicate(m)), None)
@@ -128,7 +128,7 @@ class Inbox:
         self.close()
 
 
-def call(ros, name: str, type: str, request: dict | None = None, timeout: float = 5.0) -> dict:
+def call(ros, name: str, type: str, request: dict | None = None, timeout: float = TIMEOUT) -> dict:
     import roslibpy
     return roslibpy.Service(ros, name, type).call(roslibpy.ServiceRequest(request or {}), timeout=timeout)
 

@@ -5,7 +5,8 @@ from __future__ import annotations
 import asyncio
 import time
 
-TIMEOUT = 10.0    # seconds: what a loaded 2-core CI machine needs for a gateway's or a browser's reaction
+TIMEOUT = 30.0    # seconds of patience for a gateway's or a browser's reaction (not a bar: a wait ends at
+                  # the event; a 2-core machine at load 50 missed 10 s)
 INTERVAL = 0.01   # seconds between polls
 
 

@@ -9,6 +9,7 @@ from urllib.parse import quote
 from websockets.exceptions import ConnectionClosed
 
 from tests.support.rawclient import Raw
+from tests.support.wait import TIMEOUT
 
 TWIST = 'geometry_msgs/msg/Twist'
 TWIST_STAMPED = 'geometry_msgs/msg/TwistStamped'
@@ -32,7 +33,7 @@ class Client(Raw):
         super().__init__(with_token(url, token), **kw)
         self._ids = itertools.count(1)
 
-    def expect(self, predicate, timeout: float = 5.0) -> dict:
+    def expect(self, predicate, timeout: float = TIMEOUT) -> dict:
         """As Raw.expect, but messages skipped earlier (self.seen) are looked at first."""
         for i, msg in enumerate(self.seen):
             if predicate(msg):
@@ -42,7 +43,7 @@ class Client(Raw):
     def next_id(self, prefix: str) -> str:
         return f'{prefix}:{next(self._ids)}'
 
-    def ask(self, op: dict, timeout: float = 5.0) -> list[dict]:
+    def ask(self, op: dict, timeout: float = TIMEOUT) -> list[dict]:
         """Send op (a fresh id unless given), then a rosapi call as a barrier; everything that
         came back for op's id before the barrier's reply. Refused ops answer synchronously, so a
         refusal is always in there; the barrier call is answered even when it is refused."""
@@ -65,7 +66,7 @@ class Client(Raw):
         errors = [m for m in self.ask(op) if m.get('op') == 'status' and m.get('level') == 'error']
         return errors[0] if errors else None
 
-    def call(self, service: str, args: dict | None = None, timeout: float = 5.0, **kw) -> dict:
+    def call(self, service: str, args: dict | None = None, timeout: float = TIMEOUT, **kw) -> dict:
         id = self.next_id(f'call_service:{service}')
         self.send({'op': 'call_service', 'service': service, 'args': args or {}, 'id': id, **kw})
         return self.expect(lambda m: m.get('op') == 'service_response' and m.get('id') == id, timeout)
@@ -79,11 +80,11 @@ class Client(Raw):
             op['type'] = type
         self.send(op)
 
-    def next_message(self, topic: str, predicate=lambda msg: True, timeout: float = 5.0) -> dict:
+    def next_message(self, topic: str, predicate=lambda msg: True, timeout: float = TIMEOUT) -> dict:
         return self.expect(lambda m: m.get('op') == 'publish' and m.get('topic') == topic
                            and predicate(m['msg']), timeout)['msg']
 
-    def closed_code(self, timeout: float = 5.0) -> int | None:
+    def closed_code(self, timeout: float = TIMEOUT) -> int | None:
         """Read (into self.seen) until the server closes the connection; its close code."""
         deadline = time.monotonic() + timeout
         try:
