@@ -31,7 +31,7 @@ from .web.app import make_app, socket_app
 from .web.history import History, start_history
 from .web.opcua import start_twin
 from .web.pages import ide_problem
-from .web.recordings import RecordingManager, start_recordings
+from .media.recordings import RecordingManager, start_recordings
 
 log = logging.getLogger('rosgate')
 

@@ -1,4 +1,4 @@
-"""The recordings over HTTP (``recordings`` is the domain: what is recorded and played, as whom):
+"""The recordings over HTTP (``media.recordings`` is the domain: what is recorded and played, as whom):
 
 POST   /api/recordings              {"topics": ["/turtle1/pose", "/scan*"], "max_seconds": 600} -> 201 {"id", ...}
 GET    /api/recordings              -> {"recordings": [summary, ...]}: the caller's (an admin's: everyone's)
@@ -21,7 +21,7 @@ import tornado.web
 from ..rules.access import OPERATORS, acts_as_admin, owns
 from ..rules.stations import person_of
 from .api import JsonHandler, body_json, caller
-from .recordings import RecordingManager
+from ..media.recordings import RecordingManager
 
 
 class _Handler(JsonHandler):

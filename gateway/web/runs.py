@@ -32,7 +32,7 @@ from ..runs import Run, RunManager
 from ..runs.archive import Archive
 from .api import JsonHandler, body_json, caller
 from .programs import space_owner, stored_program
-from .recordings import RecordingManager
+from ..media.recordings import RecordingManager
 from .recordings_api import send_file
 
 MAX_SOURCE = 1024 * 1024

@@ -1,5 +1,5 @@
 """Recordings: topics over time, written as ROS 2 bags in MCAP storage, and played back (the HTTP
-routes are ``recordings_api``'s).
+routes are ``web.recordings_api``'s).
 
 A recording holds only topics its starter could subscribe to (``rules.access.may`` as that person:
 the name globs, and the keepers, so another person's run output or live program is not recorded),
@@ -34,7 +34,6 @@ from pathlib import Path
 import cbor2
 import tornado.web
 
-from ..bridge.gateway import Sender
 from ..rules.access import is_admin, may, owns
 from ..rules.names import parse_globs
 from .playback import Playback
@@ -350,7 +349,7 @@ class RecordingManager(Hook):
 
     def _may_play(self, playback: Playback, name: str, role: str | None, person: str | None) -> None:
         policy = self.gateway.policy
-        probe = Sender(name, role, person=person)   # not opened: only asked about
+        probe = self.gateway.itself.__class__(name, role, person=person)   # the bridge's Sender, never opened
         lease = policy.lease
         for topic, type in playback.targets():
             why = may(policy, probe, 'publish', topic)
