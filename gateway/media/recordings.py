@@ -1,5 +1,5 @@
 """Recordings: topics over time, written as ROS 2 bags in MCAP storage, and played back (the HTTP
-routes are ``web.recordings_api``'s).
+routes are ``web.recordings``').
 
 A recording holds only topics its starter could subscribe to (``rules.access.may`` as that person:
 the name globs, and the keepers, so another person's run output or live program is not recorded),
