@@ -25,7 +25,7 @@ from .web import logs
 from .web.fastio import loop_factory
 from .web.description import check_urdf
 from .web.gauges import read_limits
-from .web.history import history_globs
+from .twin.history import history_globs
 
 log = logging.getLogger('rosgate')
 

@@ -24,7 +24,7 @@ import tornado.web
 
 from ..rules.access import acts_as_admin, may
 from .api import JsonHandler, caller, query_number
-from .history import MINUTE, MINUTES, POINTS, SERIES, History
+from ..twin.history import MINUTE, MINUTES, POINTS, SERIES, History
 
 DEFAULT_SPAN = 600.0
 LATEST = 1e11        # s since 1970 (the year 5138): a larger from, to or step is no time the store can hold

@@ -38,7 +38,7 @@ import orjson
 
 from gateway.bridge import encode
 from gateway.store import Store
-from gateway.web.history import FLUSH, History, _Tap
+from gateway.twin.history import FLUSH, History, _Tap
 from gateway.web.history_api import query
 
 from .report import save
