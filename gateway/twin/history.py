@@ -18,7 +18,7 @@ dashboards and the world view show (``DEFAULT_TYPES``: battery, temperatures, od
 nothing. Only topics the name globs let a client subscribe to are kept, and only while something
 publishes them: ROS 2 lists a topic that only has subscribers (a page looking for /odom on a
 turtle), and the history's own subscription would keep such a name listed for ever. The reading side
-(``/api/history``) is in ``web.history_api``.
+is ``queries`` (``/api/history``: ``web.history``).
 """
 
 from __future__ import annotations

@@ -27,7 +27,7 @@ from .classview import ClassHandler
 from .blocksets import block_routes
 from .exercises import exercise_routes
 from .gauges import gauge_routes
-from .history_api import history_routes
+from .history import history_routes
 from .language import Texts
 from .packages import package_routes
 from .description import description_routes

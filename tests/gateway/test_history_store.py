@@ -13,7 +13,7 @@ import sqlalchemy as sa
 
 from gateway.store import Store
 from gateway.twin.history import MINUTES, POINTS, History
-from gateway.web.history_api import listing, query
+from gateway.twin.queries import listing, query
 from tests.support.postgres import postgres_server
 
 HOUR = 3600
