@@ -23,9 +23,9 @@ from .server import serve
 from .settings import Refused, Settings, flat, from_flat
 from .web import logs
 from .web.fastio import loop_factory
-from .web.description import check_urdf
-from .web.gauges import read_limits
-from .web.history import history_globs
+from .twin.description import check_urdf
+from .twin.gauges import read_limits
+from .twin.history import history_globs
 
 log = logging.getLogger('rosgate')
 

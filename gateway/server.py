@@ -28,10 +28,10 @@ from .exercises import Checker, Library
 from .runs import RunManager, start_runs
 from .settings import Settings
 from .web.app import make_app, socket_app
-from .web.history import History, start_history
-from .web.opcua import start_twin
+from .twin.history import History, start_history
+from .twin.opcua import start_twin
 from .web.pages import ide_problem
-from .web.recordings import RecordingManager, start_recordings
+from .media.recordings import RecordingManager, start_recordings
 
 log = logging.getLogger('rosgate')
 

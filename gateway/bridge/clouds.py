@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .images import ImageError
+from ..media.images import ImageError
 
 CLOUD = 'sensor_msgs/msg/PointCloud2'
 INT32, UINT32, FLOAT32, FLOAT64 = 5, 6, 7, 8   # sensor_msgs/PointField datatypes

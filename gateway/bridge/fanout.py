@@ -29,7 +29,8 @@ from typing import TYPE_CHECKING, Any
 
 from protocol.ops import ImageSpec
 
-from . import clouds, encode, images, markers
+from ..media import images
+from . import clouds, encode, markers
 
 if TYPE_CHECKING:
     from .session import ClientSession

@@ -27,7 +27,7 @@ from .classview import ClassHandler
 from .blocksets import block_routes
 from .exercises import exercise_routes
 from .gauges import gauge_routes
-from .history_api import history_routes
+from .history import history_routes
 from .language import Texts
 from .packages import package_routes
 from .description import description_routes
@@ -36,7 +36,7 @@ from .lti_setup import lti_routes
 from .roster import roster_routes
 from .pages import Application, PublicFileHandler, write_page
 from .programs import program_routes
-from .recordings_api import recording_routes
+from .recordings import recording_routes
 from .runs import run_routes
 from .share import share_routes
 from .socket import RosbridgeHandler

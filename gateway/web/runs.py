@@ -33,8 +33,8 @@ from ..runs import Run, RunManager
 from ..runs.archive import Archive
 from .api import JsonHandler, body_json, caller
 from .programs import space_owner, stored_program
-from .recordings import RecordingManager
-from .recordings_api import send_file
+from ..media.recordings import RecordingManager
+from .recordings import send_file
 
 MAX_SOURCE = 1024 * 1024
 NAMESPACE = re.compile(r'(/[A-Za-z_][A-Za-z0-9_]{0,63}){0,8}')   # ROS names, ASCII, a few levels

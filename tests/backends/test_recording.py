@@ -10,7 +10,7 @@ import pytest
 
 from gateway.backends.base import QoS
 from gateway.bridge.gateway import Gateway
-from gateway.web.recordings import RecordingManager
+from gateway.media.recordings import RecordingManager
 from gateway.settings import Settings
 
 from tests.support.wait import until
@@ -75,7 +75,7 @@ async def test_record_then_play(world, topic, tmp_path):
 async def test_bounds(world, topic, tmp_path):
     import tornado.web
 
-    from gateway.web.recordings import RecordingLimits
+    from gateway.media.recordings import RecordingLimits
 
     backend = world.backend
     gateway = Gateway(Settings(), backend)

@@ -38,8 +38,8 @@ import orjson
 
 from gateway.bridge import encode
 from gateway.store import Store
-from gateway.web.history import FLUSH, History, _Tap
-from gateway.web.history_api import query
+from gateway.twin.history import FLUSH, History, _Tap
+from gateway.twin.queries import query
 
 from .report import save
 from .servers import machine_busy_s, start_rosgate

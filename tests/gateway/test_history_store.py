@@ -12,8 +12,8 @@ import pytest
 import sqlalchemy as sa
 
 from gateway.store import Store
-from gateway.web.history import MINUTES, POINTS, History
-from gateway.web.history_api import listing, query
+from gateway.twin.history import MINUTES, POINTS, History
+from gateway.twin.queries import listing, query
 from tests.support.postgres import postgres_server
 
 HOUR = 3600

@@ -15,10 +15,12 @@ from pathlib import Path
 
 GATEWAY = Path(__file__).resolve().parents[2] / 'gateway'
 MAY_USE = {   # role -> the roles its modules may import
-    'web': {'web', 'bridge', 'runs', 'exercises', 'rules', 'store', 'backends', 'settings'},
+    'web': {'web', 'bridge', 'media', 'twin', 'runs', 'exercises', 'rules', 'store', 'backends', 'settings'},
     'exercises': {'exercises', 'store', 'settings'},
     'runs': {'runs', 'rules', 'store', 'backends', 'settings'},
-    'bridge': {'bridge', 'rules', 'store', 'backends', 'settings'},
+    'bridge': {'bridge', 'media', 'rules', 'store', 'backends', 'settings'},
+    'media': {'media', 'rules', 'store', 'backends', 'settings'},
+    'twin': {'twin', 'rules', 'store', 'backends', 'settings'},
     'rules': {'rules', 'store', 'backends', 'settings'},
     'store': {'store', 'settings'},
     'backends': {'backends'},
@@ -124,8 +126,9 @@ def circles(graph) -> list[list[str]]:
 def test_the_roles_are_the_packages():
     entries = {p.name for p in GATEWAY.iterdir() if not p.name.startswith(('_', '.')) or p.name == '__init__.py'}
     assert entries <= {'__init__.py', 'cli.py', 'server.py', 'settings.py', 'bridge', 'rules', 'runs', 'web', 'store',
-                       'backends', 'exercises'}, entries
-    for package in ('bridge', 'rules', 'runs', 'web', 'exercises', 'backends', 'backends/sim', 'backends/rclpy'):
+                       'backends', 'exercises', 'media', 'twin'}, entries
+    for package in ('bridge', 'rules', 'runs', 'web', 'exercises', 'media', 'twin', 'backends', 'backends/sim',
+                    'backends/rclpy'):
         assert ast.get_docstring(ast.parse((GATEWAY / package / '__init__.py').read_text())), package
 
 

@@ -11,7 +11,8 @@ from protocol.msgdefs import normalize
 from protocol.ops import MAX_INT, MAX_SECONDS, Advertise, Publish, Subscribe, Unadvertise, Unsubscribe
 
 from ...backends.base import QoS
-from .. import clouds, images
+from ...media import images
+from .. import clouds
 
 if TYPE_CHECKING:
     from ..session import ClientSession

@@ -1,6 +1,6 @@
 """The twin over OPC UA (``--opcua PORT``), for the industrial clients a plant already runs.
 
-A second face of the gateway, at the web's level: it reads what the history takes from the bridge
+A second face of the gateway, beside the history: it reads what the history takes from the bridge
 (one listener on ``History``, no subscription of its own) and never publishes. Its address space,
 under ``Objects/Robots`` (namespace ``urn:rosgate:twin``):
 
