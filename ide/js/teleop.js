@@ -240,11 +240,13 @@ async function applyLimits() {
       : t('teleop.limits', { v: num(state.limits.linear) });
 }
 
-// Stops and disables driving while this page has no robot of its own ('' enables it again).
+// Stops and disables driving while this page has no robot of its own ('' enables it again, and
+// says what still stands: another's lease, the teacher's stop, a release — its notice may have
+// come while the page was blocked).
 function block(reason) {
   if (reason && state.timer) stopAll();
   state.blocked = reason;
-  showNotice(reason);
+  showNotice(reason || state.robotNs?.banner() || state.robotNs?.whyNot() || '');
 }
 
 // ---- driving ---------------------------------------------------------------------

@@ -51,7 +51,8 @@ def grid(text: str, keys: int = 2) -> dict[tuple[str, str, str], str]:
 
 # alice (operator) owns /s01; bob (operator) owns nothing; vera is a viewer; "nobody" connected
 # without signing in; "gateway" is who=None (the gateway asking for itself). ok: allowed; else
-# the words of the refusal.
+# the words of the refusal (held: a station's actions and services that move or reset its robot
+# are its holder's, as its velocity commands are under the lease).
 MAY = grid('''
 action/resource                              alice     bob       teacher   vera      nobody    gateway
 subscribe         /s01/turtle1/pose          ok        ok        ok        ok        unauth    ok
@@ -64,13 +65,13 @@ call              /s01/turtlesim/set_parameters ok     station   ok        role 
 call              /s02/turtlesim/set_parameters station station  ok        role      unauth    ok
 call              /s01/turtlesim/get_parameters ok     ok        ok        ok        unauth    ok
 param             /s01/turtlesim:background_r ok       station   ok        role      unauth    ok
-send_goal         /s01/turtle1/rotate_absolute ok      ok        ok        role      unauth    ok
+send_goal         /s01/turtle1/rotate_absolute ok      held      ok        role      unauth    ok
 advertise_service /my_service                role      role      ok        role      unauth    ok
 advertise_action  /my_action                 role      role      ok        role      unauth    ok
 programs          -                          role      role      ok        role      unauth    ok
 ''')
 MAY_WORDS = {'role': 'may not', 'unauth': 'not authenticated', 'station': 'is not in a station of yours',
-             'globs': 'is not allowed for'}
+             'globs': 'is not allowed for', 'held': "is alice's station"}
 
 # the name globs decide for everyone, the gateway included
 GLOBS = ("--topics-glob", "['/s[0-9][0-9]/*', '/rosgate/*']", "--services-glob", "['/rosapi/*', '/s[0-9][0-9]/fleet/*']")
