@@ -3,10 +3,12 @@
 //
 // Seen: every PING_EVERY the page sends rosgate's `ping` op (docs/protocol.md); the `pong` gives
 // the round trip, and any frame from the gateway proves the link alive. A link that carries
-// nothing for SILENCE (three pongs missing: not a lost packet's retransmission), or for longer
-// where the gateway's own round trips are slow and uneven (a busy server: the silence() limit,
-// TCP's retransmission timeout, RFC 6298: SRTT + 4·RTTVAR, up to SILENCE_CAP), is lost (a TCP connection through an outage stays "open" for minutes):
-// the page says so within a second and drops the connection — what it queued is stale, and the
+// nothing for one ping's interval and its retransmission timeout (TCP's, RFC 6298: SRTT + 4·RTTVAR,
+// never under 1 s, up to SILENCE_CAP: SILENCE where round trips are quick and steady, longer where
+// a busy gateway's are slow and uneven), is lost (a TCP connection through an outage stays "open"
+// for minutes). Measured on a loaded 2-core machine with Pyodide starting in three pages: pongs
+// 0.87-1.0 s apart with no outage, so 0.8 s dropped working links and stopped their programs.
+// The page says so within 1.5 s and drops the connection — what it queued is stale, and the
 // gateway stops the robot by itself when commands stop coming (its cmd timeout). A server that
 // does not know `ping` answers it with an error status: the page then relies on the socket alone.
 //
@@ -19,7 +21,8 @@ import { Ros } from 'roslib';
 import { t, num } from './i18n.js';
 
 export const PING_EVERY = 250;          // ms between pings
-export const SILENCE = 800;             // ms without a frame from the gateway: the link is lost
+const RTO_MIN = 1000;                   // ms: RFC 6298 (2.4) rounds a shorter timeout up to 1 s
+export const SILENCE = PING_EVERY + RTO_MIN;   // ms without a frame from the gateway: the link is lost
 const SILENCE_CAP = 5000;               // ms: the longest a slow gateway's own round trips may stretch it
 const LOOK_EVERY = 100;                 // ms between looks at the silence
 export const RETRY = { first: 150, factor: 2, cap: 800, jitter: 0.3 };   // ms; each delay ±30 %
@@ -61,7 +64,7 @@ export class Link extends EventTarget {
   // a 2-core machine for seconds, and the gateway's pongs come late then while the page's own timers
   // may still run on time (measured on a loaded 2-core machine: pongs 0.5-0.7 s late, three links of
   // four declared silent at 0.8 s). Until `promise` settles the link allows SILENCE_CAP of silence:
-  // an outage then shows within 5 s instead of 0.8 s (the gateway stops the robot by itself).
+  // an outage then shows within 5 s instead of 1.25 s (the gateway stops the robot by itself).
   patient(promise) {
     this.busy += 1;
     const done = () => { this.busy -= 1; };
@@ -212,7 +215,7 @@ export class Link extends EventTarget {
   silence() {
     if (this.busy) return SILENCE_CAP;
     if (this.srtt === null) return SILENCE;
-    return Math.min(SILENCE_CAP, Math.max(SILENCE, this.srtt + 4 * this.rttvar));
+    return Math.min(SILENCE_CAP, PING_EVERY + Math.max(RTO_MIN, this.srtt + 4 * this.rttvar));
   }
 
   _heard(ros, m) {
@@ -247,6 +250,10 @@ export class Link extends EventTarget {
   }
 
   _lose(why) {
+    // what the page knew when it gave the link up (shown by tests and the console's diagnostics)
+    const now = performance.now();
+    this.lastLost = { why, silent: Math.round(now - this.heardAt), allowed: this.silence(), busy: this.busy,
+      srtt: this.srtt, rttvar: this.rttvar, pongs: this.pongs };
     const old = this._drop();
     if (!old) return;
     this._set('lost');

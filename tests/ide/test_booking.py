@@ -97,6 +97,8 @@ def test_a_slot_booked_from_the_form_shows_in_the_browsers_time_zone(chromium, l
         assert page.inner_text('#booking-msg').startswith('Booked'), page.inner_text('#booking-msg')
         mine = [b for b in api(lab, "GET", "/api/bookings?station=/s02", token=TOKENS["bo"])[1]["bookings"] if b["mine"]]
         assert [(b["start"], b["end"] - b["start"]) for b in mine] == [(start.timestamp(), 300)]
+        # the table is drawn again after the answer
+        page.wait_for_function("t => document.querySelector('#booking-table').innerText.includes(t)", arg=start.strftime("%H:%M:%S"))
         shown = page.inner_text("#booking-table")
         assert start.strftime("%H:%M:%S") in shown and "bo" in shown        # Tokyo's clock, not the machine's
         assert ZONE in page.inner_text("#dlg-booking")

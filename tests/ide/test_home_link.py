@@ -4,7 +4,7 @@ namespace, the gateway in another, 150 ms ± 50 ms each way between them.
 - After a 2 s freeze, nothing made during it moves the turtle: stamped commands (``rules.freshness``),
   and a plain client's (roslibpy, npm roslib), which wait for the pong of the stop's ping.
 - Jitter: a released key stops the turtle within the cmd timeout + 0.5 s.
-- The teleop page says "connection lost — robot stopped" within about a second of silence and
+- The teleop page says "connection lost — robot stopped" within 1.5 s of silence and
   connects again by itself within 2 s of the link's return, on the same station.
 - The teleop page's camera at 1 Mbit/s: a 640x480 camera at p95 <= 1 s, the rover's at >= 4.5
   frames/s and p95 <= 0.5 s; /class for 10 stations ready within 20 s, tiles p95 <= 2 s old.

@@ -15,6 +15,7 @@ from urllib.parse import urlsplit
 
 import jwt
 import pytest
+from playwright.sync_api import Error as PlaywrightError
 
 from tests.support.http import api, http
 from tests.support.ide import drives_its_station
@@ -60,9 +61,17 @@ def browser(chromium):
 
 
 def whoami(page) -> dict:
-    """/whoami as this browser's pages ask it (its cookies, same origin)."""
-    return page.evaluate("fetch('/whoami', {credentials: 'same-origin'}).then(async r => "
-                         "({status: r.status, body: r.ok ? await r.json() : null}))")
+    """/whoami as this browser's pages ask it (its cookies, same origin); asked again in the page
+    it became if it reloaded meanwhile (the teleop page reloads into the station it claims)."""
+    for _ in range(5):
+        try:
+            return page.evaluate("fetch('/whoami', {credentials: 'same-origin'}).then(async r => "
+                                 "({status: r.status, body: r.ok ? await r.json() : null}))")
+        except PlaywrightError as e:
+            if 'context was destroyed' not in str(e):
+                raise
+            page.wait_for_load_state()
+    raise AssertionError('the page kept navigating')
 
 
 def launch(page, url: str, landing: str):

@@ -126,7 +126,7 @@ ros.terminate()
 """)
     o = finish(ide, PYODIDE_START + 60)
     assert o["errors"] == []
-    assert "driving" in logged(ide, "info") and "done True" in logged(ide, "info")
+    assert "driving" in logged(ide, "info") and "done True" in logged(ide, "info"), (o, ide.js("rosgateIde.link?.lastLost ?? null"))
     wait_for(lambda: pose.latest()["x"] > x0 + 1.0, what="the turtle moved forward")
     assert o["lines"], "the running line was reported"
 

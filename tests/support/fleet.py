@@ -220,7 +220,8 @@ def slot_ends_with_a_killed(a, b, follow) -> None:
     the slot on time, refusing her commands and zeroing the robot."""
     with Client(b.ws_url, TOKENS['operator']) as alice, Client(b.ws_url, TOKENS['viewer']) as watcher, \
             Client(a.ws_url, TOKENS['operator2']) as bob, Client(b.ws_url, TOKENS['admin']) as teacher:
-        assert bob.call('/s02/fleet/claim')['values']['success'] is True    # bob drives /s02 through A
+        claim = bob.call('/s02/fleet/claim')['values']
+        assert claim['success'] is True, claim    # bob drives /s02 through A
         assert drive(bob, '/s02') is None
         begin = time.time() + 2
         status, slot = api(a, 'POST', '/api/bookings', {'station': '/s01', 'start': begin, 'end': begin + 10},

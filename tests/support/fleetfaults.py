@@ -292,6 +292,8 @@ def slot_end_while_another_gateway_still_seats(a, b, pg, follow) -> None:
                 refusal_with(alice, 'slot on /s01 has ended')   # B's clock; A cannot drop its claim
                 heard(is_zero_twist, 15)
                 tx.rollback()
+            # A's writes waited on the lock: it confirms its claims again before the next test claims
+            wait_for(lambda: not health(a)['fleet']['unreachable'], 30, what='A reaching its database again')
         finally:
             stream.stop()
             engine.dispose()
