@@ -28,6 +28,13 @@ else:
     Condition, Event = threading.Condition, threading.Event
 
 GAIN = 6.0  # proportional gain of move/turn near the goal (1/s)
+# A closed loop stops on the pose it last saw, and its last command runs on for the round trip
+# (most of a second on a loaded machine: 0.2 m or 10 degrees). Once the robot has come to rest
+# the loop looks again and takes it back, up to PASSES times, until it is within REST_REACH m or
+# REST_HEADING rad of its goal (as the IDE's JavaScript runtime does).
+PASSES = 3
+REST_REACH = 0.02
+REST_HEADING = 0.01
 SETTLE_SERVICE = "/rosapi/get_time"  # the round trip at the end of the program (Runtime.settle)
 
 
@@ -594,20 +601,46 @@ class Runtime:
             if not self.stopped.is_set():
                 self.publish(topic, t, zero_velocity(t))
 
+    def _rested(self, spec):
+        """The pose once the robot has come to rest after a loop's zero: two poses in a row alike,
+        within a second (a robot whose odometry never rests: its newest; one that publishes no
+        more: its last)."""
+        t = spec["pose_type"]
+
+        def pose():
+            try:
+                return pose_of(self.wait_for_message(spec["pose"], t, 2), t)
+            except RosError:
+                return pose_of(self.latest(spec["pose"], t), t)
+        end = time.monotonic() + 1.0
+        prev = pose()
+        while time.monotonic() < end:
+            p = pose()
+            if abs(p[0] - prev[0]) < 1e-3 and abs(p[1] - prev[1]) < 1e-3 and abs(angle_diff(p[2], prev[2])) < 1e-3:
+                return p
+            prev = p
+        return prev
+
     def move(self, spec, distance, speed=1.0):
         distance = float(distance or 0)
         t = spec.get("type", "geometry_msgs/msg/Twist")
         x0, y0, _ = pose_of(self.latest(spec["pose"], spec["pose_type"]), spec["pose_type"])
         sign = math.copysign(1.0, distance)
+
+        def left(pose):
+            return abs(distance) - math.hypot(pose[0] - x0, pose[1] - y0)
         try:
-            while True:
-                x, y, _ = pose_of(self.latest(spec["pose"], spec["pose_type"]), spec["pose_type"])
-                remaining = abs(distance) - math.hypot(x - x0, y - y0)
-                if remaining <= 0.01:
+            for rest in range(PASSES):
+                while True:
+                    remaining = left(pose_of(self.latest(spec["pose"], spec["pose_type"]), spec["pose_type"]))
+                    if (remaining <= 0.01) if rest == 0 else (abs(remaining) <= 0.01):
+                        break
+                    v = max(0.1, min(float(speed), GAIN * abs(remaining)))
+                    self.publish(spec["cmd"], t, _twist(t, sign * math.copysign(v, remaining), 0.0))
+                    self.sleep(0.02)
+                self.publish(spec["cmd"], t, zero_velocity(t))
+                if abs(left(self._rested(spec))) <= REST_REACH:
                     break
-                v = max(0.1, min(float(speed), GAIN * remaining))
-                self.publish(spec["cmd"], t, _twist(t, sign * v, 0.0))
-                self.sleep(0.02)
         finally:
             if not self.stopped.is_set():
                 self.publish(spec["cmd"], t, zero_velocity(t))
@@ -616,19 +649,24 @@ class Runtime:
         target = math.radians(float(degrees or 0))
         rate = math.radians(float(speed))
         t = spec.get("type", "geometry_msgs/msg/Twist")
-        last = pose_of(self.latest(spec["pose"], spec["pose_type"]), spec["pose_type"])[2]
-        turned = 0.0
+        state = {"last": pose_of(self.latest(spec["pose"], spec["pose_type"]), spec["pose_type"])[2], "turned": 0.0}
+
+        def seen(th):
+            state["turned"] += angle_diff(th, state["last"])
+            state["last"] = th
+            return target - state["turned"]
         try:
-            while True:
-                th = pose_of(self.latest(spec["pose"], spec["pose_type"]), spec["pose_type"])[2]
-                turned += angle_diff(th, last)
-                last = th
-                remaining = target - turned
-                if abs(remaining) <= 0.005:
+            for _ in range(PASSES):
+                while True:
+                    remaining = seen(pose_of(self.latest(spec["pose"], spec["pose_type"]), spec["pose_type"])[2])
+                    if abs(remaining) <= 0.005:
+                        break
+                    w = max(0.1, min(rate, GAIN * abs(remaining)))
+                    self.publish(spec["cmd"], t, _twist(t, 0.0, math.copysign(w, remaining)))
+                    self.sleep(0.02)
+                self.publish(spec["cmd"], t, zero_velocity(t))
+                if abs(seen(self._rested(spec)[2])) <= REST_HEADING:
                     break
-                w = max(0.1, min(rate, GAIN * abs(remaining)))
-                self.publish(spec["cmd"], t, _twist(t, 0.0, math.copysign(w, remaining)))
-                self.sleep(0.02)
         finally:
             if not self.stopped.is_set():
                 self.publish(spec["cmd"], t, zero_velocity(t))

@@ -18,6 +18,13 @@ export class RosError extends Error {
 let runCounter = 0;
 const PAGE_TAG = Math.random().toString(36).slice(2, 8);   // ids of this page's runs, not another tab's
 const GAIN = 6;   // proportional gain of move/turn near the goal (1/s)
+// A closed loop stops on the pose it last saw, and its last command runs on for the round trip
+// (most of a second on a loaded machine: 0.2 m or 10 degrees). Once the robot has come to rest
+// the loop looks again and takes it back, up to PASSES times, until it is within REST_REACH m or
+// REST_HEADING rad of its goal.
+const PASSES = 3;
+const REST_REACH = 0.02;
+const REST_HEADING = 0.01;
 const SETTLE_SERVICE = '/rosapi/get_time';   // the round trip at the end of a run (settle)
 
 export class Runtime {
@@ -406,6 +413,26 @@ export class Runtime {
     }
   }
 
+  // The pose once the robot has come to rest after a loop's zero: two poses in a row alike, within
+  // a second (a robot whose odometry never rests: its newest; one that publishes no more: its last).
+  async _rested(spec) {
+    const sub = this._subscribe(spec.pose, spec.pose_type);
+    const pose = async () => {
+      try { return poseOf(await this._next(sub, 2), spec.pose_type); } catch (e) {
+        if (this.stopped) throw e;
+        return poseOf(sub.latest, spec.pose_type);
+      }
+    };
+    const end = performance.now() + 1000;
+    let prev = await pose();
+    while (performance.now() < end) {
+      const p = await pose();
+      if (Math.abs(p.x - prev.x) < 1e-3 && Math.abs(p.y - prev.y) < 1e-3 && Math.abs(angleDiff(p.theta, prev.theta)) < 1e-3) return p;
+      prev = p;
+    }
+    return prev;
+  }
+
   // Drives straight for `distance` (negative: backwards), closed loop on the pose topic.
   async move(spec, distance, speed = 1) {
     distance = Number(distance) || 0;
@@ -413,15 +440,19 @@ export class Runtime {
     const sign = Math.sign(distance);
     const goal = Math.abs(distance);
     const type = spec.type ?? 'geometry_msgs/msg/Twist';
+    const left = (p) => goal - Math.hypot(p.x - start.x, p.y - start.y);
     try {
-      for (;;) {
-        await this._hold();
-        const p = poseOf(await this.latest(spec.pose, spec.pose_type), spec.pose_type);
-        const remaining = goal - Math.hypot(p.x - start.x, p.y - start.y);
-        if (remaining <= 0.01) break;
-        const v = Math.max(0.1, Math.min(Number(speed), GAIN * remaining));
-        this.publish(spec.cmd, type, twist(type, sign * v, 0));
-        await this.sleep(0.02);
+      for (let pass = 0; pass < PASSES; pass++) {
+        for (;;) {
+          await this._hold();
+          const remaining = left(poseOf(await this.latest(spec.pose, spec.pose_type), spec.pose_type));
+          if (pass === 0 ? remaining <= 0.01 : Math.abs(remaining) <= 0.01) break;
+          const v = Math.max(0.1, Math.min(Number(speed), GAIN * Math.abs(remaining)));
+          this.publish(spec.cmd, type, twist(type, sign * Math.sign(remaining) * v, 0));
+          await this.sleep(0.02);
+        }
+        this.publish(spec.cmd, type, zeroVelocity(type));
+        if (Math.abs(left(await this._rested(spec))) <= REST_REACH) break;
       }
     } finally {
       if (!this.stopped) this.publish(spec.cmd, type, zeroVelocity(type));
@@ -435,17 +466,19 @@ export class Runtime {
     const type = spec.type ?? 'geometry_msgs/msg/Twist';
     let last = poseOf(await this.latest(spec.pose, spec.pose_type), spec.pose_type).theta;
     let turned = 0;
+    const seen = (th) => { turned += angleDiff(th, last); last = th; return target - turned; };
     try {
-      for (;;) {
-        await this._hold();
-        const th = poseOf(await this.latest(spec.pose, spec.pose_type), spec.pose_type).theta;
-        turned += angleDiff(th, last);
-        last = th;
-        const remaining = target - turned;
-        if (Math.abs(remaining) <= 0.005) break;
-        const w = Math.max(0.1, Math.min(rate, GAIN * Math.abs(remaining)));
-        this.publish(spec.cmd, type, twist(type, 0, Math.sign(remaining) * w));
-        await this.sleep(0.02);
+      for (let pass = 0; pass < PASSES; pass++) {
+        for (;;) {
+          await this._hold();
+          const remaining = seen(poseOf(await this.latest(spec.pose, spec.pose_type), spec.pose_type).theta);
+          if (Math.abs(remaining) <= 0.005) break;
+          const w = Math.max(0.1, Math.min(rate, GAIN * Math.abs(remaining)));
+          this.publish(spec.cmd, type, twist(type, 0, Math.sign(remaining) * w));
+          await this.sleep(0.02);
+        }
+        this.publish(spec.cmd, type, zeroVelocity(type));
+        if (Math.abs(seen((await this._rested(spec)).theta)) <= REST_HEADING) break;
       }
     } finally {
       if (!this.stopped) this.publish(spec.cmd, type, zeroVelocity(type));
