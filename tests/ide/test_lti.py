@@ -84,12 +84,13 @@ def launch(page, url: str, landing: str):
 
 
 def teleop_ready(page, ns: str | None = None) -> str:
-    page.wait_for_function("document.body?.dataset.ready === 'true'", timeout=20000)
-    page.wait_for_function("document.body?.dataset.connection === 'connected'", timeout=10000)
-    # the station read in the same look that found it (the page may reload into it right after)
-    found = page.wait_for_function("(want) => { const v = document.querySelector('#ns')?.value;"
-                                   " return /^\\/s0[1-3]$/.test(v) && (!want || v === want) ? v : null; }",
-                                   arg=ns, timeout=10000)
+    # one look: ready, connected, on its station, and not about to reload into the station it
+    # has just claimed (the page marks that moment: body.dataset.reloading)
+    found = page.wait_for_function("(want) => { const b = document.body?.dataset ?? {};"
+                                   " const v = document.querySelector('#ns')?.value;"
+                                   " return b.ready === 'true' && b.connection === 'connected' && b.reloading !== 'true'"
+                                   " && /^\\/s0[1-3]$/.test(v) && (!want || v === want) ? v : null; }",
+                                   arg=ns, timeout=40000)
     return found.json_value()
 
 
