@@ -104,8 +104,10 @@ export async function checkPython(source) {
  * rejects. hooks: log(text, level) for print (level 'info') and stderr / tracebacks ('error'),
  * onLine(lineNo) for the running line of the program, onError({line, message, traceback}) with
  * the program's own line numbers (the traceback keeps only the program's frames; it reaches log too).
+ * starting(ready, guest) is given the worker's readiness (a guest's worker loads Pyodide afresh:
+ * the page's link allows the longer silence meanwhile).
  */
-export async function runPython(source, { ros, namespace = '', args = [], log = () => {}, onLine = null, onError = () => {}, guest = false } = {}) {
+export async function runPython(source, { ros, namespace = '', args = [], log = () => {}, onLine = null, onError = () => {}, guest = false, starting = () => {} } = {}) {
   stopPython();
   const run = ++runs;
   const say = (text, level = 'info') => { try { log(text, level); } catch { /* the page's problem */ } };
@@ -122,6 +124,7 @@ export async function runPython(source, { ros, namespace = '', args = [], log = 
   current = prog;
   const w = guest ? startWorker(true) : takeSpare();
   prog.worker = w.worker;
+  try { starting(w.ready, guest); } catch { /* the page's problem */ }   // a guest's worker loads Pyodide afresh
   try {
     await Promise.race([w.ready, prog.ended]);
   } catch (e) {

@@ -293,6 +293,11 @@ export class TextRunner extends EventTarget {
     if (this.run_ !== run) return;
     await py.runPython(text, {
       guest: Boolean(this.ide.foreign),          // another person's program: a worker apart (js/foreign.js)
+      starting: (ready, guest) => {              // its own Pyodide loads: the link is patient meanwhile
+        if (!guest) return;
+        if (this.run_ === run) this.ide.console.info(t('text.python.loading'));
+        this.ide.link?.patient(ready);
+      },
       ros: run.door.ros,
       namespace: this.ide.ns ?? '',
       args: this.ide.textMode?.args ?? [],

@@ -185,6 +185,9 @@ def test_another_persons_python_program_reaches_no_api(engine, school):
     engine.click('#run')
     engine.wait("document.querySelector('#dlg-foreign').open", 20, 'the question')
     engine.click('#foreign-run')
-    engine.wait("document.querySelector('#console-lines').innerText.includes('the end')", 180, 'the program ran')
+    try:   # under pytest-timeout's 180 s, so that a failure shows the console
+        engine.wait("document.querySelector('#console-lines').innerText.includes('the end')", 150, 'the program ran')
+    except AssertionError as e:
+        raise AssertionError(f"{e}: {console_text(engine)}; link lost: {engine.js('rosgateIde.link?.lastLost ?? null')}") from None
     text = console_text(engine)
     assert 'no API' in text and 'read ' not in text, text
