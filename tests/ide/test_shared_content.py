@@ -161,6 +161,7 @@ def test_ones_own_link_runs_at_once(engine, school):
     program = text_program("console.log('mine ' + (typeof fetch))")
     signed_in(engine, school, BOB, link(school, program, BOB))
     engine.wait("!!document.querySelector('.cm-content')", 60, 'the text program open')
+    engine.wait("!!rosgateIde.ns", 60, 'her station claimed')     # a Run before it says "No robot yet"
     engine.click('#run')
     try:
         engine.wait("document.querySelector('#console-lines').innerText.includes('mine function')", 60, 'it ran in the page')
