@@ -596,9 +596,9 @@ function helperMethods(g) {
         turned += math.remainder(heading - last, 2 * math.pi)
         last = heading
         remaining = target - turned
-        if abs(remaining) <= 0.005:
+        if math.copysign(1.0, target) * remaining <= 0.005:   # there, or just past it: no hunting
             break
-        self.velocity(publisher, 0.0, math.copysign(max(0.1, min(rate, GAIN * abs(remaining))), remaining))
+        self.velocity(publisher, 0.0, math.copysign(max(0.1, min(rate, GAIN * abs(remaining))), target))
         await self.sleep(0.02)
     self.velocity(publisher, 0.0, 0.0)`);
   }

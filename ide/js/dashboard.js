@@ -263,12 +263,23 @@ export class History {
   }
 
   // Rows from elsewhere (the gateway's history over `window` seconds); live samples follow them.
+  // A live span keeps the page's own samples newer than the gateway's last row: the gateway writes
+  // its points every few seconds, so what the page just showed may not be there yet.
   replace(rows, window, fixed = null) {
     this.window = window;
+    const live = !fixed && !this.fixed;
     this.fixed = fixed;
     this.zoom = null;
     this.el.dataset.zoom = '';
     for (const k of Object.keys(this.rows)) if (!rows[k] && !/:(min|max)$/.test(k)) rows[k] = rows.t.map(() => null);
+    if (live) {
+      const last = rows.t.length ? rows.t[rows.t.length - 1] : -Infinity;
+      this.rows.t.forEach((t, i) => {
+        if (t <= last) return;
+        rows.t.push(t);
+        for (const k of Object.keys(rows)) if (k !== 't') rows[k].push(this.rows[k]?.[i] ?? null);
+      });
+    }
     this.rows = rows;
     for (const c of this.charts.values()) {
       if (c.bands === this.banded(c).map((s) => s.id).join(' ')) this.draw(c);

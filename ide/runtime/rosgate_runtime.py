@@ -630,13 +630,15 @@ class Runtime:
         def left(pose):
             return abs(distance) - math.hypot(pose[0] - x0, pose[1] - y0)
         try:
-            for rest in range(PASSES):
+            for _ in range(PASSES):
+                way = 0.0   # a pass drives one way, to the goal or past it (no hunting on a late pose)
                 while True:
                     remaining = left(pose_of(self.latest(spec["pose"], spec["pose_type"]), spec["pose_type"]))
-                    if (remaining <= 0.01) if rest == 0 else (abs(remaining) <= 0.01):
+                    way = way or (math.copysign(1.0, remaining) if remaining else 0.0)
+                    if way * remaining <= 0.01:
                         break
                     v = max(0.1, min(float(speed), GAIN * abs(remaining)))
-                    self.publish(spec["cmd"], t, _twist(t, sign * math.copysign(v, remaining), 0.0))
+                    self.publish(spec["cmd"], t, _twist(t, sign * way * v, 0.0))
                     self.sleep(0.02)
                 self.publish(spec["cmd"], t, zero_velocity(t))
                 if abs(left(self._rested(spec))) <= REST_REACH:
@@ -657,12 +659,14 @@ class Runtime:
             return target - state["turned"]
         try:
             for _ in range(PASSES):
+                way = 0.0
                 while True:
                     remaining = seen(pose_of(self.latest(spec["pose"], spec["pose_type"]), spec["pose_type"])[2])
-                    if abs(remaining) <= 0.005:
+                    way = way or (math.copysign(1.0, remaining) if remaining else 0.0)
+                    if way * remaining <= 0.005:
                         break
                     w = max(0.1, min(rate, GAIN * abs(remaining)))
-                    self.publish(spec["cmd"], t, _twist(t, 0.0, math.copysign(w, remaining)))
+                    self.publish(spec["cmd"], t, _twist(t, 0.0, way * w))
                     self.sleep(0.02)
                 self.publish(spec["cmd"], t, zero_velocity(t))
                 if abs(seen(self._rested(spec)[2])) <= REST_HEADING:

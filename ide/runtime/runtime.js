@@ -443,12 +443,14 @@ export class Runtime {
     const left = (p) => goal - Math.hypot(p.x - start.x, p.y - start.y);
     try {
       for (let pass = 0; pass < PASSES; pass++) {
+        let dir = 0;   // a pass drives one way, to the goal or past it (no hunting on a late pose)
         for (;;) {
           await this._hold();
           const remaining = left(poseOf(await this.latest(spec.pose, spec.pose_type), spec.pose_type));
-          if (pass === 0 ? remaining <= 0.01 : Math.abs(remaining) <= 0.01) break;
+          dir ||= Math.sign(remaining);
+          if (dir * remaining <= 0.01) break;
           const v = Math.max(0.1, Math.min(Number(speed), GAIN * Math.abs(remaining)));
-          this.publish(spec.cmd, type, twist(type, sign * Math.sign(remaining) * v, 0));
+          this.publish(spec.cmd, type, twist(type, sign * dir * v, 0));
           await this.sleep(0.02);
         }
         this.publish(spec.cmd, type, zeroVelocity(type));
@@ -469,12 +471,14 @@ export class Runtime {
     const seen = (th) => { turned += angleDiff(th, last); last = th; return target - turned; };
     try {
       for (let pass = 0; pass < PASSES; pass++) {
+        let dir = 0;
         for (;;) {
           await this._hold();
           const remaining = seen(poseOf(await this.latest(spec.pose, spec.pose_type), spec.pose_type).theta);
-          if (Math.abs(remaining) <= 0.005) break;
+          dir ||= Math.sign(remaining);
+          if (dir * remaining <= 0.005) break;
           const w = Math.max(0.1, Math.min(rate, GAIN * Math.abs(remaining)));
-          this.publish(spec.cmd, type, twist(type, 0, Math.sign(remaining) * w));
+          this.publish(spec.cmd, type, twist(type, 0, dir * w));
           await this.sleep(0.02);
         }
         this.publish(spec.cmd, type, zeroVelocity(type));

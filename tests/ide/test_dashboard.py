@@ -78,3 +78,35 @@ def test_gauges_history_and_limits(chromium, rover):
         assert not errors, errors
     finally:
         ctx.close()
+
+
+def test_the_gateways_rows_keep_the_pages_newer_samples(chromium, rover):
+    """The gateway writes its history every few seconds: rows it sends for the live span end before
+    what the page has just shown, and the page's newer samples stay after them."""
+    gw, _ = rover
+    ctx, page, errors = open_teleop(chromium, gw, viewport=TABLET)
+    try:
+        page.wait_for_function("teleop.history.rows.t.length >= 1 && teleop.history.series.some((s) => s.id === 'speed')")
+        kept = page.evaluate("""() => {
+          const h = teleop.history, now = Date.now() / 1000;
+          h.series.find((s) => s.id === 'speed').last = 0.7;
+          h.sample(now + 1); h.sample(now + 2);                       // what the page showed
+          const rows = { t: [now - 2, now - 1] };                     // the gateway's, a little older
+          for (const s of h.series) rows[s.id] = [0.1, 0.2];
+          h.replace(rows, 600);
+          return { t: h.rows.t.map((x) => x - now), speed: h.rows.speed };
+        }""")
+        t, speed = kept["t"], kept["speed"]
+        assert t[:2] == [-2, -1] and speed[:2] == [0.1, 0.2], kept   # the gateway's rows first
+        assert t[-2:] == [1, 2] and speed[-2:] == [0.7, 0.7], kept   # then the page's newer samples
+        assert all(-1 < x < 1 for x in t[2:-2]), kept                # (and its own ticks between)
+        # a span of the past chosen by its dates stays as the gateway gave it
+        fixed = page.evaluate("""() => {
+          const h = teleop.history, now = Date.now() / 1000;
+          h.replace({ t: [now - 3600], speed: [0.3] }, 60, [now - 3660, now - 3540]);
+          return h.rows.t.length;
+        }""")
+        assert fixed == 1
+        assert not errors, errors
+    finally:
+        ctx.close()

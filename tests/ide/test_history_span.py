@@ -41,8 +41,11 @@ def test_a_custom_span_zoomed_and_saved_as_csv_and_png(chromium, rover):
         assert page.evaluate("[...teleop.history.charts.values()].every((c) => c.chart.scales.x.min === %d "
                              "&& c.chart.scales.x.max === %d)" % (start, end))
         api_rows = battery_points(gw, start, end)
-        assert [round(t, 3) for t in rows["t"]] == [round(t, 3) for t in api_rows["t"]]
-        assert [v * 100 for v in api_rows["v"]] == rows["battery"]
+        # a row per second any plotted series has a point in; the battery's own are the API's
+        # (a late sample on a busy machine leaves a second without one: null there)
+        mine = [(t, b) for t, b in zip(rows["t"], rows["battery"]) if b is not None]
+        assert [round(t, 3) for t, _ in mine] == [round(t, 3) for t in api_rows["t"]]
+        assert [v * 100 for v in api_rows["v"]] == [b for _, b in mine]
         n = len(rows["t"])
         wait_for(lambda: page.evaluate("teleop.history.rows.t.length") == n
                  and page.evaluate("Date.now()") > (end + 3) * 1000, timeout=10, what="a few sample intervals")
@@ -55,7 +58,7 @@ def test_a_custom_span_zoomed_and_saved_as_csv_and_png(chromium, rover):
         assert head[:2] == ["time", "unix"] and "battery (%)" in head, head
         col = head.index("battery (%)")
         assert [float(r[1]) for r in body] == rows["t"]
-        assert [float(r[col]) for r in body] == [v * 100 for v in api_rows["v"]]
+        assert [float(r[col]) for r in body if r[col] != ""] == [v * 100 for v in api_rows["v"]]
         assert body[0][0].startswith(time.strftime("%Y-%m-%dT", time.gmtime(start)))
 
         # the PNG of the charts, axes and legends in it

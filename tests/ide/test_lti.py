@@ -18,7 +18,7 @@ import pytest
 from playwright.sync_api import Error as PlaywrightError
 
 from tests.support.http import api, http
-from tests.support.ide import drives_its_station
+from tests.support.ide import drives_its_station, teleop_ready
 from tests.support.wait import wait_for
 from tests.support.wsclient import Client
 
@@ -81,17 +81,6 @@ def launch(page, url: str, landing: str):
     except Exception:
         raise AssertionError(f'no {landing}: at {page.url}: {page.inner_text("body")[:300]}') from None
     return urlsplit(page.url)
-
-
-def teleop_ready(page, ns: str | None = None) -> str:
-    # one look: ready, connected, on its station, and not about to reload into the station it
-    # has just claimed (the page marks that moment: body.dataset.reloading)
-    found = page.wait_for_function("(want) => { const b = document.body?.dataset ?? {};"
-                                   " const v = document.querySelector('#ns')?.value;"
-                                   " return b.ready === 'true' && b.connection === 'connected' && b.reloading !== 'true'"
-                                   " && /^\\/s0[1-3]$/.test(v) && (!want || v === want) ? v : null; }",
-                                   arg=ns, timeout=40000)
-    return found.json_value()
 
 
 def refused(page, url: str) -> str:

@@ -95,9 +95,22 @@ def open_teleop(chromium, gw, query: str = "", **ctx_args):
     return ctx, page, errors
 
 
+def teleop_ready(page, ns: str | None = None, stations: str = r"^\/s0[1-3]$") -> str:
+    """The teleop page's station (its #ns) once, in one look, it is ready, connected, on a station
+    (``ns`` if given) and not about to reload into the station it has just claimed (the page marks
+    that moment: body.dataset.reloading)."""
+    found = page.wait_for_function("([want, pattern]) => { const b = document.body?.dataset ?? {};"
+                                   " const v = document.querySelector('#ns')?.value;"
+                                   " return b.ready === 'true' && b.connection === 'connected' && b.reloading !== 'true'"
+                                   " && new RegExp(pattern).test(v) && (!want || v === want) ? v : null; }",
+                                   arg=[ns, stations], timeout=40000)
+    return found.json_value()
+
+
 def drives_its_station(page, gw, token: str, ns: str) -> None:
     """Arrow-up on the teleop page reaches its station's turtle, as a client signed in with
     ``token`` watching ``ns``'s cmd_vel sees."""
+    teleop_ready(page, ns)
     with Client(gw.ws_url, token) as watcher:
         watcher.subscribe(f'{ns}/turtle1/cmd_vel', 'geometry_msgs/msg/Twist')
         page.locator('body').click(position={'x': 5, 'y': 5})
