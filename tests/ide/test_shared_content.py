@@ -135,6 +135,7 @@ def test_another_persons_text_program_asks_first_and_runs_without_the_teachers_r
     try:
         signed_in(engine, school, TEACHER, link(school, text_program(TEXT_PROGRAM), BOB))
         engine.wait("!!document.querySelector('.cm-content')", 60, 'the text program open')
+        engine.wait("!!rosgateIde.ns", 60, 'a station claimed')     # a Run before it says "No robot yet"
         # Cancel: it does not run
         engine.click('#run')
         engine.wait("document.querySelector('#dlg-foreign').open", 20, 'the question')
@@ -183,6 +184,7 @@ def test_another_persons_python_program_reaches_no_api(engine, school):
     program = {**text_program(PYTHON_PROGRAM), 'lang': 'python'}
     signed_in(engine, school, TEACHER, link(school, program, BOB))
     engine.wait("!!document.querySelector('.cm-content')", 60, 'the text program open')
+    engine.wait("!!rosgateIde.ns", 60, 'a station claimed')     # a Run before it says "No robot yet"
     engine.click('#run')
     engine.wait("document.querySelector('#dlg-foreign').open", 20, 'the question')
     engine.click('#foreign-run')

@@ -115,7 +115,15 @@ def drives_its_station(page, gw, token: str, ns: str) -> None:
         watcher.subscribe(f'{ns}/turtle1/cmd_vel', 'geometry_msgs/msg/Twist')
         page.locator('body').click(position={'x': 5, 'y': 5})
         page.keyboard.down('ArrowUp')
-        msg = watcher.expect(lambda m: m.get('op') == 'publish' and m['msg']['linear']['x'] > 0, timeout=30)
+        try:
+            msg = watcher.expect(lambda m: m.get('op') == 'publish' and m['msg']['linear']['x'] > 0, timeout=30)
+        except AssertionError as e:   # what the page did and what the gateway said, for the next person
+            seen = page.evaluate("({published: teleop.published, blocked: teleop.blocked, keys: [...teleop.keys],"
+                                 " focus: document.activeElement?.outerHTML.slice(0, 80), url: location.href,"
+                                 " body: {...document.body.dataset}, notice: document.querySelector('#notice')?.innerText,"
+                                 " lastLost: teleop.link?.lastLost ?? null})")
+            log = [line for line in gw.log_text().splitlines() if 'WARNING' in line or 'dropped' in line][-10:]
+            raise AssertionError(f'{e}; the page: {seen}; the gateway: {log}') from None
         page.keyboard.up('ArrowUp')
         assert msg['topic'] == f'{ns}/turtle1/cmd_vel'
 
