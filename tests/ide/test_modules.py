@@ -26,20 +26,21 @@ def test_each_page_has_one_module_entry():
     pages = sorted(IDE.glob("*.html"))
     assert {p.name for p in pages} >= {"index.html", "teleop.html", "class.html", "twin.html"}
     entries = {p.name: MODULE_SCRIPT.findall(p.read_text()) for p in pages}
-    assert entries == {"class.html": ["js/class.js"], "index.html": ["js/main.js"], "inspect.html": ["js/inspect.js"],
-                       "teleop.html": ["js/teleop.js"], "twin.html": ["js/twin.js"]}
+    assert entries == {"class.html": ["js/class/main.js"], "index.html": ["js/ide/main.js"],
+                       "inspect.html": ["js/inspect/main.js"], "teleop.html": ["js/teleop/main.js"],
+                       "twin.html": ["js/twin/main.js"]}
     for p in pages:   # and no inline module either
         assert len(re.findall(r'type="module"', p.read_text())) == 1, p.name
 
 
 def test_shared_pieces_are_mounted_by_the_entries():
     """recorder.js and booking.js do nothing on import: the entry that uses them mounts them."""
-    for name, mount in (("recorder.js", "mountRecorder"), ("booking.js", "mountBooking")):
+    for name, mount in (("lab/recorder.js", "mountRecorder"), ("lab/booking.js", "mountBooking")):
         text = (IDE / "js" / name).read_text()
         assert f"export function {mount}(" in text
         assert not re.search(r"^(?:const|let)\s+\w+\s*=\s*document\.", text, re.M), name
-    for entry, mounts in (("main.js", ["mountRecorder", "mountBooking"]),
-                          ("teleop.js", ["mountRecorder", "mountBooking"]), ("class.js", ["mountBooking"])):
+    for entry, mounts in (("ide/main.js", ["mountRecorder", "mountBooking"]),
+                          ("teleop/main.js", ["mountRecorder", "mountBooking"]), ("class/main.js", ["mountBooking"])):
         text = (IDE / "js" / entry).read_text()
         for mount in mounts:
             assert re.search(rf"^{mount}\(\);", text, re.M), (entry, mount)
@@ -63,7 +64,7 @@ def test_no_top_level_await():
 def test_no_import_cycle():
     graph = {p.resolve(): imports(p) for p in SOURCES}
     assert any(graph.values()), "the import pattern found nothing: it no longer matches the sources"
-    assert (IDE / "js" / "dashboard.js").resolve() in graph[(IDE / "js" / "teleop.js").resolve()]
+    assert (IDE / "js" / "teleop" / "dashboard.js").resolve() in graph[(IDE / "js" / "teleop" / "main.js").resolve()]
     state: dict[Path, str] = {}
 
     def visit(node: Path, path: list[Path]):
