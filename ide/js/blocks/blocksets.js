@@ -7,6 +7,7 @@
 import { t } from '../i18n.js';
 import { nameGlob } from '../robot/graph.js';
 import { madeProblem, setProblem } from './blockcheck.js';
+import { api, ApiError } from '../link/api.js';
 
 /** A set's robot glob (`/husky*`, `/`, `*`) against a robot namespace ('' : the one robot, '/'). */
 export function robotMatches(glob, ns) {
@@ -23,11 +24,8 @@ export class BlockSets {
   /** Reads the gateway's sets and defines their blocks with define(def, colour, namespaced). */
   async load(define) {
     let body;
-    try {
-      const res = await fetch('api/blocks', { credentials: 'same-origin', cache: 'no-store' });
-      if (!res.ok) return;
-      body = await res.json();
-    } catch { return; }   // a gateway without the route: the IDE's own sets alone
+    try { body = await api('api/blocks'); } catch { return; }   // a gateway without the route: the IDE's own sets alone
+    if (!body) return;
     // data, checked as the gateway checked them (js/blocks/blockcheck.js): one that is not is left out
     this.sets = (body.sets ?? []).filter((set) => {
       const why = setProblem(set, set.file);
@@ -67,14 +65,8 @@ export class BlockSets {
   /** Publishes made blocks to the class's library; resolves to how many, rejects with the gateway's word. */
   async publish(made) {
     for (const m of made) {
-      const res = await fetch('api/blocks/shared', {
-        method: 'POST', credentials: 'same-origin', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(m),
-      });
-      if (!res.ok) {
-        let why = `${res.status}`;
-        try { why = (await res.json()).error ?? why; } catch { /* not JSON */ }
-        const e = new Error(why);
-        e.status = res.status;
+      try { await api('api/blocks/shared', { method: 'POST', body: m }); } catch (e) {
+        if (e instanceof ApiError && !e.body?.error) e.message = `${e.status}`;   // the gateway's word, else the status
         throw e;
       }
       if (!this.sharedOf(m.json.type)) this.shared.push(m);

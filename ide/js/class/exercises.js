@@ -6,12 +6,10 @@
 // and its replay. The gateway checked each attempt on the robot's own topics (gateway/exercises),
 // not on what a page said.
 import { t, localized } from '../i18n.js';
+import { api } from '../link/api.js';
 
 export async function exerciseSummary() {
-  const res = await fetch('api/exercise-results?summary=1', { cache: 'no-store' });   // not every attempt's program
-  const body = await res.json().catch(() => null);
-  if (!res.ok) throw new Error(body?.error || `HTTP ${res.status}`);
-  return body.summary;
+  return (await api('api/exercise-results', { query: { summary: 1 } })).summary;   // not every attempt's program
 }
 
 const pct = (score) => `${Math.round(score * 100)}%`;
@@ -47,9 +45,7 @@ export function exerciseItem(entry, titles = {}) {
 // The exercises' titles in the reader's language, by id ({} when none can be read).
 export async function exerciseTitles() {
   try {
-    const res = await fetch('api/exercises', { cache: 'no-store' });
-    if (!res.ok) return {};
-    return Object.fromEntries((await res.json()).exercises.map((e) => [e.id, localized(e.titles && Object.keys(e.titles).length ? { en: e.title, ...e.titles } : e.title)]));
+    return Object.fromEntries((await api('api/exercises')).exercises.map((e) => [e.id, localized(e.titles && Object.keys(e.titles).length ? { en: e.title, ...e.titles } : e.title)]));
   } catch { return {}; }
 }
 

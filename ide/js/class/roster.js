@@ -3,13 +3,9 @@
 // teacher sees the whole class before a student first launches; "Refresh" reads it again now
 // (POST api/roster). A member who left the course is marked (the gateway no longer lets them book).
 import { t } from '../i18n.js';
+import { api } from '../link/api.js';
 
-async function rosterApi(method) {
-  const res = await fetch('api/roster', { method, cache: 'no-store', credentials: 'same-origin' });
-  const body = await res.json().catch(() => null);
-  if (!res.ok) throw new Error(body?.error || `HTTP ${res.status}`);
-  return body;
-}
+const rosterApi = (method) => api('api/roster', { method });
 
 function memberItem(m) {
   const left = m.status !== 'Active';

@@ -3,6 +3,7 @@
 // against the block schema (js/blocks/blockcheck.js), as data.
 /* global Blockly */
 import { madeProblem } from '../blocks/blockcheck.js';
+import { api, ApiError } from '../link/api.js';
 
 export const FORMAT = 'rosgate-program';
 const AUTOSAVE_KEY = 'rosgate.autosave';
@@ -125,27 +126,23 @@ export async function programFromHash(hash = location.hash) {
 }
 
 // ---- the gateway's program library ------------------------------------------
-async function api(path, options = {}) {
-  const res = await fetch(`api/programs${path}`, options);
-  if (!res.ok) {
-    let reason = res.statusText;
-    try { reason = (await res.json()).error || reason; } catch { /* not JSON */ }
-    throw new Error(`${res.status} ${reason}`);
+// an error says "<status> <the gateway's words>" (the library dialog shows it)
+async function programs(path, options = {}) {
+  try { return await api(`api/programs${path}`, options); } catch (e) {
+    throw e instanceof ApiError ? new Error(`${e.status} ${e.body?.error || e.statusText}`) : e;
   }
-  return res.status === 204 ? null : res.json();
 }
 
 // `owner`: the space a program is in (with --auth each signed-in name has one; null: shared).
 const inSpace = (name, owner) => `/${encodeURIComponent(name)}${owner ? `?owner=${encodeURIComponent(owner)}` : ''}`;
 
 export const library = {
-  list: async () => (await api('')).programs,
-  load: async (name, owner = null) => checkProgram(await api(inSpace(name, owner))),
+  list: async () => (await programs('')).programs,
+  load: async (name, owner = null) => checkProgram(await programs(inSpace(name, owner))),
   // `python`: the program's generated Python, stored with it so the gateway can run the program
   // by name (POST /api/runs {"program": name}); opening it again uses only the workspace.
-  save: (name, program, python = null) => api(`/${encodeURIComponent(name)}`, {
-    method: 'PUT', headers: { 'Content-Type': 'application/json' },
-    body: JSON.stringify(python == null ? program : { ...program, python }),
+  save: (name, program, python = null) => programs(`/${encodeURIComponent(name)}`, {
+    method: 'PUT', body: python == null ? program : { ...program, python },
   }),
-  remove: (name, owner = null) => api(inSpace(name, owner), { method: 'DELETE' }),
+  remove: (name, owner = null) => programs(inSpace(name, owner), { method: 'DELETE' }),
 };

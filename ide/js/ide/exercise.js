@@ -8,17 +8,11 @@
 // <img onerror> shows as the text it is, and a javascript: link is no link.
 import * as storage from '../editors/storage.js';
 import { t, localized } from '../i18n.js';
+import { api } from '../link/api.js';
 
 const POLL = 500;   // ms between looks at a live attempt
 
-async function json(url, options) {
-  const res = await fetch(url, { cache: 'no-store', ...options });
-  const body = await res.json().catch(() => null);
-  if (!res.ok) throw new Error(body?.error || `HTTP ${res.status}`);
-  return body;
-}
-
-const post = (url, body) => json(url, { method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(body ?? {}) });
+const post = (url, body) => api(url, { method: 'POST', body: body ?? {} });
 
 function startProgram(ex, title) {
   const start = ex.start ?? {};
@@ -67,7 +61,7 @@ export async function mountExercise(ide, { runners, runButton, say }) {
   bar.append(button, ' ', status);
   runButton.closest('.group').after(bar);
   let ex;
-  try { ex = await json(`api/exercises/${encodeURIComponent(id)}`); } catch (e) {
+  try { ex = await api(`api/exercises/${encodeURIComponent(id)}`); } catch (e) {
     status.textContent = t('ide.ex.missing', { id, error: e.message });
     button.disabled = true;
     return null;
@@ -87,7 +81,7 @@ export async function mountExercise(ide, { runners, runButton, say }) {
   const follow = async (which) => {
     while (attempt === which) {
       let r;
-      try { r = await json(`api/attempts/${which}`); } catch (e) { status.textContent = e.message; return; }
+      try { r = await api(`api/attempts/${which}`); } catch (e) { status.textContent = e.message; return; }
       show(r);
       if (!r.live) { attempt = null; button.disabled = false; say?.(status.textContent); return; }
       await new Promise((ok) => setTimeout(ok, POLL));

@@ -32,13 +32,10 @@ import { t, localized, pick, lang } from '../i18n.js';
 import { mountExercise } from './exercise.js';
 import { loadSchema, blockProblem, madeProblem, guardHelp } from '../blocks/blockcheck.js';
 import { guard as foreignGuard, asLowered, signProgram, whose } from '../run/foreign.js';
+import { api, ApiError } from '../link/api.js';
 
 const $ = (sel) => document.querySelector(sel);
-const getJson = async (url) => {
-  const res = await fetch(url);
-  if (!res.ok) throw new Error(`${url}: ${res.status}`);
-  return res.json();
-};
+const getJson = (url) => api(url).catch((e) => { throw e instanceof ApiError ? new Error(`${url}: ${e.status}`) : e; });
 
 // ---- blocks ----------------------------------------------------------------
 // Every definition is data checked against the block schema (js/blocks/blockcheck.js) and never takes the
@@ -463,10 +460,9 @@ async function programNamed(name) {
   const example = name.startsWith('example:');
   const file = example ? name.slice(8) : name;
   if (!/^[A-Za-z0-9_-][A-Za-z0-9 _-]{0,63}$/.test(file)) throw new Error(`no program called ${name}`);
-  const res = await fetch(example ? `examples/${file}.json` : `api/programs/${encodeURIComponent(file)}`,
-    { cache: 'no-store', credentials: 'same-origin' });
-  if (!res.ok) throw new Error(`${name}: ${res.status} ${res.statusText}`);
-  return res.json();
+  return api(example ? `examples/${file}.json` : `api/programs/${encodeURIComponent(file)}`).catch((e) => {
+    throw e instanceof ApiError ? new Error(`${name}: ${e.status} ${e.statusText}`) : e;
+  });
 }
 
 function setupLibrary(program) {

@@ -6,6 +6,7 @@
 // and a change of station (an error about /s01 is never reported on /s02); the teacher's stop and
 // the page's own notes (console warnings) are not errors.
 import { withNamespace } from '../../runtime/util.js';
+import { api } from '../link/api.js';
 
 const TYPE = 'std_msgs/msg/String';
 const DEBOUNCE = 1500;   // ms after the last edit
@@ -21,7 +22,7 @@ export function reportProgram(ide, { workspace, runners, consoleEl }) {
   let lastError = '';
   let user = new URLSearchParams(location.search).get('name') || '';
   if (!user) {
-    fetch('whoami').then((r) => (r.ok ? r.json() : {})).then((w) => { user = w.name || ''; }).catch(() => {});
+    api('whoami').then((w) => { user = w?.name || ''; }).catch(() => {});
   }
 
   const send = () => {

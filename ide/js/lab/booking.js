@@ -11,6 +11,7 @@
 // gateway seats them the page presses its own "Claim a robot". A gateway without --booking
 // answers {"enabled": false}: the button then stays hidden.
 import { t, tn, time, day as dayOf } from '../i18n.js';
+import { api } from '../link/api.js';
 
 const REFRESH = 10000;          // ms between looks at the timetable
 const WARN = [300, 60];         // s left at which the page warns
@@ -22,24 +23,9 @@ const el = (tag, { dataset = {}, ...props } = {}, ...children) => {
   return e;
 };
 
-async function api(path = '', options = {}) {
-  const headers = options.body ? { 'Content-Type': 'application/json' } : {};
-  const res = await fetch(`/api/bookings${path}`, { ...options, headers, credentials: 'same-origin' });
-  const body = await res.json().catch(() => null);
-  if (!res.ok) {
-    const e = new Error(body?.error || `HTTP ${res.status}`);
-    e.status = res.status;
-    throw e;
-  }
-  return body;
-}
-
-async function queueApi(method) {
-  const res = await fetch('/api/queue', { method, credentials: 'same-origin' });
-  const body = await res.json().catch(() => null);
-  if (!res.ok) throw new Error(body?.error || `HTTP ${res.status}`);
-  return body;
-}
+// an error is an ApiError: its status says a refusal (e.status) from a failure
+const bookings = (path = '', options = {}) => api(`/api/bookings${path}`, options);
+const queueApi = (method) => api('/api/queue', { method });
 
 export const clock = (s) => time(s * 1000, { hour: '2-digit', minute: '2-digit', second: '2-digit', hourCycle: 'h23' });
 const day = (s) => dayOf(s * 1000);
@@ -98,7 +84,7 @@ export class Booking {
 
   async refresh() {
     try {
-      const data = await api('?from=' + (Date.now() / 1000 + this.offset - 3600));
+      const data = await bookings('?from=' + (Date.now() / 1000 + this.offset - 3600));
       if (!data.enabled) { this.button.hidden = true; return false; }
       this.offset = data.now - Date.now() / 1000;
       this.data = data;
@@ -222,7 +208,7 @@ export class Booking {
     try {
       const slot = { station: this.station.value, start, end: start + minutes * 60 };
       if (this.behalf.value.trim() && this.data?.role === 'admin') slot.for = this.behalf.value.trim();
-      const b = await api('', { method: 'POST', body: JSON.stringify(slot) });
+      const b = await bookings('', { method: 'POST', body: slot });
       this.say(t(b.mine ? 'booking.booked' : 'booking.booked.for', { ns: b.station, from: clock(b.start), to: clock(b.end), who: b.name }));
     } catch (e) { this.say(t('booking.book.failed', { error: e.message }), true); }
     await this.refresh();
@@ -233,8 +219,7 @@ export class Booking {
     this.peopleAsked = true;
     let people = [];
     try {
-      const res = await fetch('api/people', { credentials: 'same-origin' });
-      if (res.ok) people = (await res.json()).people ?? [];
+      people = (await api('api/people'))?.people ?? [];
     } catch { /* offered nothing: a name can still be typed */ }
     const count = new Map();
     for (const p of people) count.set(p.name, (count.get(p.name) ?? 0) + 1);
@@ -244,7 +229,7 @@ export class Booking {
 
   async cancel(b) {
     try {
-      await api(`/${b.id}`, { method: 'DELETE' });
+      await bookings(`/${b.id}`, { method: 'DELETE' });
       this.say(t('booking.cancelled', { ns: b.station, at: clock(b.start) }));
     } catch (e) { this.say(t('booking.cancel.failed', { error: e.message }), true); }
     await this.refresh();

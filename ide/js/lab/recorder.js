@@ -6,6 +6,7 @@
 // station's topic too ('/turtle1/pose' also asks for /s07/turtle1/pose), as the blocks do; a
 // recording that matches no topic, or ends with no message, says so.
 import { t, num } from '../i18n.js';
+import { api } from '../link/api.js';
 
 const TOPICS_KEY = 'rosgate.recTopics';
 // the topics last recorded; none where the page may not keep anything (an LMS's frame)
@@ -15,22 +16,11 @@ export const formatBytes = (n) => (n < 1024 ? `${n} B` : n < 2 ** 20 ? `${(n / 1
   : `${(n / 2 ** 20).toFixed(1)} MB`);
 export const formatElapsed = (s) => `${Math.floor(s / 60)}:${String(Math.floor(s % 60)).padStart(2, '0')}`;
 
-async function api(path, options = {}) {
-  const headers = options.body ? { 'Content-Type': 'application/json' } : {};
-  const res = await fetch(`api/recordings${path}`, { ...options, headers });
-  const body = res.status === 204 ? null : await res.json().catch(() => null);
-  if (!res.ok) throw new Error(body?.error || `HTTP ${res.status}`);
-  return body;
-}
+const recordings = (path, options = {}) => api(`api/recordings${path}`, options);
 
 // Who this page is signed in as ({auth, name, role}; null when the gateway does not say): with
 // --auth a recording is its starter's (and the admins') to stop, play and download.
-async function whoami() {
-  try {
-    const res = await fetch('whoami');
-    return res.ok ? await res.json() : null;
-  } catch { return null; }
-}
+const whoami = () => api('whoami').catch(() => null);
 
 const el = (tag, props = {}, ...children) => {
   const e = Object.assign(document.createElement(tag), props);
@@ -103,7 +93,7 @@ export class Recorder {
   async start() {
     const topics = this.requested();
     try {
-      const rec = await api('', { method: 'POST', body: JSON.stringify({ topics, max_seconds: 600 }) });
+      const rec = await recordings('', { method: 'POST', body: { topics, max_seconds: 600 } });
       this.follow(rec);
       if (!rec.topics.length) {           // it waits for such topics; say so at once
         this.say(this.nothingText(rec), true);
@@ -118,7 +108,7 @@ export class Recorder {
 
   async stop() {
     if (!this.current) return;
-    try { this.show(await api(`/${this.current}`, { method: 'DELETE' })); } catch (e) { this.say(e.message, true); }
+    try { this.show(await recordings(`/${this.current}`, { method: 'DELETE' })); } catch (e) { this.say(e.message, true); }
   }
 
   // Shows a running recording in the button until it ends (also one found when the page opens).
@@ -126,7 +116,7 @@ export class Recorder {
     this.current = rec.id;
     clearInterval(this.timer);
     this.timer = setInterval(async () => {
-      try { this.show(await api(`/${rec.id}`)); } catch { /* the next tick tries again */ }
+      try { this.show(await recordings(`/${rec.id}`)); } catch { /* the next tick tries again */ }
     }, 1000);
     this.show(rec);
   }
@@ -156,7 +146,7 @@ export class Recorder {
   async refresh() {
     if (!this.topics.value) this.topics.placeholder = this.defaultTopics();
     let items;
-    try { items = (await api('')).recordings; } catch (e) { this.list.textContent = t('rec.unavailable', { error: e.message }); return; }
+    try { items = (await recordings('')).recordings; } catch (e) { this.list.textContent = t('rec.unavailable', { error: e.message }); return; }
     this.list.replaceChildren(...items.slice().reverse().map((rec) => {
       const li = el('li', { id: `rec-${rec.id}` }, `${rec.id} · ${formatBytes(rec.bytes)}${rec.owner ? ` · ${rec.owner}` : ''} `);
       if (rec.state === 'recording') {
@@ -169,7 +159,7 @@ export class Recorder {
         textContent: t('rec.play'), title: t('rec.play.title'),
         onclick: async () => {
           try {
-            const p = await api(`/${rec.id}/play`, { method: 'POST', body: JSON.stringify({ rate: 1 }) });
+            const p = await recordings(`/${rec.id}/play`, { method: 'POST', body: { rate: 1 } });
             this.say(t('rec.playing', { n: p.messages, s: num(p.duration, 1) }));
           } catch (e) { this.say(e.message, true); }
         },
@@ -183,7 +173,7 @@ export class Recorder {
     try {
       this.me = await whoami();
       // a page's own kind of recording (not the gateway's --record one, which has no max_seconds)
-      const running = (await api('')).recordings.filter((r) => r.state === 'recording' && r.max_seconds && this.mine(r));
+      const running = (await recordings('')).recordings.filter((r) => r.state === 'recording' && r.max_seconds && this.mine(r));
       if (running.length) this.follow(running[running.length - 1]);
     } catch { /* no recordings API: the button still tries when pressed */ }
   }

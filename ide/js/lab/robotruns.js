@@ -7,17 +7,12 @@
 import { Topic } from 'roslib';
 import { t } from '../i18n.js';
 import { RunHistory } from './runhistory.js';
+import { api } from '../link/api.js';
 
 const STRING = 'std_msgs/msg/String';
 const ACTIVE = new Set(['starting', 'running']);
 
-async function api(path = '', options = {}) {
-  const headers = options.body ? { 'Content-Type': 'application/json' } : {};
-  const res = await fetch(`api/runs${path}`, { ...options, headers });
-  const body = await res.json().catch(() => null);
-  if (!res.ok) throw new Error(body?.error || `HTTP ${res.status}`);
-  return body;
-}
+const runs = (path = '', options = {}) => api(`api/runs${path}`, options);
 
 export class RobotRuns extends EventTarget {
   // ide: { console, generatePython(), programName, ns, ros }
@@ -43,7 +38,7 @@ export class RobotRuns extends EventTarget {
   // Asks whether the gateway allows runs; shows the button and re-attaches to runs in progress.
   async init() {
     let listing;
-    try { listing = await api(); } catch { return; }
+    try { listing = await runs(); } catch { return; }
     this.allowed = Boolean(listing.allowed);
     this.nodes = Boolean(listing.nodes);     // runs join the ROS graph: a program runs as its ROS 2 node
     this.button.hidden = !this.allowed;
@@ -74,13 +69,13 @@ export class RobotRuns extends EventTarget {
       if (node) { source = node; kind = 'ros2_node'; } else source = this.ide.generatePython();
     } catch (e) { this.ide.console.error(t('robot.codegen.failed', { error: e.message })); return; }
     try {
-      const run = await api('', {
+      const run = await runs('', {
         method: 'POST',
-        body: JSON.stringify({
+        body: {
           source, kind, name: this.ide.programName, ns: this.ide.ns || '', timeout: 600,
           record: this.record.querySelector('input').checked,
           ...(this.ide.foreign ? { as: 'operator' } : {}),     // with no admin rights lent
-        }),
+        },
       });
       await this.attach(run, { replay: false });
     } catch (e) { this.ide.console.error(t('robot.run.failed', { why: e.message })); }
@@ -88,7 +83,7 @@ export class RobotRuns extends EventTarget {
 
   async stop() {
     for (const id of this.followed.keys()) {
-      try { await api(`/${id}`, { method: 'DELETE' }); } catch (e) { this.ide.console.error(t('robot.stop.failed', { id, error: e.message })); }
+      try { await runs(`/${id}`, { method: 'DELETE' }); } catch (e) { this.ide.console.error(t('robot.stop.failed', { id, error: e.message })); }
     }
   }
 
@@ -100,7 +95,7 @@ export class RobotRuns extends EventTarget {
     this._subscribe(run.id, f);
     if (replay) {   // what it printed before this page opened, then what arrived meanwhile
       try {
-        const detail = await api(`/${run.id}`);
+        const detail = await runs(`/${run.id}`);
         for (const line of detail.output.split('\n').slice(0, -1)) this._print(line);
       } catch (e) { this.ide.console.error(e.message); }
       f.ready = true;

@@ -3,14 +3,12 @@
 // their own; an admin everyone's. The IDE's "Runs" dialog lists them (RunHistory); the class view
 // shows each student's newest beside their tile (runItem).
 import { t, time, day } from '../i18n.js';
+import { api } from '../link/api.js';
 
 const ENDED = ['finished', 'failed', 'stopped', 'timed_out'];
 
 export async function keptRuns() {
-  const res = await fetch('api/runs?all=1', { cache: 'no-store' });
-  const body = await res.json().catch(() => null);
-  if (!res.ok) throw new Error(body?.error || `HTTP ${res.status}`);
-  return body.runs;
+  return (await api('api/runs', { query: { all: 1 } })).runs;
 }
 
 function link(href, text, title) {

@@ -2,6 +2,7 @@
 // an admin; with it, no token means "not signed in" (the page links to /login and does not
 // connect) and the role decides what the page offers.
 import { t } from '../i18n.js';
+import { api, ApiError } from './api.js';
 
 // What each role may do in the IDE (the gateway enforces the same; this only hides what would fail).
 export const ABILITIES = {
@@ -12,19 +13,17 @@ export const ABILITIES = {
 
 // {auth, signedIn, name, role, reason}
 export async function whoami() {
-  let res;
+  let me;
   try {
-    res = await fetch('whoami', { cache: 'no-store', credentials: 'same-origin' });
-  } catch {
-    return { auth: false, signedIn: true, name: null, role: 'admin' };   // no answer: let the socket tell
+    me = await api('whoami');
+  } catch (e) {
+    if (e instanceof ApiError && (e.status === 401 || e.status === 429)) {
+      return { auth: true, signedIn: false, name: null, role: null, reason: e.body?.error ?? '' };
+    }
+    // no answer: let the socket tell; another error: a gateway without /whoami
+    return { auth: false, signedIn: true, name: null, role: 'admin' };
   }
-  if (res.status === 401 || res.status === 429) {
-    let reason = '';
-    try { reason = (await res.json()).error ?? ''; } catch { /* not JSON */ }
-    return { auth: true, signedIn: false, name: null, role: null, reason };
-  }
-  if (!res.ok) return { auth: false, signedIn: true, name: null, role: 'admin' };  // a gateway without /whoami
-  const me = await res.json();
+  me ??= {};
   return { auth: !!me.auth, signedIn: true, name: me.name ?? null, role: me.role ?? 'viewer' };
 }
 

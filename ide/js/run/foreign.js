@@ -15,14 +15,9 @@
 //   (no fetch, no websocket, no import of a page or an API: gateway/web/pages.py GUEST_WORKERS).
 //   Its messages reach the gateway through the page's door, as its own programs' do.
 import { t } from '../i18n.js';
+import { api } from '../link/api.js';
 
-async function post(path, body) {
-  const res = await fetch(path, {
-    method: 'POST', credentials: 'same-origin', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(body),
-  });
-  if (!res.ok) throw new Error(`${path}: ${res.status}`);
-  return res.json();
-}
+const post = (path, body) => api(path, { method: 'POST', body });
 
 /** The sharer's signature of a program's JSON text: {by, sig} (nulls when the gateway signs nothing). */
 export async function signProgram(text) {

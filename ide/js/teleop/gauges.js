@@ -8,6 +8,7 @@
 import { gauge } from './dashboard.js';
 import { withNamespace } from '../../runtime/util.js';
 import { normType, nameGlob } from '../robot/graph.js';
+import { api } from '../link/api.js';
 
 export const KINDS = {
   'sensor_msgs/msg/BatteryState': 'battery',
@@ -54,9 +55,8 @@ export class Gauges {
     this.fixed = fixed;
     this.limits = {};
     this.topics = [];     // [{topic, kind, type, gauges: Map}]
-    this.ready = fetch('api/gauges', { credentials: 'same-origin' })
-      .then((r) => (r.ok ? r.json() : { limits: {} }))
-      .then((b) => { this.limits = b.limits ?? {}; })
+    this.ready = api('api/gauges')   // a gateway without the route: no limits
+      .then((b) => { this.limits = b?.limits ?? {}; })
       .catch(() => {});
   }
 

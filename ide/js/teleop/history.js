@@ -3,6 +3,7 @@
 // history (GET api/history: kept whether or not a page was open, see docs/teacher.md), with the
 // live samples appended by the dashboard as before. A gateway that keeps no history of a series
 // leaves that series as this browser saw it; only the series it lists are asked for.
+import { api, ApiError } from '../link/api.js';
 
 // span (s) -> the step (s) asked of the gateway: at most ~1000 points a series
 export const SPANS = new Map([[600, 1], [3600, 5], [86400, 90], [604800, 600]]);
@@ -13,9 +14,12 @@ export const stepFor = (span) => SPANS.get(span) ?? Math.max(1, Math.ceil(span /
 
 async function fetchSeries(src, from, to, step) {
   const q = new URLSearchParams({ topic: src.topic, field: src.field, from: String(from), to: String(to), step: String(step) });
-  const res = await fetch(`api/history?${q}`, { credentials: 'same-origin' });
-  if (!res.ok) return null;
-  const body = await res.json();
+  let body;
+  try { body = await api('api/history', { query: q }); } catch (e) {
+    if (e instanceof ApiError) return null;   // no such series kept, or none at all: the page's own samples
+    throw e;
+  }
+  if (!body) return null;
   const scale = src.scale ?? 1;
   const scaled = (a) => (Array.isArray(a) ? a.map((v) => (v === null ? null : v * scale)) : null);
   return { id: src.id, t: body.t, v: scaled(body.v), min: scaled(body.min), max: scaled(body.max) };
@@ -24,10 +28,8 @@ async function fetchSeries(src, from, to, step) {
 /** topic -> fields the gateway keeps and this person may read (none when it keeps no history). */
 async function keptSeries() {
   try {
-    const res = await fetch('api/history', { credentials: 'same-origin' });
-    if (!res.ok) return new Map();
-    const body = await res.json();
-    return new Map((body.series ?? []).map((s) => [s.topic, s.fields]));
+    const body = await api('api/history');
+    return new Map((body?.series ?? []).map((s) => [s.topic, s.fields]));
   } catch {
     return new Map();
   }

@@ -7,6 +7,7 @@
 import * as THREE from 'three';
 import { URDFLoader, STLLoader, ColladaLoader, OBJLoader, MTLLoader } from 'three';
 import { t } from '../i18n.js';
+import { api } from '../link/api.js';
 
 const PLACEHOLDER = 0x9097a8;
 
@@ -163,11 +164,9 @@ export function applyJointState(robot, msg) {
 // not read or expand one). Always answered (a gateway without --urdf has no /urdf to ask for).
 export async function description(ns = '') {
   try {
-    const r = await fetch(`api/description?${new URLSearchParams({ ns })}`, { credentials: 'same-origin', cache: 'no-store' });
-    const body = await r.json();
-    return r.ok ? { urdf: body.urdf || '', from: body.from ?? null, error: body.error ?? null }
-      : { urdf: '', from: null, error: body.error ?? `HTTP ${r.status}` };
-  } catch (e) { return { urdf: '', from: null, error: e.message }; }
+    const body = await api('api/description', { query: { ns } });
+    return { urdf: body?.urdf || '', from: body?.from ?? null, error: body?.error ?? null };
+  } catch (e) { return { urdf: '', from: null, error: e.message }; }   // an ApiError's message: the gateway's words
 }
 
 // Whether a description is xacro (the gateway expands it), not URDF.
