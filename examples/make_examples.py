@@ -6,7 +6,7 @@ The programs are built here from small helpers so they stay readable and consist
 the JSON files are what the IDE's Examples menu loads. Each example's title, about and block
 comments are written in English on the blocks and in the IDE's other languages under
 ``translations`` ({lang: {name, about, comments: {block id: text}}}; index.json: ``titles``,
-``abouts``): the IDE shows the reader's (js/main.js), and the generated code carries the comments.
+``abouts``): the IDE shows the reader's (js/ide/main.js), and the generated code carries the comments.
 """
 
 from __future__ import annotations

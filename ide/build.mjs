@@ -17,7 +17,7 @@ const bundles = {
   'uplot.mjs': "export { default } from 'uplot';",
   // the ROS 2 package download (generators/package.js): a zip made in the page
   'fflate.mjs': "export { zipSync, strToU8 } from 'fflate';",
-  // an exercise's instructions (js/exercise.js): Markdown, its HTML escaped (markdown-it's html: false)
+  // an exercise's instructions (js/ide/exercise.js): Markdown, its HTML escaped (markdown-it's html: false)
   'markdown-it.mjs': "export { default } from 'markdown-it';",
   // one copy of three for the twin, with the orbit controls, the URDF loader built on it and
   // three's own mesh loaders for a description's STL, Collada and OBJ (+ MTL) files
@@ -27,7 +27,7 @@ const bundles = {
     + "export { ColladaLoader } from 'three/examples/jsm/loaders/ColladaLoader.js'; "
     + "export { OBJLoader } from 'three/examples/jsm/loaders/OBJLoader.js'; "
     + "export { MTLLoader } from 'three/examples/jsm/loaders/MTLLoader.js';",
-  // the text editor (js/texteditor.js): CodeMirror 6 with its Python and JavaScript modes, loaded
+  // the text editor (js/editors/texteditor.js): CodeMirror 6 with its Python and JavaScript modes, loaded
   // only when a text program opens
   'codemirror.mjs': [
     "export { basicSetup } from 'codemirror';",
@@ -91,7 +91,7 @@ for (const f of readdirSync(join(blockly, 'msg')).filter((n) => n.endsWith('.js'
 }
 cpSync(join(blockly, 'media'), join(vendor, 'blockly', 'media'), { recursive: true });
 cpSync(join(nm, 'uplot', 'dist', 'uPlot.min.css'), join(vendor, 'uplot.min.css'));
-// Pyodide's core files, loaded by the Python worker (ide/js/pyworker.js) from vendor/pyodide/, never a CDN:
+// Pyodide's core files, loaded by the Python worker (ide/js/run/pyworker.js) from vendor/pyodide/, never a CDN:
 // the loader (vendor/pyodide/pyodide.mjs, revalidated at each load: it names the version) and, under
 // vendor/pyodide/VERSION/, the interpreter (wasm and its glue), the standard library and the package
 // index. A versioned path never changes content, so the gateway lets browsers keep those files (and

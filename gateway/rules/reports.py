@@ -1,7 +1,7 @@
 """Program reports: what an IDE tells the teacher's view about its program, stamped by the gateway.
 
 An IDE publishes std_msgs/String on ``NS/rosgate/program``, latched, carrying JSON {user, name,
-state, error, program, line, at} (``ide/js/report.js``); the class view (``/class``) shows it on the
+state, error, program, line, at} (``ide/js/ide/report.js``); the class view (``/class``) shows it on the
 station's tile. Tried as a class would: a student published a report on another's station with
 ``"user": "ada"`` and the teacher's view showed it as hers; and anyone signed in, a viewer too,
 subscribed to every station's report and read every student's program as it was being written.

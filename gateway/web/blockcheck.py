@@ -2,7 +2,7 @@
 
 A block with ``"helpUrl": "javascript:..."`` in a share link ran in the gateway's origin when someone
 picked Help; with the teacher signed in it published itself to the class's library, so it sat in
-every student's toolbox. The page checks every definition it did not write itself (js/blockcheck.js)
+every student's toolbox. The page checks every definition it did not write itself (js/blocks/blockcheck.js)
 and the gateway checks what it keeps and serves: the class's library (``POST /api/blocks/shared``)
 and the block sets of ``--blocks-dir``. Both read one schema, ``ide/blockschema.json``: the keys a
 block and its args may have and the kind of value each takes (a url is empty, an http(s) address or

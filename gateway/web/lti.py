@@ -372,7 +372,7 @@ def landing_of(claims: dict) -> str:
     locale = str(presentation.get('locale', '')) if isinstance(presentation, dict) else ''
     lang = str(custom.get('lang', '')).strip().lower()
     if page == '/' and str(custom.get('mode', '')).strip().lower() == 'text' and lang in TEXT_LANGS:
-        query['mode'], query['lang'] = 'text', lang     # a text exercise (ide/js/textmode.js)
+        query['mode'], query['lang'] = 'text', lang     # a text exercise (ide/js/editors/textmode.js)
         if LOCALE.fullmatch(locale):
             query['locale'] = locale                    # ?lang= is the program's language here
     elif LOCALE.fullmatch(locale):

@@ -31,18 +31,18 @@ from ..rules.names import forwarded
 PUBLIC_DIRS = frozenset({'blocks', 'css', 'generators', 'i18n', 'js', 'runtime', 'vendor'})
 PUBLIC_FILES = frozenset({'index.html', 'teleop.html', 'twin.html', 'inspect.html', 'toolbox.json', 'blockschema.json'})
 # The IDE page is cross-origin isolated, so its Python worker may share memory with it
-# (SharedArrayBuffer: a blocked program wakes on the gateway's messages, ide/js/pyrun.js). Everything
+# (SharedArrayBuffer: a blocked program wakes on the gateway's messages, ide/js/run/pyrun.js). Everything
 # the page loads is from the gateway itself; a page of another origin cannot embed these files.
 ISOLATION = {'Cross-Origin-Opener-Policy': 'same-origin', 'Cross-Origin-Embedder-Policy': 'require-corp',
              'Cross-Origin-Resource-Policy': 'same-origin'}
 # A program from another person's share link runs in a worker of its own whose policy gives it no
-# way to the gateway but the page's (ide/js/foreign.js): the scripts it needs and nothing else, no
+# way to the gateway but the page's (ide/js/run/foreign.js): the scripts it needs and nothing else, no
 # fetch, no XMLHttpRequest, no websocket (connect-src), and no import() of a page or an API (a JSON
 # module reads the opener's data with her cookies: script-src and connect-src by path). Paths are
 # given without a scheme (the page's own, behind a TLS proxy too). path -> (scripts, connections)
 GUEST_WORKERS = {
-    'js/guestworker.js': (('js/guestworker.js', 'vendor/roslib.mjs', 'runtime/'), ()),
-    'js/pyworker.js': (('js/pyworker.js', 'vendor/pyodide/'), ('vendor/pyodide/', 'runtime/')),   # ?guest=1
+    'js/run/guestworker.js': (('js/run/guestworker.js', 'vendor/roslib.mjs', 'runtime/'), ()),
+    'js/run/pyworker.js': (('js/run/pyworker.js', 'vendor/pyodide/'), ('vendor/pyodide/', 'runtime/')),   # ?guest=1
 }
 
 

@@ -4,10 +4,10 @@ opens the link, who signed it.
 POST /api/share        {"text": PROGRAM_JSON} -> {"by": NAME, "sig": SIG}  (nulls with auth off)
 POST /api/share/check  {"text", "by", "sig"}  -> {"signed": bool, "by": NAME | null, "mine": bool}
 
-A share link carries its program in the URL (``ide/js/storage.js``); anyone can write one and put
+A share link carries its program in the URL (``ide/js/editors/storage.js``); anyone can write one and put
 any name in it. Opened by the teacher, a student's link ran its program with the teacher's whole
 session. The page now asks before a link's program first runs and runs it without admin rights
-(``ide/js/foreign.js``); to say whose it is, it asks here: ``sig`` is an HMAC of the signer's key,
+(``ide/js/run/foreign.js``); to say whose it is, it asks here: ``sig`` is an HMAC of the signer's key,
 name and the program's exact text under the gateway's own secret (the session cookies' secret,
 ``rules.sessions.cookie_secret``), so a name is shown only when this gateway signed it, and
 ``mine`` (the signer is the caller) is the one case that needs no asking.

@@ -50,7 +50,7 @@ export class RosPythonGenerator extends python.PythonGenerator {
       'norm_namespace,with_namespace,re,goal_handle');
     this.programName = 'program';
     this.namespace = '';      // the robot namespace the file runs in unless --ns says otherwise
-    this.importRuntime = false;   // true: the text program imports the runtime (js/textmode.js)
+    this.importRuntime = false;   // true: the text program imports the runtime (js/editors/textmode.js)
     this.scope = new NameScope();
   }
 

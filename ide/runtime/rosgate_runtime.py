@@ -18,7 +18,7 @@ try:
 except ImportError:   # said when a program starts the runtime (check_roslibpy)
     roslibpy = None
 
-# In the IDE page (Pyodide, ide/js/pyrun.js) the program has one thread: roslibpy is the page's
+# In the IDE page (Pyodide, ide/js/run/pyrun.js) the program has one thread: roslibpy is the page's
 # (ide/runtime/browser/roslibpy.py), waits deliver the messages, handlers run while the program waits.
 BROWSER = sys.platform == "emscripten"
 if BROWSER:

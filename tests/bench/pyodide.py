@@ -1,4 +1,4 @@
-"""Python in the IDE page (Pyodide in a worker, ide/js/pyrun.js), in Chromium, on `--robot turtlesim`:
+"""Python in the IDE page (Pyodide in a worker, ide/js/run/pyrun.js), in Chromium, on `--robot turtlesim`:
 
     python -m tests.bench pyodide [--repeat 3] [--seconds 3] [--out pyodide.json]
 
@@ -34,7 +34,7 @@ from tests.support.ide import CHROMIUM, CHROMIUM_ARGS
 from tests.support.process import GatewayProcess
 
 RUN = """async ({source, ns}) => {
-  const py = await import('/js/pyrun.js');
+  const py = await import('/js/run/pyrun.js');
   const out = window.pyOut = {logs: [], errors: [], done: false, t0: performance.now()};
   py.runPython(source, {ros: rosgateIde.ros, namespace: ns,
     log: (text, level) => { out.logs.push([performance.now(), level, text]); },
@@ -159,7 +159,7 @@ def wait_up(page, timeout: float = 120) -> float:
 
 
 def stop(page):
-    page.evaluate("async () => (await import('/js/pyrun.js')).stopPython()")
+    page.evaluate("async () => (await import('/js/run/pyrun.js')).stopPython()")
 
 
 def start_once(ctx, gw) -> tuple[float, int, dict]:
@@ -175,7 +175,7 @@ def start_once(ctx, gw) -> tuple[float, int, dict]:
     ms = wait_up(page)
     page.remove_listener("requestfinished", take)   # the spare worker for a next run loads next
     sent = sum(s["responseBodySize"] + s["responseHeadersSize"] for s in (r.sizes() for r in requests))
-    phases = page.evaluate("async () => (await import('/js/pyrun.js')).startTiming()") or {}
+    phases = page.evaluate("async () => (await import('/js/run/pyrun.js')).startTiming()") or {}
     page.close()
     return ms, sent, phases
 

@@ -4,7 +4,7 @@ as an independent roslibpy client receives it, in Chromium on `--robot turtlesim
     python -m tests.bench stop [--repeat 10] [--out stop.json]
 
 * **blocks**: a block program drives; the Stop button is clicked (the page notes the click's time);
-* **python**: a Python program in the page (Pyodide, ide/js/pyrun.js) publishes at 20 Hz; the page
+* **python**: a Python program in the page (Pyodide, ide/js/run/pyrun.js) publishes at 20 Hz; the page
   calls stopPython() (and notes the time it did);
 * **killed**: a teleop process (tests/security/teleop.py) streams at 50 Hz and is killed (SIGKILL):
   from the kill to the zero the gateway publishes for the dropped connection.
@@ -33,7 +33,7 @@ from tests.support.wait import wait_for
 NOTE_CLICK = """() => document.querySelector('#stop').addEventListener('click',
   () => { window.stopClickedAt = performance.timeOrigin + performance.now(); }, {capture: true, once: true})"""
 STOP_PYTHON = """async () => {
-  const py = await import('/js/pyrun.js');
+  const py = await import('/js/run/pyrun.js');
   const at = performance.timeOrigin + performance.now();
   py.stopPython();
   return at;

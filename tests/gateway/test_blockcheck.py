@@ -1,5 +1,5 @@
 """The block schema's check on the gateway (gateway/web/blockcheck.py), in-process, on the cases the
-page's check (ide/js/blockcheck.js) is run on too (tests/node/blockcheck.test.js): the two agree,
+page's check (ide/js/blocks/blockcheck.js) is run on too (tests/node/blockcheck.test.js): the two agree,
 so what the page refuses the gateway refuses and the other way round. From outside:
 tests/security/test_class_doors.py (the class's library) and tests/ide/test_shared_content.py."""
 

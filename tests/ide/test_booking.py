@@ -1,4 +1,4 @@
-"""The booking panel (ide/js/booking.js) in Chromium: the time left in one's slot and the warnings
+"""The booking panel (ide/js/lab/booking.js) in Chromium: the time left in one's slot and the warnings
 at 5 minutes and at 1 on the teleop page, a slot booked from the form and shown in the browser's
 time zone, the teacher's timetable of every station in /class; and the teleop page of a person
 with no free station saying so (the "Claiming a robot…" notice no longer overwrites it)."""

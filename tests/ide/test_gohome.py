@@ -6,7 +6,7 @@ from __future__ import annotations
 from tests.support.ide import TABLET, open_teleop
 
 ESTIMATE = """async ([start, pcts]) => {
-  const { HomeEstimate } = await import('./js/gohome.js');
+  const { HomeEstimate } = await import('./js/teleop/gohome.js');
   const el = document.createElement('p');
   const h = new HomeEstimate(el);
   const odom = (x, y) => h.odom({ pose: { pose: { position: { x, y, z: 0 } } } });

@@ -30,8 +30,8 @@ def test_a_custom_span_zoomed_and_saved_as_csv_and_png(chromium, rover):
         page.select_option("#plot-span", "custom")
         assert page.is_visible("#plot-from")
         page.wait_for_function("!document.querySelector('#plot-span').dataset.loading")
-        page.fill("#plot-from", page.evaluate(f"(async () => (await import('./js/history.js')).localInput({start}))()"))
-        page.fill("#plot-to", page.evaluate(f"(async () => (await import('./js/history.js')).localInput({end}))()"))
+        page.fill("#plot-from", page.evaluate(f"(async () => (await import('./js/teleop/history.js')).localInput({start}))()"))
+        page.fill("#plot-to", page.evaluate(f"(async () => (await import('./js/teleop/history.js')).localInput({end}))()"))
         page.click("#plot-show")
         page.wait_for_function(f"document.querySelector('#plot-span').dataset.to === '{end}' && "
                                "!document.querySelector('#plot-span').dataset.loading && teleop.history.fixed")

@@ -1,5 +1,5 @@
 """The pages' modules, read as text: one module script per page, no top-level await (but in a leaf), no import
-cycle. WebKit left the teleop page unstarted when a module of its graph failed to evaluate, and
+cycle, every relative specifier naming a file that is there, no folder of ide/js over 20 modules. WebKit left the teleop page unstarted when a module of its graph failed to evaluate, and
 several module scripts sharing imports (or a cycle, or a top-level await) make what a page shows
 hang on the order an engine evaluates them in; one entry that imports and mounts the rest does not
 (ide/README.md, "One module per page"). The pages themselves run in three engines in
@@ -26,20 +26,21 @@ def test_each_page_has_one_module_entry():
     pages = sorted(IDE.glob("*.html"))
     assert {p.name for p in pages} >= {"index.html", "teleop.html", "class.html", "twin.html"}
     entries = {p.name: MODULE_SCRIPT.findall(p.read_text()) for p in pages}
-    assert entries == {"class.html": ["js/class.js"], "index.html": ["js/main.js"], "inspect.html": ["js/inspect.js"],
-                       "teleop.html": ["js/teleop.js"], "twin.html": ["js/twin.js"]}
+    assert entries == {"class.html": ["js/class/main.js"], "index.html": ["js/ide/main.js"],
+                       "inspect.html": ["js/inspect/main.js"], "teleop.html": ["js/teleop/main.js"],
+                       "twin.html": ["js/twin/main.js"]}
     for p in pages:   # and no inline module either
         assert len(re.findall(r'type="module"', p.read_text())) == 1, p.name
 
 
 def test_shared_pieces_are_mounted_by_the_entries():
     """recorder.js and booking.js do nothing on import: the entry that uses them mounts them."""
-    for name, mount in (("recorder.js", "mountRecorder"), ("booking.js", "mountBooking")):
+    for name, mount in (("lab/recorder.js", "mountRecorder"), ("lab/booking.js", "mountBooking")):
         text = (IDE / "js" / name).read_text()
         assert f"export function {mount}(" in text
         assert not re.search(r"^(?:const|let)\s+\w+\s*=\s*document\.", text, re.M), name
-    for entry, mounts in (("main.js", ["mountRecorder", "mountBooking"]),
-                          ("teleop.js", ["mountRecorder", "mountBooking"]), ("class.js", ["mountBooking"])):
+    for entry, mounts in (("ide/main.js", ["mountRecorder", "mountBooking"]),
+                          ("teleop/main.js", ["mountRecorder", "mountBooking"]), ("class/main.js", ["mountBooking"])):
         text = (IDE / "js" / entry).read_text()
         for mount in mounts:
             assert re.search(rf"^{mount}\(\);", text, re.M), (entry, mount)
@@ -63,7 +64,7 @@ def test_no_top_level_await():
 def test_no_import_cycle():
     graph = {p.resolve(): imports(p) for p in SOURCES}
     assert any(graph.values()), "the import pattern found nothing: it no longer matches the sources"
-    assert (IDE / "js" / "dashboard.js").resolve() in graph[(IDE / "js" / "teleop.js").resolve()]
+    assert (IDE / "js" / "teleop" / "dashboard.js").resolve() in graph[(IDE / "js" / "teleop" / "main.js").resolve()]
     state: dict[Path, str] = {}
 
     def visit(node: Path, path: list[Path]):
@@ -79,3 +80,59 @@ def test_no_import_cycle():
     for node in graph:
         if node not in state:
             visit(node, [node])
+
+
+# What a module names relative to itself (resolved against the module's own URL, not the page's): static
+# `import … from` / `export … from` / `import '…'`, `import('…')`, `new URL('…', import.meta.url)` (a Worker's
+# script too, either side of a `?:`), and any other './' or '../' string (pyworker.js's FILES map, fetched
+# with `new URL(url, import.meta.url)`). A fetch of 'api/…' or 'blocks/…' is the page's and not checked here.
+STATIC = re.compile(r"""(?:^|\n)[ \t]*(?:import|export)\s[^;]*?\bfrom\s*['"]([^'"]+)['"]"""
+                    r"""|(?:^|\n)[ \t]*import\s*['"]([^'"]+)['"]""")
+DYNAMIC = re.compile(r"""\bimport\(\s*['"`]([^'"`]+)['"`]\s*\)""")
+META_URL = re.compile(r"""new URL\(([^()]*?),\s*import\.meta\.url\s*\)""")
+LITERAL = re.compile(r"""(['"`])(\.{1,2}/[^'"`\s]*)\1""")
+
+
+def specifiers(path: Path) -> dict[str, list[str]]:
+    text = path.read_text()
+    found = {"static": [a or b for a, b in STATIC.findall(text)], "dynamic": DYNAMIC.findall(text),
+             "url": [s for args in META_URL.findall(text) for _, s in LITERAL.findall(args)]}
+    seen = {s for specs in found.values() for s in specs}
+    found["other"] = [s for _, s in LITERAL.findall(text) if s not in seen]
+    return {kind: [s for s in specs if s.startswith(("./", "../"))] for kind, specs in found.items()}
+
+
+def test_every_import_names_a_file():
+    """A path the browser would 404 on is caught here, before any page is opened (a module missing from a
+    page's graph leaves the page unstarted, and a worker's only in the run that starts it)."""
+    counts = {"static": 0, "dynamic": 0, "url": 0, "other": 0}
+    missing = []
+    for path in SOURCES:
+        for kind, specs in specifiers(path).items():
+            counts[kind] += len(specs)
+            for spec in specs:
+                target = re.split(r"[?#]", spec)[0]
+                if "${" in target:   # a template: its fixed parts must match something (vendor/pyodide/<version>/)
+                    base = path.parent
+                    rel = re.sub(r"\$\{[^}]*\}", "*", target)
+                    while rel.startswith("../"):
+                        base, rel = base.parent, rel[3:]
+                    hits = list(base.glob(rel.removeprefix("./").rstrip("/"))) if rel.strip("./") else [base]
+                    ok = bool(hits) and all(IDE in h.resolve().parents for h in hits)
+                else:
+                    resolved = (path.parent / target).resolve()
+                    inside = resolved == IDE or IDE in resolved.parents
+                    ok = inside and (resolved.is_dir() if target.endswith("/") else resolved.is_file())
+                if not ok:
+                    missing.append(f"{path.relative_to(IDE)}: {kind} {spec!r}")
+    # each pattern still matches the sources (a pattern that matches nothing would pass any tree)
+    assert counts["static"] > 150 and counts["dynamic"] >= 5 and counts["url"] >= 4 and counts["other"] >= 4, counts
+    assert (IDE / "vendor" / "roslib.mjs").is_file(), "the IDE is not built (make ide): vendor/ paths cannot be checked"
+    assert not missing, "relative specifiers naming no file:\n" + "\n".join(missing)
+
+
+def test_folders_stay_small():
+    """ide/js in folders by page and by service (ide/README.md): none holds over 20 modules."""
+    big = {str(d.relative_to(IDE)): n for d in [IDE / "js", *(p for p in (IDE / "js").rglob("*") if p.is_dir())]
+           if (n := len(list(d.glob("*.js")))) > 20}
+    assert not big, f"folders of ide/js over 20 modules: {big}"

@@ -1,4 +1,4 @@
-"""Python in the IDE page (ide/js/pyrun.js): Pyodide in a worker over the page's own connection, in
+"""Python in the IDE page (ide/js/run/pyrun.js): Pyodide in a worker over the page's own connection, in
 Chromium, on `--robot turtlesim` without --allow-runs. Each program is run through the module's API
 (runPython, stopPython, checkPython) with the page's connected Ros; an independent roslibpy client
 watches what the turtle does."""
@@ -14,7 +14,7 @@ from tests.support.ide import PY_DRIVE
 from tests.support.wait import wait_for
 
 START = """async ({source, ns}) => {
-  const py = await import('/js/pyrun.js');
+  const py = await import('/js/run/pyrun.js');
   const out = window.pyOut = {logs: [], lines: [], errors: [], done: false};
   window.pyDone = py.runPython(source, {
     ros: rosgateIde.ros, namespace: ns,
@@ -33,7 +33,7 @@ def ide(chromium, turtle_gateway):
     ctx = chromium.new_context(viewport={"width": 1400, "height": 860})
     page = IdePage(ctx.new_page(), turtle_gateway).open()
     yield page
-    page.js("async () => (await import('/js/pyrun.js')).stopPython()")
+    page.js("async () => (await import('/js/run/pyrun.js')).stopPython()")
     ctx.close()
 
 
@@ -86,8 +86,8 @@ def test_a_reload_starts_python_from_the_browsers_cache(chromium, turtle_gateway
             page = ctx.new_page()
             page.goto(turtle_gateway.http_url)
             page.wait_for_function("document.body?.dataset.ready === 'true'", timeout=30000)
-            page.evaluate("async () => (await import('/js/pyrun.js')).prepare()")
-            transferred.append(page.evaluate("async () => (await import('/js/pyrun.js')).startTiming().transferred"))
+            page.evaluate("async () => (await import('/js/run/pyrun.js')).prepare()")
+            transferred.append(page.evaluate("async () => (await import('/js/run/pyrun.js')).startTiming().transferred"))
             page.close()
         first, again = transferred
         heavy = ("pyodide.asm.wasm", "python_stdlib.zip", "pyodide.asm.mjs")
@@ -186,7 +186,7 @@ def test_stop_zeroes_the_turtle(ide, turtle_ros):
     wait_for(lambda: any(m["linear"]["x"] == 0.5 for _, m in cmd.messages), timeout=PYODIDE_START,
              what="the program drives")
     t0 = time.monotonic()
-    ide.js("async () => (await import('/js/pyrun.js')).stopPython()")
+    ide.js("async () => (await import('/js/run/pyrun.js')).stopPython()")
     zero = wait_for(lambda: next((t for t, m in cmd.since(t0) if m["linear"]["x"] == 0 and m["angular"]["z"] == 0),
                                  None), what="a zero Twist")
     finish(ide, 10)
@@ -197,7 +197,7 @@ def test_stop_zeroes_the_turtle(ide, turtle_ros):
 def test_stop_ends_a_busy_loop(ide):
     start(ide, "print('spinning')\nwhile True:\n    pass\n")
     ide.page.wait_for_function("window.pyOut.logs.some(([l, t]) => t === 'spinning')", timeout=PYODIDE_START * 1000)
-    ide.js("async () => (await import('/js/pyrun.js')).stopPython()")
+    ide.js("async () => (await import('/js/run/pyrun.js')).stopPython()")
     finish(ide, 10)   # a loop that never yields ends: Stop ends its worker (how soon: tests.bench stop)
     assert "spinning" in logged(ide)
 
@@ -254,6 +254,6 @@ r.run(main)
 
 
 def test_check_python_finds_a_syntax_error(ide):
-    errors = ide.js("""async () => (await import('/js/pyrun.js')).checkPython('x = 1\\nif x > 0\\n    print(x)\\n')""")
+    errors = ide.js("""async () => (await import('/js/run/pyrun.js')).checkPython('x = 1\\nif x > 0\\n    print(x)\\n')""")
     assert len(errors) == 1 and errors[0]["line"] == 2 and "SyntaxError" in errors[0]["message"]
-    assert ide.js("async () => (await import('/js/pyrun.js')).checkPython('print(1)\\n')") == []
+    assert ide.js("async () => (await import('/js/run/pyrun.js')).checkPython('print(1)\\n')") == []

@@ -1,4 +1,4 @@
-"""Kept runs in the pages (ide/js/runhistory.js): the IDE's record switch and "Runs" dialog, and the
+"""Kept runs in the pages (ide/js/lab/runhistory.js): the IDE's record switch and "Runs" dialog, and the
 class view's runs beside each student's tile, in Chromium against a live gateway with --auth."""
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """A Python text program from end to end in Chromium, on `--robot turtlesim` without --allow-runs:
 `/?mode=text&lang=python`, the program typed into the editor (.cm-content) as a student types
-it, run with the real js/pyrun.js (Pyodide in a worker) behind js/textrun.js's door. A textbook
+it, run with the real js/run/pyrun.js (Pyodide in a worker) behind js/run/textrun.js's door. A textbook
 roslibpy program (`roslibpy.Ros(host='example.org', port=9090)`, `run()`, a `Topic` publish,
 `time.sleep`) drives turtle1 (an independent roslibpy client sees its pose move) and its prints
 reach the IDE's console; Stop zeroes the turtle and nothing drives after; a runtime error is

@@ -1,4 +1,4 @@
-// The page's block check (ide/js/blockcheck.js) on the cases the gateway's is run on too
+// The page's block check (ide/js/blocks/blockcheck.js) on the cases the gateway's is run on too
 // (tests/gateway/test_blockcheck.py): the page and the gateway refuse the same definitions.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
@@ -9,7 +9,7 @@ import path from 'node:path';
 const root = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '..', '..');
 const schemaText = readFileSync(path.join(root, 'ide', 'blockschema.json'), 'utf8');
 const cases = JSON.parse(readFileSync(path.join(root, 'tests', 'node', 'blockcases.json'), 'utf8'));
-const check = await import(pathToFileURL(path.join(root, 'ide', 'js', 'blockcheck.js')).href);
+const check = await import(pathToFileURL(path.join(root, 'ide', 'js', 'blocks', 'blockcheck.js')).href);
 
 test('no block is taken before the schema is loaded', () => {
   assert.match(check.madeProblem(cases[0].made), /not loaded/);

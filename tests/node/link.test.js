@@ -1,4 +1,4 @@
-// The pages' link helper (ide/js/link.js) against a real gateway: pings, a gateway that goes
+// The pages' link helper (ide/js/link/link.js) against a real gateway: pings, a gateway that goes
 // away and comes back, and the backoff's bounds.
 import { after, test } from 'node:test';
 import assert from 'node:assert/strict';
@@ -6,7 +6,7 @@ import { spawn } from 'node:child_process';
 import { once } from 'node:events';
 import { fileURLToPath } from 'node:url';
 import path from 'node:path';
-import { Link, RETRY, SILENCE, backoff } from '../../ide/js/link.js';
+import { Link, RETRY, SILENCE, backoff } from '../../ide/js/link/link.js';
 
 const root = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '..', '..');
 const python = process.env.ROSGATE_PYTHON || path.join(root, '.venv', 'bin', 'python');

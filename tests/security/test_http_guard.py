@@ -57,7 +57,7 @@ def test_allowed_hosts_globs(hosts):
 
 
 def test_only_what_the_pages_load_is_served(gateway):
-    for path in ('/', '/teleop', '/toolbox.json', '/js/main.js', '/vendor/roslib.mjs', '/css/ide.css'):
+    for path in ('/', '/teleop', '/toolbox.json', '/js/ide/main.js', '/vendor/roslib.mjs', '/css/ide.css'):
         assert http(gateway, path)[0] == 200, path
     for path in ('/node_modules/roslib/package.json', '/node_modules/.package-lock.json', '/package.json',
                  '/package-lock.json', '/build.mjs', '/README.md', '/vendor/../node_modules/roslib/package.json'):

@@ -1,4 +1,4 @@
-"""The Python worker's side of the IDE page (ide/js/pyworker.js, ide/js/pyrun.js).
+"""The Python worker's side of the IDE page (ide/js/run/pyworker.js, ide/js/run/pyrun.js).
 
 The program has one thread. Whatever blocks (``time.sleep``, ``Event.wait``, a blocking service
 call, ``run_forever``) waits in ``pump``: the page writes the gateway's messages for the program

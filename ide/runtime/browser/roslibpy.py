@@ -1,4 +1,4 @@
-"""roslibpy (the 2.1 API) for Python in the IDE page (Pyodide in a worker, ide/js/pyrun.js).
+"""roslibpy (the 2.1 API) for Python in the IDE page (Pyodide in a worker, ide/js/run/pyrun.js).
 
 A textbook roslibpy program runs unchanged: ``Ros(host, port)`` whatever host it names goes
 through the page's own connection; ``Topic``, ``Message``, ``Service``/``ServiceRequest``,

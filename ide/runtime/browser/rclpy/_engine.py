@@ -5,7 +5,7 @@ for them, queued for the executor that spins their node.
 Everything a program makes goes through the gateway as the page's own ops, under the gateway's
 rules (name globs, the driver lease, clamps), and Stop ends the worker: the page then zeroes every
 velocity topic the program published to, cancels its goals and ends its subscriptions and
-advertisements (ide/js/pyrun.js), as it does for any Python program of the page.
+advertisements (ide/js/run/pyrun.js), as it does for any Python program of the page.
 
 One thread: a callback runs only when an executor spins (rclpy.spin, spin_once ...), and a wait of
 the program (time.sleep, a blocking call, an executor's wait for work) is where the gateway's
