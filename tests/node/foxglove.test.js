@@ -340,6 +340,10 @@ describe('the Foxglove protocol', () => {
     try {
       await other.ready();
       other.client.subscribeParameterUpdates([PARAM]);
+      // its ops are read in order: once a later one is answered, it follows the parameter (the set
+      // below comes on another connection, which the gateway may read first)
+      other.client.getParameters([PARAM], 'following');
+      await other.until(() => other.params.find((p) => p.id === 'following'), 'getParameters after the subscribe');
       const fresh = old.type === 'float64' ? old.value + 0.5 : (old.value + 7) % 256;
       fox.client.setParameters([{ name: PARAM, value: fresh, type: old.type }], 'set-1');
       const set = await fox.until(() => fox.params.find((p) => p.id === 'set-1'), 'setParameters');
