@@ -21,9 +21,18 @@ import tomllib
 from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass
+from enum import StrEnum
 from pathlib import Path
 
-ROLES = ('viewer', 'operator', 'admin')
+
+class Role(StrEnum):
+    """The roles a token, an LMS launch or rosauth gives, lowest first (``Role(value)`` parses one)."""
+    VIEWER = 'viewer'
+    OPERATOR = 'operator'
+    ADMIN = 'admin'
+
+
+ROLES = tuple(r.value for r in Role)
 TOKEN_CHARS = re.compile(r'[A-Za-z0-9._~-]{8,}')
 
 
