@@ -52,6 +52,17 @@ OPERATORS = (Role.OPERATOR.value, Role.ADMIN.value)     # those who may change t
 EVERYONE = ROLES                                        # every role may look
 GATEWAY_ROLE = 'gateway'   # the role of what the gateway publishes itself (stops): passes the lease, never moves
 TOKEN_NEEDED = 'a token is required: sign in at /login or send Authorization: Bearer'
+NOT_AUTHENTICATED = ('not authenticated: send {"op": "auth", "token": ...} first '
+                     '(or connect with ?token=, an Authorization: Bearer header, or the session cookie of /login)')
+PERMISSIONS = {
+    'viewer': frozenset({'subscribe', 'read'}),
+    'operator': frozenset({'subscribe', 'read', 'publish', 'call', 'send_goal'}),
+    'admin': frozenset({'subscribe', 'read', 'publish', 'call', 'send_goal',
+                        'advertise_service', 'advertise_action', 'param', 'programs'}),
+}
+VERBS = {'subscribe': 'subscribe to', 'read': 'call', 'publish': 'publish to', 'call': 'call',
+         'send_goal': 'send goals to', 'advertise_service': 'advertise', 'advertise_action': 'advertise',
+         'param': 'change parameters through', 'programs': 'use'}
 
 # Who keeps which names (each a keeper the policy asks after the role and the globs):
 KEEPERS = {
@@ -106,6 +117,34 @@ def person_of(who) -> str | None:
     if attrs is not None:
         return attrs.get('person')
     return _person_of_request(who, {}) if who is not None else None
+
+
+RANKS = ('viewer', 'operator', 'admin')
+
+
+def lowered(role: str, asked) -> str:
+    """``role``, or the lower one a connection asks for (``?as=operator``: a page running a program
+    from another person's share link lends it no admin rights, ide/js/foreign.js); never higher."""
+    want = asked[-1].decode('ascii', 'replace') if isinstance(asked, list) and asked else asked
+    if isinstance(want, str) and want in RANKS and role in RANKS and RANKS.index(want) < RANKS.index(role):
+        return want
+    return role
+
+
+def role_refusal(who, need: str, name: str | None, stations, rosapi_write: bool = False) -> str | None:
+    """The websocket's role rule (``Policy.refusal`` with --auth): None, or why ``who``'s role may not
+    do what ``need`` names (``PERMISSIONS``) to ``name``; an operator changes the parameters of her own
+    station's nodes (``station_param``; rosapi's writes, ``rosapi_write``, are judged again by the
+    parameter's name)."""
+    role = role_of(who)
+    if role is None:
+        return NOT_AUTHENTICATED
+    if need == 'param' and role in OPERATORS and need not in PERMISSIONS.get(role, ()) and name is not None:
+        return None if rosapi_write else station_param(stations, who, name)
+    if need not in PERMISSIONS.get(role, ()):
+        return f'role {role} may not {VERBS[need]} {name}' if name is not None else \
+            f'role {role} may not {VERBS[need]} this'
+    return None
 
 
 def may(policy, who, action: str, name: str | None = None) -> str | None:
@@ -228,10 +267,15 @@ def actor(who) -> Actor:
     if who is NOBODY:
         return Actor(NOBODY)
     if isinstance(who, str):
-        return Actor(Role(who) if who in ROLES else None)
+        return as_role(who)
     role = role_of(who)
     owner = getattr(who, 'owner', None) if getattr(who, 'attrs', None) is None else None
     return Actor(Role(role) if role in ROLES else None, owner, person_of(who))
+
+
+def as_role(role: str | None) -> Actor:
+    """An actor of a bare role (a run's starter's, passed on): nobody's role when None."""
+    return Actor(Role(role) if role in ROLES else None)
 
 
 def decide(who, action: Action, area: Area, owner: str | None | Whose = AREA) -> Unauthorized | None:
@@ -256,6 +300,25 @@ def decide(who, action: Action, area: Area, owner: str | None | Whose = AREA) ->
 
 def allowed(who, action: Action, area: Area, owner: str | None | Whose = AREA) -> bool:
     return decide(who, action, area, owner) is None
+
+
+@dataclass(frozen=True, slots=True)
+class StationGrants:
+    """What the claims and the driver lease ask (``decide`` in ``Area.STATIONS``): whether ``who``
+    (a session, a sender or a bare role) overrides another's claim or lease (MANAGE: an admin, or
+    anyone with --auth off) or passes a teacher's stop or bar (EXEMPT: a signed-in admin)."""
+    auth: bool
+
+    def _who(self, who):
+        if not self.auth:
+            return None
+        return as_role(who) if who is None or isinstance(who, str) else who
+
+    def overrides(self, who) -> bool:
+        return allowed(self._who(who), Action.MANAGE, Area.STATIONS)
+
+    def exempt(self, who) -> bool:
+        return allowed(self._who(who), Action.EXEMPT, Area.STATIONS)
 
 
 def is_gateway(who) -> bool:

@@ -27,7 +27,7 @@ from pathlib import Path
 import tornado.web
 
 from ..rules.access import Action, Area, allowed
-from ..rules.policy import lowered
+from ..rules.access import lowered
 from ..rules.stations import person_of
 from ..runs import Run, RunManager
 from ..runs.archive import Archive
