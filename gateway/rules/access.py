@@ -124,7 +124,7 @@ RANKS = ('viewer', 'operator', 'admin')
 
 def lowered(role: str, asked) -> str:
     """``role``, or the lower one a connection asks for (``?as=operator``: a page running a program
-    from another person's share link lends it no admin rights, ide/js/foreign.js); never higher."""
+    from another person's share link lends it no admin rights, ide/js/run/foreign.js); never higher."""
     want = asked[-1].decode('ascii', 'replace') if isinstance(asked, list) and asked else asked
     if isinstance(want, str) and want in RANKS and role in RANKS and RANKS.index(want) < RANKS.index(role):
         return want
