@@ -34,7 +34,7 @@ from pathlib import Path
 import cbor2
 import tornado.web
 
-from ..rules.access import is_admin, may, owns
+from ..rules.access import Action, Area, allowed, may
 from ..rules.names import parse_globs
 from .playback import Playback
 from ..settings import data_dir
@@ -188,7 +188,7 @@ class RecordingManager(Hook):
             raise tornado.web.HTTPError(409, f'{lim.max_concurrent} recordings are already running; stop one first')
         if owner is not None and sum(r.owner == owner for r in others) >= lim.max_per_person:
             raise tornado.web.HTTPError(429, f'{owner} already runs {lim.max_per_person} recordings; stop one first')
-        if owner is not None and not is_admin(who):
+        if owner is not None and not allowed(who, Action.EXEMPT, Area.RECORDINGS):
             kept = [r for r in self.listing() if r.get('owner') == owner]
             size = sum(r.get('bytes') or 0 for r in kept)
             if len(kept) >= lim.person_count or size >= lim.person_bytes:
@@ -299,7 +299,7 @@ class RecordingManager(Hook):
         """Only who started a recording (or an admin) may read, stop, play, download or delete it;
         one that nobody signed in started is an admin's to change when auth is on. An attempt's
         recording (``changes``: to stop or delete it) is an admin's alone: the teacher's evidence."""
-        if owns(identity, False) or not _ID.fullmatch(rec_id):
+        if allowed(identity, Action.MANAGE, Area.RECORDINGS) or not _ID.fullmatch(rec_id):
             return   # a name that is no recording's gets its 404 from path()
         if rec_id not in self.recordings and not (self.dir / rec_id).is_dir():
             return

@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import NamedTuple
 
 
-from .access import ADMINS
+from .access import StationGrants
 from .attempts import AttemptRule
 from .bookings import BookingLimits, Slots, Timetable
 from .fleet import join as join_fleet
@@ -230,7 +230,7 @@ def compose(gateway, files: Files = Files(), *, reads=lambda name: False, runs=N
             ahead=lab.booking_ahead * 86400))
     queue = Queue(timetable, grace=st.claim_grace) if timetable is not None else None
     stations = Stations(gateway, types=frozenset(types), idle=st.claim_idle, grace=st.claim_grace,
-                        admin_role=ADMINS[0] if auth else None, timetable=timetable, queue=queue)
+                        grants=StationGrants(auth is not None), timetable=timetable, queue=queue)
     lease = None
 
     def group_of(topic):
@@ -253,7 +253,7 @@ def compose(gateway, files: Files = Files(), *, reads=lambda name: False, runs=N
 
     if safe.exclusive_control:
         lease = Lease(gateway, types=frozenset(types), globs=parse_globs(safe.control_glob),
-                      takeover_role=ADMINS[0] if auth else None, stations=stations,
+                      grants=StationGrants(auth is not None), stations=stations,
                       on_lost=lambda session, group: safety.stop_session(session, in_group(group)),
                       stop_group=stop_group, zero_group=zero_group)
     limits = Limits(max_subscriptions=sec.max_subscriptions, max_publishers=sec.max_publishers,

@@ -1,13 +1,26 @@
-"""One access rule: may someone read, write, call or own this.
+"""One access rule: may someone read, write, call, own or manage this.
 
-``may(policy, who, action, name)`` answers for every path the same way: the websocket's ops
-(``Policy.check``), the HTTP APIs, video streams, the history, OPC UA, recordings (what they take,
-as whom), playback, runs and bookings. ``who`` is an ``Identity`` (an HTTP caller, an OPC UA user),
-a session or sender (its ``attrs['role']``), or None: the gateway asking for itself, or a caller
-when auth is off; then the name globs alone decide. ``action``: subscribe, read (the gateway's
-read-only services), publish, call, send_goal, advertise_service, advertise_action, param,
-programs; ``name``: the topic, service or action, or None to ask about the role alone. It returns
-None (allowed) or the reason, which every path words the same.
+Two questions, both answered here and nowhere else (tests/security/test_access_is_one.py walks the
+code for a role compared anywhere else):
+
+- Names (the websocket's verbs): ``may(policy, who, action, name)`` answers for every path the same
+  way: the websocket's ops (``Policy.check``), video streams, the history, OPC UA, recordings (what
+  they take, as whom), playback. ``who`` is an ``Identity`` (an HTTP caller, an OPC UA user), a
+  session or sender (its ``attrs['role']``), or None: the gateway asking for itself, or a caller
+  when auth is off; then the name globs alone decide. ``action``: subscribe, read (the gateway's
+  read-only services), publish, call, send_goal, advertise_service, advertise_action, param,
+  programs; ``name``: the topic, service or action, or None to ask about the role alone. It returns
+  None (allowed) or the reason, which every path words the same.
+- Areas (the HTTP APIs, the stations, a program's report): ``decide(who, action, area, owner)``
+  answers from ``TABLE`` (which role may SEE, CHANGE, MANAGE -- everyone's, or on someone else's
+  behalf -- or be EXEMPT from a per-person limit in each ``Area``) and the owner rule: a thing of
+  someone else's (``owner`` given, not the asker's) needs MANAGE; a thing of the asker's own may be
+  changed by the roles of ``OWN`` where it names the area; with --auth off every thing is
+  everyone's. ``who`` None is a caller with --auth off,
+  who may everything but EXEMPT (a per-person limit holds for everyone then, as it always did);
+  ``NOBODY`` is a caller with --auth on and no valid token (401). It returns None or an
+  ``Unauthorized`` (a ``Refusal``: the HTTP status and the words), which the HTTP handlers'
+  ``@authorized`` (``web.api``) raise as they are.
 
 After the role and the globs, the *keepers* answer: parts that keep names of their own, each a
 ``(who, action, name) -> reason | None`` (``KEEPERS`` names them; ``rules.compose`` hands them to
@@ -20,20 +33,36 @@ student) has only for the nodes of a station she owns (``station_param``); a nod
 ``get_parameters``, ``list_parameters``, ``describe_parameters`` and ``get_parameter_types`` are
 reads (a viewer's too). Judged by the service's name, as ROS 2 names them (``parameter_service``).
 
-``owns(who, theirs)``: the one "admin or owner": an admin, or the thing is theirs; with auth off
-(``who`` None) everyone, as every request is an admin's then (``acts_as_admin``). ``is_admin(who)``: a signed-in admin
-(quotas, seeing everyone's), which nobody is with auth off. ``person_of(who)``: the person a
-session, sender or Identity is (``rules.stations``' key). The role sets are named once here.
+``owns(who, theirs)``, ``acts_as_admin(who)`` and ``is_admin(who)`` are ``decide`` asked about no
+area in particular (kept for the keepers' tables). ``person_of(who)``: the person a session, sender
+or Identity is (``rules.stations``' key). The role sets are named once here.
 """
 
 from __future__ import annotations
 
-from .stations import person_of as _person_of_request
-from .tokens import ROLES
+from dataclasses import dataclass
+from enum import Enum, StrEnum
 
-ADMINS = ('admin',)
-OPERATORS = ('operator', 'admin')     # those who may change things: drive, run, record, book
-EVERYONE = ROLES                      # every role may look
+from .errors import Refusal
+from .stations import person_of as _person_of_request
+from .tokens import ROLES, Role
+
+ADMINS = (Role.ADMIN.value,)
+OPERATORS = (Role.OPERATOR.value, Role.ADMIN.value)     # those who may change things: drive, run, record, book
+EVERYONE = ROLES                                        # every role may look
+GATEWAY_ROLE = 'gateway'   # the role of what the gateway publishes itself (stops): passes the lease, never moves
+TOKEN_NEEDED = 'a token is required: sign in at /login or send Authorization: Bearer'
+NOT_AUTHENTICATED = ('not authenticated: send {"op": "auth", "token": ...} first '
+                     '(or connect with ?token=, an Authorization: Bearer header, or the session cookie of /login)')
+PERMISSIONS = {
+    'viewer': frozenset({'subscribe', 'read'}),
+    'operator': frozenset({'subscribe', 'read', 'publish', 'call', 'send_goal'}),
+    'admin': frozenset({'subscribe', 'read', 'publish', 'call', 'send_goal',
+                        'advertise_service', 'advertise_action', 'param', 'programs'}),
+}
+VERBS = {'subscribe': 'subscribe to', 'read': 'call', 'publish': 'publish to', 'call': 'call',
+         'send_goal': 'send goals to', 'advertise_service': 'advertise', 'advertise_action': 'advertise',
+         'param': 'change parameters through', 'programs': 'use'}
 
 # Who keeps which names (each a keeper the policy asks after the role and the globs):
 KEEPERS = {
@@ -90,21 +119,223 @@ def person_of(who) -> str | None:
     return _person_of_request(who, {}) if who is not None else None
 
 
+RANKS = ('viewer', 'operator', 'admin')
+
+
+def lowered(role: str, asked) -> str:
+    """``role``, or the lower one a connection asks for (``?as=operator``: a page running a program
+    from another person's share link lends it no admin rights, ide/js/run/foreign.js); never higher."""
+    want = asked[-1].decode('ascii', 'replace') if isinstance(asked, list) and asked else asked
+    if isinstance(want, str) and want in RANKS and role in RANKS and RANKS.index(want) < RANKS.index(role):
+        return want
+    return role
+
+
+def role_refusal(who, need: str, name: str | None, stations, rosapi_write: bool = False) -> str | None:
+    """The websocket's role rule (``Policy.refusal`` with --auth): None, or why ``who``'s role may not
+    do what ``need`` names (``PERMISSIONS``) to ``name``; an operator changes the parameters of her own
+    station's nodes (``station_param``; rosapi's writes, ``rosapi_write``, are judged again by the
+    parameter's name)."""
+    role = role_of(who)
+    if role is None:
+        return NOT_AUTHENTICATED
+    if need == 'param' and role in OPERATORS and need not in PERMISSIONS.get(role, ()) and name is not None:
+        return None if rosapi_write else station_param(stations, who, name)
+    if need not in PERMISSIONS.get(role, ()):
+        return f'role {role} may not {VERBS[need]} {name}' if name is not None else \
+            f'role {role} may not {VERBS[need]} this'
+    return None
+
+
 def may(policy, who, action: str, name: str | None = None) -> str | None:
     """None when ``who`` may ``action`` ``name`` under ``policy``, else why not."""
     return policy.refusal(who, action, name)
 
 
+class Action(StrEnum):
+    SEE = 'see'
+    CHANGE = 'change'
+    MANAGE = 'manage'       # everyone's, or on someone else's behalf
+    EXEMPT = 'exempt'       # past a per-person limit (or a teacher's stop or bar on a station)
+
+
+class Area(StrEnum):
+    """What an HTTP API (or a part of the rules) is about, as Jupyter Server's ``AUTH_RESOURCE``."""
+    PROGRAMS = 'programs'
+    RUNS = 'runs'
+    RECORDINGS = 'recordings'
+    BOOKINGS = 'bookings'
+    QUEUE = 'queue'
+    PEOPLE = 'people'
+    EXERCISES = 'exercises'
+    ATTEMPTS = 'attempts'
+    ROSTER = 'roster'
+    CLASS = 'class'
+    COURSE = 'course'           # adding rosgate to an LMS course, registering an LMS
+    BLOCKS = 'blocks'
+    HISTORY = 'history'
+    VIDEO = 'video'
+    GAUGES = 'gauges'
+    PACKAGES = 'packages'
+    SHARES = 'shares'
+    DESCRIPTION = 'description'
+    WHOAMI = 'whoami'
+    SERVER = 'server'           # server paths and the database's address
+    STATIONS = 'stations'       # the robots under claims and the driver lease
+    REPORTS = 'reports'         # a station's program report (NS/rosgate/program)
+
+
+class Standing(Enum):
+    OPEN = 'anyone (--auth off)'
+    NOBODY = 'not signed in'
+
+
+class Whose(Enum):
+    AREA = 'the area as a whole'     # decide's owner when the question is about no thing in particular
+
+
+OPEN, NOBODY, AREA = Standing.OPEN, Standing.NOBODY, Whose.AREA
+V, O, A = Role.VIEWER, Role.OPERATOR, Role.ADMIN
+_ALL = frozenset({OPEN, V, O, A})
+_DOERS = frozenset({OPEN, O, A})        # operators: drive, run, record, book, save
+_MANAGERS = frozenset({OPEN, A})        # an admin, or anyone with --auth off
+_ADMIN = frozenset({A})                 # a signed-in admin only: nobody with --auth off
+_NONE: frozenset = frozenset()
+
+# area: (SEE, CHANGE, MANAGE, EXEMPT) -- who may, by role; OPEN: a caller with --auth off.
+TABLE: dict[Area, tuple[frozenset, frozenset, frozenset, frozenset]] = {
+    Area.PROGRAMS:    (_ALL, _DOERS, _MANAGERS, _NONE),       # MANAGE: another's space, the shared one
+    Area.RUNS:        (_ALL, _DOERS, _MANAGERS, _ADMIN),      # EXEMPT: --max-runs-per-person
+    Area.RECORDINGS:  (_ALL, _DOERS, _MANAGERS, _ADMIN),      # EXEMPT: the per-person cap
+    Area.BOOKINGS:    (_ALL, _DOERS, _MANAGERS, _ADMIN),      # MANAGE: others', past slots, "for"; EXEMPT: limits
+    Area.QUEUE:       (_ALL, _DOERS, _MANAGERS, _NONE),
+    Area.PEOPLE:      (_MANAGERS, _MANAGERS, _MANAGERS, _NONE),
+    Area.EXERCISES:   (_ALL, _MANAGERS, _MANAGERS, _NONE),
+    Area.ATTEMPTS:    (_ALL, _ALL, _MANAGERS, _ADMIN),        # CHANGE: start or stop one (a viewer too)
+    Area.ROSTER:      (_MANAGERS, _MANAGERS, _MANAGERS, _NONE),
+    Area.CLASS:       (_MANAGERS, _MANAGERS, _MANAGERS, _NONE),
+    Area.COURSE:      (_ADMIN, _ADMIN, _ADMIN, _NONE),       # an LMS launch or sign-in always has a person
+    Area.BLOCKS:      (_ALL, _MANAGERS, _MANAGERS, _NONE),     # CHANGE: publish blocks to the class
+    Area.HISTORY:     (_ALL, _NONE, _NONE, _NONE),
+    Area.VIDEO:       (_ALL, _NONE, _NONE, _NONE),
+    Area.GAUGES:      (_ALL, _NONE, _NONE, _NONE),
+    Area.PACKAGES:    (_ALL, _NONE, _NONE, _NONE),
+    Area.SHARES:      (_ALL, _ALL, _NONE, _NONE),
+    Area.DESCRIPTION: (_ALL, _NONE, _NONE, _NONE),
+    Area.WHOAMI:      (_ALL, _NONE, _NONE, _NONE),
+    Area.SERVER:      (_MANAGERS, _NONE, _NONE, _NONE),       # where files and the database are
+    Area.STATIONS:    (_ALL, _DOERS, _MANAGERS, _ADMIN),      # MANAGE: take over, release others'; EXEMPT: past a stop
+    Area.REPORTS:     (_ALL, _DOERS, _MANAGERS, _NONE),       # MANAGE: another station's report
+}
+COLUMN = {Action.SEE: 0, Action.CHANGE: 1, Action.MANAGE: 2, Action.EXEMPT: 3}
+# On a thing of one's own, these may CHANGE it beyond the table's CHANGE (cancel a booking made for
+# them), and which key says whose a thing is: the person (``rules.stations``' key,
+# 'user ada'), else the Identity's owner ('ada', 'lti-…').
+OWN: dict[Area, frozenset] = {Area.BOOKINGS: _ALL}
+BY_PERSON = frozenset({Area.BOOKINGS, Area.QUEUE, Area.STATIONS, Area.REPORTS})
+
+
+@dataclass(frozen=True, slots=True)
+class Actor:
+    """Who asks, as ``decide`` reads it: a role (None: not one of ``Role``, as the gateway's own),
+    or a standing (OPEN, NOBODY); the keys things are owned by."""
+    role: Role | Standing | None
+    owner: str | None = None
+    person: str | None = None
+
+    @property
+    def words(self) -> str:
+        return f'role {self.role}' if isinstance(self.role, Role) else str(self.role.value if self.role else 'nobody')
+
+
+class Unauthorized(Refusal):
+    """``decide``'s answer when it refuses: the HTTP status (401 not signed in, 403 not allowed),
+    the words, and what was asked."""
+
+    def __init__(self, status: int, message: str, actor: Actor, action: Action, area: Area):
+        super().__init__(status, message)
+        self.actor, self.action, self.area = actor, action, area
+
+
+def actor(who) -> Actor:
+    """The one place a role is read: an Actor as it is, None (--auth off: OPEN), NOBODY, an
+    Identity, a session or a sender (its attrs), or a bare role (a run's starter's)."""
+    if isinstance(who, Actor):
+        return who
+    if who is None or who is OPEN:
+        return Actor(OPEN)
+    if who is NOBODY:
+        return Actor(NOBODY)
+    if isinstance(who, str):
+        return as_role(who)
+    role = role_of(who)
+    owner = getattr(who, 'owner', None) if getattr(who, 'attrs', None) is None else None
+    return Actor(Role(role) if role in ROLES else None, owner, person_of(who))
+
+
+def as_role(role: str | None) -> Actor:
+    """An actor of a bare role (a run's starter's, passed on): nobody's role when None."""
+    return Actor(Role(role) if role in ROLES else None)
+
+
+def decide(who, action: Action, area: Area, owner: str | None | Whose = AREA) -> Unauthorized | None:
+    """None when ``who`` may ``action`` in ``area`` (on a thing of ``owner``'s, None: nobody's), else
+    why not: the one access decision of the areas (module docstring)."""
+    me = actor(who)
+    if me.role is NOBODY:
+        return Unauthorized(401, TOKEN_NEEDED, me, action, area)
+    allowed = TABLE[area][COLUMN[action]]
+    if owner is not AREA:
+        mine = owner is not None and owner == (me.person if area in BY_PERSON else me.owner)
+        if mine and me.role in OWN.get(area, _NONE):
+            return None
+        if not mine and me.role is not OPEN and me.role not in TABLE[area][COLUMN[Action.MANAGE]]:
+            return Unauthorized(403, f'{me.words} may not do this to another\'s: only they or an admin may',
+                                me, action, area)
+    if me.role in allowed:
+        return None
+    needs = ' or '.join(r.value for r in Role if r in allowed) or 'no role'
+    return Unauthorized(403, f'{me.words} may not do this; it needs {needs}', me, action, area)
+
+
+def allowed(who, action: Action, area: Area, owner: str | None | Whose = AREA) -> bool:
+    return decide(who, action, area, owner) is None
+
+
+@dataclass(frozen=True, slots=True)
+class StationGrants:
+    """What the claims and the driver lease ask (``decide`` in ``Area.STATIONS``): whether ``who``
+    (a session, a sender or a bare role) overrides another's claim or lease (MANAGE: an admin, or
+    anyone with --auth off) or passes a teacher's stop or bar (EXEMPT: a signed-in admin)."""
+    auth: bool
+
+    def _who(self, who):
+        if not self.auth:
+            return None
+        return as_role(who) if who is None or isinstance(who, str) else who
+
+    def overrides(self, who) -> bool:
+        return allowed(self._who(who), Action.MANAGE, Area.STATIONS)
+
+    def exempt(self, who) -> bool:
+        return allowed(self._who(who), Action.EXEMPT, Area.STATIONS)
+
+
+def is_gateway(who) -> bool:
+    """What the gateway sends itself (its stops, what the history keeps): not a person."""
+    return role_of(who) == GATEWAY_ROLE
+
+
 def owns(who, theirs: bool) -> bool:
     """An admin, or the thing is theirs; everyone when auth is off (``who`` None)."""
-    return acts_as_admin(who) or theirs
+    return theirs or allowed(who, Action.MANAGE, Area.RUNS)
 
 
 def acts_as_admin(who) -> bool:
     """An admin, or anyone when auth is off (every request is an admin's then)."""
-    return who is None or role_of(who) == 'admin'
+    return allowed(who, Action.MANAGE, Area.RUNS)
 
 
 def is_admin(who) -> bool:
     """A signed-in admin (nobody when auth is off)."""
-    return who is not None and role_of(who) == 'admin'
+    return allowed(who, Action.EXEMPT, Area.RUNS)

@@ -46,8 +46,8 @@ from fnmatch import fnmatchcase
 from protocol.errors import ProtocolError
 
 from ..backends.base import QoS
-from .access import role_of
-from .policy import CONTROL_TOPIC, GATEWAY_ROLE
+from .access import StationGrants, is_gateway, role_of
+from .policy import CONTROL_TOPIC
 
 log = logging.getLogger('rosgate.lease')
 from .safety import moving_command
@@ -74,11 +74,11 @@ def glob_group(glob: str) -> str:
 
 class Lease(FleetLease, Hook):
     def __init__(self, gateway, *, types: frozenset[str], globs: tuple[str, ...] | None,
-                 takeover_role: str | None, on_lost: Callable[[object, str], None], stations: Stations,
+                 grants: StationGrants, on_lost: Callable[[object, str], None], stations: Stations,
                  stop_group: Callable[[str], None] = lambda group: None,
                  zero_group: Callable[[str], None] | None = None):
         self.gateway, self.types, self.globs = gateway, types, globs or ()
-        self.takeover_role, self.on_lost, self.stop_group = takeover_role, on_lost, stop_group
+        self.grants, self.on_lost, self.stop_group = grants, on_lost, stop_group
         self.zero_group = zero_group             # every command topic of a group zeroed (a dead gateway's)
         self.owners = stations
         self.holders: dict[str, object] = {}     # group -> session
@@ -141,7 +141,7 @@ class Lease(FleetLease, Hook):
         msg: the command (None: a moving one)."""
         if not self.is_command(name, type):
             return None
-        if session.attrs.get('role') == GATEWAY_ROLE and msg is not None and not moving_command(msg):
+        if is_gateway(session) and msg is not None and not moving_command(msg):
             return None   # a stop the gateway publishes itself
         group = self.group(name)
         holder = self.holders.get(group)
@@ -238,16 +238,16 @@ class Lease(FleetLease, Hook):
         return self.require(session, pub.topic, pub.type, msg) or msg
 
     def _may_override(self, session) -> bool:
-        return self.may_take_over(role_of(session))
+        return self.grants.overrides(session)
 
     def may_take_over(self, role: str | None) -> bool:
-        return self.takeover_role is None or role == self.takeover_role
+        return self.grants.overrides(role)
 
     def run_refusal(self, key: str, role: str | None, ns: str) -> str | None:
         """Why a robot-side run of person ``key`` (starter's ``role``) could not drive namespace
         ``ns``, or None when it may (it then takes the lease, from its person's page quietly)."""
         group = self.group_of_namespace(ns)
-        admin = self.takeover_role is not None and role == self.takeover_role
+        admin = self.grants.exempt(role)   # a signed-in admin: past a stop, a bar or an ended slot
         where = f' of {ns}' if ns else ''
         stopper = self.halted.get(group)
         if stopper is not None and not admin:
@@ -324,7 +324,7 @@ class Lease(FleetLease, Hook):
         if barred and not self._may_override(session):
             raise ProtocolError(self._released(group))
         stopper = self.halted.get(group)
-        if stopper is not None and not mine and not (self.takeover_role and self._may_override(session)):
+        if stopper is not None and not mine and not self.grants.exempt(session):
             raise ProtocolError(f'{stopper} stopped {group}; only its owner ({owner.name}) can take it again, '
                                 'or an admin release it: press "Claim a robot" for your own')
         if not mine and not self._may_override(session):

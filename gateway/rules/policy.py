@@ -20,24 +20,13 @@ from .stations import person_of
 from .names import ACTION_KINDS, LOCAL_HOSTS, action_of, host_name, is_ip, own_names, parse_globs, parse_networks, refuse, target
 from .sessions import SESSION_COOKIE, Sessions
 from ..settings import SecuritySettings
-from .access import OPERATORS, parameter_service, role_of, station_param
+from .access import (GATEWAY_ROLE, NOT_AUTHENTICATED, PERMISSIONS, VERBS, is_gateway, lowered,  # noqa: F401 (re-exported)
+                     parameter_service, role_refusal)
 from .tokens import AuthError, Authenticator, Identity
 
-GATEWAY_ROLE = 'gateway'   # the role of what the gateway publishes itself (stops): passes the lease, never moves
 OWN_PREFIX = '/rosgate/'              # the gateway's own topics (driver, runs' state and output)
 CONTROL_TOPIC = '/rosgate/control'    # where clients ask for the driver lease
-PERMISSIONS = {
-    'viewer': frozenset({'subscribe', 'read'}),
-    'operator': frozenset({'subscribe', 'read', 'publish', 'call', 'send_goal'}),
-    'admin': frozenset({'subscribe', 'read', 'publish', 'call', 'send_goal',
-                        'advertise_service', 'advertise_action', 'param', 'programs'}),
-}
-VERBS = {'subscribe': 'subscribe to', 'read': 'call', 'publish': 'publish to', 'call': 'call',
-         'send_goal': 'send goals to', 'advertise_service': 'advertise', 'advertise_action': 'advertise',
-         'param': 'change parameters through', 'programs': 'use'}
 WRITING_ROSAPI = ('/rosapi/set_param', '/rosapi/delete_param')
-NOT_AUTHENTICATED = ('not authenticated: send {"op": "auth", "token": ...} first '
-                     '(or connect with ?token=, an Authorization: Bearer header, or the session cookie of /login)')
 _NAME = re.compile(r'[^A-Za-z0-9 _.@-]')
 DEFAULT_PORTS = {'http': 80, 'https': 443, 'ws': 80, 'wss': 443}
 SMALL_BODY = 64 * 1024   # bodies up to this size are read without a token (the login form)
@@ -53,18 +42,6 @@ def permission(action: str, name: str, reads: Callable[[str], bool]) -> str:
         return parameter_service(name) or action
     return action
 
-
-
-RANKS = ('viewer', 'operator', 'admin')
-
-
-def lowered(role: str, asked) -> str:
-    """``role``, or the lower one a connection asks for (``?as=operator``: a page running a program
-    from another person's share link lends it no admin rights, ide/js/run/foreign.js); never higher."""
-    want = asked[-1].decode('ascii', 'replace') if isinstance(asked, list) and asked else asked
-    if isinstance(want, str) and want in RANKS and role in RANKS and RANKS.index(want) < RANKS.index(role):
-        return want
-    return role
 
 
 def token_from_request(request) -> str | None:
@@ -147,7 +124,7 @@ class Policy:
         """The one access rule (``rules.access.may``): None, or why ``who`` may not ``action`` ``name``."""
         if name is not None and not self.allows(who, action, name):
             return f'{name} is not allowed for {action} by this gateway'
-        if name is not None and who is not None and role_of(who) != GATEWAY_ROLE:   # nor from the gateway itself
+        if name is not None and who is not None and not is_gateway(who):   # nor from the gateway itself
             for keeper in self.keepers:
                 why = keeper(who, action, name)
                 if why is not None:
@@ -304,18 +281,10 @@ class SecurePolicy(Policy):
     def refusal(self, who, action: str, name: str | None) -> str | None:
         """With auth, the role first (``who`` None: the gateway itself, the globs alone), then the globs."""
         if self.auth is not None and who is not None:
-            role = role_of(who)
-            if role is None:
-                return NOT_AUTHENTICATED
             need = permission(action, name, self.reads) if name is not None else action
-            if need == 'param' and role in OPERATORS and need not in PERMISSIONS.get(role, ()) and name is not None:
-                # a student's own station's nodes: rosapi's writes are judged again by the parameter's name
-                why = None if name in WRITING_ROSAPI else station_param(self.stations, who, name)
-                if why is not None:
-                    return why
-            elif need not in PERMISSIONS.get(role, ()):
-                return f'role {role} may not {VERBS[need]} {name}' if name is not None else \
-                    f'role {role} may not {VERBS[need]} this'
+            why = role_refusal(who, need, name, self.stations, name in WRITING_ROSAPI)
+            if why is not None:
+                return why
         return super().refusal(who, action, name)
 
     def check(self, session, action: str, name: str, op: str, id: str | None):

@@ -21,7 +21,7 @@ import json
 
 from protocol.errors import ProtocolError
 
-from .access import acts_as_admin, person_of, role_of
+from .access import Action, Area, allowed, person_of, role_of
 from .stations import person
 
 TAIL = '/rosgate/program'
@@ -54,7 +54,7 @@ class Reports:
         if not isinstance(report, dict):
             raise ProtocolError(f'{pub.topic}: a program report is a JSON object ({{"name", "state", ...}})')
         owner = self._owner(pub.topic)
-        if owner is not None and owner.person != person(sender) and not acts_as_admin(sender if self.auth else None):
+        if owner is not None and owner.person != person(sender) and not allowed(sender if self.auth else None, Action.MANAGE, Area.REPORTS):
             raise ProtocolError(f'{pub.topic}: {station_of(pub.topic)} is {owner.name}\'s station: its program '
                                 'report is theirs')
         attrs = sender.attrs
@@ -66,7 +66,7 @@ class Reports:
 
     def keeper(self, who, action: str, name: str) -> str | None:
         """Who may read a report: the admins and its station's person."""
-        if action != 'subscribe' or not is_report(name) or not self.auth or acts_as_admin(who):
+        if action != 'subscribe' or not is_report(name) or not self.auth or allowed(who, Action.MANAGE, Area.REPORTS):
             return None
         owner = self._owner(name)
         if owner is not None and owner.person == person_of(who):

@@ -33,7 +33,7 @@ from protocol.convert import from_json
 from protocol.errors import ProtocolError
 
 from ..backends.base import QoS
-from .policy import GATEWAY_ROLE
+from .access import is_gateway
 from ..settings import SafetySettings
 from .hooks import Hook
 
@@ -149,7 +149,7 @@ class Safety(Hook):
             clamp = self.limits.for_topic(pub.topic)
             _scale(part['linear'], clamp.max_linear, 'linear')
             _scale(part['angular'], clamp.max_angular, 'angular')
-        if session.attrs.get('role') == GATEWAY_ROLE:
+        if is_gateway(session):
             return msg
         moving = moving_command(msg)
         if moving and not self._fresh(session, pub, issued):

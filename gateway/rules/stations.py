@@ -112,11 +112,11 @@ class Owner:
 
 class Stations(Hook):
     def __init__(self, gateway, *, types: frozenset[str], idle: float = CLAIM_IDLE,
-                 grace: float = CLAIM_GRACE, admin_role: str | None = None, timetable=None, queue=None):
-        """admin_role: who may release others' stations (None: anyone, as without --auth);
+                 grace: float = CLAIM_GRACE, grants=None, timetable=None, queue=None):
+        """grants: who may release others' stations (``rules.access.StationGrants``; None: anyone, as without --auth);
         timetable: the bookings (rules.bookings.Timetable) and queue: the walk-ins' line
         (rules.queue.Queue), with --booking."""
-        self.gateway, self.types, self.idle, self.grace, self.admin_role = gateway, types, idle, grace, admin_role
+        self.gateway, self.types, self.idle, self.grace, self.grants = gateway, types, idle, grace, grants
         self.timetable, self.queue = timetable, queue
         self.owners: dict[str, Owner] = {}
         self.released: dict[str, dict] = {}
@@ -348,7 +348,7 @@ class Stations(Hook):
             lease.free(station, session)
 
     def _may_release(self, session) -> bool:
-        return self.admin_role is None or session.attrs.get('role') == self.admin_role
+        return self.grants is None or self.grants.overrides(session)
 
     def _clients_of(self, key: str) -> list:
         return [s for s in self.gateway.sessions.values() if person(s) == key]

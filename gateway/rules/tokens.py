@@ -21,9 +21,18 @@ import tomllib
 from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass
+from enum import StrEnum
 from pathlib import Path
 
-ROLES = ('viewer', 'operator', 'admin')
+
+class Role(StrEnum):
+    """The roles a token, an LMS launch or rosauth gives, lowest first (``Role(value)`` parses one)."""
+    VIEWER = 'viewer'
+    OPERATOR = 'operator'
+    ADMIN = 'admin'
+
+
+ROLES = tuple(r.value for r in Role)
 TOKEN_CHARS = re.compile(r'[A-Za-z0-9._~-]{8,}')
 
 
@@ -60,9 +69,18 @@ def _digest(token: str) -> bytes:
 
 
 def _role(value, where: str) -> str:
-    if value not in ROLES:
+    role = role_named(value)
+    if role is None:
         raise ValueError(f'{where}: role must be one of {", ".join(ROLES)}, not {value!r}')
-    return value
+    return role
+
+
+def role_named(value) -> str | None:
+    """``value`` as a role's word, or None when it names none (parsed by ``Role``)."""
+    try:
+        return Role(value).value
+    except ValueError:
+        return None
 
 
 @dataclass(frozen=True)
@@ -156,7 +174,7 @@ class TokenStore:
         if mac in self._used_macs:   # a replayed MAC
             return None
         self._used_macs[mac] = now + 2 * ra.allowed_time_delta
-        role = level if level in ROLES else ra.role
+        role = role_named(level) or ra.role
         return Identity(client or 'rosauth', role)
 
 

@@ -39,7 +39,7 @@ import tornado.netutil
 from protocol.errors import ProtocolError
 
 from ..backends.base import QoS
-from ..rules.access import ADMINS, owns, person_of
+from ..rules.access import Action, Area, allowed, as_role, owns, person_of
 from ..rules.errors import Refusal
 from ..rules.hooks import Hook
 from ..rules.safety import Safety, moving_command
@@ -106,7 +106,7 @@ class RunManager(Hook):
             raise RunError(429, f'{len(going)} runs are going, the most this gateway runs at once '
                                              '(--max-runs); wait for one to end or stop one')
         mine = [r for r in going if person is not None and r.person == person]
-        if role not in ADMINS and len(mine) >= self.max_per_person:
+        if not allowed(as_role(role), Action.EXEMPT, Area.RUNS) and len(mine) >= self.max_per_person:
             raise RunError(429, f'{person} has {len(mine)} runs going ({", ".join(r.id for r in mine)}), '
                                              'the most one person may (--max-runs-per-person); stop one first')
         if self.archive is not None:

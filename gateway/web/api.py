@@ -1,8 +1,10 @@
 """Shared parts of the JSON HTTP API (/api/runs, /api/recordings, /api/programs, /whoami): errors
-as JSON, who is asking, and the checks in front of every request that changes something."""
+as JSON, who is asking (``@authorized``, the access decision in front of every handler method), and
+the checks in front of every request that changes something."""
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 
@@ -10,7 +12,7 @@ import tornado.web
 from tornado.log import gen_log
 
 from ..rules.errors import Refusal
-from ..rules.access import may
+from ..rules.access import NOBODY, Action, Area, decide
 from ..rules.tokens import AuthError
 
 
@@ -45,19 +47,42 @@ class JsonHandler(Handler):
         self.set_header('Cache-Control', 'no-store')
 
 
-def caller(handler: tornado.web.RequestHandler, gateway, *, change: bool = False, roles=None):
-    """The caller's Identity (None when auth is off). Anyone with a valid token may read; a
-    request that changes something must come from an allowed browser origin (or no browser) and,
-    with auth, from one of ``roles``."""
-    policy = gateway.policy
-    if change:
+def authorized(area: Area, action: Action | None = None, words: str | None = None, origin: bool | None = None):
+    """A handler method's access decision, as Jupyter Server's ``@authorized``: the caller is read
+    once (``authorize``: a token, or the session cookie; 401 or 429), a method other than GET and
+    HEAD passes the Origin check (``origin``: whether to, if not so), and ``rules.access.decide`` answers for ``action`` in ``area``
+    (None: SEE for GET and HEAD, CHANGE for the others); a refusal is the HTTPError of its
+    status and words (``words``: a 403's own, formatted with the caller's ``name`` and ``role``). The method finds the caller's Identity in ``self.identity`` (None: --auth off)."""
+    def wrap(method):
+        @functools.wraps(method)
+        def guarded(self, *args, **kwargs):
+            self.identity = authorize(self, area, action, words, origin)
+            return method(self, *args, **kwargs)
+        return guarded
+    return wrap
+
+
+def authorize(handler: tornado.web.RequestHandler, area: Area, action: Action | None = None,
+              words: str | None = None, origin: bool | None = None):
+    """``@authorized`` for a method that must answer something else first (the caller's Identity,
+    None when auth is off)."""
+    reads = handler.request.method in ('GET', 'HEAD')
+    action = action or (Action.SEE if reads else Action.CHANGE)
+    policy = policy_of(handler)
+    if not reads if origin is None else origin:
         check_origin(handler, policy)
-    if policy.auth is None:
-        return None
-    identity = require(handler, policy, 'read')
-    if roles is not None and identity.role not in roles:
-        raise tornado.web.HTTPError(403, f'role {identity.role} may not do this; it needs {" or ".join(roles)}')
+    identity = require(handler, policy)
+    why = decide(identity if identity is not None or policy.auth is None else NOBODY, action, area)
+    if why is not None:
+        said = words.format(name=identity.name, role=identity.role) if words and why.status == 403 else why.message
+        raise tornado.web.HTTPError(why.status, said)
     return identity
+
+
+def policy_of(handler: tornado.web.RequestHandler):
+    """The gateway's policy: the handler's own, or its application's gateway's."""
+    policy = getattr(handler, 'policy', None)
+    return policy if policy is not None else handler.application.gateway.policy
 
 
 def check_origin(handler: tornado.web.RequestHandler, policy) -> None:
@@ -137,18 +162,16 @@ def query_number(handler: tornado.web.RequestHandler, name: str, default, what: 
     return value
 
 
-def require(handler: tornado.web.RequestHandler, policy, permission: str):
+def require(handler: tornado.web.RequestHandler, policy, area: Area = Area.WHOAMI):
     """The caller's Identity (None when auth is off); raise 401 (no or bad token), 429 (too many
-    failures) or 403 (role too low)."""
-    auth = policy.auth
-    if auth is None:
+    failures), or what ``decide`` says of SEE in ``area``."""
+    if policy.auth is None:
         return None
     try:
         identity = policy.identity_of(handler.request)
     except AuthError as e:
         raise tornado.web.HTTPError(e.status, str(e)) from None
-    if identity is None:
-        raise tornado.web.HTTPError(401, 'a token is required: sign in at /login or send Authorization: Bearer')
-    if may(policy, identity, permission) is not None:
-        raise tornado.web.HTTPError(403, f'role {identity.role} may not use this; it needs admin')
+    why = decide(identity if identity is not None else NOBODY, Action.SEE, area)
+    if why is not None:
+        raise tornado.web.HTTPError(why.status, why.message)
     return identity

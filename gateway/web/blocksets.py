@@ -26,8 +26,8 @@ from pathlib import Path
 
 import tornado.web
 
-from ..rules.access import is_admin
-from .api import JsonHandler, body_json, caller
+from ..rules.access import Action, Area, allowed
+from .api import JsonHandler, authorized, body_json
 from .blockcheck import BlockSchema
 from .programs import write_whole
 
@@ -94,9 +94,9 @@ class BlocksHandler(JsonHandler):
     def initialize(self, gateway, folder: Path | None, schema: BlockSchema) -> None:
         self.gateway, self.folder, self.schema = gateway, folder, schema
 
+    @authorized(Area.BLOCKS)
     def get(self) -> None:
-        who = caller(self, self.gateway)
-        admin = who is None or is_admin(who)
+        admin = allowed(self.identity, Action.CHANGE, Area.BLOCKS)   # may publish to the class
         if self.folder is None:
             self.finish({'sets': [], 'shared': [], 'publish': False})
             return
@@ -109,10 +109,8 @@ class SharedHandler(JsonHandler):
     def initialize(self, gateway, folder: Path | None, schema: BlockSchema) -> None:
         self.gateway, self.folder, self.schema = gateway, folder, schema
 
+    @authorized(Area.BLOCKS, Action.CHANGE, words='{name} may not publish blocks to the class: an admin may')
     def post(self) -> None:
-        who = caller(self, self.gateway, change=True)
-        if who is not None and not is_admin(who):
-            raise tornado.web.HTTPError(403, f'{who.name} may not publish blocks to the class: an admin may')
         if self.folder is None:
             raise tornado.web.HTTPError(404, 'this gateway keeps no shared blocks (start it with --blocks-dir DIR)')
         made = body_json(self, MAX_BLOCK_BYTES)

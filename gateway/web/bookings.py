@@ -36,10 +36,10 @@ import icalendar
 import tornado.web
 
 from ..rules import roster
-from ..rules.access import ADMINS, OPERATORS, acts_as_admin, is_admin, owns
+from ..rules.access import Action, Area, allowed
 from ..rules.bookings import Slots
 from ..rules.stations import person_of
-from .api import JsonHandler, body_json, caller, query_number
+from .api import JsonHandler, authorize, body_json, query_number
 
 MAX_BODY = 4096
 ID = re.compile(r'[0-9]{1,12}')
@@ -58,9 +58,9 @@ class _Handler(JsonHandler):
         if self.slots is None and not (self.request.method == 'GET' and isinstance(self, BookingListHandler)):
             raise tornado.web.HTTPError(404, 'bookings are off on this gateway (start it with --booking)')
 
-    def who(self, change: bool = False, roles=None):
-        """(identity or None, person or None)."""
-        identity = caller(self, self.gateway, change=change, roles=roles)
+    def who(self, area: Area = Area.BOOKINGS, action: Action | None = None):
+        """(identity or None, person or None), when they may ``action`` in ``area`` (``web.api.authorize``)."""
+        identity = authorize(self, area, action)
         return identity, person_of(identity, self.request.cookies)
 
     def number(self, name: str, value) -> float:
@@ -93,7 +93,7 @@ class BookingListHandler(_Handler):
                      'limits': {'per_day': lim.per_day, 'per_week': lim.per_week, 'ahead': lim.ahead}})
 
     async def post(self) -> None:
-        identity, key = self.who(change=True, roles=OPERATORS)
+        identity, key = self.who()
         if key is None:
             raise tornado.web.HTTPError(403, 'a booking needs a person: sign in, or book from the gateway\'s pages')
         body = body_json(self, MAX_BODY)
@@ -103,17 +103,17 @@ class BookingListHandler(_Handler):
             raise tornado.web.HTTPError(404 if isinstance(station, str) else 400,
                                         f'"station" is one of the stations ({known}), not {str(station)[:40]!r}')
         start, end = self.number('start', body.get('start')), self.number('end', body.get('end'))
-        admin = is_admin(identity)
+        exempt = allowed(identity, Action.EXEMPT, Area.BOOKINGS)   # past the day's and week's limits
         name = identity.name if identity is not None else f'guest {key.split()[-1][:6]}'
         booker = key
         behalf = body.get('for')
         if behalf is not None:   # the teacher books a slot for a student
-            if not admin:
+            if not allowed(identity, Action.MANAGE, Area.BOOKINGS):
                 raise tornado.web.HTTPError(403, '"for" (booking for someone else) is for admins')
             if not isinstance(behalf, str) or not 0 < len(behalf.strip()) <= 100:
                 raise tornado.web.HTTPError(400, '"for" is the name or id of a person')
             booker, name = await self.behalf(behalf.strip())
-        booking = await self.slots.timetable.add(station, booker, name, start, end, exempt=admin)   # BookingError: answered by Handler
+        booking = await self.slots.timetable.add(station, booker, name, start, end, exempt=exempt)   # BookingError: answered by Handler
         self.set_status(201)
         self.finish(_view(booking, key))
 
@@ -150,7 +150,7 @@ class PeopleHandler(_Handler):
         pass   # the people are known with or without --booking
 
     async def get(self) -> None:
-        self.who(roles=ADMINS)
+        self.who(Area.PEOPLE)
         self.finish({'people': await people(self.gateway)})
 
 
@@ -166,12 +166,12 @@ class BookingHandler(_Handler):
         self.finish(_view(self._booking(booking_id), key))
 
     async def delete(self, booking_id: str) -> None:
-        identity, key = self.who(change=True)
+        identity, key = self.who(action=Action.SEE)   # a booking of one's own: cancelled by whoever may see it
         booking = self._booking(booking_id)
-        if not owns(identity, booking.person == key):
+        if not allowed(identity, Action.CHANGE, Area.BOOKINGS, booking.person):
             raise tornado.web.HTTPError(403, f'booking {booking.id} is {booking.name}\'s; only they or an admin '
                                              'may cancel it')
-        if booking.end <= self.slots.timetable.now() and not acts_as_admin(identity):
+        if booking.end <= self.slots.timetable.now() and not allowed(identity, Action.MANAGE, Area.BOOKINGS):
             raise tornado.web.HTTPError(409, f'booking {booking.id} has ended; past slots stay on the timetable')
         await self.slots.timetable.remove(booking)
         self.finish({**_view(booking, key), 'deleted': True})
@@ -183,7 +183,7 @@ class CalendarHandler(_Handler):
 
     def get(self) -> None:
         identity, key = self.who()
-        admin = is_admin(identity)
+        admin = allowed(identity, Action.MANAGE, Area.BOOKINGS)   # everyone's calendar
         found = self.slots.timetable.query(person=None if admin else key) if (key or admin) else []
         cal = icalendar.Calendar()
         cal.add('prodid', '-//rosgate//bookings//EN')
@@ -216,11 +216,11 @@ class QueueHandler(_Handler):
         self.finish({**body, 'station': mine})
 
     def get(self) -> None:
-        _, key = self.who()
+        _, key = self.who(Area.QUEUE)
         self.answer(key)
 
     def post(self) -> None:
-        identity, key = self.who(change=True, roles=OPERATORS)
+        identity, key = self.who(Area.QUEUE)
         if key is None:
             raise tornado.web.HTTPError(403, 'the queue needs a person: sign in, or join from the gateway\'s pages')
         stations = self.slots.stations
@@ -233,7 +233,7 @@ class QueueHandler(_Handler):
         self.answer(key)
 
     def delete(self) -> None:
-        _, key = self.who(change=True)
+        _, key = self.who(Area.QUEUE, Action.SEE)   # leaving: whoever may see the queue
         if key is None or not self.slots.queue.leave(key):
             raise tornado.web.HTTPError(404, 'you are not in the queue')
         self.answer(key)

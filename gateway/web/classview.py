@@ -10,8 +10,8 @@ from urllib.parse import quote
 
 import tornado.web
 
-from ..rules.access import is_admin
-from .api import Handler, require
+from ..rules.access import Area
+from .api import Handler, authorize
 from .pages import write_page
 
 
@@ -20,18 +20,13 @@ class ClassHandler(Handler):
         self.gateway, self.page = gateway, page
 
     def get(self) -> None:
-        policy = self.gateway.policy
-        if policy.auth is not None:
-            try:
-                identity = require(self, policy, 'read')
-            except tornado.web.HTTPError as e:
-                if e.status_code != 401:
-                    raise
-                self.redirect(f'/login?next={quote("/class")}')
-                return
-            if not is_admin(identity):
-                raise tornado.web.HTTPError(403, f'the class view is for admins; {identity.name} is '
-                                                 f'{identity.role}')
+        try:
+            authorize(self, Area.CLASS, words='the class view is for admins; {name} is {role}')
+        except tornado.web.HTTPError as e:
+            if e.status_code != 401:
+                raise
+            self.redirect(f'/login?next={quote("/class")}')
+            return
         write_page(self, self.page, cache='no-store')
 
     def answer_error(self, status_code: int, reason: str) -> None:

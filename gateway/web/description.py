@@ -16,7 +16,8 @@ import tornado.web
 
 from ..twin.description import Descriptions, XacroError
 from ..twin.packages import package_roots
-from .api import JsonHandler, caller
+from .api import JsonHandler, authorized
+from ..rules.access import Area
 
 NAMESPACE = re.compile(r'(/[A-Za-z][A-Za-z0-9_]*)*')
 
@@ -25,8 +26,9 @@ class DescriptionHandler(JsonHandler):
     def initialize(self, descriptions: Descriptions) -> None:
         self.d = descriptions
 
+    @authorized(Area.DESCRIPTION)
     async def get(self) -> None:
-        who = caller(self, self.d.gateway)
+        who = self.identity
         ns = self.get_query_argument('ns', '').strip().rstrip('/')
         if ns and not ns.startswith('/'):
             ns = '/' + ns
@@ -41,8 +43,8 @@ class UrdfHandler(tornado.web.RequestHandler):
     def initialize(self, descriptions: Descriptions) -> None:
         self.d = descriptions
 
+    @authorized(Area.DESCRIPTION)
     async def get(self) -> None:
-        caller(self, self.d.gateway)
         if self.d.urdf is None or not self.d.urdf.is_file():
             raise tornado.web.HTTPError(404, 'no --urdf given')
         try:
@@ -54,8 +56,8 @@ class UrdfHandler(tornado.web.RequestHandler):
         self.set_header('X-Content-Type-Options', 'nosniff')
         self.finish(text)
 
+    @authorized(Area.DESCRIPTION)
     async def head(self) -> None:
-        caller(self, self.d.gateway)
         if self.d.urdf is None or not self.d.urdf.is_file():
             raise tornado.web.HTTPError(404, 'no --urdf given')
         self.set_header('Content-Type', 'text/xml; charset=utf-8')

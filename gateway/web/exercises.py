@@ -26,13 +26,10 @@ import tornado.web
 from ..exercises import ExerciseError, Library, attempt_person, public
 from ..exercises import store as results
 from ..rules.stations import person_of
-from .api import JsonHandler, body_json, caller
+from ..rules.access import Action, Area, allowed
+from .api import JsonHandler, authorize, authorized, body_json
 
 MAX_BODY = 512 * 1024
-
-
-def _admin(identity) -> bool:
-    return identity is None or identity.role == 'admin'
 
 
 def _key(identity) -> str:
@@ -43,8 +40,8 @@ class ExercisesHandler(JsonHandler):
     def initialize(self, gateway, library: Library) -> None:
         self.gateway, self.library = gateway, library
 
+    @authorized(Area.EXERCISES)
     def get(self, ex_id: str | None = None) -> None:
-        caller(self, self.gateway)
         try:
             if ex_id is None:
                 found, problems = self.library.all()
@@ -60,7 +57,7 @@ class ExercisesHandler(JsonHandler):
     def post(self, ex_id: str | None = None) -> None:
         if ex_id is not None:
             raise tornado.web.HTTPError(405, 'POST /api/exercises with the id in the body')
-        caller(self, self.gateway, change=True, roles=('admin',))
+        self.identity = authorize(self, Area.EXERCISES)
         body = body_json(self, MAX_BODY)
         try:
             ex = self.library.save(str(body.get('id', '')), body)
@@ -74,8 +71,9 @@ class AttemptsHandler(JsonHandler):
     def initialize(self, gateway, library: Library, checker) -> None:
         self.gateway, self.library, self.checker = gateway, library, checker
 
+    @authorized(Area.ATTEMPTS)
     def post(self, ex_id: str) -> None:
-        identity = caller(self, self.gateway, change=True)
+        identity = self.identity
         body = body_json(self, MAX_BODY)
         try:
             ex = self.library.get(ex_id)
@@ -107,11 +105,12 @@ class AttemptHandler(JsonHandler):
         self.gateway, self.checker = gateway, checker
 
     def _own(self, identity, person: str) -> None:
-        if not _admin(identity) and person != _key(identity):
+        if not allowed(identity, Action.SEE, Area.ATTEMPTS, person):
             raise tornado.web.HTTPError(403, 'another person\'s attempt')
 
+    @authorized(Area.ATTEMPTS)
     async def get(self, attempt_id: str, stop: str | None = None) -> None:
-        identity = caller(self, self.gateway)
+        identity = self.identity
         live = self.checker.attempts.get(attempt_id)
         if live is not None:
             self._own(identity, _key(live.identity))
@@ -126,8 +125,9 @@ class AttemptHandler(JsonHandler):
         self._own(identity, rows[0]['person'])
         self.finish({'live': False, **rows[0]})
 
+    @authorized(Area.ATTEMPTS)
     def post(self, attempt_id: str, stop: str | None = None) -> None:
-        identity = caller(self, self.gateway, change=True)
+        identity = self.identity
         live = self.checker.attempts.get(attempt_id)
         if live is None:
             raise tornado.web.HTTPError(404, f'no live attempt {attempt_id[:64]!r}')
@@ -139,11 +139,12 @@ class ResultsHandler(JsonHandler):
     def initialize(self, gateway) -> None:
         self.gateway = gateway
 
+    @authorized(Area.ATTEMPTS)
     async def get(self) -> None:
-        identity = caller(self, self.gateway)
+        identity = self.identity
         person = self.get_query_argument('person', None)
         exercise = self.get_query_argument('exercise', None)
-        if not _admin(identity):
+        if not allowed(identity, Action.MANAGE, Area.ATTEMPTS):
             if person is not None and person != _key(identity):
                 raise tornado.web.HTTPError(403, 'another person\'s results: only an admin reads them')
             person = _key(identity)

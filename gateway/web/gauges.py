@@ -17,25 +17,26 @@ from pathlib import Path
 
 import tornado.web
 
-from ..rules.access import acts_as_admin
+from ..rules.access import Action, Area, allowed
 from ..twin.gauges import read_limits
-from .api import JsonHandler, caller
+from .api import JsonHandler, authorized
 
 
 class GaugesHandler(JsonHandler):
     def initialize(self, gateway, path: Path | None) -> None:
         self.gateway, self.path = gateway, path
 
+    @authorized(Area.GAUGES)
     def get(self) -> None:
-        identity = caller(self, self.gateway)
+        server = allowed(self.identity, Action.SEE, Area.SERVER)   # the server's paths are the admins'
         if self.path is None:
             self.finish({'limits': {}})
             return
         try:
             limits = read_limits(self.path)
         except (OSError, ValueError, RecursionError) as e:
-            why = str(e) if acts_as_admin(identity) else str(e).replace(str(self.path), self.path.name)
-            if not acts_as_admin(identity) and isinstance(e, OSError):
+            why = str(e) if server else str(e).replace(str(self.path), self.path.name)
+            if not server and isinstance(e, OSError):
                 why = f'{self.path.name}: {e.strerror or "cannot be read"}'   # the server's paths are the admins'
             raise tornado.web.HTTPError(500, f'the --gauges file: {why}') from None
         self.finish({'limits': limits})

@@ -21,10 +21,10 @@ import time
 import orjson
 import tornado.web
 
-from ..rules.access import acts_as_admin, may
+from ..rules.access import Action, Area, allowed, may
 from ..twin.history import History
 from ..twin.queries import MAX_BUCKETS, listing, query
-from .api import JsonHandler, caller, query_number
+from .api import JsonHandler, authorized, query_number
 
 DEFAULT_SPAN = 600.0
 LATEST = 1e11        # s since 1970 (the year 5138): a larger from, to or step is no time the store can hold
@@ -41,9 +41,9 @@ class _Handler(JsonHandler):
 
 
 class HistoryHandler(_Handler):
+    @authorized(Area.HISTORY)
     async def get(self) -> None:
-        h = self.history
-        identity = caller(self, h.gateway)
+        h, identity = self.history, self.identity
         topic = self.get_query_argument('topic', None)
         known = await h.store.run(listing)
         for live in h.taps:
@@ -104,13 +104,13 @@ class HistoryHandler(_Handler):
 
 
 class HistoryStatsHandler(_Handler):
+    @authorized(Area.HISTORY)
     async def get(self) -> None:
-        h = self.history
-        identity = caller(self, h.gateway)
+        h, identity = self.history, self.identity
         used = await h.store.run(h.used_bytes)
         size = await h.store.run(lambda conn: h.store.size()) if not h.store.sqlite else h.store.size()
         stats = h.stats(size, used)
-        if not acts_as_admin(identity):   # where the database is (a path, a host) is the admins'
+        if not allowed(identity, Action.SEE, Area.SERVER):   # where the database is (a path, a host) is the admins'
             stats['db'] = stats['db'].split(':', 1)[0]
         self.finish(stats)
 

@@ -11,7 +11,8 @@ import tornado.web
 from ..rules.policy import session_cookie
 from ..rules.sessions import SESSION_COOKIE
 from ..rules.tokens import AuthError
-from .api import JsonHandler, check_origin, require
+from ..rules.access import Area
+from .api import JsonHandler, authorized, check_origin
 from .cookies import clear_cookie, is_https, set_cookie
 from .language import Texts
 
@@ -106,11 +107,12 @@ class WhoAmIHandler(JsonHandler):
     def initialize(self, policy) -> None:
         self.policy = policy
 
+    @authorized(Area.WHOAMI)
     def get(self) -> None:
-        if self.policy.auth is None:
+        identity = self.identity
+        if identity is None:   # --auth off
             self.finish({'auth': False, 'name': None, 'role': 'admin'})
             return
-        identity = require(self, self.policy, 'read')
         self.finish({'auth': True, 'name': identity.name, 'role': identity.role})
 
 

@@ -41,7 +41,7 @@ import tornado.web
 
 from ..exercises import ID as EXERCISE_ID, ExerciseError
 from ..rules import grades, lti, lti_dynamic, roster
-from ..rules.access import is_admin
+from ..rules.access import Action, Area, allowed
 from ..rules.lti import LaunchError
 from .api import Handler, check_origin
 from .cookies import clear_cookie, set_cookie
@@ -318,7 +318,7 @@ class LaunchHandler(LtiPage):
         tornado.ioloop.IOLoop.current().spawn_callback(run)
 
     def _picker(self, identity, reg, claims) -> None:
-        if not is_admin(identity):
+        if not allowed(identity, Action.MANAGE, Area.COURSE):
             self.refuse(f'adding rosgate to a course is for teachers; {identity.name} is {identity.role} here', 403)
             return
         ticket = secrets.token_urlsafe(24)

@@ -23,7 +23,7 @@ import tornado.web
 from tornado.httpclient import HTTPRequest
 
 from ..rules import lti_dynamic
-from ..rules.access import is_admin
+from ..rules.access import Action, Area, allowed
 from ..rules.lti_dynamic import RegistrationError
 from ..rules.tokens import AuthError
 from .api import check_origin
@@ -72,7 +72,7 @@ class ConfigHandler(LtiPage):
                     '<td><code>auth_token_url</code></td></tr>'
                     f'<tr><td>Roster (NRPS)</td><td>{ROSTER_MOODLE}</td><td>{ROSTER_CANVAS}</td>'
                     '<td><code>auth_token_url</code> (and <code>memberships_urls</code>)</td></tr>')
-        if is_admin(_identity(self)):
+        if allowed(_identity(self), Action.MANAGE, Area.COURSE):
             register = ('<form method="post" action="/lti/register/new"><button type="submit" id="new-registration">'
                         'Make a registration URL</button> (good once, for an hour)</form>')
         else:
@@ -121,7 +121,7 @@ class RegisterLinkHandler(LtiPage):
     async def post(self) -> None:
         check_origin(self, self.lti.policy)
         who = _identity(self)
-        if not is_admin(who):
+        if not allowed(who, Action.MANAGE, Area.COURSE):
             self.refuse('a registration URL is made by an admin of this gateway: sign in as one', 403)
             return
         ticket = await self.lti.store.run(lambda c: lti_dynamic.make_link(c, who.name))

@@ -15,7 +15,7 @@ that folder is given with ``--mesh-path`` (as docs/robot-builder.md says); only 
 files are served (``SUFFIXES``), so a package's scripts or config stay private. Cached by the
 browser (ETag and Last-Modified from tornado's StaticFileHandler, revalidated after
 ``MAX_AGE``): a Husky's meshes are some 8 MB, which a page reload need not fetch again.
-With --auth, a valid token is needed, as for the other reads (``api.caller``).
+With --auth, a valid token is needed, as for the other reads (``api.authorized``).
 """
 
 from __future__ import annotations
@@ -25,7 +25,8 @@ from pathlib import Path
 import tornado.web
 
 from ..twin.packages import find, package_roots
-from .api import caller
+from ..rules.access import Area
+from .api import authorized
 
 MAX_AGE = 300   # s a mesh is used from the browser's cache before it is revalidated (304)
 
@@ -37,8 +38,8 @@ class PackageHandler(tornado.web.StaticFileHandler):
         super().initialize(path='/')
         self.gateway, self.roots = gateway, roots
 
+    @authorized(Area.PACKAGES)
     async def get(self, package: str, path: str, include_body: bool = True) -> None:
-        caller(self, self.gateway)
         real = find(self.roots, package, path)
         if real is None:
             raise tornado.web.HTTPError(404, f'{package}/{path} is in no package root')

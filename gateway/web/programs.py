@@ -30,6 +30,7 @@ import tempfile
 
 import tornado.web
 
+from ..rules.access import Action, Area, allowed
 from .api import JsonHandler, body_json, check_origin, require
 from ..settings import data_dir
 
@@ -82,7 +83,7 @@ def write_whole(path: pathlib.Path, data: bytes) -> None:
 def space_owner(identity, asked: str | None, verb: str = "open") -> str | None:
     """Whose space a request is about: an admin (or anyone, with auth off) names it (None: the
     shared space); anyone else gets their own and may not name someone else's."""
-    if identity is None or identity.role == "admin":
+    if allowed(identity, Action.MANAGE, Area.PROGRAMS):
         return asked
     if asked is not None and asked != identity.owner:
         raise tornado.web.HTTPError(403, "%s may %s only their own programs" % (identity.name, verb))
@@ -97,10 +98,10 @@ class _Base(JsonHandler):
 
     def prepare(self) -> None:
         """With auth on, every request needs a valid token; each name keeps to its own space."""
-        self.identity = require(self, self.policy, "read")
+        self.identity = require(self, self.policy, Area.PROGRAMS)
 
     def _admin(self) -> bool:
-        return self.identity is None or self.identity.role == "admin"
+        return allowed(self.identity, Action.MANAGE, Area.PROGRAMS)
 
     def _owner(self) -> str | None:
         """The space this request is about: ?owner= for an admin (none: the shared space), the
@@ -112,8 +113,8 @@ class _Base(JsonHandler):
 
     def _may_write(self) -> None:
         check_origin(self, self.policy)
-        if self.identity is not None and self.identity.role == "viewer":
-            raise tornado.web.HTTPError(403, "role viewer may not save or delete programs")
+        if not allowed(self.identity, Action.CHANGE, Area.PROGRAMS):
+            raise tornado.web.HTTPError(403, "role %s may not save or delete programs" % self.identity.role)
 
     def _path(self, name: str) -> pathlib.Path:
         if not _NAME.fullmatch(name):

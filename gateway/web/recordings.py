@@ -18,9 +18,9 @@ from pathlib import Path
 
 import tornado.web
 
-from ..rules.access import OPERATORS, acts_as_admin, owns
+from ..rules.access import Action, Area, allowed
 from ..rules.stations import person_of
-from .api import JsonHandler, body_json, caller
+from .api import JsonHandler, authorized, body_json
 from ..media.recordings import RecordingManager
 
 
@@ -30,14 +30,15 @@ class _Handler(JsonHandler):
 
 
 class RecordingListHandler(_Handler):
+    @authorized(Area.RECORDINGS)
     def get(self) -> None:
-        identity = caller(self, self.manager.gateway)
-        self.finish({'recordings': self.manager.listing(identity, acts_as_admin(identity)),
+        identity = self.identity
+        self.finish({'recordings': self.manager.listing(identity, allowed(identity, Action.MANAGE, Area.RECORDINGS)),
                      'max_concurrent': self.manager.limits.max_concurrent})
 
+    @authorized(Area.RECORDINGS)
     def post(self) -> None:
-        m = self.manager
-        identity = caller(self, m.gateway, change=True, roles=OPERATORS)
+        m, identity = self.manager, self.identity
         body = body_json(self, 64 * 1024)
         topics = body.get('topics')
         if not isinstance(topics, list) or not topics or not all(isinstance(t, str) and t.startswith('/') for t in topics):
@@ -51,8 +52,9 @@ class RecordingListHandler(_Handler):
 
 
 class RecordingHandler(_Handler):
+    @authorized(Area.RECORDINGS)
     def get(self, rec_id: str) -> None:
-        identity = caller(self, self.manager.gateway)
+        identity = self.identity
         self.manager.check_owner(rec_id, identity, 'read')
         rec = self.manager.recordings.get(rec_id)
         if rec is not None:
@@ -61,9 +63,9 @@ class RecordingHandler(_Handler):
         self.manager.path(rec_id)
         self.finish(next(r for r in self.manager.listing() if r['id'] == rec_id))
 
+    @authorized(Area.RECORDINGS)
     def delete(self, rec_id: str) -> None:
-        m = self.manager
-        identity = caller(self, m.gateway, change=True, roles=OPERATORS)
+        m, identity = self.manager, self.identity
         m.check_owner(rec_id, identity, 'stop or delete', changes=True)
         rec = m.recordings.get(rec_id)
         if rec is not None and rec.state == 'recording':
@@ -80,8 +82,9 @@ class RecordingHandler(_Handler):
 
 
 class RecordingFileHandler(_Handler):
+    @authorized(Area.RECORDINGS)
     async def get(self, rec_id: str) -> None:
-        identity = caller(self, self.manager.gateway)
+        identity = self.identity
         file = self.manager.path(rec_id) / f'{rec_id}.mcap'
         self.manager.check_owner(rec_id, identity, 'download')
         await send_file(self, file, f'{rec_id}.mcap')
@@ -100,9 +103,9 @@ async def send_file(handler: tornado.web.RequestHandler, file: Path, name: str) 
 
 
 class PlayHandler(_Handler):
+    @authorized(Area.RECORDINGS)
     def post(self, rec_id: str) -> None:
-        m = self.manager
-        identity = caller(self, m.gateway, change=True, roles=OPERATORS)
+        m, identity = self.manager, self.identity
         m.check_owner(rec_id, identity, 'play')
         body = body_json(self, 4096) if self.request.body else {}
         rate = body.get('rate', 1.0)
@@ -114,11 +117,11 @@ class PlayHandler(_Handler):
         self.set_status(202)
         self.finish(m.play(rec_id, float(rate), prefix, identity, person_of(identity, self.request.cookies)))
 
+    @authorized(Area.RECORDINGS)
     def delete(self, rec_id: str) -> None:
-        m = self.manager
-        identity = caller(self, m.gateway, change=True, roles=OPERATORS)
+        m, identity = self.manager, self.identity
         player = m.player(rec_id)
-        if player is not None and not owns(identity, identity is not None and player == identity.owner):
+        if player is not None and not allowed(identity, Action.CHANGE, Area.RECORDINGS, player):
             raise tornado.web.HTTPError(403, f'{player} plays {rec_id}; {identity.name} may not stop it')
         self.finish({'stopped': m.stop_playing(rec_id)})
 

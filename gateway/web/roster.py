@@ -16,20 +16,20 @@ from __future__ import annotations
 import tornado.web
 
 from ..rules import roster
-from ..rules.access import ADMINS
-from .api import JsonHandler, caller
+from ..rules.access import Area
+from .api import JsonHandler, authorized
 
 
 class RosterHandler(JsonHandler):
     def initialize(self, gateway, config) -> None:
         self.gateway, self.config = gateway, config
 
+    @authorized(Area.ROSTER)
     async def get(self) -> None:
-        caller(self, self.gateway, roles=ADMINS)
         await self._answer({})
 
+    @authorized(Area.ROSTER)
     async def post(self) -> None:
-        caller(self, self.gateway, change=True, roles=ADMINS)
         if self.config is None:
             raise tornado.web.HTTPError(404, 'no LMS to read a roster from (start the gateway with --lti)')
         await self._answer(await roster.refresh(self.gateway.store, self.config))

@@ -26,12 +26,12 @@ from pathlib import Path
 
 import tornado.web
 
-from ..rules.access import ADMINS, OPERATORS, acts_as_admin, owns
-from ..rules.policy import lowered
+from ..rules.access import Action, Area, allowed
+from ..rules.access import lowered
 from ..rules.stations import person_of
 from ..runs import Run, RunManager
 from ..runs.archive import Archive
-from .api import JsonHandler, body_json, caller
+from .api import JsonHandler, authorize, authorized, body_json
 from .programs import space_owner, stored_program
 from ..media.recordings import RecordingManager
 from .recordings import send_file
@@ -54,7 +54,7 @@ def _local_address(handler) -> tuple[str, int, bool]:
 def may_see(identity, run: Run | dict) -> bool:
     """A run's state, output and recording are its starter's and the admins' (everyone's with auth off)."""
     owner = run['owner'] if isinstance(run, dict) else run.owner
-    return owns(identity, identity is not None and owner == identity.owner)
+    return allowed(identity, Action.SEE, Area.RUNS, owner)
 
 
 def refuse(identity, run_id: str, who: str | None, what: str = 'its state and output are') -> None:
@@ -90,10 +90,11 @@ class _Handler(JsonHandler):
 
 
 class RunListHandler(_Handler):
+    @authorized(Area.RUNS)
     async def get(self) -> None:
-        identity = caller(self, self.manager.gateway)
+        identity = self.identity
         if self.get_argument('all', '') not in ('', '0'):
-            everyone = acts_as_admin(identity)
+            everyone = allowed(identity, Action.MANAGE, Area.RUNS)
             owner = identity.owner if identity is not None else None
             rows = await self.archive.store.run(lambda c: Archive.rows(c, owner, everyone))
             person = self.get_argument('person', None)
@@ -102,9 +103,10 @@ class RunListHandler(_Handler):
             runs = [r.summary() for r in self.manager.runs.values() if may_see(identity, r)]
         self.finish({'allowed': self.manager.allowed, 'nodes': self.manager.allowed and self.manager.nodes, 'runs': runs})
 
+    @authorized(Area.RUNS, Action.MANAGE)
     async def delete(self) -> None:
         """An admin deletes every kept run of a person (there is no other way a person leaves)."""
-        identity = caller(self, self.manager.gateway, change=True, roles=ADMINS)
+        identity = self.identity
         person = self.get_argument('person', '')
         if not person:
             raise tornado.web.HTTPError(400, 'give ?person=NAME: whose kept runs to delete')
@@ -116,7 +118,7 @@ class RunListHandler(_Handler):
         m = self.manager
         if not m.allowed:
             raise tornado.web.HTTPError(403, 'runs are off on this gateway (start it with --allow-runs)')
-        identity = caller(self, m.gateway, change=True, roles=OPERATORS)
+        identity = authorize(self, Area.RUNS)
         body = body_json(self, MAX_SOURCE)
         source = body.get('source')
         if source is None and body.get('program') is not None:
@@ -203,8 +205,9 @@ class RunHandler(_Handler):
             raise tornado.web.HTTPError(404, f'no run {run_id!r}')
         return run
 
+    @authorized(Area.RUNS)
     async def get(self, run_id: str) -> None:
-        identity = caller(self, self.manager.gateway)
+        identity = self.identity
         run = self.manager.runs.get(run_id)
         if run is None:     # a run of before the last restart, or one no longer in memory
             row = await self.row(run_id, identity, 'its state and output are')
@@ -214,8 +217,9 @@ class RunHandler(_Handler):
             refuse(identity, run.id, run.who)
         self.finish(run.detail())
 
+    @authorized(Area.RUNS)
     def delete(self, run_id: str) -> None:
-        identity = caller(self, self.manager.gateway, change=True, roles=OPERATORS)
+        identity = self.identity
         run = self._run(run_id)
         if not may_see(identity, run):
             refuse(identity, run.id, run.who, 'stopping it is')
@@ -227,8 +231,9 @@ class RunHandler(_Handler):
 class RunFileHandler(_Handler):
     """A kept run's output, source or recording, as a file to download."""
 
+    @authorized(Area.RUNS)
     async def get(self, run_id: str, what: str) -> None:
-        identity = caller(self, self.manager.gateway)
+        identity = self.identity
         row = await self.row(run_id, identity, 'its source, output and recording are')
         stamp = time.strftime('%Y%m%d-%H%M%S', time.localtime(row['started']))
         base = f"{re.sub(r'[^A-Za-z0-9_.-]+', '_', row['name'])}-{stamp}-{run_id}"

@@ -43,8 +43,8 @@ from protocol.ops import MAX_IMAGE_SIDE
 from ..bridge.gateway import Gateway
 from ..media import images
 from ..media.video import BOUNDARY, STALL, Video, Viewer
-from ..rules.access import may
-from .api import Handler, caller, query_number
+from ..rules.access import Area, may
+from .api import Handler, authorize, query_number
 from .socket import bound_unsent
 
 NO_CACHE = 'no-cache, no-store, must-revalidate, pre-check=0, post-check=0, max-age=0'
@@ -77,7 +77,7 @@ class VideoHandler(Handler):
     def allowed(self, topic: str | None = None) -> None:
         """The rules of a subscribe: a token and a role that may subscribe (with --auth), and
         the topic globs (401/403 otherwise)."""
-        identity = caller(self, self.video.gateway)
+        identity = authorize(self, Area.VIDEO)
         why = may(self.video.gateway.policy, identity, 'subscribe', topic)
         if why is not None:
             raise tornado.web.HTTPError(403, why)

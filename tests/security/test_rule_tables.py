@@ -3,7 +3,8 @@ Gateway, sim backend and rules, clients fed frames as the websocket feeds them; 
 process): role × action × resource for ``may`` and ``owns``, and lease state × question × who for
 the lease (a command through the publish door, the control topic's take, take-if-free, release and
 stop, and the Lease's refusals for a playback and a run). Each lease case gets a gateway of its own
-(some 40 ms of CPU) whose state is made through the ops a page sends. The black-box tests
+(some 40 ms of CPU) whose state is made through the ops a page sends. ``decide`` (the HTTP areas) as
+area × action × who, with --auth on and off, on a thing of the asker's own and of another's. The black-box tests
 (test_access.py, test_lease_per_robot.py, test_stations.py, the browser tests) keep checking the
 same rules through real sockets and pages; these tables say every case at once, and which one a
 change moved."""
@@ -12,8 +13,9 @@ from __future__ import annotations
 
 import pytest
 
-from gateway.rules.access import acts_as_admin, is_admin, may, owns
+from gateway.rules.access import NOBODY, Action, Area, StationGrants, acts_as_admin, decide, is_admin, may, owns
 from gateway.rules.stations import person
+from gateway.rules.tokens import Identity
 from tests.support.auth import TOKENS, tokens_toml
 from tests.support.inproc import InProcess, settle
 from tests.support.wait import until
@@ -399,3 +401,121 @@ async def test_the_lease_with_auth_off_by_browser():
             if not matches(got, want, OPEN_WORDS):
                 wrong.append(f'{state:6} {question:8} {who:3}: {got!r}, the table says {want}')
     assert not wrong, '\n'.join(wrong)
+
+
+# --- decide(): area × action × who, with --auth on and off, owner and not -------------------------
+
+# Written from what each HTTP door answered before it asked ``decide`` (caller(roles=...), is_admin,
+# acts_as_admin, owns): ok, 403 (role or owner) or 401 (--auth on, no valid token). open: a caller
+# with --auth off (every request an admin's then, but a per-person limit holds: EXEMPT is nobody's).
+AREAS = grid('''
+area/action           viewer  operator  admin  nobody  open
+programs    see       ok      ok        ok     401     ok
+programs    change    403     ok        ok     401     ok
+programs    manage    403     403       ok     401     ok
+runs        see       ok      ok        ok     401     ok
+runs        change    403     ok        ok     401     ok
+runs        manage    403     403       ok     401     ok
+runs        exempt    403     403       ok     401     403
+recordings  change    403     ok        ok     401     ok
+recordings  manage    403     403       ok     401     ok
+recordings  exempt    403     403       ok     401     403
+bookings    see       ok      ok        ok     401     ok
+bookings    change    403     ok        ok     401     ok
+bookings    manage    403     403       ok     401     ok
+bookings    exempt    403     403       ok     401     403
+queue       see       ok      ok        ok     401     ok
+queue       change    403     ok        ok     401     ok
+people      see       403     403       ok     401     ok
+exercises   see       ok      ok        ok     401     ok
+exercises   change    403     403       ok     401     ok
+attempts    change    ok      ok        ok     401     ok
+attempts    manage    403     403       ok     401     ok
+attempts    exempt    403     403       ok     401     403
+roster      see       403     403       ok     401     ok
+roster      change    403     403       ok     401     ok
+class       see       403     403       ok     401     ok
+course      manage    403     403       ok     401     403
+blocks      see       ok      ok        ok     401     ok
+blocks      change    403     403       ok     401     ok
+history     see       ok      ok        ok     401     ok
+video       see       ok      ok        ok     401     ok
+gauges      see       ok      ok        ok     401     ok
+packages    see       ok      ok        ok     401     ok
+whoami      see       ok      ok        ok     401     ok
+server      see       403     403       ok     401     ok
+stations    manage    403     403       ok     401     ok
+stations    exempt    403     403       ok     401     403
+reports     manage    403     403       ok     401     ok
+''')
+
+# A thing of someone's: "mine" (the asker's own key for the area: its Identity's owner, or its
+# person for bookings and stations), "other" (another's) or "none" (nobody's: started with --auth off).
+OWNED = grid('''
+area/action/whose            viewer  operator  admin  open
+runs        see      mine    ok      ok        ok     ok
+runs        see      other   403     403       ok     ok
+runs        see      none    403     403       ok     ok
+runs        change   mine    403     ok        ok     ok
+runs        change   other   403     403       ok     ok
+recordings  change   mine    403     ok        ok     ok
+recordings  change   other   403     403       ok     ok
+bookings    change   mine    ok      ok        ok     ok
+bookings    change   other   403     403       ok     ok
+attempts    see      mine    ok      ok        ok     ok
+attempts    see      other   403     403       ok     ok
+stations    see      mine    ok      ok        ok     ok
+stations    see      other   403     403       ok     ok
+''', keys=3)
+WORDS = {('runs', 'change', 'viewer'): 'role viewer may not do this; it needs operator or admin',
+         ('runs', 'manage', 'operator'): 'role operator may not do this; it needs admin',
+         ('runs', 'see', 'nobody'): 'a token is required: sign in at /login or send Authorization: Bearer'}
+
+
+def asker(col: str):
+    if col == 'open':
+        return None
+    return NOBODY if col == 'nobody' else Identity(col.capitalize(), col)
+
+
+def answer(why) -> str:
+    return 'ok' if why is None else str(why.status)
+
+
+def test_decide_by_area_action_and_role():
+    wrong = [f'{area} {action} {col}: {answer(why)}, the table says {want}'
+             for (area, action, col), want in AREAS.items()
+             if answer(why := decide(asker(col), Action(action), Area(area))) != want]
+    assert not wrong, '\n'.join(wrong)
+    for (area, action, col), words in WORDS.items():
+        assert decide(asker(col), Action(action), Area(area)).message == words
+
+
+def test_decide_by_owner():
+    wrong = []
+    for (area, action, whose, col), want in OWNED.items():
+        who = asker(col)
+        key = None if who is None else who.owner if area not in ('bookings', 'stations') else f'user {who.owner}'
+        owner = {'mine': key or 'someone', 'other': 'someone else', 'none': None}[whose]
+        got = answer(decide(who, Action(action), Area(area), owner))
+        if got != want:
+            wrong.append(f'{area} {action} {whose}\'s {col}: {got}, the table says {want}')
+    assert not wrong, '\n'.join(wrong)
+
+
+async def test_decide_reads_a_session_as_its_identity(tokens):
+    """A websocket session (its attrs) is asked as the Identity it signed in as; with --auth off
+    the claims and the lease let anyone override, and nobody pass a stop."""
+    async with InProcess(*FLEET, '--auth', tokens) as gw:
+        who = await people(gw)
+        for col, role in (('alice', 'operator'), ('teacher', 'admin'), ('vera', 'viewer')):
+            for (area, action, c), want in AREAS.items():
+                if c == role:
+                    assert answer(decide(who[col], Action(action), Area(area))) == want, (col, area, action)
+        assert answer(decide(who['alice'], Action.SEE, Area.STATIONS, person(who['alice']))) == 'ok'
+        assert answer(decide(who['vera'], Action.SEE, Area.STATIONS, person(who['alice']))) == '403'
+        grants = StationGrants(auth=True)
+        assert [grants.overrides(who[c]) for c in ('alice', 'teacher', 'vera')] == [False, True, False]
+        assert [grants.exempt(who[c]) for c in ('alice', 'teacher', 'vera')] == [False, True, False]
+    off = StationGrants(auth=False)
+    assert (off.overrides('viewer'), off.overrides(None), off.exempt('admin'), off.exempt(None)) == (True, True, False, False)
