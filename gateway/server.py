@@ -25,6 +25,7 @@ from .rules import grades, roster
 from .bridge import rosapi, topicstats
 from .bridge.gateway import Gateway
 from .exercises import Checker, Library
+from .exercises.checker import LiveAttempts
 from .runs import RunManager, start_runs
 from .settings import Settings
 from .web.app import make_app, socket_app
@@ -45,30 +46,30 @@ class Parts:
     lti: object = None        # rules.lti.LtiConfig with --lti
     grades: object = None     # rules.grades.Outbox with --lti: posts queued scores to the LMS
     exercises: Library | None = None
-    checker: Checker | None = None   # its ``on_result`` list: fn(identity, exercise, attempt_result)
+    checker: Checker | None = None   # the live exercise attempts (their results to ``on_result``)
 
 
 def start(gateway: Gateway, files: rules.Files) -> Parts:
     settings = gateway.settings
     runs, runs_socket = start_runs(gateway)
-    checker = Checker(gateway)
+    attempts = LiveAttempts()   # the checker's live attempts, whose stations the rules keep
     reads = lambda name: rosapi.handles(name) or name == topicstats.SERVICE   # noqa: E731 (what viewers may call)
-    gateway.install(rules.compose(gateway, files, reads=reads, runs=runs, attempts=checker.live,
+    gateway.install(rules.compose(gateway, files, reads=reads, runs=runs, attempts=attempts.live,
                                   keepers=(runs.keeper,)))
     topicstats.TopicStats(gateway)   # /rosgate/topic_stats: the rates /inspect shows
     recordings = start_recordings(gateway)
-    checker.recorder = recordings
-    history = start_history(gateway)
-    start_twin(gateway, history, settings.twin.opcua)
-    if runs_socket is not None:   # runs reach the websocket alone, on a unix socket bound into their box
-        runs.serve(socket_app(gateway), runs_socket)
     outbox = None
     if files.lti is not None:   # an ended attempt's score goes to the LMS of the learner's launch
         outbox = grades.Outbox(gateway.store, files.lti)
         outbox.start()
-        checker.on_result.append(outbox.result)
         if any(reg.memberships_urls for reg in files.lti.registrations):   # rosters known before any launch
             tornado.ioloop.IOLoop.current().spawn_callback(roster.refresh, gateway.store, files.lti)
+    checker = Checker(gateway, gateway.store, attempts=attempts, recorder=recordings,
+                      on_result=[outbox.result] if outbox is not None else [])
+    history = start_history(gateway)
+    start_twin(gateway, history, settings.twin.opcua)
+    if runs_socket is not None:   # runs reach the websocket alone, on a unix socket bound into their box
+        runs.serve(socket_app(gateway), runs_socket)
     return Parts(runs=runs, recordings=recordings, history=history, lti=files.lti, grades=outbox,
                  exercises=Library(settings.lab.exercises_dir), checker=checker)
 

@@ -23,7 +23,9 @@ import logging
 import secrets
 import time
 from collections import OrderedDict
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
+from typing import Any, Protocol
 
 from . import store as results
 from .goals import Evaluation, topics_of
@@ -32,6 +34,46 @@ log = logging.getLogger('rosgate.exercises')
 RECENT = 256   # ended attempts answered from memory: a poll right after the end finds it before the store does
 POSE_TYPES = frozenset({'turtlesim/msg/Pose', 'geometry_msgs/msg/Pose', 'geometry_msgs/msg/PoseStamped',
                         'nav_msgs/msg/Odometry'})
+
+
+# --- what the checker is given (its doors): the robot's topics, a recorder, the store --------------
+
+class Watched(Protocol):
+    """One topic's shared fan-out (bridge.fanout.TopicFanout): watched under a key, left by it."""
+    def watch(self, key: object, callback: Callable[[dict, Any], None]) -> None: ...
+    def unwatch(self, key: object) -> None: ...
+
+
+class Graph(Protocol):
+    """The robot graph's listings (a backend)."""
+    def topics(self) -> list[tuple[str, str]]: ...
+    def publishers(self, topic: str) -> list: ...
+
+
+class Topics(Protocol):
+    """The robot's topics as the checker reads them (bridge.gateway.Gateway is one)."""
+    backend: Graph
+    def topic_type(self, topic: str) -> str | None: ...
+    def fanout(self, topic: str, type: str) -> Watched: ...
+
+
+class Recorder(Protocol):
+    """The recordings (media.recordings.RecordingManager): an attempt's replay."""
+    def start(self, globs: tuple[str, ...], max_seconds: float | None, owner: str | None, *, counted: bool,
+              who: Any, attempt: str) -> Any: ...
+    def stop(self, recording: Any, reason: str) -> None: ...
+
+
+class Submits(Protocol):
+    """The store's one writer (store.Store): fn(connection) run on its thread."""
+    def submit(self, fn: Callable) -> Any: ...
+
+
+class LiveAttempts(dict):
+    """The attempts going now, by id: the checker's, read by ``rules.attempts`` (their stations kept)."""
+
+    def live(self) -> Iterable['Attempt']:
+        return self.values()
 
 
 @dataclass(frozen=True)
@@ -140,12 +182,12 @@ class Attempt:
 class Checker:
     """The live attempts (one per station at a time) and the ``on_result`` hook list."""
 
-    def __init__(self, gateway):
-        self.gateway = gateway
-        self.attempts: dict[str, Attempt] = {}        # attempt id -> Attempt
-        self.on_result: list = []                     # fn(identity, exercise, attempt_result)
+    def __init__(self, topics: Topics, store: Submits, *, attempts: LiveAttempts | None = None,
+                 recorder: Recorder | None = None, on_result: Iterable[Callable] = ()):
+        self.topics, self.store, self.recorder = topics, store, recorder
+        self.attempts = LiveAttempts() if attempts is None else attempts   # attempt id -> Attempt
+        self.on_result = tuple(on_result)             # fn(identity, exercise, attempt_result)
         self.ended: OrderedDict[str, AttemptResult] = OrderedDict()   # the newest, while the store writes
-        self.recorder = None   # start(globs, max_seconds, owner, counted) and stop(recording, reason)
 
     def topic(self, station: str, name: str) -> str:
         """A relative name under the station's namespace ('' is the root: ``turtle1/pose`` -> ``/turtle1/pose``)."""
@@ -159,12 +201,12 @@ class Checker:
         such topic, its one published pose-like topic (turtlesim's ``turtle1/pose``, a rover's ``odom``):
         an exercise left at the default ``pose`` works on a single turtle or rover too."""
         topic = self.topic(station, name)
-        gw = self.gateway
-        if name.startswith('/') or gw.topic_type(topic) is not None:
+        if name.startswith('/') or self.topics.topic_type(topic) is not None:
             return topic
         under = f'/{station.strip("/")}/' if station.strip('/') else '/'
-        found = [t for t, type_ in gw.backend.topics() if t.startswith(under) and type_ in POSE_TYPES
-                 and gw.backend.publishers(t)]
+        graph = self.topics.backend
+        found = [t for t, type_ in graph.topics() if t.startswith(under) and type_ in POSE_TYPES
+                 and graph.publishers(t)]
         return found[0] if len(found) == 1 else topic
 
     def start(self, exercise: Exercise, identity, station: str, program: str, person: str | None = None,
@@ -216,11 +258,10 @@ class Checker:
         return self.attempts.values()
 
     def _tap(self, attempt: Attempt, topic: str, kind: str) -> None:
-        gw = self.gateway
-        type_ = gw.topic_type(topic)
+        type_ = self.topics.topic_type(topic)
         if type_ is None:
             raise LookupError(f'{topic} is not published: the station has no such topic')
-        fan = gw.fanout(topic, type_)
+        fan = self.topics.fanout(topic, type_)
         key = ('exercise', attempt.id, kind)
         fan.watch(key, lambda msg, _image: attempt.feed(kind, topic, msg))
         attempt.taps.append((fan, key))
@@ -242,8 +283,8 @@ class Checker:
         while len(self.ended) > RECENT:
             self.ended.popitem(last=False)
         row = attempt.result.row()
-        self.gateway.store.submit(lambda conn: results.insert(conn, row))
-        for fn in list(self.on_result):
+        self.store.submit(lambda conn: results.insert(conn, row))
+        for fn in self.on_result:
             try:
                 fn(attempt.identity, attempt.exercise, attempt.result)
             except Exception:
