@@ -198,7 +198,7 @@ STILL_HOLD = {
     'exercises': set(),
     'runs': {'supervisor.py'},
     'web': {'api.py', 'app.py', 'blocksets.py', 'bookings.py', 'classview.py', 'description.py', 'exercises.py',
-            'gauges.py', 'history.py', 'packages.py', 'pages.py', 'recordings.py', 'roster.py', 'runs.py', 'share.py',
+            'gauges.py', 'history.py', 'packages.py', 'pages.py', 'roster.py', 'runs.py', 'share.py',
             'socket.py', 'video.py'},
     'media': {'playback.py', 'recordings.py', 'video.py'},
     'twin': {'description.py', 'history.py', 'opcua.py'},
