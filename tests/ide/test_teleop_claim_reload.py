@@ -3,9 +3,7 @@ on the root /cmd_vel first (on a robot without a fleet that topic is the real ro
 
 from __future__ import annotations
 
-import time
-
-from tests.support.ide import open_teleop
+from tests.support.ide import open_teleop, teleop_ready
 from tests.support.ros import RosClient
 from tests.support.wait import wait_for
 
@@ -19,18 +17,18 @@ def test_claim_and_reload_sends_nothing_to_the_root_cmd_vel(start_gateway, chrom
     ctx = None
     try:
         ctx, page, errors = open_teleop(chromium, gw)
-        # the page reloads into its station: wait_for_function outlives the reload (and has a deadline)
-        page.wait_for_function("(window.teleop?.robotNs?.get?.() || '').startsWith('/s0')"
-                               " && document.body.dataset.connection === 'connected'", timeout=60000)
-        ns = page.evaluate("teleop.robotNs.get()")
+        # the page reloads into its station: one look once it is there and not about to reload
+        ns = teleop_ready(page, stations=r"^\/s0[12]$")
         station = ros.watch(f"{ns}/turtle1/cmd_vel", TWIST)
         page.wait_for_function("/turtle1\\/cmd_vel$/.test(document.querySelector('#topic').value)")
         page.focus("body")
         page.keyboard.press("Space")          # the page's Stop: a zero on its own topic only
         page.keyboard.down("ArrowUp")
-        wait_for(lambda: station.messages, timeout=10, what="the page drives its station")
+        wait_for(lambda: any(m["linear"]["x"] > 0 for _, m in station.since(0)), timeout=30,
+                 what="the page drives its station")
         page.keyboard.up("ArrowUp")
-        time.sleep(0.5)   # what the page sent has had time to arrive (the station's did)
+        # the zero after the key: whatever the page sent before it has come too (one connection, in order)
+        wait_for(lambda: station.latest()["linear"]["x"] == 0, timeout=30, what="the zero after the key")
         assert root.messages == [], root.messages
         assert not errors
     finally:
