@@ -101,7 +101,11 @@ def test_fleet_claim_runs_the_program_on_the_claimed_robot(start_gateway, ide_fa
     page.wait_for_function("rosgateIde.robotNs.mine === '/s02'")
     page.fill("#ns", "/s01")                              # another free one: /s02 is given back
     page.dispatch_event("#ns", "change")
-    page.wait_for_function("rosgateIde.ns === '/s01' && rosgateIde.robotNs.mine === '/s01'")
+    try:
+        page.wait_for_function("rosgateIde.ns === '/s01' && rosgateIde.robotNs.mine === '/s01'")
+    except Exception as e:   # what the page thought, for the next person
+        raise AssertionError(f"{e}: {ide.js('({ns: rosgateIde.ns, mine: rosgateIde.robotNs.mine, lost: rosgateIde.robotNs.lost})')}"
+                             f" {ide.console_text()}") from None
     assert page.input_value("#ns") == "/s01" and page.url.endswith("?ns=/s01")
     assert ide.js("rosgateIde.world.topic") == "/s01/world/markers"
     page.wait_for_function("(rosgateIde.world.summary().robots || 0) === 1")

@@ -55,7 +55,8 @@ def test_a_gateway_in_another_pid_namespace_leaves_a_live_gateways_box_folder(la
 def test_a_dead_gateways_box_folder_is_swept_by_the_next(launch, tmp_path):
     before = set(Path(tempfile.gettempdir()).glob('rosgate-box-*'))
     dead = gateway_in_own_pid_namespace(tmp_path / 'dead')
-    theirs = set(Path(tempfile.gettempdir()).glob('rosgate-box-*')) - before
+    # its folder is named by its pid in its own namespace (1); other test processes make theirs meanwhile
+    theirs = set(Path(tempfile.gettempdir()).glob('rosgate-box-1-*')) - before
     assert len(theirs) == 1, theirs
     dead.stop(signal.SIGKILL)      # killed (its namespace with it): nothing of its own cleaned up
     assert next(iter(theirs)).is_dir()
