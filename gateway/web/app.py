@@ -22,6 +22,8 @@ import orjson
 import tornado.web
 
 from ..bridge.gateway import Gateway
+from ..media.video import Video
+from ..twin.description import Descriptions
 from .bookings import booking_routes
 from .classview import ClassHandler
 from .blocksets import block_routes
@@ -30,7 +32,7 @@ from .gauges import gauge_routes
 from .history import history_routes
 from .language import Texts
 from .packages import package_routes
-from .description import description_routes
+from .description import description_files, description_routes
 from .login import login_routes
 from .lti_setup import lti_routes
 from .roster import roster_routes
@@ -124,11 +126,13 @@ def make_app(gateway: Gateway, parts) -> tornado.web.Application:
     routes += roster_routes(gateway.store, parts.lti)
     if settings.storage.programs_dir is not None:
         routes += program_routes(settings.storage.programs_dir, policy)
-    routes += run_routes(parts.runs, parts.recordings) + recording_routes(parts.recordings)
-    routes += booking_routes(gateway) + video_routes(gateway) + history_routes(parts.history)
+    routes += run_routes(parts.runs, parts.recordings, gateway.backend, settings.storage.programs_dir)
+    routes += recording_routes(parts.recordings)
+    routes += booking_routes(gateway)
+    routes += video_routes(Video(gateway), policy, gateway.backend) + history_routes(parts.history, policy)
     routes += package_routes(settings.twin.mesh_path) + gauge_routes(settings.twin.gauges)
     routes += block_routes(settings.storage.blocks_dir, settings.ide_dir)
-    routes += description_routes(gateway)
+    routes += description_routes(Descriptions(gateway, *description_files(settings.twin)))
     routes += share_routes(policy.auth is not None)
     if parts.checker is not None:
         routes += exercise_routes(gateway, parts.exercises, parts.checker)
