@@ -105,8 +105,9 @@ def socket_app(gateway: Gateway) -> tornado.web.Application:
 
 
 def make_app(gateway: Gateway, parts) -> tornado.web.Application:
-    """The route table over the parts the server started (``server.start``); it starts nothing."""
-    settings, policy = gateway.settings, gateway.policy
+    """The route table over the parts the server started (``server.start``); it starts nothing. Each
+    route is handed what its handlers use, never the Gateway (the websocket's and /health's aside)."""
+    settings, policy, store, ruleset = gateway.settings, gateway.policy, gateway.store, gateway.ruleset
     routes: list = [websocket_route(gateway)]
     routes += [
         (r'/health', HealthHandler, {'gateway': gateway}),
@@ -122,19 +123,19 @@ def make_app(gateway: Gateway, parts) -> tornado.web.Application:
     texts = Texts(settings.ide_dir / 'i18n')    # the login and LTI pages' words, in the reader's language
     routes += login_routes(policy, texts)
     if parts.lti is not None:
-        routes += lti_routes(parts.lti, policy, settings.examples_dir, texts, gateway.store, parts.exercises)
-    routes += roster_routes(gateway.store, parts.lti)
+        routes += lti_routes(parts.lti, policy, settings.examples_dir, texts, store, parts.exercises)
+    routes += roster_routes(store, parts.lti)
     if settings.storage.programs_dir is not None:
         routes += program_routes(settings.storage.programs_dir, policy)
     routes += run_routes(parts.runs, parts.recordings, gateway.backend, settings.storage.programs_dir)
     routes += recording_routes(parts.recordings)
-    routes += booking_routes(gateway)
+    routes += booking_routes(ruleset.slots, policy.sessions, store)
     routes += video_routes(Video(gateway), policy, gateway.backend) + history_routes(parts.history, policy)
     routes += package_routes(settings.twin.mesh_path) + gauge_routes(settings.twin.gauges)
     routes += block_routes(settings.storage.blocks_dir, settings.ide_dir)
     routes += description_routes(Descriptions(gateway, *description_files(settings.twin)))
     routes += share_routes(policy.auth is not None)
     if parts.checker is not None:
-        routes += exercise_routes(gateway, parts.exercises, parts.checker)
+        routes += exercise_routes(parts.exercises, parts.checker, ruleset.attempts, store)
     routes.append((r'/(.*)', PublicFileHandler, {'path': str(settings.ide_dir), 'default_filename': 'index.html'}))
     return Application(policy, routes, compress_response=True, **options(settings))
