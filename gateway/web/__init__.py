@@ -11,5 +11,10 @@ web_video_server's camera URLs (``video``), the teacher's class view (``classvie
 (``login``; ``lti``: launches from an LMS; ``cookies``: the cookie attributes browsers need in and
 out of an LMS's iframe); what the process logs, scrubbed of tokens and forged lines (``logs``).
 
+Each route is handed what its handlers use (the policy, the store, a setting, a part, the backend's
+topics typed by a small ``Protocol`` beside the handler), never the whole Gateway: only ``app`` (the
+websocket route, /health) and ``socket`` hold it. The ``Application`` holds the policy, which
+``api.authorized`` asks (``api.Access``).
+
 May import: ``bridge``, ``runs``, ``rules``, ``store``, ``backends`` (types), ``protocol``, ``settings``.
 """

@@ -7,13 +7,24 @@ from __future__ import annotations
 import functools
 import json
 import math
+from typing import Protocol
 
 import tornado.web
 from tornado.log import gen_log
 
 from ..rules.errors import Refusal
 from ..rules.access import NOBODY, Action, Area, decide
-from ..rules.tokens import AuthError
+from ..rules.tokens import AuthError, Authenticator, Identity
+
+
+class Access(Protocol):
+    """What ``@authorized`` reads of the gateway's policy (``rules.policy.Policy`` is one): whether
+    auth is on, who a request is, and whether a browser origin may change things."""
+    auth: Authenticator | None
+
+    def identity_of(self, request) -> Identity | None: ...
+
+    def origin_allowed(self, origin: str, request) -> bool: ...
 
 
 class Handler(tornado.web.RequestHandler):
@@ -79,13 +90,13 @@ def authorize(handler: tornado.web.RequestHandler, area: Area, action: Action | 
     return identity
 
 
-def policy_of(handler: tornado.web.RequestHandler):
-    """The gateway's policy: the handler's own, or its application's gateway's."""
+def policy_of(handler: tornado.web.RequestHandler) -> Access:
+    """The gateway's policy: the handler's own, or its application's (``pages.Application``)."""
     policy = getattr(handler, 'policy', None)
-    return policy if policy is not None else handler.application.gateway.policy
+    return policy if policy is not None else handler.application.policy
 
 
-def check_origin(handler: tornado.web.RequestHandler, policy) -> None:
+def check_origin(handler: tornado.web.RequestHandler, policy: Access) -> None:
     """A request that changes something comes from the gateway's own pages, an allowed browser
     origin, or no browser, whatever its body (empty ones included). As for the websocket
     (tornado's check): a browser's Sec-Fetch-Site of same-origin is its own word that the page
@@ -162,7 +173,7 @@ def query_number(handler: tornado.web.RequestHandler, name: str, default, what: 
     return value
 
 
-def require(handler: tornado.web.RequestHandler, policy, area: Area = Area.WHOAMI):
+def require(handler: tornado.web.RequestHandler, policy: Access, area: Area = Area.WHOAMI):
     """The caller's Identity (None when auth is off); raise 401 (no or bad token), 429 (too many
     failures), or what ``decide`` says of SEE in ``area``."""
     if policy.auth is None:

@@ -22,6 +22,8 @@ import orjson
 import tornado.web
 
 from ..bridge.gateway import Gateway
+from ..media.video import Video
+from ..twin.description import Descriptions
 from .bookings import booking_routes
 from .classview import ClassHandler
 from .blocksets import block_routes
@@ -30,7 +32,7 @@ from .gauges import gauge_routes
 from .history import history_routes
 from .language import Texts
 from .packages import package_routes
-from .description import description_routes
+from .description import description_files, description_routes
 from .login import login_routes
 from .lti_setup import lti_routes
 from .roster import roster_routes
@@ -99,12 +101,13 @@ def websocket_route(gateway: Gateway) -> tuple:
 
 def socket_app(gateway: Gateway) -> tornado.web.Application:
     """The websocket alone: what the runs reach on their unix socket."""
-    return Application(gateway, [websocket_route(gateway)], **options(gateway.settings))
+    return Application(gateway.policy, [websocket_route(gateway)], **options(gateway.settings))
 
 
 def make_app(gateway: Gateway, parts) -> tornado.web.Application:
-    """The route table over the parts the server started (``server.start``); it starts nothing."""
-    settings, policy = gateway.settings, gateway.policy
+    """The route table over the parts the server started (``server.start``); it starts nothing. Each
+    route is handed what its handlers use, never the Gateway (the websocket's and /health's aside)."""
+    settings, policy, store, ruleset = gateway.settings, gateway.policy, gateway.store, gateway.ruleset
     routes: list = [websocket_route(gateway)]
     routes += [
         (r'/health', HealthHandler, {'gateway': gateway}),
@@ -114,22 +117,25 @@ def make_app(gateway: Gateway, parts) -> tornado.web.Application:
         (r'/twin', TeleopHandler, {'page': settings.ide_dir / 'twin.html'}),
         (r'/inspect/', tornado.web.RedirectHandler, {'url': '/inspect'}),
         (r'/inspect', TeleopHandler, {'page': settings.ide_dir / 'inspect.html'}),
-        (r'/class/?', ClassHandler, {'gateway': gateway, 'page': settings.ide_dir / 'class.html'}),
+        (r'/class/?', ClassHandler, {'page': settings.ide_dir / 'class.html'}),
         (r'/examples/(.*)', IdeFileHandler, {'path': str(settings.examples_dir)}),
     ]
     texts = Texts(settings.ide_dir / 'i18n')    # the login and LTI pages' words, in the reader's language
     routes += login_routes(policy, texts)
     if parts.lti is not None:
-        routes += lti_routes(parts.lti, policy, settings.examples_dir, texts, gateway.store, parts.exercises)
-    routes += roster_routes(gateway, parts.lti)
+        routes += lti_routes(parts.lti, policy, settings.examples_dir, texts, store, parts.exercises)
+    routes += roster_routes(store, parts.lti)
     if settings.storage.programs_dir is not None:
         routes += program_routes(settings.storage.programs_dir, policy)
-    routes += run_routes(parts.runs, parts.recordings) + recording_routes(parts.recordings)
-    routes += booking_routes(gateway) + video_routes(gateway) + history_routes(parts.history)
-    routes += package_routes(gateway) + gauge_routes(gateway) + block_routes(gateway)
-    routes += description_routes(gateway)
-    routes += share_routes(gateway)
+    routes += run_routes(parts.runs, parts.recordings, gateway.backend, settings.storage.programs_dir)
+    routes += recording_routes(parts.recordings)
+    routes += booking_routes(ruleset.slots, policy.sessions, store)
+    routes += video_routes(Video(gateway), policy, gateway.backend) + history_routes(parts.history, policy)
+    routes += package_routes(settings.twin.mesh_path) + gauge_routes(settings.twin.gauges)
+    routes += block_routes(settings.storage.blocks_dir, settings.ide_dir)
+    routes += description_routes(Descriptions(gateway, *description_files(settings.twin)))
+    routes += share_routes(policy.auth is not None)
     if parts.checker is not None:
-        routes += exercise_routes(gateway, parts.exercises, parts.checker)
+        routes += exercise_routes(parts.exercises, parts.checker, ruleset.attempts, store)
     routes.append((r'/(.*)', PublicFileHandler, {'path': str(settings.ide_dir), 'default_filename': 'index.html'}))
-    return Application(gateway, routes, compress_response=True, **options(settings))
+    return Application(policy, routes, compress_response=True, **options(settings))

@@ -91,8 +91,8 @@ def check_made(made: dict, schema: BlockSchema) -> str:
 
 
 class BlocksHandler(JsonHandler):
-    def initialize(self, gateway, folder: Path | None, schema: BlockSchema) -> None:
-        self.gateway, self.folder, self.schema = gateway, folder, schema
+    def initialize(self, folder: Path | None, schema: BlockSchema) -> None:
+        self.folder, self.schema = folder, schema
 
     @authorized(Area.BLOCKS)
     def get(self) -> None:
@@ -106,8 +106,8 @@ class BlocksHandler(JsonHandler):
 
 
 class SharedHandler(JsonHandler):
-    def initialize(self, gateway, folder: Path | None, schema: BlockSchema) -> None:
-        self.gateway, self.folder, self.schema = gateway, folder, schema
+    def initialize(self, folder: Path | None, schema: BlockSchema) -> None:
+        self.folder, self.schema = folder, schema
 
     @authorized(Area.BLOCKS, Action.CHANGE, words='{name} may not publish blocks to the class: an admin may')
     def post(self) -> None:
@@ -122,8 +122,7 @@ class SharedHandler(JsonHandler):
         self.finish({'type': kind, 'shared': len(shared)})
 
 
-def block_routes(gateway) -> list:
-    folder = gateway.settings.storage.blocks_dir
-    kw = {'gateway': gateway, 'folder': Path(folder).expanduser() if folder else None,
-          'schema': BlockSchema.load(gateway.settings.ide_dir / SCHEMA)}
+def block_routes(folder: Path | None, ide_dir: Path) -> list:
+    """``folder``: --blocks-dir (``Settings.storage.blocks_dir``) or None; ``ide_dir``: where the block schema is."""
+    kw = {'folder': Path(folder).expanduser() if folder else None, 'schema': BlockSchema.load(ide_dir / SCHEMA)}
     return [(r'/api/blocks/?', BlocksHandler, kw), (r'/api/blocks/shared', SharedHandler, kw)]

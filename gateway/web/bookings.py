@@ -38,21 +38,18 @@ import tornado.web
 from ..rules import roster
 from ..rules.access import Action, Area, allowed
 from ..rules.bookings import Slots
+from ..rules.sessions import Sessions
 from ..rules.stations import person_of
+from ..store import Store
 from .api import JsonHandler, authorize, body_json, query_number
 
 MAX_BODY = 4096
 ID = re.compile(r'[0-9]{1,12}')
 
 
-def _slots(gateway) -> Slots | None:
-    return gateway.ruleset.slots if gateway.ruleset is not None else None
-
-
 class _Handler(JsonHandler):
-    def initialize(self, gateway) -> None:
-        self.gateway = gateway
-        self.slots = _slots(gateway)
+    def initialize(self, slots: Slots | None, sessions: Sessions | None, store: Store) -> None:
+        self.slots, self.sessions, self.store = slots, sessions, store
 
     def prepare(self) -> None:
         if self.slots is None and not (self.request.method == 'GET' and isinstance(self, BookingListHandler)):
@@ -122,7 +119,7 @@ class BookingListHandler(_Handler):
         """(person key, name) of whom "for" names: someone who signed in here (by id or name), else
         an active member of an LMS course (the roster: before their first launch), else a name of
         the tokens file (whose key is the name itself)."""
-        found = await people(self.gateway, who)
+        found = await people(self.sessions, self.store, who)
         if len(found) > 1:
             ids = ', '.join(f'{p["id"]} ({p["kind"]}, {p["role"]})' for p in found[:5])
             raise tornado.web.HTTPError(409, f'several people are named {who!r}: book by id, one of {ids}')
@@ -131,13 +128,13 @@ class BookingListHandler(_Handler):
         return f'user {who}', who
 
 
-async def people(gateway, who: str | None = None) -> list[dict]:
-    """Who an admin may book for: who signed in here, newest first, then the courses' active members
-    who have not (``rules.roster``); ``who``: only those it names (their id, or their name in any case)."""
-    sessions = gateway.policy.sessions
+async def people(sessions: Sessions | None, store: Store, who: str | None = None) -> list[dict]:
+    """Who an admin may book for: who signed in here (``sessions``: None with auth off), newest first,
+    then the courses' active members who have not (``rules.roster``); ``who``: only those it names
+    (their id, or their name in any case)."""
     found = [p.json() for p in sessions.people(who)] if sessions is not None else []
     seen = {p['id'] for p in found}
-    for m in await roster.members(gateway.store):
+    for m in await roster.members(store):
         if m['status'] == 'Active' and m['person'] not in seen and (
                 who is None or who == m['person'] or who.casefold() == m['name'].casefold()):
             seen.add(m['person'])
@@ -151,7 +148,7 @@ class PeopleHandler(_Handler):
 
     async def get(self) -> None:
         self.who(Area.PEOPLE)
-        self.finish({'people': await people(self.gateway)})
+        self.finish({'people': await people(self.sessions, self.store)})
 
 
 class BookingHandler(_Handler):
@@ -239,8 +236,10 @@ class QueueHandler(_Handler):
         self.answer(key)
 
 
-def booking_routes(gateway) -> list:
-    kw = {'gateway': gateway}
+def booking_routes(slots: Slots | None, sessions: Sessions | None, store: Store) -> list:
+    """``slots``: the booked slots (``Rules.slots``, None without --booking); ``sessions``: who signed in
+    (``Policy.sessions``, None with auth off)."""
+    kw = {'slots': slots, 'sessions': sessions, 'store': store}
     return [(r'/api/bookings\.ics', CalendarHandler, kw), (r'/api/bookings/?', BookingListHandler, kw),
             (r'/api/bookings/([^/]+)', BookingHandler, kw), (r'/api/queue/?', QueueHandler, kw),
             (r'/api/people/?', PeopleHandler, kw)]

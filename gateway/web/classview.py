@@ -16,8 +16,8 @@ from .pages import write_page
 
 
 class ClassHandler(Handler):
-    def initialize(self, gateway, page) -> None:
-        self.gateway, self.page = gateway, page
+    def initialize(self, page) -> None:
+        self.page = page
 
     def get(self) -> None:
         try:

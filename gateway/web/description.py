@@ -14,6 +14,7 @@ from pathlib import Path
 
 import tornado.web
 
+from ..settings import TwinSettings
 from ..twin.description import Descriptions, XacroError
 from ..twin.packages import package_roots
 from .api import JsonHandler, authorized
@@ -63,8 +64,11 @@ class UrdfHandler(tornado.web.RequestHandler):
         self.set_header('Content-Type', 'text/xml; charset=utf-8')
 
 
-def description_routes(gateway) -> list:
-    twin = gateway.settings.twin
-    urdf = Path(twin.urdf).expanduser() if twin.urdf else None
-    shared = {'descriptions': Descriptions(gateway, urdf, package_roots(twin.mesh_path))}
+def description_files(twin: TwinSettings) -> tuple[Path | None, list[Path]]:
+    """(the --urdf file, the package roots of --mesh-path) a ``Descriptions`` reads."""
+    return Path(twin.urdf).expanduser() if twin.urdf else None, package_roots(twin.mesh_path)
+
+
+def description_routes(descriptions: Descriptions) -> list:
+    shared = {'descriptions': descriptions}
     return [(r'/api/description', DescriptionHandler, shared), (r'/urdf', UrdfHandler, shared)]

@@ -23,10 +23,12 @@ from __future__ import annotations
 
 import tornado.web
 
-from ..exercises import ExerciseError, Library, attempt_person, public
+from ..exercises import Checker, ExerciseError, Library, attempt_person, public
 from ..exercises import store as results
+from ..rules.attempts import AttemptRule
 from ..rules.stations import person_of
 from ..rules.access import Action, Area, allowed
+from ..store import Store
 from .api import JsonHandler, authorize, authorized, body_json
 
 MAX_BODY = 512 * 1024
@@ -37,8 +39,8 @@ def _key(identity) -> str:
 
 
 class ExercisesHandler(JsonHandler):
-    def initialize(self, gateway, library: Library) -> None:
-        self.gateway, self.library = gateway, library
+    def initialize(self, library: Library) -> None:
+        self.library = library
 
     @authorized(Area.EXERCISES)
     def get(self, ex_id: str | None = None) -> None:
@@ -68,8 +70,8 @@ class ExercisesHandler(JsonHandler):
 
 
 class AttemptsHandler(JsonHandler):
-    def initialize(self, gateway, library: Library, checker) -> None:
-        self.gateway, self.library, self.checker = gateway, library, checker
+    def initialize(self, library: Library, checker: Checker, attempts: AttemptRule) -> None:
+        self.library, self.checker, self.attempts = library, checker, attempts
 
     @authorized(Area.ATTEMPTS)
     def post(self, ex_id: str) -> None:
@@ -88,7 +90,7 @@ class AttemptsHandler(JsonHandler):
             raise tornado.web.HTTPError(400, '"name" is the student\'s name as the page has it (without sign-in)')
         ns = '/' + station.strip('/') if station.strip('/') else ''
         person = person_of(identity, self.request.cookies) or ''
-        rule = self.gateway.ruleset.attempts
+        rule = self.attempts
         rule.start_refusal(identity, person, ns)    # another's station or live attempt, past a cap: its status
         browser = person[len('browser '):] if person.startswith('browser ') else None
         try:
@@ -101,8 +103,8 @@ class AttemptsHandler(JsonHandler):
 
 
 class AttemptHandler(JsonHandler):
-    def initialize(self, gateway, checker) -> None:
-        self.gateway, self.checker = gateway, checker
+    def initialize(self, checker: Checker, store: Store) -> None:
+        self.checker, self.store = checker, store
 
     def _own(self, identity, person: str) -> None:
         if not allowed(identity, Action.SEE, Area.ATTEMPTS, person):
@@ -119,7 +121,7 @@ class AttemptHandler(JsonHandler):
             return
         ended = self.checker.ended.get(attempt_id)
         rows = [ended.row()] if ended is not None else \
-            await self.gateway.store.run(lambda c: results.select(c, attempt=attempt_id))
+            await self.store.run(lambda c: results.select(c, attempt=attempt_id))
         if not rows:
             raise tornado.web.HTTPError(404, f'no attempt {attempt_id[:64]!r}')
         self._own(identity, rows[0]['person'])
@@ -136,8 +138,8 @@ class AttemptHandler(JsonHandler):
 
 
 class ResultsHandler(JsonHandler):
-    def initialize(self, gateway) -> None:
-        self.gateway = gateway
+    def initialize(self, store: Store) -> None:
+        self.store = store
 
     @authorized(Area.ATTEMPTS)
     async def get(self) -> None:
@@ -148,7 +150,7 @@ class ResultsHandler(JsonHandler):
             if person is not None and person != _key(identity):
                 raise tornado.web.HTTPError(403, 'another person\'s results: only an admin reads them')
             person = _key(identity)
-        rows = await self.gateway.store.run(lambda c: results.select(c, person=person, exercise=exercise))
+        rows = await self.store.run(lambda c: results.select(c, person=person, exercise=exercise))
         summary = [{'person': p, 'exercise': e, 'name': v['last']['name'], 'attempts': v['attempts'],
                     'best': v['best'], 'last': v['last']}
                    for (p, e), v in results.best_and_last(rows).items()]
@@ -158,12 +160,14 @@ class ResultsHandler(JsonHandler):
         self.finish({'results': rows, 'summary': summary})
 
 
-def exercise_routes(gateway, library: Library, checker) -> list:
+def exercise_routes(library: Library, checker: Checker, attempts: AttemptRule, store: Store) -> list:
+    """``checker``: the live attempts (``exercises.Checker``); ``attempts``: the rule that says who may
+    start one where (``Rules.attempts``); ``store``: where ended attempts' results are."""
     return [
-        (r'/api/exercises/?', ExercisesHandler, {'gateway': gateway, 'library': library}),
+        (r'/api/exercises/?', ExercisesHandler, {'library': library}),
         (r'/api/exercises/([A-Za-z0-9_-]+)/attempts/?', AttemptsHandler,
-         {'gateway': gateway, 'library': library, 'checker': checker}),
-        (r'/api/exercises/([A-Za-z0-9_-]+)', ExercisesHandler, {'gateway': gateway, 'library': library}),
-        (r'/api/attempts/([0-9a-f]{1,64})(/stop)?', AttemptHandler, {'gateway': gateway, 'checker': checker}),
-        (r'/api/exercise-results', ResultsHandler, {'gateway': gateway}),
+         {'library': library, 'checker': checker, 'attempts': attempts}),
+        (r'/api/exercises/([A-Za-z0-9_-]+)', ExercisesHandler, {'library': library}),
+        (r'/api/attempts/([0-9a-f]{1,64})(/stop)?', AttemptHandler, {'checker': checker, 'store': store}),
+        (r'/api/exercise-results', ResultsHandler, {'store': store}),
     ]

@@ -23,8 +23,8 @@ from .api import JsonHandler, authorized
 
 
 class GaugesHandler(JsonHandler):
-    def initialize(self, gateway, path: Path | None) -> None:
-        self.gateway, self.path = gateway, path
+    def initialize(self, path: Path | None) -> None:
+        self.path = path
 
     @authorized(Area.GAUGES)
     def get(self) -> None:
@@ -42,6 +42,6 @@ class GaugesHandler(JsonHandler):
         self.finish({'limits': limits})
 
 
-def gauge_routes(gateway) -> list:
-    path = gateway.settings.twin.gauges
-    return [(r'/api/gauges', GaugesHandler, {'gateway': gateway, 'path': Path(path).expanduser() if path else None})]
+def gauge_routes(path: Path | None) -> list:
+    """``path``: the --gauges file (``Settings.twin.gauges``), or None."""
+    return [(r'/api/gauges', GaugesHandler, {'path': Path(path).expanduser() if path else None})]

@@ -22,6 +22,7 @@ import orjson
 import tornado.web
 
 from ..rules.access import Action, Area, allowed, may
+from ..rules.policy import Policy
 from ..twin.history import History
 from ..twin.queries import MAX_BUCKETS, listing, query
 from .api import JsonHandler, authorized, query_number
@@ -31,12 +32,12 @@ LATEST = 1e11        # s since 1970 (the year 5138): a larger from, to or step i
 
 
 class _Handler(JsonHandler):
-    def initialize(self, history: History) -> None:
-        self.history = history
+    def initialize(self, history: History, policy: Policy) -> None:
+        self.history, self.policy = history, policy
 
     def may_read(self, identity, topic: str) -> bool:
         """A read of a topic's past is a subscribe to it: the globs and the role decide."""
-        self.refusal = may(self.history.gateway.policy, identity, 'subscribe', topic)
+        self.refusal = may(self.policy, identity, 'subscribe', topic)
         return self.refusal is None
 
 
@@ -115,10 +116,10 @@ class HistoryStatsHandler(_Handler):
         self.finish(stats)
 
 
-def history_routes(history: History | None) -> list:
+def history_routes(history: History | None, policy: Policy) -> list:
     if history is None:
         return [(r'/api/history(?:/stats)?', _Off)]
-    kw = {'history': history}
+    kw = {'history': history, 'policy': policy}
     return [(r'/api/history/?', HistoryHandler, kw), (r'/api/history/stats', HistoryStatsHandler, kw)]
 
 

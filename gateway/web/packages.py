@@ -34,9 +34,9 @@ MAX_AGE = 300   # s a mesh is used from the browser's cache before it is revalid
 class PackageHandler(tornado.web.StaticFileHandler):
     """A file found by ``find``; tornado's static handler gives ETag, Last-Modified, 304 and ranges."""
 
-    def initialize(self, gateway, roots: list[Path]) -> None:
+    def initialize(self, roots: list[Path]) -> None:
         super().initialize(path='/')
-        self.gateway, self.roots = gateway, roots
+        self.roots = roots
 
     @authorized(Area.PACKAGES)
     async def get(self, package: str, path: str, include_body: bool = True) -> None:
@@ -65,6 +65,6 @@ class PackageHandler(tornado.web.StaticFileHandler):
         return super().get_content_type()
 
 
-def package_routes(gateway) -> list:
-    roots = package_roots(gateway.settings.twin.mesh_path)
-    return [(r'/package/([^/]*)/(.*)', PackageHandler, {'gateway': gateway, 'roots': roots})]
+def package_routes(mesh_path: tuple) -> list:
+    """``mesh_path``: the --mesh-path folders (``Settings.twin.mesh_path``)."""
+    return [(r'/package/([^/]*)/(.*)', PackageHandler, {'roots': package_roots(mesh_path)})]

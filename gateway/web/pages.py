@@ -24,6 +24,7 @@ from pathlib import Path
 import tornado.web
 
 from ..rules.names import forwarded
+from ..rules.policy import Policy
 
 # Top-level entries of ide/ that anyone may load; everything else there (node_modules/, package
 # files, the build script) is for building them, and class.html only goes out through /class,
@@ -80,14 +81,15 @@ class RefusedHandler(tornado.web.RequestHandler):
 
 
 class Application(tornado.web.Application):
-    """A tornado Application that refuses requests whose Host the gateway's policy does not know."""
+    """A tornado Application that refuses requests whose Host the gateway's policy does not know;
+    its handlers' ``@authorized`` asks the same policy (``api.policy_of``)."""
 
-    def __init__(self, gateway, *args, **kwargs) -> None:
-        self.gateway = gateway
+    def __init__(self, policy: Policy, *args, **kwargs) -> None:
+        self.policy = policy
         super().__init__(*args, **kwargs)
 
     def find_handler(self, request, **kwargs):
-        policy = self.gateway.policy
+        policy = self.policy
         forwarded(request, policy.trusted_proxies)   # first: every check below sees the browser's view
         if not policy.host_allowed(request.host):
             return self._refuse(request, 421, f'this gateway does not answer to the name {request.host[:100]!r}; '

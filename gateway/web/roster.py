@@ -17,12 +17,13 @@ import tornado.web
 
 from ..rules import roster
 from ..rules.access import Area
+from ..store import Store
 from .api import JsonHandler, authorized
 
 
 class RosterHandler(JsonHandler):
-    def initialize(self, gateway, config) -> None:
-        self.gateway, self.config = gateway, config
+    def initialize(self, store: Store, config) -> None:
+        self.store, self.config = store, config
 
     @authorized(Area.ROSTER)
     async def get(self) -> None:
@@ -32,13 +33,13 @@ class RosterHandler(JsonHandler):
     async def post(self) -> None:
         if self.config is None:
             raise tornado.web.HTTPError(404, 'no LMS to read a roster from (start the gateway with --lti)')
-        await self._answer(await roster.refresh(self.gateway.store, self.config))
+        await self._answer(await roster.refresh(self.store, self.config))
 
     async def _answer(self, failed: dict) -> None:
-        members = await roster.members(self.gateway.store)
+        members = await roster.members(self.store)
         self.finish({'enabled': self.config is not None, 'members': members,
                      'courses': len({(m['issuer'], m['context']) for m in members}), 'failed': failed})
 
 
-def roster_routes(gateway, config) -> list:
-    return [(r'/api/roster/?', RosterHandler, {'gateway': gateway, 'config': config})]
+def roster_routes(store: Store, config) -> list:
+    return [(r'/api/roster/?', RosterHandler, {'store': store, 'config': config})]

@@ -23,6 +23,7 @@ from __future__ import annotations
 import re
 import time
 from pathlib import Path
+from typing import Protocol
 
 import tornado.web
 
@@ -40,6 +41,11 @@ MAX_SOURCE = 1024 * 1024
 NAMESPACE = re.compile(r'(/[A-Za-z_][A-Za-z0-9_]{0,63}){0,8}')   # ROS names, ASCII, a few levels
 KIND = re.compile(r'[a-z][a-z0-9_]{0,31}')
 RECORD_SLACK = 5.0          # s a run's recording may outlast its timeout (it stops when the run ends)
+
+
+class Graph(Protocol):
+    """The backend's topics: what a run in the root namespace records."""
+    def topics(self, hidden: bool = False) -> list[tuple[str, str]]: ...
 
 
 def _local_address(handler) -> tuple[str, int, bool]:
@@ -70,8 +76,9 @@ def kept(row: dict) -> dict:
 
 
 class _Handler(JsonHandler):
-    def initialize(self, manager: RunManager, recordings: RecordingManager | None = None) -> None:
-        self.manager, self.recordings = manager, recordings
+    def initialize(self, manager: RunManager, recordings: RecordingManager, graph: Graph,
+                   programs_dir: Path | None) -> None:
+        self.manager, self.recordings, self.graph, self.programs_dir = manager, recordings, graph, programs_dir
 
     @property
     def archive(self) -> Archive:
@@ -176,13 +183,13 @@ class RunListHandler(_Handler):
         output and state are not the starter's to record): /turtle1/* for /turtle1/pose, and so on."""
         if ns:
             return (f'{ns}/*',)
-        names = [t for t, _ in self.manager.gateway.backend.topics() if not t.startswith('/rosgate/')]
+        names = [t for t, _ in self.graph.topics() if not t.startswith('/rosgate/')]
         return tuple(sorted({t if t.count('/') == 1 else f"/{t.split('/')[1]}/*" for t in names}))
 
     def _library(self, name: str, identity, owner) -> str:
         """The Python stored with a library program, from the space the library would open for
         this caller: an operator's own (with --auth), else the shared one or an admin's "owner"."""
-        programs_dir = self.manager.gateway.settings.storage.programs_dir
+        programs_dir = self.programs_dir
         owner = space_owner(identity, owner, 'run')
         if programs_dir is None or not (owner is None or isinstance(owner, str) and owner):
             raise tornado.web.HTTPError(400, f'no program library entry {name!r}')
@@ -262,8 +269,9 @@ class RunFileHandler(_Handler):
         await send_file(self, path, f'{base}.mcap')
 
 
-def run_routes(manager: RunManager, recordings: RecordingManager) -> list:
-    kw = {'manager': manager, 'recordings': recordings}
+def run_routes(manager: RunManager, recordings: RecordingManager, graph: Graph, programs_dir: Path | None) -> list:
+    """``graph``: the backend; ``programs_dir``: the program library (``Settings.storage.programs_dir``)."""
+    kw = {'manager': manager, 'recordings': recordings, 'graph': graph, 'programs_dir': programs_dir}
     return [(r'/api/runs/?', RunListHandler, kw),
             (r'/api/runs/(r[0-9a-f]{8})/(output|source|recording\.mcap)', RunFileHandler, kw),
             (r'/api/runs/(r[0-9a-f]{8})/?', RunHandler, kw), (r'/api/runs/([^/]+)', RunHandler, kw)]

@@ -48,8 +48,8 @@ def signer(secret: bytes, sig: str, name: str, text: str) -> str | None:
 
 
 class _Handler(JsonHandler):
-    def initialize(self, gateway, secret: bytes) -> None:
-        self.gateway, self.secret = gateway, secret
+    def initialize(self, secret: bytes) -> None:
+        self.secret = secret
 
     def _text(self, body: dict) -> str:
         text = body.get('text')
@@ -83,6 +83,7 @@ class CheckHandler(_Handler):
                      'mine': key is not None and key == identity.owner})
 
 
-def share_routes(gateway) -> list:
-    kw = {'gateway': gateway, 'secret': cookie_secret() if gateway.policy.auth is not None else b''}
+def share_routes(signed: bool) -> list:
+    """``signed``: whether links are signed (auth is on: the session cookies' secret signs them)."""
+    kw = {'secret': cookie_secret() if signed else b''}
     return [(r'/api/share', ShareHandler, kw), (r'/api/share/check', CheckHandler, kw)]

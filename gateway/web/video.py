@@ -34,22 +34,28 @@ from __future__ import annotations
 
 import asyncio
 import html
+from typing import Protocol
 
 import tornado.iostream
 import tornado.web
 
 from protocol.ops import MAX_IMAGE_SIDE
 
-from ..bridge.gateway import Gateway
 from ..media import images
 from ..media.video import BOUNDARY, STALL, Video, Viewer
 from ..rules.access import Area, may
+from ..rules.policy import Policy
 from .api import Handler, authorize, query_number
 from .socket import bound_unsent
 
 NO_CACHE = 'no-cache, no-store, must-revalidate, pre-check=0, post-check=0, max-age=0'
 TYPES = ('mjpeg', 'ros_compressed', 'png')
 SNAPSHOT_WAIT = 4.0     # s a snapshot waits for the next frame (then the last one, or 504)
+
+
+class Graph(Protocol):
+    """The backend's topics, as /streams lists them."""
+    def topics(self, hidden: bool = False) -> list[tuple[str, str]]: ...
 
 
 def reply_head(status: str, headers: list[tuple[str, str]]) -> bytes:
@@ -61,8 +67,8 @@ class VideoHandler(Handler):
     """The checks in front of every video URL; the replies themselves are written on the
     detached connection, byte for byte as web_video_server writes them."""
 
-    def initialize(self, video: Video) -> None:
-        self.video = video
+    def initialize(self, video: Video, policy: Policy, graph: Graph) -> None:
+        self.video, self.policy, self.graph = video, policy, graph
 
     def answer_error(self, status_code: int, reason: str) -> None:
         self.set_header('Content-Type', 'text/plain; charset=UTF-8')
@@ -72,13 +78,13 @@ class VideoHandler(Handler):
     @property
     def open_cors(self) -> bool:
         """web_video_server lets every origin read its images; only without --auth here."""
-        return self.video.gateway.policy.auth is None
+        return self.policy.auth is None
 
     def allowed(self, topic: str | None = None) -> None:
         """The rules of a subscribe: a token and a role that may subscribe (with --auth), and
         the topic globs (401/403 otherwise)."""
         identity = authorize(self, Area.VIDEO)
-        why = may(self.video.gateway.policy, identity, 'subscribe', topic)
+        why = may(self.policy, identity, 'subscribe', topic)
         if why is not None:
             raise tornado.web.HTTPError(403, why)
 
@@ -180,9 +186,7 @@ class ViewerPageHandler(VideoHandler):
 class ListHandler(VideoHandler):
     async def get(self) -> None:
         self.allowed()
-        policy = self.video.gateway.policy
-        types = {name: type for name, type in self.video.gateway.backend.topics()
-                 if may(policy, None, 'subscribe', name) is None}
+        types = {name: type for name, type in self.graph.topics() if may(self.policy, None, 'subscribe', name) is None}
         head = reply_head('200 OK', [('Connection', 'close'), ('Server', 'web_video_server'),
                                      ('Cache-Control', NO_CACHE), ('Pragma', 'no-cache'),
                                      ('Content-type', 'text/html;')])
@@ -236,7 +240,7 @@ async def _send_and_close(stream, data: bytes) -> None:
         stream.close()
 
 
-def video_routes(gateway: Gateway) -> list:
-    video = Video(gateway)
-    return [(r'/stream', StreamHandler, {'video': video}), (r'/snapshot', SnapshotHandler, {'video': video}),
-            (r'/stream_viewer', ViewerPageHandler, {'video': video}), (r'/streams', ListHandler, {'video': video})]
+def video_routes(video: Video, policy: Policy, graph: Graph) -> list:
+    kw = {'video': video, 'policy': policy, 'graph': graph}
+    return [(r'/stream', StreamHandler, kw), (r'/snapshot', SnapshotHandler, kw),
+            (r'/stream_viewer', ViewerPageHandler, kw), (r'/streams', ListHandler, kw)]
