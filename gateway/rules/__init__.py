@@ -252,7 +252,7 @@ def compose(gateway, files: Files = Files(), *, reads=lambda name: False, runs=N
         safety.zero_topics([(t, ty) for t, ty in gateway.backend.topics() if group_of(t) == group])
 
     if safe.exclusive_control:
-        lease = Lease(gateway, types=frozenset(types), globs=parse_globs(safe.control_glob),
+        lease = Lease(announce=gateway, control=gateway.backend, types=frozenset(types), globs=parse_globs(safe.control_glob),
                       grants=StationGrants(auth is not None), stations=stations,
                       on_lost=lambda session, group: safety.stop_session(session, in_group(group)),
                       stop_group=stop_group, zero_group=zero_group)
@@ -269,8 +269,8 @@ def compose(gateway, files: Files = Files(), *, reads=lambda name: False, runs=N
         if lease is None:
             log.warning('--booking without --exclusive-control: slots seat their bookers and end on time, but '
                         'nothing keeps others\' commands off a booked robot')
-        slots = Slots(gateway, timetable, stations=stations, lease=lease, stop_group=stop_group,
-                      reset=lab.station_reset, queue=queue)
+        slots = Slots(timetable, events=gateway.hooks, caller=gateway.backend, stations=stations, lease=lease,
+                      stop_group=stop_group, reset=lab.station_reset, queue=queue)
     fleet = part = None
     db = settings.storage.db_url or ''
     if db.startswith('postgresql'):

@@ -40,8 +40,9 @@ import asyncio
 import json
 import logging
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Container
 from fnmatch import fnmatchcase
+from typing import Any, Protocol
 
 from protocol.errors import ProtocolError
 
@@ -62,6 +63,25 @@ ROOT = '/'
 RESCAN_PERIOD = 2.0       # s between checks for new stations (announced when they change)
 
 
+# --- what the lease is given (its doors): its announcement, the control topic, the own services ---
+
+class OwnTopic(Protocol):
+    """A publisher of the gateway's own (bridge.gateway.Gateway.own_topic's)."""
+    def publish(self, msg: dict) -> None: ...
+
+
+class Announcer(Protocol):
+    """The gateway's own topics and services (bridge.gateway.Gateway is one): /rosgate/driver is
+    announced there, and a station's names exclude the services the gateway answers itself."""
+    own_services: Container[str]
+    def own_topic(self, topic: str, type: str, qos: QoS) -> OwnTopic: ...
+
+
+class Subscribes(Protocol):
+    """The backend's subscribe (the control topic declared, so clients publish to it untyped)."""
+    def subscribe(self, topic: str, type: str, callback: Callable[[dict], None]) -> Any: ...
+
+
 def who(session) -> str:
     name = session.attrs.get('name')
     return f'{name} (client {session.id})' if name else f'client {session.id}'
@@ -73,11 +93,13 @@ def glob_group(glob: str) -> str:
 
 
 class Lease(FleetLease, Hook):
-    def __init__(self, gateway, *, types: frozenset[str], globs: tuple[str, ...] | None,
-                 grants: StationGrants, on_lost: Callable[[object, str], None], stations: Stations,
-                 stop_group: Callable[[str], None] = lambda group: None,
+    def __init__(self, *, announce: Announcer, control: Subscribes, types: frozenset[str],
+                 globs: tuple[str, ...] | None, grants: StationGrants, on_lost: Callable[[object, str], None],
+                 stations: Stations, stop_group: Callable[[str], None] = lambda group: None,
                  zero_group: Callable[[str], None] | None = None):
-        self.gateway, self.types, self.globs = gateway, types, globs or ()
+        """announce: where /rosgate/driver is published (and the gateway's own services, no
+        station's); control: the backend, where the control topic is declared."""
+        self.types, self.globs = types, globs or ()
         self.grants, self.on_lost, self.stop_group = grants, on_lost, stop_group
         self.zero_group = zero_group             # every command topic of a group zeroed (a dead gateway's)
         self.owners = stations
@@ -88,11 +110,11 @@ class Lease(FleetLease, Hook):
         self.lent: dict[str, object] = {}        # group -> the session a run of the same person took it from
         self.fleet = None                        # store.fleet.Fleet: the other gateways' leases (rules.fleet)
         self.settling: dict[str, tuple] = {}     # group -> (person, who, Wait): a free lease asked of PostgreSQL
-        self.names = StationNames(self)          # a station's services, actions and other topics: the holder's
-        backend = gateway.backend
-        self._driver = gateway.own_topic(DRIVER_TOPIC, STRING, QoS(depth=1, transient_local=True))
+        # a station's services, actions and other topics: the holder's
+        self.names = StationNames(self, own_services=announce.own_services)
+        self._driver = announce.own_topic(DRIVER_TOPIC, STRING, QoS(depth=1, transient_local=True))
         # declares the control topic so clients may publish to it without a type
-        self._control = backend.subscribe(CONTROL_TOPIC, STRING, lambda msg: None)
+        self._control = control.subscribe(CONTROL_TOPIC, STRING, lambda msg: None)
         self._announced = None
         self._timer: asyncio.TimerHandle | None = None
         self._announce()
