@@ -176,13 +176,13 @@ class RunListHandler(_Handler):
         output and state are not the starter's to record): /turtle1/* for /turtle1/pose, and so on."""
         if ns:
             return (f'{ns}/*',)
-        names = [t for t, _ in self.manager.gateway.backend.topics() if not t.startswith('/rosgate/')]
+        names = [t for t, _ in self.manager.graph.topics() if not t.startswith('/rosgate/')]
         return tuple(sorted({t if t.count('/') == 1 else f"/{t.split('/')[1]}/*" for t in names}))
 
     def _library(self, name: str, identity, owner) -> str:
         """The Python stored with a library program, from the space the library would open for
         this caller: an operator's own (with --auth), else the shared one or an admin's "owner"."""
-        programs_dir = self.manager.gateway.settings.storage.programs_dir
+        programs_dir = self.manager.settings.storage.programs_dir
         owner = space_owner(identity, owner, 'run')
         if programs_dir is None or not (owner is None or isinstance(owner, str) and owner):
             raise tornado.web.HTTPError(400, f'no program library entry {name!r}')
