@@ -208,8 +208,9 @@ def compose(gateway, files: Files = Files(), *, reads=lambda name: False, runs=N
     sec, safe, st, lab = settings.security, settings.safety, settings.stations, settings.lab
     types = tuple(safe.stop_types)
     velocity = VelocityLimits(Clamp(safe.max_linear, safe.max_angular), files.velocity.topics if files.velocity else [])
-    safety = Safety(gateway, types=types, stop_on_disconnect=safe.stop_on_disconnect, cmd_timeout=safe.cmd_timeout,
-                    limits=velocity, cmd_max_age=safe.cmd_max_age, require_stamp=safe.require_cmd_stamp)
+    safety = Safety(door=gateway, parties=gateway, messages=gateway.backend, types=types,
+                    stop_on_disconnect=safe.stop_on_disconnect, cmd_timeout=safe.cmd_timeout, limits=velocity,
+                    cmd_max_age=safe.cmd_max_age, require_stamp=safe.require_cmd_stamp)
 
     auth = sessions = None
     if files.tokens is not None or files.lti is not None:
@@ -229,9 +230,10 @@ def compose(gateway, files: Files = Files(), *, reads=lambda name: False, runs=N
             slot=lab.slot_minutes * 60, per_day=lab.booking_per_day, per_week=lab.booking_per_week,
             ahead=lab.booking_ahead * 86400))
     queue = Queue(timetable, grace=st.claim_grace) if timetable is not None else None
-    stations = Stations(gateway, types=frozenset(types), idle=st.claim_idle, grace=st.claim_grace,
+    lease = None   # the lease, made below, asks the stations who owns what; they ask it through lambda: lease
+    stations = Stations(announce=gateway, graph=gateway.backend, parties=gateway, lease=lambda: lease,
+                        types=frozenset(types), idle=st.claim_idle, grace=st.claim_grace,
                         grants=StationGrants(auth is not None), timetable=timetable, queue=queue)
-    lease = None
 
     def group_of(topic):
         return lease.group(topic) if lease is not None else next(

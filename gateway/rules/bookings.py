@@ -37,7 +37,6 @@ import logging
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Protocol
 
 import sqlalchemy as sa
 
@@ -46,6 +45,7 @@ from ..store import METADATA
 from . import roster
 from .errors import Refusal
 from .hooks import Hook
+from .ports import Caller, SlotEvents
 
 log = logging.getLogger('rosgate.bookings')
 MAX_SLEEP = 5.0            # s the timer sleeps at most (catches a clock that jumped)
@@ -243,19 +243,6 @@ class Timetable:
         """Bookings older than the quotas look are dropped from memory (the store keeps them)."""
         since = self.now() - 8 * 86400.0
         self.bookings = [b for b in self.bookings if b.end > since]
-
-
-# --- what Slots is given (its doors): the event of a slot's end, the reset's service call ------------
-
-class SlotEvents(Protocol):
-    """Where a slot's end is told (rules.hooks.Hooks: ``on_slot_ended`` of every part)."""
-    def slot_ended(self, station: str, person: str, why: str) -> None: ...
-
-
-class Caller(Protocol):
-    """The backend's services, called as the gateway (the --station-reset service)."""
-    def services(self) -> list[tuple[str, str]]: ...
-    async def call_service(self, service: str, type: str, request: dict, timeout: float) -> dict: ...
 
 
 class Slots(Hook):

@@ -40,15 +40,15 @@ import asyncio
 import json
 import logging
 import time
-from collections.abc import Callable, Container
+from collections.abc import Callable
 from fnmatch import fnmatchcase
-from typing import Any, Protocol
 
 from protocol.errors import ProtocolError
 
 from ..backends.base import QoS
 from .access import StationGrants, is_gateway, role_of
 from .policy import CONTROL_TOPIC
+from .ports import Announcer, Subscribes
 
 log = logging.getLogger('rosgate.lease')
 from .safety import moving_command
@@ -61,25 +61,6 @@ DRIVER_TOPIC = '/rosgate/driver'
 STRING = 'std_msgs/msg/String'
 ROOT = '/'
 RESCAN_PERIOD = 2.0       # s between checks for new stations (announced when they change)
-
-
-# --- what the lease is given (its doors): its announcement, the control topic, the own services ---
-
-class OwnTopic(Protocol):
-    """A publisher of the gateway's own (bridge.gateway.Gateway.own_topic's)."""
-    def publish(self, msg: dict) -> None: ...
-
-
-class Announcer(Protocol):
-    """The gateway's own topics and services (bridge.gateway.Gateway is one): /rosgate/driver is
-    announced there, and a station's names exclude the services the gateway answers itself."""
-    own_services: Container[str]
-    def own_topic(self, topic: str, type: str, qos: QoS) -> OwnTopic: ...
-
-
-class Subscribes(Protocol):
-    """The backend's subscribe (the control topic declared, so clients publish to it untyped)."""
-    def subscribe(self, topic: str, type: str, callback: Callable[[dict], None]) -> Any: ...
 
 
 def who(session) -> str:
