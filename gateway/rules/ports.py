@@ -88,3 +88,25 @@ class LeaseView(Protocol):
     def elsewhere(self, group: str, key: str) -> str | None: ...
     def free(self, group: str, by: Any) -> None: ...
     def released_elsewhere(self, group: str, by: str) -> None: ...
+
+
+class Backend(Graph, Messages, Subscribes, Caller, Protocol):
+    """The backend as the rules use it: its graph, definitions and clock, subscribe and service call."""
+
+
+class GroupEvents(SlotEvents, Protocol):
+    """The events the rules emit (``rules.hooks.Hooks``): a group stopped, a slot ended."""
+    def group_stopped(self, group: str, group_of: Callable[[str], str]) -> None: ...
+
+
+class RuleDoors(Protocol):
+    """Everything ``compose`` hands on, in one value (``bridge.doors.RuleDoors``, built by the bridge):
+    the settings, the store (opened when first asked for), the backend, the hooks, and the gateway's
+    own topics and services, its publish door and who is there."""
+    settings: Any
+    store: Any
+    backend: Backend
+    hooks: GroupEvents
+    announce: Announcer
+    door: Door
+    parties: Parties
