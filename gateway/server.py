@@ -51,10 +51,11 @@ class Parts:
 
 def start(gateway: Gateway, files: rules.Files) -> Parts:
     settings = gateway.settings
-    runs, runs_socket = start_runs(gateway)
+    runs, runs_socket = start_runs(settings, store=gateway.store, announce=gateway, graph=gateway.backend,
+                                   rules=lambda: gateway.ruleset)   # the rules, composed next, hold the runs
     attempts = LiveAttempts()   # the checker's live attempts, whose stations the rules keep
     reads = lambda name: rosapi.handles(name) or name == topicstats.SERVICE   # noqa: E731 (what viewers may call)
-    gateway.install(rules.compose(gateway, files, reads=reads, runs=runs, attempts=attempts.live,
+    gateway.install(rules.compose(gateway.rule_doors(), files, reads=reads, runs=runs, attempts=attempts.live,
                                   keepers=(runs.keeper,)))
     topicstats.TopicStats(gateway)   # /rosgate/topic_stats: the rates /inspect shows
     recordings = start_recordings(gateway)

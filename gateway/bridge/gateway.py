@@ -18,6 +18,7 @@ import time
 from typing import TYPE_CHECKING
 
 from ..backends.base import BackendError, QoS
+from .doors import RuleDoors
 from .fanout import TopicFanout
 from .foxglove.hub import Hub
 from .outbox import after_batch, corked
@@ -107,6 +108,10 @@ class Gateway:
         if hasattr(backend, 'batch_scope'):   # a backend delivering messages in batches
             backend.batch_scope = corked      # sends each client its share in one write
             backend.after_batch = after_batch   # and takes what the gateway published at a batch's end
+
+    def rule_doors(self) -> RuleDoors:
+        """What ``rules.compose`` hands on to the rules' parts (``rules.ports``): never the Gateway."""
+        return RuleDoors(self)
 
     def install(self, rules) -> None:
         """Puts the rules in force (``rules.compose``), once, before the first client."""

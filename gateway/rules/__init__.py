@@ -11,11 +11,12 @@ per station (``lease``); velocity clamps and stops (``safety``); a stamped comma
 
 ``add_arguments(parser)`` adds their flags (each flag's field is in ``gateway.settings``);
 ``load(settings)`` reads their files once at start-up (``ConfigError`` naming the flag);
-``compose(gateway, files, reads, runs)`` builds them all, in the one order of ``compose``'s
-docstring, and ``Gateway.install`` puts the result in force.
+``compose(doors, files, reads, runs)`` builds them all, in the one order of ``compose``'s
+docstring, each part given the few doors it uses (``ports``; ``doors``: ``bridge.doors.RuleDoors``),
+and ``Gateway.install`` puts the result in force.
 
 May import: ``protocol`` and ``backends`` (for QoS and types), ``store`` (sessions) and ``settings``,
-never ``bridge`` or ``web``: the gateway is handed in.
+never ``bridge`` or ``web``: the doors are handed in (``ports``), never the Gateway.
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ from .hooks import Hook, Hooks  # noqa: F401 (for the bridge and web)
 from .lease import Lease
 from .names import parse_globs, parse_networks
 from .policy import GATEWAY_ROLE, Limits, SecurePolicy  # noqa: F401 (GATEWAY_ROLE: for the bridge)
+from .ports import RuleDoors
 from .queue import Queue
 from .reports import Reports
 from .safety import Clamp, Safety, VelocityLimits
@@ -183,8 +185,8 @@ class Rules:
     attempts: AttemptRule | None = None   # live exercise attempts' stations (rules.attempts)
 
 
-def compose(gateway, files: Files = Files(), *, reads=lambda name: False, runs=None, attempts=None,
-            keepers: tuple = ()) -> Rules:
+def compose(doors: RuleDoors, files: Files = Files(), *, reads=lambda name: False, runs=None,
+            attempts=None, keepers: tuple = ()) -> Rules:
     """Every rule, built from the settings, in the one order they apply.
 
     At the publish door (``Gateway.publish``), in this order: (0) a live exercise attempt's pose and
@@ -199,39 +201,43 @@ def compose(gateway, files: Files = Files(), *, reads=lambda name: False, runs=N
     hear events in the order: stations, lease, safety, slots, runs (so a slot's end stops a
     station's commands before its run is stopped).
 
+    doors: what the parts are given (``ports.RuleDoors``: the settings, store, backend, hooks, the
+    gateway's own topics and services, its publish door, who is there; ``Gateway.rule_doors()``).
     reads: the gateway's own read-only services (rosapi), which viewers may call. runs: the run
     manager (its ``publish_hook``), or None. attempts: () -> the live exercise attempts (the
     exercises' checker), whose stations ``rules.attempts`` keeps: first at the door and a keeper.
     keepers: more (who, action, name) -> why not, from outside the rules (the runs').
     """
-    settings = gateway.settings
+    settings, backend = doors.settings, doors.backend
     sec, safe, st, lab = settings.security, settings.safety, settings.stations, settings.lab
     types = tuple(safe.stop_types)
     velocity = VelocityLimits(Clamp(safe.max_linear, safe.max_angular), files.velocity.topics if files.velocity else [])
-    safety = Safety(gateway, types=types, stop_on_disconnect=safe.stop_on_disconnect, cmd_timeout=safe.cmd_timeout,
-                    limits=velocity, cmd_max_age=safe.cmd_max_age, require_stamp=safe.require_cmd_stamp)
+    safety = Safety(door=doors.door, parties=doors.parties, messages=backend, types=types,
+                    stop_on_disconnect=safe.stop_on_disconnect, cmd_timeout=safe.cmd_timeout, limits=velocity,
+                    cmd_max_age=safe.cmd_max_age, require_stamp=safe.require_cmd_stamp)
 
     auth = sessions = None
     if files.tokens is not None or files.lti is not None:
         store = files.tokens if files.tokens is not None else TokenStore([])   # only LMS launches sign in
         auth = Authenticator(store, Brake(base=sec.auth_backoff))
-        sessions = Sessions(gateway.store, cookie_secret(), hours=sec.session_hours,
+        sessions = Sessions(doors.store, cookie_secret(), hours=sec.session_hours,
                             still_valid=lambda s: s.kind != 'token' or s.identity.listed(store.entries))
 
         def signed_out(key):   # that sign-in's websockets close (here, and on each gateway that applies it)
-            for session in list(gateway.sessions.values()):
+            for session in list(doors.parties.sessions.values()):
                 if session.attrs.get('signin') == key:
                     session.close_connection(1008, 'signed out')
         sessions.on_revoked = signed_out
     timetable = None
     if lab.booking:
-        timetable = Timetable(gateway.store, BookingLimits(
+        timetable = Timetable(doors.store, BookingLimits(
             slot=lab.slot_minutes * 60, per_day=lab.booking_per_day, per_week=lab.booking_per_week,
             ahead=lab.booking_ahead * 86400))
     queue = Queue(timetable, grace=st.claim_grace) if timetable is not None else None
-    stations = Stations(gateway, types=frozenset(types), idle=st.claim_idle, grace=st.claim_grace,
+    lease = None   # the lease, made below, asks the stations who owns what; they ask it through lambda: lease
+    stations = Stations(announce=doors.announce, graph=backend, parties=doors.parties, lease=lambda: lease,
+                        types=frozenset(types), idle=st.claim_idle, grace=st.claim_grace,
                         grants=StationGrants(auth is not None), timetable=timetable, queue=queue)
-    lease = None
 
     def group_of(topic):
         return lease.group(topic) if lease is not None else next(
@@ -243,16 +249,16 @@ def compose(gateway, files: Files = Files(), *, reads=lambda name: False, runs=N
     def stop_group(group):
         """The teacher's Stop and a slot's end: every command left moving in the group is zeroed,
         what else publishes into it (playbacks) ends."""
-        for session in gateway.everyone():
+        for session in doors.parties.everyone():
             safety.stop_session(session, in_group(group))
-        gateway.hooks.group_stopped(group, group_of)
+        doors.hooks.group_stopped(group, group_of)
 
     def zero_group(group):
         """Every velocity topic of the group on the graph zeroed: what a dead gateway left moving."""
-        safety.zero_topics([(t, ty) for t, ty in gateway.backend.topics() if group_of(t) == group])
+        safety.zero_topics([(t, ty) for t, ty in backend.topics() if group_of(t) == group])
 
     if safe.exclusive_control:
-        lease = Lease(gateway, types=frozenset(types), globs=parse_globs(safe.control_glob),
+        lease = Lease(announce=doors.announce, control=backend, types=frozenset(types), globs=parse_globs(safe.control_glob),
                       grants=StationGrants(auth is not None), stations=stations,
                       on_lost=lambda session, group: safety.stop_session(session, in_group(group)),
                       stop_group=stop_group, zero_group=zero_group)
@@ -269,12 +275,12 @@ def compose(gateway, files: Files = Files(), *, reads=lambda name: False, runs=N
         if lease is None:
             log.warning('--booking without --exclusive-control: slots seat their bookers and end on time, but '
                         'nothing keeps others\' commands off a booked robot')
-        slots = Slots(gateway, timetable, stations=stations, lease=lease, stop_group=stop_group,
-                      reset=lab.station_reset, queue=queue)
+        slots = Slots(timetable, events=doors.hooks, caller=backend, stations=stations, lease=lease,
+                      stop_group=stop_group, reset=lab.station_reset, queue=queue)
     fleet = part = None
     db = settings.storage.db_url or ''
     if db.startswith('postgresql'):
-        fleet = Fleet.of(gateway.store)
+        fleet = Fleet.of(doors.store)
         part = join_fleet(fleet, lease=lease, stations=stations, sessions=sessions, timetable=timetable)
 
     publish = (*((live.publish_hook,) if live is not None else ()), *((runs.publish_hook,) if runs is not None else ()),

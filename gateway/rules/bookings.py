@@ -45,6 +45,7 @@ from ..store import METADATA
 from . import roster
 from .errors import Refusal
 from .hooks import Hook
+from .ports import Caller, SlotEvents
 
 log = logging.getLogger('rosgate.bookings')
 MAX_SLEEP = 5.0            # s the timer sleeps at most (catches a clock that jumped)
@@ -247,11 +248,12 @@ class Timetable:
 class Slots(Hook):
     """The timer that starts and ends slots (see the module docstring)."""
 
-    def __init__(self, gateway, timetable: Timetable, *, stations, lease, stop_group: Callable[[str], None],
-                 reset: str | None = None, queue=None):
-        """queue: the walk-ins' line (rules.queue), for the API."""
-        self.gateway, self.timetable, self.stations, self.lease = gateway, timetable, stations, lease
-        self.queue = queue
+    def __init__(self, timetable: Timetable, *, events: SlotEvents, caller: Caller, stations, lease,
+                 stop_group: Callable[[str], None], reset: str | None = None, queue=None):
+        """events: told of each slot's end; caller: the backend, for the reset; queue: the walk-ins'
+        line (rules.queue), for the API."""
+        self.timetable, self.stations, self.lease = timetable, stations, lease
+        self.events, self.caller, self.queue = events, caller, queue
         self.stop_group, self.reset = stop_group, reset
         self.active: dict[str, Booking] = {}          # station -> the booking whose slot is on
         self.resets: set[asyncio.Task] = set()
@@ -307,7 +309,7 @@ class Slots(Hook):
         if self.lease is not None:
             self.lease.hand_over(station, None, why)
         self.stop_group(station)
-        self.gateway.hooks.slot_ended(station, booking.person, why)
+        self.events.slot_ended(station, booking.person, why)
         self.stations.unseat(station, booking.person, why)
         nxt = self.timetable.next(station, now)
         self.timetable.ended[station] = (booking.person, nxt.start if nxt is not None else now + self.timetable.limits.slot)
@@ -328,7 +330,7 @@ class Slots(Hook):
     async def _reset(self, station: str) -> None:
         """The --station-reset service in the station's namespace (std_srvs Empty or Trigger)."""
         name = f'{station}/{self.reset.strip("/")}'
-        backend = self.gateway.backend
+        backend = self.caller
         type = next((t for n, t in backend.services() if n == name), None)
         if type is None:
             log.warning('slot end: no service %s to reset %s', name, station)

@@ -48,6 +48,7 @@ from protocol.errors import ProtocolError
 from ..backends.base import QoS
 from .access import StationGrants, is_gateway, role_of
 from .policy import CONTROL_TOPIC
+from .ports import Announcer, Subscribes
 
 log = logging.getLogger('rosgate.lease')
 from .safety import moving_command
@@ -73,11 +74,13 @@ def glob_group(glob: str) -> str:
 
 
 class Lease(FleetLease, Hook):
-    def __init__(self, gateway, *, types: frozenset[str], globs: tuple[str, ...] | None,
-                 grants: StationGrants, on_lost: Callable[[object, str], None], stations: Stations,
-                 stop_group: Callable[[str], None] = lambda group: None,
+    def __init__(self, *, announce: Announcer, control: Subscribes, types: frozenset[str],
+                 globs: tuple[str, ...] | None, grants: StationGrants, on_lost: Callable[[object, str], None],
+                 stations: Stations, stop_group: Callable[[str], None] = lambda group: None,
                  zero_group: Callable[[str], None] | None = None):
-        self.gateway, self.types, self.globs = gateway, types, globs or ()
+        """announce: where /rosgate/driver is published (and the gateway's own services, no
+        station's); control: the backend, where the control topic is declared."""
+        self.types, self.globs = types, globs or ()
         self.grants, self.on_lost, self.stop_group = grants, on_lost, stop_group
         self.zero_group = zero_group             # every command topic of a group zeroed (a dead gateway's)
         self.owners = stations
@@ -88,11 +91,11 @@ class Lease(FleetLease, Hook):
         self.lent: dict[str, object] = {}        # group -> the session a run of the same person took it from
         self.fleet = None                        # store.fleet.Fleet: the other gateways' leases (rules.fleet)
         self.settling: dict[str, tuple] = {}     # group -> (person, who, Wait): a free lease asked of PostgreSQL
-        self.names = StationNames(self)          # a station's services, actions and other topics: the holder's
-        backend = gateway.backend
-        self._driver = gateway.own_topic(DRIVER_TOPIC, STRING, QoS(depth=1, transient_local=True))
+        # a station's services, actions and other topics: the holder's
+        self.names = StationNames(self, own_services=announce.own_services)
+        self._driver = announce.own_topic(DRIVER_TOPIC, STRING, QoS(depth=1, transient_local=True))
         # declares the control topic so clients may publish to it without a type
-        self._control = backend.subscribe(CONTROL_TOPIC, STRING, lambda msg: None)
+        self._control = control.subscribe(CONTROL_TOPIC, STRING, lambda msg: None)
         self._announced = None
         self._timer: asyncio.TimerHandle | None = None
         self._announce()

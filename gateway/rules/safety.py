@@ -36,6 +36,7 @@ from ..backends.base import QoS
 from .access import is_gateway
 from ..settings import SafetySettings
 from .hooks import Hook
+from .ports import Door, Messages, Parties
 
 log = logging.getLogger('rosgate.safety')
 DEFAULT_TYPES = SafetySettings.stop_types
@@ -126,10 +127,13 @@ class Stream:
 
 
 class Safety(Hook):
-    def __init__(self, gateway, *, types=DEFAULT_TYPES, stop_on_disconnect: bool = True,
-                 cmd_timeout: float = 1.0, limits: VelocityLimits | None = None,
+    def __init__(self, *, door: Door, parties: Parties, messages: Messages, types=DEFAULT_TYPES,
+                 stop_on_disconnect: bool = True, cmd_timeout: float = 1.0, limits: VelocityLimits | None = None,
                  cmd_max_age: float = CMD_MAX_AGE, require_stamp: bool = False):
-        self.gateway = gateway
+        """door: where the zero commands are published (as the gateway's own, through the rules);
+        parties: who is there (each stopped at shutdown); messages: the zero commands' definitions
+        and stamps (the backend)."""
+        self.door, self.parties, self.messages = door, parties, messages
         self.cmd_max_age, self.require_stamp = cmd_max_age, require_stamp
         self.stale = 0                                    # stamped commands dropped as stale
         self.types = frozenset(types)
@@ -231,9 +235,9 @@ class Safety(Hook):
     def zero(self, stream: Stream) -> dict:
         value: dict = {}
         if any(f.name == 'header' for f in stream.msgdef.fields):
-            sec, nanosec = self.gateway.backend.now()
+            sec, nanosec = self.messages.now()
             value['header'] = {'stamp': {'sec': sec, 'nanosec': nanosec}, 'frame_id': stream.frame_id or ''}
-        return from_json(self.gateway.backend.defs, stream.msgdef, value)
+        return from_json(self.messages.defs, stream.msgdef, value)
 
     def _stop(self, topic: str, stream: Stream) -> None:
         stream.moving, stream.count = False, 0
@@ -241,14 +245,14 @@ class Safety(Hook):
         if stream.timer is not None:
             stream.timer.cancel()
             stream.timer = None
-        gw = self.gateway
-        pub = gw.publishers.get(topic)
+        door = self.door
+        pub = door.publishers.get(topic)
         temporary = pub is None
         if temporary:   # the client's publisher is already gone: publish through a short-lived one
-            pub = gw.publisher(topic, stream.type, QoS())
+            pub = door.publisher(topic, stream.type, QoS())
             pub.attach(0)
         try:
-            if gw.publish(gw.itself, pub, self.zero(stream)):
+            if door.publish(door.itself, pub, self.zero(stream)):
                 self.stops += 1
         finally:
             if temporary:
@@ -260,7 +264,7 @@ class Safety(Hook):
         count = 0
         for topic, type in topics:
             if type in self.types:
-                self._stop(topic, Stream(type, self.gateway.backend.msg_def(type)))
+                self._stop(topic, Stream(type, self.messages.msg_def(type)))
                 count += 1
         return count
 
@@ -300,7 +304,7 @@ class Safety(Hook):
 
     async def on_shutdown(self) -> None:
         count = 0
-        for session in self.gateway.everyone():
+        for session in self.parties.everyone():
             count += self.stop_session(session)
         self.stopped = True
         if not count:
@@ -309,5 +313,5 @@ class Safety(Hook):
         loop = asyncio.get_running_loop()
         deadline = loop.time() + SHUTDOWN_FLUSH
         await asyncio.sleep(0)   # deliveries that hop through the loop (rclpy) land first
-        while loop.time() < deadline and any(s.outbox.queued_bytes for s in self.gateway.sessions.values()):
+        while loop.time() < deadline and any(s.outbox.queued_bytes for s in self.parties.sessions.values()):
             await asyncio.sleep(0.005)

@@ -19,6 +19,8 @@ them to everyone on its station (``rules.attempts``): a teleport passed a goal i
 
 from __future__ import annotations
 
+from collections.abc import Container
+
 from .access import person_of
 from .stations import person
 
@@ -38,8 +40,10 @@ def moves_robot(name: str) -> bool:
 class StationNames:
     """The lease's keeper of its stations' other names."""
 
-    def __init__(self, lease):
-        self.lease = lease
+    def __init__(self, lease, *, own_services: Container[str]):
+        """own_services: the names of the services the gateway answers itself (the stations' claims:
+        they know who calls), none of them a station's."""
+        self.lease, self.own_services = lease, own_services
         self._stations: tuple = ()
         self._groups: dict[str, str] = {}   # name -> its group, while the stations stay the same
 
@@ -59,7 +63,7 @@ class StationNames:
     def name_refusal(self, asker, action: str, name: str) -> str | None:
         """Why ``asker`` may not call, send a goal to or advertise ``name`` (None: it may, or the
         name is no station's)."""
-        if action not in KEPT or name in self.lease.gateway.own_services or name.rsplit('/', 1)[-1] in READS:
+        if action not in KEPT or name in self.own_services or name.rsplit('/', 1)[-1] in READS:
             return None
         return self.refusal(asker, name, call=True)
 

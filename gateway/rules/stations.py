@@ -43,12 +43,14 @@ import asyncio
 import json
 import re
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from protocol.errors import ProtocolError
 
 from ..backends.base import QoS
 from .hooks import Hook
+from .ports import Announcer, Graph, LeaseView, Parties
 from ..settings import StationSettings
 from ..store.fleet import Unreachable
 
@@ -68,7 +70,7 @@ def _clock(at: float) -> str:
     return time.strftime('%H:%M:%S', time.localtime(at))
 
 
-def find_stations(backend, types: frozenset[str]) -> tuple[str, ...]:
+def find_stations(backend: Graph, types: frozenset[str]) -> tuple[str, ...]:
     """Top namespaces of nodes that subscribe to a velocity topic inside their namespace."""
     found = set()
     for name, type in backend.topics():
@@ -111,12 +113,17 @@ class Owner:
 
 
 class Stations(Hook):
-    def __init__(self, gateway, *, types: frozenset[str], idle: float = CLAIM_IDLE,
-                 grace: float = CLAIM_GRACE, grants=None, timetable=None, queue=None):
-        """grants: who may release others' stations (``rules.access.StationGrants``; None: anyone, as without --auth);
+    def __init__(self, *, announce: Announcer, graph: Graph, parties: Parties,
+                 lease: Callable[[], LeaseView | None] = lambda: None, types: frozenset[str],
+                 idle: float = CLAIM_IDLE, grace: float = CLAIM_GRACE, grants=None, timetable=None, queue=None):
+        """announce: /rosgate/stations and the claim services; graph: where stations are found;
+        parties: who is connected and what they advertise; lease: () -> the driver lease (built after
+        the stations, which it asks; None: no --exclusive-control);
+        grants: who may release others' stations (``rules.access.StationGrants``; None: anyone, as without --auth);
         timetable: the bookings (rules.bookings.Timetable) and queue: the walk-ins' line
         (rules.queue.Queue), with --booking."""
-        self.gateway, self.types, self.idle, self.grace, self.grants = gateway, types, idle, grace, grants
+        self.announce, self.graph, self.parties, self._lease = announce, graph, parties, lease
+        self.types, self.idle, self.grace, self.grants = types, idle, grace, grants
         self.timetable, self.queue = timetable, queue
         self.owners: dict[str, Owner] = {}
         self.released: dict[str, dict] = {}
@@ -125,7 +132,7 @@ class Stations(Hook):
         self._stations: tuple[str, ...] = ()
         self._stations_at = -float('inf')
         self._served: set[str] = set()
-        self._topic = gateway.own_topic(STATIONS_TOPIC, STRING, QoS(depth=1, transient_local=True))
+        self._topic = announce.own_topic(STATIONS_TOPIC, STRING, QoS(depth=1, transient_local=True))
         self._announced = None
         self._timer: asyncio.TimerHandle | None = None
         self._check()
@@ -135,7 +142,7 @@ class Stations(Hook):
     def stations(self) -> tuple[str, ...]:
         now = time.monotonic()
         if now - self._stations_at > STATIONS_TTL:
-            self._stations, self._stations_at = find_stations(self.gateway.backend, self.types), now
+            self._stations, self._stations_at = find_stations(self.graph, self.types), now
         return self._stations
 
     def owner(self, station: str) -> Owner | None:
@@ -160,17 +167,17 @@ class Stations(Hook):
     def in_use(self, station: str, key: str) -> bool:
         """Whether a client of another person advertises one of the station's topics (drives it,
         or is about to). Subscribers do not count: watching is not claiming."""
-        gw, prefix = self.gateway, station + '/'
+        parties, prefix = self.parties, station + '/'
         ids: set[int] = set()
-        for topic, pub in gw.publishers.items():
+        for topic, pub in parties.publishers.items():
             if topic.startswith(prefix):
                 ids |= pub.clients
-        return any(person(s) != key for i in ids if (s := gw.sessions.get(i)) is not None)
+        return any(person(s) != key for i in ids if (s := parties.sessions.get(i)) is not None)
 
     def free_for(self, key: str) -> str | None:
         """The lowest station person ``key`` may walk into now: nobody owns it, has it booked, or
         drives it (but them), and no slot of theirs just ended there."""
-        lease = self.gateway.policy.lease
+        lease = self._lease()
         for ns in self.stations():
             held = lease.holders.get(ns) if lease is not None else None
             if (self.owner(ns) is None and not self.in_use(ns, key) and (held is None or person(held) == key)
@@ -343,7 +350,7 @@ class Stations(Hook):
     def _free_lease(self, session, station: str) -> None:
         """The station's driver lease and stop go with its claim, in the same step: a page of the
         old owner must not find it held by nobody and owned by nobody in between."""
-        lease = self.gateway.policy.lease
+        lease = self._lease()
         if lease is not None:
             lease.free(station, session)
 
@@ -351,7 +358,7 @@ class Stations(Hook):
         return self.grants is None or self.grants.overrides(session)
 
     def _clients_of(self, key: str) -> list:
-        return [s for s in self.gateway.sessions.values() if person(s) == key]
+        return [s for s in self.parties.sessions.values() if person(s) == key]
 
     # --- the services, the announcement and lapsed claims ---------------------------------------
 
@@ -365,9 +372,9 @@ class Stations(Hook):
         if set(wanted) == self._served:
             return
         for name in self._served - set(wanted):
-            self.gateway.drop_own_service(name)
+            self.announce.drop_own_service(name)
         for name, (type, answer) in wanted.items():
-            self.gateway.own_service(name, type, answer)
+            self.announce.own_service(name, type, answer)
         self._served = set(wanted)
 
     def freed_elsewhere(self, station: str, by: str, key: str, barred: str | None) -> None:
@@ -382,7 +389,7 @@ class Stations(Hook):
                 s.status('warning', f'{by} released {station}: it is not your robot any more; press '
                                     '"Claim a robot" for one')
         self._announce()
-        lease = self.gateway.policy.lease
+        lease = self._lease()
         if lease is not None:
             lease.released_elsewhere(station, by)
 
@@ -447,7 +454,7 @@ class Stations(Hook):
     def _check(self) -> None:
         """Every CHECK_PERIOD: new stations served and announced; claims of the absent lapse."""
         now = time.monotonic()
-        present = {person(s) for s in self.gateway.sessions.values()}
+        present = {person(s) for s in self.parties.sessions.values()}
         for ns, o in list(self.owners.items()):
             if o.person in present:
                 o.seen = now

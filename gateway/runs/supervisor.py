@@ -14,6 +14,11 @@ At most ``--max-runs`` runs go at once, ``--max-runs-per-person`` of one signed-
 admin has only the first limit), each in a namespace of the graph (a station like /s07, or the
 root): a run's namespace is a name the gateway knows, not any text. A refusal is a ``RunError``
 carrying its HTTP status (the web layer answers it).
+
+The manager is given what it uses (``runs.ports``): the settings, the gateway's own topics
+(``Announcer``), the graph's nodes (``Graph``), and the rules in force (``rules``: the driver lease, the
+safety's stops, whether anyone signs in), read when a run needs them, since the rules are composed
+after the manager (they hold its part at the publish door).
 """
 
 from __future__ import annotations
@@ -27,14 +32,13 @@ import re
 import secrets
 import shutil
 import signal
-import socket
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import tornado.httpserver
-import tornado.netutil
 
 from protocol.errors import ProtocolError
 
@@ -42,13 +46,14 @@ from ..backends.base import QoS
 from ..rules.access import Action, Area, allowed, as_role, owns, person_of
 from ..rules.errors import Refusal
 from ..rules.hooks import Hook
-from ..rules.safety import Safety, moving_command
-from ..settings import Refused, RunSettings, data_dir
+from ..rules.safety import moving_command
+from ..settings import RunSettings, Settings
 from . import launcher, node
 from .archive import Archive
-from .cgroups import Cgroups, RunCgroup, limits_in_force
+from .cgroups import Cgroups, RunCgroup
+from .ports import Announcer, Graph, InForce, LeaseView, Stops
 from .process import Run, RunLimits, RunOutput
-from .sandbox import HOME, SOCKET, Sandbox, SandboxUnavailable, exit_code, kill_box, make_home, run_user
+from .sandbox import HOME, SOCKET, Sandbox, exit_code, kill_box
 
 log = logging.getLogger('rosgate.runs')
 STRING = 'std_msgs/msg/String'
@@ -64,23 +69,29 @@ class RunError(Refusal):
 
 
 class RunManager(Hook):
-    def __init__(self, gateway, *, allowed: bool, runs_dir: Path | None, limits: RunLimits = RunLimits(),
-                 box: Sandbox | None = None, cgroups: Cgroups | None = None, max_runs: int = RunSettings.max_runs,
-                 max_per_person: int = RunSettings.max_runs_per_person, archive: Archive | None = None):
-        self.gateway, self.allowed, self.limits = gateway, allowed, limits
+    def __init__(self, settings: Settings, *, announce: Announcer, graph: Graph,
+                 rules: Callable[[], InForce | None], allowed: bool, runs_dir: Path | None,
+                 limits: RunLimits = RunLimits(), box: Sandbox | None = None, cgroups: Cgroups | None = None,
+                 max_runs: int = RunSettings.max_runs, max_per_person: int = RunSettings.max_runs_per_person,
+                 archive: Archive | None = None, home: Path | None = None, home_lock: int | None = None):
+        """announce: the runs' output and state topics; graph: the namespaces a run may have;
+        rules: () -> the rules in force (None before they are); home: the box's files of the
+        gateway's (the unix socket, staged views), removed at shutdown; home_lock: the descriptor
+        whose flock keeps ``home`` this gateway's (``sandbox.make_home``)."""
+        self.settings, self.announce, self.graph, self.rules = settings, announce, graph, rules
+        self.allowed, self.limits = allowed, limits
         self.archive = archive
         self.runs_dir = runs_dir
         self.box, self.cgroups = box, cgroups
         self.max_runs, self.max_per_person = max_runs, max_per_person
         self.runs: dict[str, Run] = {}
         self.server: tornado.httpserver.HTTPServer | None = None
-        self.home: Path | None = None       # the box's files of the gateway's: the unix socket, staged views
-        self.home_lock: int | None = None   # the descriptor whose flock keeps ``home`` this gateway's
+        self.home, self.home_lock = home, home_lock
 
     def serve(self, app, sock) -> None:
         """Serve ``app`` (the rosbridge websocket alone) on the unix socket that the boxes bind in:
         the runs' one way to the gateway."""
-        settings = self.gateway.settings
+        settings = self.settings
         self.server = tornado.httpserver.HTTPServer(app, max_buffer_size=settings.max_message_size * 4,
                                                     idle_connection_timeout=settings.idle_connection_timeout)
         self.server.add_socket(sock)
@@ -126,9 +137,8 @@ class RunManager(Hook):
         run.kind = kind
         run.role, run.person, run.owner, run.who = role, person, owner, who
         latched = QoS(depth=1, transient_local=True)
-        gateway = self.gateway
-        run.state_pub = gateway.own_topic(f'/rosgate/runs/{run_id}/state', STRING, latched)
-        run.output_pub = gateway.own_topic(f'/rosgate/runs/{run_id}/output', STRING, QoS(depth=100))
+        run.state_pub = self.announce.own_topic(f'/rosgate/runs/{run_id}/state', STRING, latched)
+        run.output_pub = self.announce.own_topic(f'/rosgate/runs/{run_id}/output', STRING, QoS(depth=100))
         self.runs[run_id] = run
         if self.archive is not None:
             self.archive.begin(run, source, kind)
@@ -160,7 +170,7 @@ class RunManager(Hook):
     def namespaces(self) -> set[str]:
         """The root and the namespaces of the graph's nodes (/s07 of /s07/turtlesim, and so on)."""
         known = {''}
-        for node in self.gateway.backend.nodes():
+        for node in self.graph.nodes():
             parts = node.strip('/').split('/')[:-1]
             known.update('/' + '/'.join(parts[:i]) for i in range(1, len(parts) + 1))
         return known
@@ -175,7 +185,7 @@ class RunManager(Hook):
         """With --exclusive-control a run takes its namespace's driver lease (from its starter's own
         page quietly, and gives it back when it ends): refuse at once a run that could not (another
         person's station or lease, or a stop that holds until Take)."""
-        lease = self.gateway.policy.lease
+        lease = self._lease()
         why = lease.run_refusal(person, role, ns) if lease is not None else None
         if why is not None:
             raise RunError(409, why)
@@ -190,7 +200,7 @@ class RunManager(Hook):
 
     async def _supervise(self, run: Run, port: tuple[str, int, bool]) -> None:
         host, number, tls = port
-        path = self.gateway.settings.url_path
+        path = self.settings.url_path
         path = path if path.startswith('/') else '/' + path
         relayed = self.box is not None and self.box.socket is not None
         if relayed:     # the relay in the box, at the gateway's port number: ws://localhost:9090 works too
@@ -264,9 +274,13 @@ class RunManager(Hook):
         self._signal(run, signal.SIGINT)
         run.timers.append(asyncio.get_running_loop().call_later(KILL_AFTER, self._signal, run, signal.SIGKILL))
 
-    def _safety(self) -> Safety | None:
-        rules = self.gateway.ruleset
+    def _safety(self) -> Stops | None:
+        rules = self.rules()
         return rules.safety if rules is not None else None
+
+    def _lease(self) -> LeaseView | None:
+        rules = self.rules()
+        return rules.lease if rules is not None else None
 
     def halt(self, run: Run) -> int:
         safety = self._safety()
@@ -363,7 +377,7 @@ class RunManager(Hook):
         if run.role is not None:
             session.attrs['role'] = run.role
             session.attrs.pop('auth_error', None)
-        lease = self.gateway.policy.lease
+        lease = self._lease()
         if lease is not None:
             try:
                 lease.take(session, run.ns)
@@ -375,7 +389,8 @@ class RunManager(Hook):
         ``rules.access``, so a recording or a stream is refused them as a subscription is."""
         found = RUN_TOPIC.fullmatch(name) if action == 'subscribe' else None
         run = self.runs.get(found.group(1)) if found else None
-        if run is None or self.gateway.policy.auth is None:
+        rules = self.rules() if run is not None else None
+        if rules is None or rules.policy.auth is None:
             return None
         attrs = getattr(who, 'attrs', {})
         mine = attrs.get('run') == run.id or (run.owner is not None and person_of(who) == run.person)
@@ -437,56 +452,3 @@ class RunManager(Hook):
             left = [c for c in left if not c.remove()]
             if left:
                 await asyncio.sleep(0.02)
-
-
-def start_runs(gateway) -> tuple[RunManager, socket.socket | None]:
-    """The run manager as the settings ask, and the unix socket the boxes reach the gateway by
-    (None: runs are off, or trusted runs reach the gateway's port themselves), for the server's
-    start to serve (``RunManager.serve``). With --allow-runs and no working bwrap a Refused
-    names what to install (the gateway does not start)."""
-    settings, flags = gateway.settings, gateway.settings.runs
-    runs_dir = Path(flags.runs_dir or default_runs_dir())
-    box = cgroups = home = sock = None
-    if flags.allow_runs:
-        private = [settings.storage.programs_dir, runs_dir, settings.storage.record, data_dir(''), settings.certfile,
-                   settings.keyfile, Path.home(), *(a for a in sys.argv[1:] if a.startswith('/'))]
-        home, home_lock = make_home()
-        try:
-            user = run_user()
-            sock = None     # a trusted run, on the machine's network, reaches the gateway's port itself
-            if not flags.trusted_runs:
-                sock = tornado.netutil.bind_unix_socket(str(home / 'gateway.sock'), mode=0o600 if user is None else 0o660)
-            if user is not None:     # the runs' user reaches the socket through its group (else it is ours)
-                os.chown(home, 0, user[1])
-                if sock is not None:
-                    os.chown(home / 'gateway.sock', 0, user[1])
-                home.chmod(0o750)
-            box = Sandbox.create(private, home=home, socket=None if sock is None else str(home / 'gateway.sock'),
-                                 graph=flags.trusted_runs)
-        except SandboxUnavailable as e:
-            shutil.rmtree(home, ignore_errors=True)
-            os.close(home_lock)
-            raise Refused('--allow-runs', str(e)) from None
-        cgroups, how = Cgroups.find()
-        if cgroups is not None:
-            cgroups.sweep()
-        if box.graph:
-            log.warning('runs: --trusted-runs: each run is a node of the ROS graph itself; what it publishes '
-                        'that way is outside every rule of this gateway (lease, globs, clamps, stops, slot '
-                        'ends): only its websocket ops obey them')
-        lim = RunLimits()
-        log.info('runs: in a bwrap sandbox; %s', limits_in_force(
-            cgroups, how, memory_mb=lim.memory_mb, processes=lim.processes, cpus=lim.cpus,
-            cpu_seconds=lim.cpu_seconds, open_files=lim.open_files))
-    archive = Archive(gateway.store, cap=flags.run_output_cap, keep_days=flags.runs_keep_days,
-                      keep_count=flags.runs_keep_count, keep_bytes=flags.runs_keep_bytes,
-                      keep_share=flags.runs_keep_share)
-    manager = RunManager(gateway, allowed=flags.allow_runs, runs_dir=runs_dir, box=box, cgroups=cgroups,
-                         max_runs=flags.max_runs, max_per_person=flags.max_runs_per_person, archive=archive)
-    manager.home = home          # removed at shutdown
-    manager.home_lock = home_lock if flags.allow_runs else None   # held while the gateway lives (make_home)
-    return manager, sock
-
-
-def default_runs_dir() -> Path:
-    return data_dir('runs')

@@ -28,7 +28,7 @@ async def measure(runs: int = 7, n: int = 20000) -> dict:
     backend = SimBackend(demo=False)
     await backend.start()
     gw = Gateway(replace(Settings(), safety=SafetySettings(exclusive_control=True, cmd_timeout=0)), backend)
-    composed = rules.compose(gw)
+    composed = rules.compose(gw.rule_doors())
     gw.install(composed)
     composed.stations._stations = tuple(f'/s{i:02d}' for i in range(1, 31))   # as a --fleet 30 finds them
     composed.stations._stations_at = float('inf')

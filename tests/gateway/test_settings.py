@@ -103,8 +103,9 @@ async def test_the_rules_are_composed_in_their_documented_order(tmp_path):
     settings = replace(Settings(), safety=SafetySettings(exclusive_control=True), lab=LabSettings(booking=True),
                        storage=StorageSettings(db_url=f'sqlite:///{tmp_path / "db.sqlite"}'))
     gateway = Gateway(settings, backend)
-    runs = RunManager(gateway, allowed=False, runs_dir=tmp_path)
-    composed = rules.compose(gateway, runs=runs)
+    runs = RunManager(settings, announce=gateway, graph=backend, rules=lambda: gateway.ruleset, allowed=False,
+                      runs_dir=tmp_path)
+    composed = rules.compose(gateway.rule_doors(), runs=runs)
     try:
         assert composed.publish == (runs.publish_hook, composed.lease.publish_hook, composed.reports.publish_hook,
                                     composed.safety.publish_hook)

@@ -51,7 +51,7 @@ class InProcess:
         await self.backend.start()
         self.gateway = Gateway(settings, self.backend)
         # what viewers may call: the gateway's read-only services, as server.start gives them
-        self.gateway.install(rules.compose(self.gateway, start.files, reads=rosapi.handles))
+        self.gateway.install(rules.compose(self.gateway.rule_doors(), start.files, reads=rosapi.handles))
         return self
 
     async def __aexit__(self, *exc) -> None:
