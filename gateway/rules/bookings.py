@@ -287,7 +287,9 @@ class Slots(Hook):
         except RuntimeError:
             return
         nxt = self.timetable.boundaries_after(now + LATE)
-        delay = MAX_SLEEP if nxt is None else min(MAX_SLEEP, max(0.0, nxt - self.timetable.now()))
+        # woken just past the boundary: a loop's timer may fire a millisecond early (uvloop), and
+        # what is announced then (the slot on now) reads the clock without LATE
+        delay = MAX_SLEEP if nxt is None else min(MAX_SLEEP, max(0.0, nxt - self.timetable.now()) + LATE)
         self.timer = loop.call_later(delay, self.tick)
 
     def _start(self, station: str, booking: Booking) -> None:
