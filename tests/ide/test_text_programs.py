@@ -48,7 +48,9 @@ def went_round_the_square(pose, cmd, tol: float = 4 * LOOP_REACH):
         assert any(abs(m["x"] - x) < tol and abs(m["y"] - y) < tol for m in seen), (x, y)
     end = pose.latest()
     assert abs(end["x"] - START) < tol and abs(end["y"] - START) < tol, end
-    assert cmd.latest()["linear"]["x"] == 0 and cmd.latest()["angular"]["z"] == 0
+    # the run's end is the page's word; the zero reaches this other connection a moment later
+    wait_for(lambda: cmd.latest()["linear"]["x"] == 0 and cmd.latest()["angular"]["z"] == 0, timeout=30,
+             what="the zero as the last command")
 
 
 DRIVE = [
