@@ -7,6 +7,7 @@ import uPlot from 'uplot';
 import { field } from '../../runtime/util.js';
 import { leaves } from './tree.js';
 import { t, num } from '../i18n.js';
+import { download } from '../teleop/history.js';
 
 const COLOURS = ['#ff7043', '#42a5f5', '#66bb6a', '#ab47bc', '#ffca28', '#26c6da', '#ef5350', '#8d6e63'];
 const MAX_ROWS = 20000;
@@ -20,15 +21,6 @@ export function csv(series, rows) {
   return `${[head, ...lines].join('\n')}\n`;
 }
 
-function download(blob, name) {
-  const a = document.createElement('a');
-  a.href = URL.createObjectURL(blob);
-  a.download = name;
-  document.body.append(a);
-  a.click();
-  a.remove();
-  setTimeout(() => URL.revokeObjectURL(a.href), 10000);
-}
 
 export class Plot {
   constructor(wire, els) {

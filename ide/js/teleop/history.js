@@ -83,7 +83,8 @@ export function localInput(t) {
 }
 const fromInput = (v) => new Date(v).getTime() / 1000;
 
-function download(blob, name) {
+/** Saves a Blob as a file of the browser's (the CSV and PNG of a span; the inspect page's plots too). */
+export function download(blob, name) {
   const a = document.createElement('a');
   a.href = URL.createObjectURL(blob);
   a.download = name;
