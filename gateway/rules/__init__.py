@@ -1,13 +1,12 @@
 """The rules: who may do what, and keeping robots safe.
 
 Rooms: name globs, the Host/Origin checks and a trusted proxy's forwarded headers (``names``);
-roles, caps and op rate (``policy``: one policy), tokens and the brake on guessing (``tokens``);
-the one access rule, "may this identity read/write/call/own this", for every path (``access``);
-refusals that carry their HTTP status (``errors``); sign-in sessions kept in the store
-(``sessions``); who an LMS launch says someone is (``lti``); robot stations and the person who owns
-each (``stations``), the walk-ins' line (``queue``), booked slots (``bookings``); the driver lease
-per station (``lease``); velocity clamps and stops (``safety``); a stamped command's age
-(``freshness``); the events the gateway's parts follow (``hooks``).
+roles, caps and op rate (``policy``: one policy, reading who someone is from ``auth``: tokens,
+sign-in sessions, LTI identities); the one access rule, "may this identity read/write/call/own
+this", for every path (``access``); refusals that carry their HTTP status (``errors``); robot
+stations and the person who owns each (``stations``), the walk-ins' line (``queue``), booked slots
+(``bookings``); the driver lease per station (``lease``); velocity clamps and stops (``safety``);
+a stamped command's age (``freshness``); the events the gateway's parts follow (``hooks``).
 
 ``add_arguments(parser)`` adds their flags (each flag's field is in ``gateway.settings``);
 ``load(settings)`` reads their files once at start-up (``ConfigError`` naming the flag);
@@ -15,7 +14,7 @@ per station (``lease``); velocity clamps and stops (``safety``); a stamped comma
 docstring, each part given the few doors it uses (``ports``; ``doors``: ``bridge.doors.RuleDoors``),
 and ``Gateway.install`` puts the result in force.
 
-May import: ``protocol`` and ``backends`` (for QoS and types), ``store`` (sessions) and ``settings``,
+May import: ``protocol`` and ``backends`` (for QoS and types), ``auth``, ``store`` and ``settings``,
 never ``bridge`` or ``web``: the doors are handed in (``ports``), never the Gateway.
 """
 
@@ -40,10 +39,10 @@ from .ports import RuleDoors
 from .queue import Queue
 from .reports import Reports
 from .safety import Clamp, Safety, VelocityLimits
-from .lti import LtiConfig
-from .sessions import Sessions, cookie_secret
+from ..auth.lti import LtiConfig
+from ..auth.sessions import Sessions, cookie_secret
 from .stations import Stations
-from .tokens import Authenticator, Brake, TokenStore
+from ..auth.tokens import Authenticator, Brake, TokenStore
 from ..settings import SafetySettings
 from ..store.fleet import Fleet
 

@@ -45,7 +45,7 @@ from enum import Enum, StrEnum
 
 from .errors import Refusal
 from .stations import person_of as _person_of_request
-from .tokens import ROLES, Role
+from ..auth.tokens import ROLES, Role
 
 ADMINS = (Role.ADMIN.value,)
 OPERATORS = (Role.OPERATOR.value, Role.ADMIN.value)     # those who may change things: drive, run, record, book

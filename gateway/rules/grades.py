@@ -37,7 +37,7 @@ from tornado.httpclient import AsyncHTTPClient, HTTPClientError, HTTPRequest
 from tornado.ioloop import PeriodicCallback
 
 from ..store import METADATA, Store
-from .lti import CLAIM, LtiConfig, Registration
+from ..auth.lti import CLAIM, LtiConfig, Registration
 
 log = logging.getLogger('rosgate.grades')
 AGS_CLAIM = 'https://purl.imsglobal.org/spec/lti-ags/claim/endpoint'

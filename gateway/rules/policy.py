@@ -18,11 +18,11 @@ from protocol.errors import ProtocolError
 
 from .stations import person_of
 from .names import ACTION_KINDS, LOCAL_HOSTS, action_of, host_name, is_ip, own_names, parse_globs, parse_networks, refuse, target
-from .sessions import SESSION_COOKIE, Sessions
+from ..auth.sessions import SESSION_COOKIE, Sessions
 from ..settings import SecuritySettings
 from .access import (GATEWAY_ROLE, NOT_AUTHENTICATED, PERMISSIONS, VERBS, is_gateway, lowered,  # noqa: F401 (re-exported)
                      parameter_service, role_refusal)
-from .tokens import AuthError, Authenticator, Identity
+from ..auth.tokens import AuthError, Authenticator, Identity
 
 OWN_PREFIX = '/rosgate/'              # the gateway's own topics (driver, runs' state and output)
 CONTROL_TOPIC = '/rosgate/control'    # where clients ask for the driver lease

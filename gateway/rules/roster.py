@@ -25,7 +25,7 @@ from tornado.httpclient import AsyncHTTPClient, HTTPRequest
 
 from ..store import METADATA, Store
 from .grades import access_token
-from .lti import LtiConfig, Registration, identity_of, role_of
+from ..auth.lti import LtiConfig, Registration, identity_of, role_of
 
 log = logging.getLogger('rosgate.roster')
 

@@ -33,7 +33,7 @@ import threading
 from datetime import datetime, timezone
 
 from ..rules.access import may
-from ..rules.tokens import AuthError
+from ..auth.tokens import AuthError
 from ..settings import data_dir
 from ..rules.hooks import Hook
 

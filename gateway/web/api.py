@@ -14,7 +14,7 @@ from tornado.log import gen_log
 
 from ..rules.errors import Refusal
 from ..rules.access import NOBODY, Action, Area, decide
-from ..rules.tokens import AuthError, Authenticator, Identity
+from ..auth.tokens import AuthError, Authenticator, Identity
 
 
 class Access(Protocol):

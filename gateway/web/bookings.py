@@ -38,7 +38,7 @@ import tornado.web
 from ..rules import roster
 from ..rules.access import Action, Area, allowed
 from ..rules.bookings import Slots
-from ..rules.sessions import Sessions
+from ..auth.sessions import Sessions
 from ..rules.stations import person_of
 from ..store import Store
 from .api import JsonHandler, authorize, body_json, query_number

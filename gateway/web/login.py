@@ -1,5 +1,5 @@
 """Signing in: a small login page that begins a session (its cookie is a signed session id, never
-the token: ``rules.sessions``), sign-out that ends it on the server, and /whoami."""
+the token: ``auth.sessions``), sign-out that ends it on the server, and /whoami."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ from urllib.parse import unquote
 import tornado.web
 
 from ..rules.policy import session_cookie
-from ..rules.sessions import SESSION_COOKIE
-from ..rules.tokens import AuthError
+from ..auth.sessions import SESSION_COOKIE
+from ..auth.tokens import AuthError
 from ..rules.access import Area
 from .api import JsonHandler, authorized, check_origin
 from .cookies import clear_cookie, is_https, set_cookie

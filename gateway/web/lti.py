@@ -7,7 +7,7 @@
   goes to the platform's authorization endpoint.
 - ``POST /lti/launch``: the platform's form post of ``id_token`` and ``state``. The state must be
   one this gateway gave out and not yet used, and this browser's cookie must hold it; the
-  id_token is judged by ``rules.lti.check_launch`` against the platform's key (its JWKS, fetched,
+  id_token is judged by ``auth.lti.check_launch`` against the platform's key (its JWKS, fetched,
   cached, fetched again for a key id it does not know). Anything wrong: a page saying what (400),
   and nobody is signed in. Otherwise the browser is signed in (the same session as ``/login``)
   and lands where the launch asks (``landing``); a deep linking request gets the picker.
@@ -40,9 +40,10 @@ import tornado.ioloop
 import tornado.web
 
 from ..exercises import ID as EXERCISE_ID, ExerciseError
-from ..rules import grades, lti, lti_dynamic, roster
+from ..auth import lti, lti_dynamic
+from ..rules import grades, roster
 from ..rules.access import Action, Area, allowed
-from ..rules.lti import LaunchError
+from ..auth.lti import LaunchError
 from .api import Handler, check_origin
 from .cookies import clear_cookie, set_cookie
 from .language import Texts, best

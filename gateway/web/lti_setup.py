@@ -7,7 +7,7 @@
 - ``POST /lti/register/new`` (a signed-in admin): a registration URL, good once for an hour.
 - ``GET /lti/register?ticket=T&openid_configuration=URL&registration_token=TOKEN``: the platform
   opens the URL so (IMS LTI Dynamic Registration 1.0); the tool fetches the platform's OpenID
-  configuration, registers itself at its registration endpoint, keeps the answer (``rules.lti_dynamic``)
+  configuration, registers itself at its registration endpoint, keeps the answer (``auth.lti_dynamic``)
   and closes the LMS's dialog (``postMessage({subject: 'org.imsglobal.lti.close'})``). A URL used,
   expired or not made by an admin of this gateway registers nothing.
 """
@@ -22,10 +22,10 @@ import tornado.httpclient
 import tornado.web
 from tornado.httpclient import HTTPRequest
 
-from ..rules import lti_dynamic
+from ..auth import lti_dynamic
 from ..rules.access import Action, Area, allowed
-from ..rules.lti_dynamic import RegistrationError
-from ..rules.tokens import AuthError
+from ..auth.lti_dynamic import RegistrationError
+from ..auth.tokens import AuthError
 from .api import check_origin
 from .language import Texts
 from .lti import DeepLinkHandler, JwksHandler, LaunchHandler, LoginInitHandler, Lti, ResumeHandler, LtiPage, base_url

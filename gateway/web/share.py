@@ -9,7 +9,7 @@ any name in it. Opened by the teacher, a student's link ran its program with the
 session. The page now asks before a link's program first runs and runs it without admin rights
 (``ide/js/run/foreign.js``); to say whose it is, it asks here: ``sig`` is an HMAC of the signer's key,
 name and the program's exact text under the gateway's own secret (the session cookies' secret,
-``rules.sessions.cookie_secret``), so a name is shown only when this gateway signed it, and
+``auth.sessions.cookie_secret``), so a name is shown only when this gateway signed it, and
 ``mine`` (the signer is the caller) is the one case that needs no asking.
 """
 
@@ -21,7 +21,7 @@ import hmac
 
 import tornado.web
 
-from ..rules.sessions import cookie_secret
+from ..auth.sessions import cookie_secret
 from ..rules.access import Action, Area
 from .api import JsonHandler, authorized, body_json
 

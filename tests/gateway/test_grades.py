@@ -13,7 +13,7 @@ from cryptography.hazmat.primitives.asymmetric import rsa
 from tornado import httpserver, web
 
 from gateway.rules import grades
-from gateway.rules.lti import CLAIM, LtiConfig, Registration
+from gateway.auth.lti import CLAIM, LtiConfig, Registration
 from gateway.store import Store
 
 ISS = 'https://lms.test'
@@ -151,7 +151,7 @@ def test_roster_and_a_student_who_left_cannot_book(setup):
 async def _roster(plat, config, store):
     from gateway.rules import roster
     from gateway.rules.bookings import BookingError, BookingLimits, Timetable
-    from gateway.rules.lti import identity_of
+    from gateway.auth.lti import identity_of
     listed = [{'user_id': 's1', 'name': 'Ada', 'roles': ['Learner'], 'status': 'Active'},
               {'user_id': 's2', 'name': 'Bob', 'roles': ['Learner'], 'status': 'Active'}]
 

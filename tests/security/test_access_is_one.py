@@ -30,7 +30,7 @@ ASKERS = frozenset({'is_admin', 'acts_as_admin'})
 COMPARING = (ast.Eq, ast.NotEq, ast.In, ast.NotIn)
 # Comparisons of roles that decide no access, each with its reason.
 ALLOWED = {
-    ('gateway/rules/tokens.py', 'listed'): 'whether a token file still holds this Identity (its name and role): '
+    ('gateway/auth/tokens.py', 'listed'): 'whether a token file still holds this Identity (its name and role): '
                                             'equality of records, read by the sessions, not a permission',
     ('gateway/rules/roster.py', 'fetch'): 'roles= is a column of the roster: the LMS\'s own membership roles, '
                                           'kept as the LMS sent them',

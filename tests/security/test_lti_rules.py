@@ -1,4 +1,4 @@
-"""LTI roles and identities (rules.lti), and the tool configuration file as PyLTI1p3 writes it."""
+"""LTI roles and identities (auth.lti), and the tool configuration file as PyLTI1p3 writes it."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from gateway.rules import lti
+from gateway.auth import lti
 
 M = 'http://purl.imsglobal.org/vocab/lis/v2/membership#'
 I = 'http://purl.imsglobal.org/vocab/lis/v2/institution/person#'

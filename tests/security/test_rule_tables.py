@@ -15,7 +15,7 @@ import pytest
 
 from gateway.rules.access import NOBODY, Action, Area, StationGrants, acts_as_admin, decide, is_admin, may, owns
 from gateway.rules.stations import person
-from gateway.rules.tokens import Identity
+from gateway.auth.tokens import Identity
 from tests.support.auth import TOKENS, tokens_toml
 from tests.support.inproc import InProcess, settle
 from tests.support.wait import until

@@ -6,7 +6,7 @@ import hashlib
 
 import pytest
 
-from gateway.rules.tokens import Authenticator, AuthError, Brake, Identity, TokenStore
+from gateway.auth.tokens import Authenticator, AuthError, Brake, Identity, TokenStore
 
 
 def store_from(tmp_path, text: str) -> TokenStore:

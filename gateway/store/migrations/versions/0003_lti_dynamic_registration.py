@@ -1,5 +1,5 @@
 """LTI Dynamic Registration: the admins' one-time registration URLs and the platforms registered by it
-(``gateway.rules.lti_dynamic``), created where missing.
+(``gateway.auth.lti_dynamic``), created where missing.
 
 Revision ID: 0003
 Revises: 0002

@@ -1,0 +1,13 @@
+"""Who someone is: sign-in, identity, the LMS as an identity provider.
+
+Rooms: tokens and roles from the tokens file, rosauth MACs and the brake on guessing (``tokens``);
+sign-in sessions kept in the store and the cookies' secret (``sessions``); who an LMS launch says
+someone is and whether to believe it, the tool's platforms and keys (``lti``); LTI Dynamic
+Registration, the platforms registered from one URL (``lti_dynamic``).
+
+What someone may do is the rules' (``rules.access`` reads an ``Identity`` from here); what a class
+does with the LMS (grades, the roster, a launch's landing) is the lab's.
+
+May import: ``store`` and ``settings`` only; never ``rules``, ``lab`` or anything above them
+(the rules, the lab, the bridge, runs, media, twin and web all import this room).
+"""
