@@ -21,11 +21,11 @@ import tornado.httpserver
 import tornado.ioloop
 
 from . import rules
-from .rules import grades, roster
+from .lab import grades, roster
 from .bridge import rosapi, topicstats
 from .bridge.gateway import Gateway
-from .exercises import Checker, Library
-from .exercises.checker import LiveAttempts
+from .lab.checker import LiveAttempts
+from .lab.exercises import Checker, Library
 from .runs import RunManager, start_runs
 from .settings import Settings
 from .web.app import make_app, socket_app

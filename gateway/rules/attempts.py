@@ -1,6 +1,6 @@
 """A live exercise attempt's station is the attempter's, and its robot moves only by being driven.
 
-``exercises.checker`` checks an attempt's goal on the station's own topics; what it may trust is
+``lab.checker`` checks an attempt's goal on the station's own topics; what it may trust is
 decided here, as the rules decide every other access (``live()``: the attempts going now, each with
 ``station``, ``person``, ``name``, ``kept`` (the pose and scan topics its goal reads), ``allow`` and
 ``refuse`` (an exercise's own service names or globs, absolute)). Tried as a class would: a student

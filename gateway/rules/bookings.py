@@ -42,7 +42,7 @@ import sqlalchemy as sa
 
 from ..settings import LabSettings
 from ..store import METADATA
-from . import roster
+from ..auth import courses
 from .errors import Refusal
 from .hooks import Hook
 from .ports import Caller, SlotEvents
@@ -203,7 +203,7 @@ class Timetable:
                   exempt: bool = False) -> Booking:
         """Check and keep a booking. It holds its place in memory at once (a second request for
         the same time, in while this one is written, sees it) and gets its id from the store."""
-        if await roster.has_left(self.store, person):   # before check: nothing awaits between check and insort
+        if await courses.has_left(self.store, person):   # before check: nothing awaits between check and insort
             raise BookingError(403, 'you are no longer a member of this course in the LMS, so you cannot book a '
                                     'station; ask your teacher')
         self.check(station, person, start, end, exempt)

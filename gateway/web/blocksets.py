@@ -28,7 +28,7 @@ import tornado.web
 
 from ..rules.access import Action, Area, allowed
 from .api import JsonHandler, authorized, body_json
-from .blockcheck import BlockSchema
+from ..lab.blockcheck import BlockSchema
 from .programs import write_whole
 
 SHARED = 'shared.json'

@@ -35,7 +35,7 @@ import re
 import icalendar
 import tornado.web
 
-from ..rules import roster
+from ..auth import courses
 from ..rules.access import Action, Area, allowed
 from ..rules.bookings import Slots
 from ..auth.sessions import Sessions
@@ -130,11 +130,11 @@ class BookingListHandler(_Handler):
 
 async def people(sessions: Sessions | None, store: Store, who: str | None = None) -> list[dict]:
     """Who an admin may book for: who signed in here (``sessions``: None with auth off), newest first,
-    then the courses' active members who have not (``rules.roster``); ``who``: only those it names
+    then the courses' active members who have not (``auth.courses``); ``who``: only those it names
     (their id, or their name in any case)."""
     found = [p.json() for p in sessions.people(who)] if sessions is not None else []
     seen = {p['id'] for p in found}
-    for m in await roster.members(store):
+    for m in await courses.members(store):
         if m['status'] == 'Active' and m['person'] not in seen and (
                 who is None or who == m['person'] or who.casefold() == m['name'].casefold()):
             seen.add(m['person'])

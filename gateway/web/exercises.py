@@ -1,4 +1,4 @@
-"""Exercises and their attempts over HTTP (``gateway.exercises`` does the checking):
+"""Exercises and their attempts over HTTP (``gateway.lab`` does the checking):
 
 GET  /api/exercises                 -> {"exercises": [...], "problems": [...]}   (anyone who may read)
 GET  /api/exercises/ID              -> the exercise (its start program, goal, time limit)
@@ -23,8 +23,8 @@ from __future__ import annotations
 
 import tornado.web
 
-from ..exercises import Checker, ExerciseError, Library, attempt_person, public
-from ..exercises import store as results
+from ..lab import results
+from ..lab.exercises import Checker, ExerciseError, Library, attempt_person, public
 from ..rules.attempts import AttemptRule
 from ..rules.stations import person_of
 from ..rules.access import Action, Area, allowed

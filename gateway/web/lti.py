@@ -15,7 +15,7 @@
   auto-posted to the platform. An exercise picked (``--exercises-dir``) goes as a resource link
   with a ``lineItem`` (scoreMaximum 1, its title as label, its id as resourceId), so the platform
   makes the gradebook column its scores go to, and custom ``exercise=ID``, so a launch from it
-  lands in the IDE on that exercise and its AGS line item is kept for that exercise (``rules.grades``).
+  lands in the IDE on that exercise and its AGS line item is kept for that exercise (``lab.grades``).
 - ``GET /lti/resume``: where a launch whose cookie the browser refused (Safari in an iframe)
   continues in a new window, with a ticket good for one use within ``RESUME_TTL`` s.
 - ``GET /lti/jwks``: the tool's public keys. The LMS set-up (``/lti/config``, LTI Dynamic
@@ -39,9 +39,9 @@ import tornado.httpclient
 import tornado.ioloop
 import tornado.web
 
-from ..exercises import ID as EXERCISE_ID, ExerciseError
+from ..lab.exercises import ID as EXERCISE_ID, ExerciseError
 from ..auth import lti, lti_dynamic
-from ..rules import grades, roster
+from ..lab import grades, roster
 from ..rules.access import Action, Area, allowed
 from ..auth.lti import LaunchError
 from .api import Handler, check_origin
@@ -139,7 +139,7 @@ class Lti:
     def __init__(self, config: lti.LtiConfig, policy, examples_dir, texts: Texts, store=None, exercises=None):
         self.config, self.policy, self.examples_dir = config, policy, examples_dir
         self.store = store                         # where launches' AGS line items are kept (grades)
-        self.exercises = exercises                 # exercises.Library: what a deep link may pick to grade
+        self.exercises = exercises                 # lab.exercises.Library: what a deep link may pick to grade
         self.texts = texts                         # the pages' words, in the reader's language
         self.pending = Expiring(PENDING_TTL)
         self.used = Expiring(PENDING_TTL)          # states already launched: a replay is told so

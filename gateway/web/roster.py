@@ -1,4 +1,4 @@
-"""The course's roster from the LMS (LTI Advantage NRPS, ``rules.roster``) for the teacher's pages:
+"""The course's roster from the LMS (LTI Advantage NRPS, ``lab.roster``) for the teacher's pages:
 
 GET  /api/roster  -> {"enabled", "members": [{"person", "name", "role", "roles", "status", "context",
                      "title", "fetched"}], "courses": N}: every course's members as the LMS last listed
@@ -15,7 +15,8 @@ from __future__ import annotations
 
 import tornado.web
 
-from ..rules import roster
+from ..auth import courses
+from ..lab import roster
 from ..rules.access import Area
 from ..store import Store
 from .api import JsonHandler, authorized
@@ -36,7 +37,7 @@ class RosterHandler(JsonHandler):
         await self._answer(await roster.refresh(self.store, self.config))
 
     async def _answer(self, failed: dict) -> None:
-        members = await roster.members(self.store)
+        members = await courses.members(self.store)
         self.finish({'enabled': self.config is not None, 'members': members,
                      'courses': len({(m['issuer'], m['context']) for m in members}), 'failed': failed})
 

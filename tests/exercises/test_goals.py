@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from gateway.exercises.goals import Evaluation, GoalError, build, topics_of
+from gateway.lab.goals import Evaluation, GoalError, build, topics_of
 from protocol.convert import default_message
 from protocol.msgdefs import Definitions
 

@@ -1,4 +1,4 @@
-"""The block schema's check on the gateway (gateway/web/blockcheck.py), in-process, on the cases the
+"""The block schema's check on the gateway (gateway/lab/blockcheck.py), in-process, on the cases the
 page's check (ide/js/blocks/blockcheck.js) is run on too (tests/node/blockcheck.test.js): the two agree,
 so what the page refuses the gateway refuses and the other way round. From outside:
 tests/security/test_class_doors.py (the class's library) and tests/ide/test_shared_content.py."""
@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from gateway.web.blockcheck import BlockSchema
+from gateway.lab.blockcheck import BlockSchema
 
 ROOT = Path(__file__).resolve().parents[2]
 CASES = json.loads((ROOT / 'tests' / 'node' / 'blockcases.json').read_text())

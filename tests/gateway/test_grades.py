@@ -12,7 +12,7 @@ import pytest
 from cryptography.hazmat.primitives.asymmetric import rsa
 from tornado import httpserver, web
 
-from gateway.rules import grades
+from gateway.lab import grades
 from gateway.auth.lti import CLAIM, LtiConfig, Registration
 from gateway.store import Store
 
@@ -80,7 +80,7 @@ def launch(sub, link, item, exercise=None):
 
 
 def ended(attempt, person, passed, score, why):
-    from gateway.exercises import AttemptResult
+    from gateway.lab.exercises import AttemptResult
     return AttemptResult(attempt=attempt, exercise='east', person=person, name=person, station='/turtle1',
                          passed=passed, score=score, why=why, started_at=time.time() - 5, ended_at=time.time(),
                          program='forward')
@@ -149,7 +149,8 @@ def test_roster_and_a_student_who_left_cannot_book(setup):
 
 
 async def _roster(plat, config, store):
-    from gateway.rules import roster
+    from gateway.auth import courses
+    from gateway.lab import roster
     from gateway.rules.bookings import BookingError, BookingLimits, Timetable
     from gateway.auth.lti import identity_of
     listed = [{'user_id': 's1', 'name': 'Ada', 'roles': ['Learner'], 'status': 'Active'},
@@ -167,15 +168,15 @@ async def _roster(plat, config, store):
     grades.SCOPE_SCORE = roster.SCOPE_MEMBERSHIPS   # the test platform checks this scope is asked for
     try:
         assert await roster.fetch(store, config, config.registrations[0], plat.url('/members')) == 2
-        assert sorted(m['name'] for m in await roster.members(store)) == ['Ada', 'Bob']
+        assert sorted(m['name'] for m in await courses.members(store)) == ['Ada', 'Bob']
         bob = identity_of({'iss': ISS, 'sub': 's2'}).key
-        assert not await roster.has_left(store, bob)
+        assert not await courses.has_left(store, bob)
         listed[1]['status'] = 'Inactive'
         await roster.fetch(store, config, config.registrations[0], plat.url('/members'))
-        assert await roster.has_left(store, bob)
+        assert await courses.has_left(store, bob)
         del listed[1]
         await roster.fetch(store, config, config.registrations[0], plat.url('/members'))
-        assert await roster.has_left(store, bob) and await roster.has_left(store, f"user {bob}")   # as bookings key it
+        assert await courses.has_left(store, bob) and await courses.has_left(store, f"user {bob}")   # as bookings key it
         timetable = Timetable(store, BookingLimits())
         start = time.time() + 600
         with pytest.raises(BookingError) as refused:

@@ -32,7 +32,7 @@ COMPARING = (ast.Eq, ast.NotEq, ast.In, ast.NotIn)
 ALLOWED = {
     ('gateway/auth/tokens.py', 'listed'): 'whether a token file still holds this Identity (its name and role): '
                                             'equality of records, read by the sessions, not a permission',
-    ('gateway/rules/roster.py', 'fetch'): 'roles= is a column of the roster: the LMS\'s own membership roles, '
+    ('gateway/lab/roster.py', 'fetch'): 'roles= is a column of the roster: the LMS\'s own membership roles, '
                                           'kept as the LMS sent them',
 }
 

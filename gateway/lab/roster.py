@@ -4,8 +4,8 @@
 tool's own client-credentials token (``grades.access_token``) and keeps them per (issuer, context):
 each member's person key (the same ``lti-`` key a launch gives them), name, roles and status. A
 member the LMS marks Inactive, or who is gone from the latest fetch, is kept as left; ``has_left``
-tells bookings so that a student who left the course can no longer book. A person the LMS never
-listed (a local account) is not judged here.
+tells bookings so that a student who left the course can no longer book (both kept and read in
+``auth.courses``). A person the LMS never listed (a local account) is not judged here.
 
 Each course's memberships URL is kept (``lti_courses``), so ``refresh`` reads every known course
 again when the teacher asks (POST /api/roster); a launch of the course reads its own roster again
@@ -23,9 +23,10 @@ import time
 import sqlalchemy as sa
 from tornado.httpclient import AsyncHTTPClient, HTTPRequest
 
-from ..store import METADATA, Store
+from ..auth.courses import COURSES, ROSTER
+from ..store import Store
 from .grades import access_token
-from ..auth.lti import LtiConfig, Registration, identity_of, role_of
+from ..auth.lti import LtiConfig, Registration, identity_of
 
 log = logging.getLogger('rosgate.roster')
 
@@ -34,27 +35,6 @@ SCOPE_MEMBERSHIPS = 'https://purl.imsglobal.org/spec/lti-nrps/scope/contextmembe
 MEMBERSHIPS = 'application/vnd.ims.lti-nrps.v2.membershipcontainer+json'
 NEXT = re.compile(r'<([^>]+)>\s*;\s*rel="?next"?')
 MAX_PAGES = 200
-
-ROSTER = sa.Table(
-    'lti_roster', METADATA,
-    sa.Column('issuer', sa.String(255), primary_key=True),
-    sa.Column('context', sa.String(255), primary_key=True),
-    sa.Column('person', sa.String(64), primary_key=True),
-    sa.Column('name', sa.String(100), nullable=False),
-    sa.Column('roles', sa.String(1000), nullable=False),
-    sa.Column('status', sa.String(20), nullable=False),   # Active, Inactive, Deleted (gone from the LMS)
-    sa.Column('fetched', sa.Float, nullable=False),
-)
-
-COURSES = sa.Table(
-    'lti_courses', METADATA,
-    sa.Column('url', sa.String(1000), primary_key=True),     # the course's context_memberships_url
-    sa.Column('issuer', sa.String(255), nullable=False),
-    sa.Column('client_id', sa.String(255), nullable=False),
-    sa.Column('context', sa.String(255), nullable=False),
-    sa.Column('title', sa.String(255), nullable=False),
-    sa.Column('fetched', sa.Float, nullable=False),
-)
 
 
 async def fetch(store: Store, config: LtiConfig, reg: Registration, url: str) -> int:
@@ -119,22 +99,3 @@ async def refresh(store: Store, config: LtiConfig) -> dict[str, str]:
             log.warning('roster at %s not read: %s', url[:200], e)
             failed[url] = str(e)[:300]
     return failed
-
-
-async def members(store: Store) -> list[dict]:
-    """Every course's members, for the class view and the booking panel: each with ``role`` as the
-    gateway gives it at a launch (admin, operator, viewer) and the course's title."""
-    rows = await store.run(lambda c: c.execute(
-        sa.select(ROSTER, COURSES.c.title).outerjoin(COURSES, sa.and_(
-            COURSES.c.issuer == ROSTER.c.issuer, COURSES.c.context == ROSTER.c.context))
-        .order_by(ROSTER.c.context, ROSTER.c.name)).mappings().all())
-    return [{**r, 'title': r['title'] or r['context'], 'role': role_of(r['roles'].split())} for r in rows]
-
-
-async def has_left(store: Store, person: str) -> bool:
-    """True if the LMS listed this person (their key, or a booking's ``user KEY``) and no course
-    lists them active any more."""
-    person = person.removeprefix('user ')
-    statuses = await store.run(lambda c: c.execute(
-        sa.select(ROSTER.c.status).where(ROSTER.c.person == person)).scalars().all())
-    return bool(statuses) and 'Active' not in statuses

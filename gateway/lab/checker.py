@@ -27,7 +27,7 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
-from . import store as results
+from . import results
 from .goals import Evaluation, topics_of
 
 log = logging.getLogger('rosgate.exercises')
