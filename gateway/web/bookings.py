@@ -35,7 +35,7 @@ import re
 import icalendar
 import tornado.web
 
-from ..auth import courses
+from ..lab.people import people
 from ..rules.access import Action, Area, allowed
 from ..rules.bookings import Slots
 from ..auth.sessions import Sessions
@@ -126,20 +126,6 @@ class BookingListHandler(_Handler):
         if found:
             return f'user {found[0]["id"]}', found[0]['name']
         return f'user {who}', who
-
-
-async def people(sessions: Sessions | None, store: Store, who: str | None = None) -> list[dict]:
-    """Who an admin may book for: who signed in here (``sessions``: None with auth off), newest first,
-    then the courses' active members who have not (``auth.courses``); ``who``: only those it names
-    (their id, or their name in any case)."""
-    found = [p.json() for p in sessions.people(who)] if sessions is not None else []
-    seen = {p['id'] for p in found}
-    for m in await courses.members(store):
-        if m['status'] == 'Active' and m['person'] not in seen and (
-                who is None or who == m['person'] or who.casefold() == m['name'].casefold()):
-            seen.add(m['person'])
-            found.append({'id': m['person'], 'name': m['name'], 'role': m['role'], 'kind': 'lti', 'seen': None})
-    return found
 
 
 class PeopleHandler(_Handler):

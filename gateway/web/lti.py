@@ -27,21 +27,18 @@ from __future__ import annotations
 import html
 import json
 import logging
-import re
 import secrets
 import time
-from collections import OrderedDict
 import urllib.parse
 from urllib.parse import urlencode, urlsplit
 
-import jwt
-import tornado.httpclient
 import tornado.ioloop
 import tornado.web
 
-from ..lab.exercises import ID as EXERCISE_ID, ExerciseError
 from ..auth import lti, lti_dynamic
+from ..auth.launch import Expiring, KeySets
 from ..lab import grades, roster
+from ..lab.landing import deep_link_item, landing_of
 from ..rules.access import Action, Area, allowed
 from ..auth.lti import LaunchError
 from .api import Handler, check_origin
@@ -52,85 +49,8 @@ from .login import begin_session
 log = logging.getLogger('rosgate.lti')
 PENDING_TTL = 600.0      # s between the login initiation and the launch
 RESUME_TTL = 120.0       # s a "continue in a new window" ticket stays good
-MAX_PENDING = 10000      # logins in flight kept at most (the oldest are forgotten)
-JWKS_REFRESH = 60.0      # s before a key id missing from a platform's JWKS makes it fetched again
-JWKS_FETCHES = 10        # fetches of one platform's JWKS a minute at most
 RELOAD = 5.0             # s between reads of the platforms registered by LTI Dynamic Registration
 STATE_COOKIE = 'rosgate_lti_'
-TEXT_LANGS = ('python', 'javascript')   # the IDE's text programs
-LOCALE = re.compile(r'[A-Za-z]{2,3}([-_][A-Za-z0-9]{1,8}){0,3}')   # a BCP 47 tag, as LMSs send it
-PAGES = {'ide': '/', '/': '/', 'teleop': '/teleop', '/teleop': '/teleop', 'class': '/class', '/class': '/class'}
-
-
-class Expiring:
-    """Single-use values by key, each forgotten after ``ttl`` s; bounded."""
-
-    def __init__(self, ttl: float, limit: int = MAX_PENDING):
-        self.ttl, self.limit, self.items = ttl, limit, OrderedDict()
-
-    def put(self, key: str, value) -> None:
-        self.items[key] = (time.monotonic() + self.ttl, value)
-        while len(self.items) > self.limit:
-            self.items.popitem(last=False)
-
-    def take(self, key: str):
-        entry = self.items.pop(key, None)
-        if entry is None or entry[0] < time.monotonic():
-            return None
-        return entry[1]
-
-
-class KeySets:
-    """The platforms' public keys by JWKS URL: fetched once, and again when a launch names a key id
-    not in them (a platform rotating its keys). A key id still missing after its fetch is not asked
-    for again for ``JWKS_REFRESH`` s, and all the fetches of one URL together stay under
-    ``JWKS_FETCHES`` a minute: launches with made-up key ids cannot make the gateway a flood."""
-
-    def __init__(self):
-        self.sets: dict[str, jwt.PyJWKSet] = {}
-        self.missed: dict[tuple[str, str | None], float] = {}
-        self.fetches: dict[str, list[float]] = {}
-
-    async def key(self, reg: lti.Registration, kid: str | None):
-        if reg.key_set is not None and not reg.key_set_url:
-            return self._pick(jwt.PyJWKSet.from_dict(reg.key_set), kid, reg)
-        url = reg.key_set_url
-        keys = self.sets.get(url)
-        found = self._find(keys, kid) if keys is not None else None
-        now = time.monotonic()
-        recent = [t for t in self.fetches.get(url, []) if now - t < 60]
-        self.fetches[url] = recent
-        if (found is None and now - self.missed.get((url, kid), -1e9) > JWKS_REFRESH
-                and len(recent) < JWKS_FETCHES):
-            recent.append(now)
-            try:
-                response = await tornado.httpclient.AsyncHTTPClient().fetch(url, request_timeout=10)
-                keys = self.sets[url] = jwt.PyJWKSet.from_dict(json.loads(response.body))
-            except Exception as e:
-                log.warning('lti: cannot fetch the keys of %s from %s: %s', reg.issuer, url, e)
-                raise LaunchError(f'cannot fetch the platform\'s keys from {url}: {e}') from None
-            found = self._find(keys, kid)
-            if found is None:
-                if len(self.missed) > MAX_PENDING:
-                    self.missed.clear()
-                self.missed[(url, kid)] = now
-        if found is None:
-            raise LaunchError(f'the id_token is signed with a key ({str(kid)[:60]}) the platform does not publish '
-                              f'at {url}')
-        return found
-
-    @staticmethod
-    def _find(keys, kid):
-        for k in keys.keys:
-            if kid is None or k.key_id == kid:
-                return k.key
-        return None
-
-    def _pick(self, keys, kid, reg):
-        found = self._find(keys, kid)
-        if found is None:
-            raise LaunchError(f'the id_token is signed with a key ({str(kid)[:60]}) not in key_set for {reg.issuer}')
-        return found
 
 
 class Lti:
@@ -349,38 +269,6 @@ class LaunchHandler(LtiPage):
         return found
 
 
-def landing_of(claims: dict) -> str:
-    """Where a launch lands: custom parameters page, station, program; else the path of
-    target_link_uri when it is one of the pages; else the IDE. The course's language
-    (launch_presentation.locale) comes along as ?lang= (as ?locale= for a text exercise, whose ?lang= is the program's),
-    which the page's words follow."""
-    custom = claims.get(lti.CLAIM + 'custom') or {}
-    page = PAGES.get(str(custom.get('page', '')).strip().lower())
-    if page is None:
-        path = urlsplit(str(claims.get(lti.CLAIM + 'target_link_uri', ''))).path.rstrip('/') or '/'
-        page = PAGES.get(path, '/')
-    query = {}
-    station = str(custom.get('station', '')).strip().strip('/')
-    if station and station.replace('_', '').isalnum():
-        query['ns'] = '/' + station
-    program = str(custom.get('program', '')).strip()
-    if program and page == '/':
-        query['program'] = program[:64]
-    exercise = grades.exercise_of(claims) or ''
-    if exercise and page == '/' and EXERCISE_ID.fullmatch(exercise):
-        query['exercise'] = exercise
-    presentation = claims.get(lti.CLAIM + 'launch_presentation')
-    locale = str(presentation.get('locale', '')) if isinstance(presentation, dict) else ''
-    lang = str(custom.get('lang', '')).strip().lower()
-    if page == '/' and str(custom.get('mode', '')).strip().lower() == 'text' and lang in TEXT_LANGS:
-        query['mode'], query['lang'] = 'text', lang     # a text exercise (ide/js/editors/textmode.js)
-        if LOCALE.fullmatch(locale):
-            query['locale'] = locale                    # ?lang= is the program's language here
-    elif LOCALE.fullmatch(locale):
-        query['lang'] = locale
-    return page + ('?' + urlencode(query, safe='/:') if query else '')
-
-
 def landed_page(landing: str, ticket: str, identity, nonce: str, say) -> str:
     """Signed in: on to the landing page once the browser shows it kept the session cookie; a
     browser that refused it (Safari inside an iframe) is offered the same launch in a new window.
@@ -416,38 +304,9 @@ class DeepLinkHandler(LtiPage):
             raise tornado.web.HTTPError(400, 'this choice was already sent, or waited too long: add the activity '
                                              'again from the course')
         reg, claims = found
-        pick = self.get_argument('pick', 'ide')
-        custom, line_item = {}, None
-        if pick.startswith('exercise:'):
-            try:
-                ex = self.lti.exercises.get(pick.split(':', 1)[1]) if self.lti.exercises is not None else None
-            except ExerciseError as e:
-                raise tornado.web.HTTPError(400, str(e)) from None
-            if ex is None:
-                raise tornado.web.HTTPError(400, f'no exercise {pick.split(":", 1)[1][:64]!r} in --exercises-dir')
-            page, custom['exercise'] = '/', ex.id
-            line_item = {'scoreMaximum': 1, 'label': ex.title, 'resourceId': ex.id}
-        elif pick.startswith('example:'):
-            page, custom['program'] = '/', 'example:' + pick.split(':', 1)[1][:64]
-        else:
-            page = PAGES.get(pick, '/')
-        as_text = self.get_argument('as', 'blocks')
-        if page == '/' and as_text in TEXT_LANGS:
-            custom['mode'], custom['lang'] = 'text', as_text
-        station = self.get_argument('station', '').strip().strip('/')
-        if station:
-            if not station.replace('_', '').isalnum():
-                raise tornado.web.HTTPError(400, f'a station is a name like s03, not {station[:40]!r}')
-            custom['station'] = station
-        title = self.get_argument('title', '').strip()[:200]
-        if line_item is not None and title in ('', 'Robot lab'):
-            title = line_item['label']          # the gradebook column and the link read the same
-        item = {'type': 'ltiResourceLink', 'title': title or 'Robot lab',
-                'url': base_url(self) + page + (f'?exercise={custom["exercise"]}' if line_item is not None else '')}
-        if custom:
-            item['custom'] = custom
-        if line_item is not None:   # the platform makes the gradebook column (AGS) the attempts' scores go to
-            item['lineItem'] = line_item
+        arg = self.get_argument
+        item = deep_link_item(arg('pick', 'ide'), arg('as', 'blocks'), arg('station', ''), arg('title', ''),
+                              self.lti.exercises, base_url(self))   # a Refusal (400) for a bad pick
         token = lti.deep_linking_response(self.lti.config, reg, claims, [item])
         settings = claims[lti.DL_CLAIM + 'deep_linking_settings']
         self.auto_post(settings['deep_link_return_url'], {'JWT': token}, 'Sending your choice to the course…')

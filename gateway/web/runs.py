@@ -27,13 +27,14 @@ from typing import Protocol
 
 import tornado.web
 
+from ..lab.programs import stored_program
 from ..rules.access import Action, Area, allowed
 from ..rules.access import lowered
 from ..rules.stations import person_of
 from ..runs import Run, RunManager
 from ..runs.archive import Archive
 from .api import JsonHandler, authorize, authorized, body_json
-from .programs import space_owner, stored_program
+from .programs import space_owner
 from ..media.recordings import RecordingManager
 from .recordings import send_file
 

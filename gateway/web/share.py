@@ -10,41 +10,20 @@ session. The page now asks before a link's program first runs and runs it withou
 (``ide/js/run/foreign.js``); to say whose it is, it asks here: ``sig`` is an HMAC of the signer's key,
 name and the program's exact text under the gateway's own secret (the session cookies' secret,
 ``auth.sessions.cookie_secret``), so a name is shown only when this gateway signed it, and
-``mine`` (the signer is the caller) is the one case that needs no asking.
+``mine`` (the signer is the caller) is the one case that needs no asking. The signature itself is
+``auth.signing``'s.
 """
 
 from __future__ import annotations
 
-import base64
-import hashlib
-import hmac
-
 import tornado.web
 
 from ..auth.sessions import cookie_secret
+from ..auth.signing import sign, signer
 from ..rules.access import Action, Area
 from .api import JsonHandler, authorized, body_json
 
-MAX_TEXT = 3 * 2**20     # a program is at most 2 MiB (programs.MAX_PROGRAM_BYTES) and its JSON some more
-
-
-def _mac(secret: bytes, key: str, name: str, text: str) -> str:
-    data = b'\0'.join((b'rosgate share link', key.encode(), name.encode(), text.encode()))
-    return hmac.new(secret, data, hashlib.sha256).hexdigest()
-
-
-def sign(secret: bytes, key: str, name: str, text: str) -> str:
-    return base64.urlsafe_b64encode(key.encode()).decode().rstrip('=') + '.' + _mac(secret, key, name, text)
-
-
-def signer(secret: bytes, sig: str, name: str, text: str) -> str | None:
-    """The key of who signed ``text`` as ``name`` with ``sig``, or None when this gateway did not."""
-    encoded, _, mac = sig.partition('.')
-    try:
-        key = base64.urlsafe_b64decode(encoded + '=' * (-len(encoded) % 4)).decode()
-    except ValueError:
-        return None
-    return key if hmac.compare_digest(mac, _mac(secret, key, name, text)) else None
+MAX_TEXT = 3 * 2**20     # a program is at most 2 MiB (lab.programs.MAX_PROGRAM_BYTES) and its JSON some more
 
 
 class _Handler(JsonHandler):
