@@ -37,7 +37,8 @@ import tornado.web
 from ..rules.access import Action, Area, allowed, may
 from ..rules.names import parse_globs
 from .playback import Playback
-from ..settings import data_dir
+from .ports import Graph, Names, Parts, Senders, Taps, Types
+from ..settings import StorageSettings, data_dir
 from ..rules.hooks import Hook
 
 log = logging.getLogger('rosgate.recordings')
@@ -121,12 +122,12 @@ class Recording:
         return any(fnmatchcase(topic, g) for g in self.globs)
 
     def add_topic(self, topic: str, type: str) -> None:
-        gw = self.manager.gateway
-        msgdef = gw.backend.msg_def(type)
-        text, rihs01 = definition(gw.backend, type, msgdef)
-        gw.backend.to_cdr(type, {})   # a type the backend cannot serialize fails here, not in the fan-out
+        types = self.manager.types
+        msgdef = types.msg_def(type)
+        text, rihs01 = definition(types, type, msgdef)
+        types.to_cdr(type, {})   # a type the backend cannot serialize fails here, not in the fan-out
         self.connections[topic] = self.writer.add_connection(topic, type, msgdef=text, rihs01=rihs01)
-        fan = gw.fanout(topic, type)
+        fan = self.manager.taps.fanout(topic, type)
         tap = _Tap(self, topic)
         self.taps[topic] = (fan, tap)
         sub = fan.add(tap, None, (0, 0, 'cbor-raw', None, None))
@@ -156,7 +157,7 @@ class Recording:
         self.bytes = self.file.stat().st_size
 
 
-def definition(backend, type: str, msgdef) -> tuple[str, str]:
+def definition(backend: Types, type: str, msgdef) -> tuple[str, str]:
     """The definition text (with its dependencies, as ROS 2 stores it) and its RIHS01 hash."""
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
@@ -167,8 +168,14 @@ def definition(backend, type: str, msgdef) -> tuple[str, str]:
 
 
 class RecordingManager(Hook):
-    def __init__(self, gateway, dir: Path, limits: RecordingLimits = RecordingLimits()):
-        self.gateway, self.dir, self.limits = gateway, Path(dir), limits
+    """The recordings and playbacks: what each takes through the topics' fan-outs (``taps``, typed by
+    ``types``, found in ``graph``), as whom (``names``: the rules' answer, and the lease), and the
+    playbacks' publishing for their starters (``senders``)."""
+
+    def __init__(self, dir: Path, limits: RecordingLimits = RecordingLimits(), *, taps: Taps, types: Types,
+                 graph: Graph, senders: Senders, names: Names):
+        self.dir, self.limits = Path(dir), limits
+        self.taps, self.types, self.graph, self.senders, self.names = taps, types, graph, senders, names
         self.recordings: dict[str, Recording] = {}
         self.plays: dict[str, asyncio.Task] = {}
         self.playing: dict[str, Playback] = {}   # what each task of plays plays
@@ -224,9 +231,9 @@ class RecordingManager(Hook):
     def _match(self, rec: Recording) -> None:
         """Take the topics the globs of the recording ask for and its starter may subscribe to (a
         recording is a way to subscribe: ``may`` as them)."""
-        policy = self.gateway.policy
-        for topic, type in self.gateway.backend.topics():
-            if topic not in rec.connections and rec.wants(topic) and may(policy, rec.who, 'subscribe', topic) is None:
+        for topic, type in self.graph.topics():
+            if (topic not in rec.connections and rec.wants(topic)
+                    and may(self.names, rec.who, 'subscribe', topic) is None):
                 try:
                     rec.add_topic(topic, type)
                 except Exception as e:   # an unknown type, a definition rosbags cannot parse, ...
@@ -333,7 +340,7 @@ class RecordingManager(Hook):
         path = self.path(rec_id)
         name, role = (identity.owner, identity.role) if identity is not None else ('playback', None)
         try:
-            playback = Playback(self.gateway, path, rate, prefix, name, role, person)
+            playback = Playback(self.senders, path, rate, prefix, name, role, person)
         except Exception as e:   # a damaged file, a type rosbags cannot parse
             raise tornado.web.HTTPError(422, f'cannot play {rec_id}: {e}') from None
         try:
@@ -348,11 +355,10 @@ class RecordingManager(Hook):
         return playback.summary()
 
     def _may_play(self, playback: Playback, name: str, role: str | None, person: str | None) -> None:
-        policy = self.gateway.policy
-        probe = self.gateway.itself.__class__(name, role, person=person)   # the bridge's Sender, never opened
-        lease = policy.lease
+        probe = self.senders.probe(name, role, person)   # a sender never opened
+        lease = self.names.lease
         for topic, type in playback.targets():
-            why = may(policy, probe, 'publish', topic)
+            why = may(self.names, probe, 'publish', topic)
             if why is not None:
                 raise tornado.web.HTTPError(403, f'cannot play into {topic}: {why}')
             refusal = None if lease is None else lease.topic_refusal(person, topic, type) if lease.is_command(
@@ -394,14 +400,15 @@ class RecordingManager(Hook):
             task.cancel()
 
 
-def start_recordings(gateway) -> RecordingManager:
-    """The recordings' manager (a part of the gateway's hooks); with --record, the start-up
+def start_recordings(storage: StorageSettings, hooks: Parts, *, taps: Taps, types: Types, graph: Graph,
+                     senders: Senders, names: Names) -> RecordingManager:
+    """The recordings' manager (a part of the gateway's ``hooks``); with --record, the start-up
     recording begins once the loop runs."""
-    storage = gateway.settings.storage
     record = storage.record
     folder = storage.recordings_dir or record
-    manager = RecordingManager(gateway, Path(folder) if folder else default_recordings_dir())
-    gateway.hooks.add(manager)
+    manager = RecordingManager(Path(folder) if folder else default_recordings_dir(), taps=taps, types=types,
+                               graph=graph, senders=senders, names=names)
+    hooks.add(manager)
     if record:
         globs = parse_globs(storage.record_topics) or ('/*',)
         asyncio.get_running_loop().call_soon(_start_up, manager, globs)

@@ -198,8 +198,8 @@ STILL_HOLD = {
     'exercises': set(),
     'runs': set(),
     'web': {'app.py', 'socket.py'},
-    'media': {'playback.py', 'recordings.py', 'video.py'},
-    'twin': {'description.py', 'history.py', 'opcua.py'},
+    'media': set(),
+    'twin': set(),
 }
 
 
