@@ -330,6 +330,13 @@ class RecordingManager(Hook):
             raise tornado.web.HTTPError(404, f'no recording {rec_id!r}')
         return path
 
+    def delete(self, rec_id: str) -> None:
+        """A finished recording gone from the disk (its playback stopped first)."""
+        path = self.path(rec_id)
+        self.stop_playing(rec_id)
+        shutil.rmtree(path)
+        self.recordings.pop(rec_id, None)
+
     # --- playback -----------------------------------------------------------------------------
 
     def play(self, rec_id: str, rate: float, prefix: str, identity=None, person: str | None = None) -> dict:
