@@ -32,9 +32,9 @@ from fnmatch import fnmatchcase
 from pathlib import Path
 
 import cbor2
-import tornado.web
 
 from ..rules.access import Action, Area, allowed, may
+from ..rules.errors import Refusal
 from ..rules.names import parse_globs
 from .playback import Playback
 from .ports import Graph, Names, Parts, Senders, Taps, Types
@@ -192,29 +192,29 @@ class RecordingManager(Hook):
         lim = self.limits
         others = [r for r in self.active() if r.counted] if counted else []
         if len(others) >= lim.max_concurrent:
-            raise tornado.web.HTTPError(409, f'{lim.max_concurrent} recordings are already running; stop one first')
+            raise Refusal(409, f'{lim.max_concurrent} recordings are already running; stop one first')
         if owner is not None and sum(r.owner == owner for r in others) >= lim.max_per_person:
-            raise tornado.web.HTTPError(429, f'{owner} already runs {lim.max_per_person} recordings; stop one first')
+            raise Refusal(429, f'{owner} already runs {lim.max_per_person} recordings; stop one first')
         if owner is not None and not allowed(who, Action.EXEMPT, Area.RECORDINGS):
             kept = [r for r in self.listing() if r.get('owner') == owner]
             size = sum(r.get('bytes') or 0 for r in kept)
             if len(kept) >= lim.person_count or size >= lim.person_bytes:
-                raise tornado.web.HTTPError(429, f'{owner} keeps {len(kept)} recordings of {size} bytes, the most one '
-                                                 f'person may ({lim.person_count}, {lim.person_bytes} bytes): delete '
-                                                 'some, or ask the teacher')
+                raise Refusal(429, f'{owner} keeps {len(kept)} recordings of {size} bytes, the most one '
+                              f'person may ({lim.person_count}, {lim.person_bytes} bytes): delete '
+                              'some, or ask the teacher')
         self.dir.mkdir(parents=True, exist_ok=True)
         free = shutil.disk_usage(self.dir).free
         if free < lim.max_bytes + lim.disk_reserve:
             log.warning('recordings: only %d MiB free in %s', free // 2**20, self.dir)   # the folder: the admins'
-            raise tornado.web.HTTPError(507, f'only {free // 2**20} MiB free for recordings; a recording needs '
-                                             f'{(lim.max_bytes + lim.disk_reserve) // 2**20} MiB')
+            raise Refusal(507, f'only {free // 2**20} MiB free for recordings; a recording needs '
+                          f'{(lim.max_bytes + lim.disk_reserve) // 2**20} MiB')
         rec_id = f"rec-{time.strftime('%Y%m%d-%H%M%S')}-{secrets.token_hex(2)}"
         try:
             rec = Recording(self, rec_id, globs, max_seconds, owner, who, attempt)
             rec.counted = counted
         except Exception:   # rosbags' WriterError, OSError: the log says where (a path is the admins')
             log.exception('cannot create recording %s in %s', rec_id, self.dir)
-            raise tornado.web.HTTPError(500, 'cannot create the recording (the gateway\'s log says why)') from None
+            raise Refusal(500, 'cannot create the recording (the gateway\'s log says why)') from None
         self.recordings[rec_id] = rec
         try:
             self._match(rec)
@@ -313,21 +313,21 @@ class RecordingManager(Hook):
         owner = self.owner(rec_id)
         if owner != identity.owner:
             whose = f"{owner}'s" if owner else 'not yours'
-            raise tornado.web.HTTPError(403, f'recording {rec_id} is {whose}; {identity.name} may not {verb} it')
+            raise Refusal(403, f'recording {rec_id} is {whose}; {identity.name} may not {verb} it')
         attempt = self.attempt_of(rec_id) if changes else None
         if attempt is not None:
-            raise tornado.web.HTTPError(403, f'recording {rec_id} is the record of exercise attempt {attempt}, the '
-                                             f'teacher\'s evidence: {identity.name} may read it, not {verb} it')
+            raise Refusal(403, f'recording {rec_id} is the record of exercise attempt {attempt}, the '
+                          f'teacher\'s evidence: {identity.name} may read it, not {verb} it')
 
     def path(self, rec_id: str) -> Path:
         if not _ID.fullmatch(rec_id):
-            raise tornado.web.HTTPError(404, f'no recording {rec_id[:80]!r}')
+            raise Refusal(404, f'no recording {rec_id[:80]!r}')
         rec = self.recordings.get(rec_id)
         if rec is not None and rec.state == 'recording':
-            raise tornado.web.HTTPError(409, f'recording {rec_id} is still running; stop it first')
+            raise Refusal(409, f'recording {rec_id} is still running; stop it first')
         path = self.dir / rec_id
         if not (path / f'{rec_id}.mcap').is_file():
-            raise tornado.web.HTTPError(404, f'no recording {rec_id!r}')
+            raise Refusal(404, f'no recording {rec_id!r}')
         return path
 
     def delete(self, rec_id: str) -> None:
@@ -343,13 +343,13 @@ class RecordingManager(Hook):
         """Start playing (as ``identity``): refused up front (403) where the name globs would
         refuse that person's publishing, and (409) into a robot someone else drives."""
         if rec_id in self.plays and not self.plays[rec_id].done():
-            raise tornado.web.HTTPError(409, f'recording {rec_id} is already playing')
+            raise Refusal(409, f'recording {rec_id} is already playing')
         path = self.path(rec_id)
         name, role = (identity.owner, identity.role) if identity is not None else ('playback', None)
         try:
             playback = Playback(self.senders, path, rate, prefix, name, role, person)
         except Exception as e:   # a damaged file, a type rosbags cannot parse
-            raise tornado.web.HTTPError(422, f'cannot play {rec_id}: {e}') from None
+            raise Refusal(422, f'cannot play {rec_id}: {e}') from None
         try:
             self._may_play(playback, name, role, person)
         except BaseException:
@@ -367,11 +367,11 @@ class RecordingManager(Hook):
         for topic, type in playback.targets():
             why = may(self.names, probe, 'publish', topic)
             if why is not None:
-                raise tornado.web.HTTPError(403, f'cannot play into {topic}: {why}')
+                raise Refusal(403, f'cannot play into {topic}: {why}')
             refusal = None if lease is None else lease.topic_refusal(person, topic, type) if lease.is_command(
                 topic, type) else lease.names.refusal(probe, topic)   # a station's other topics: its holder's
             if refusal is not None:
-                raise tornado.web.HTTPError(409, f'cannot play into {topic}: {refusal}')
+                raise Refusal(409, f'cannot play into {topic}: {refusal}')
 
     def stop_playing(self, rec_id: str) -> bool:
         task = self.plays.pop(rec_id, None)
@@ -425,8 +425,8 @@ def start_recordings(storage: StorageSettings, hooks: Parts, *, taps: Taps, type
 def _start_up(manager: RecordingManager, globs: tuple[str, ...]) -> None:
     try:
         rec = manager.start(globs, None)
-    except tornado.web.HTTPError as e:
-        log.error('--record: %s', e.log_message)
+    except Refusal as e:
+        log.error('--record: %s', e.message)
         return
     log.info('--record: recording %s into %s', ', '.join(globs), rec.path)
 

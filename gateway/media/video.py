@@ -12,8 +12,8 @@ import asyncio
 import itertools
 
 import tornado.iostream
-import tornado.web
 
+from ..rules.errors import Refusal
 from . import images
 from .ports import Graph, Taps
 
@@ -160,10 +160,10 @@ class Video:
             if found is not None:
                 return found
             if topic in types:
-                raise tornado.web.HTTPError(404, f'{topic} is {types[topic]}, not an image topic '
-                                                 f'({" or ".join(images.TYPES)})')
+                raise Refusal(404, f'{topic} is {types[topic]}, not an image topic '
+                              f'({" or ".join(images.TYPES)})')
             if loop.time() >= deadline:
-                raise tornado.web.HTTPError(404, f'no image topic {topic} (nor {topic}/compressed)')
+                raise Refusal(404, f'no image topic {topic} (nor {topic}/compressed)')
             await asyncio.sleep(0.1)
 
 

@@ -32,9 +32,8 @@ import tempfile
 from collections import OrderedDict
 from pathlib import Path
 
-import tornado.web
-
 from ..backends.base import BackendError
+from ..rules.errors import Refusal
 from ..rules.access import may
 from .packages import package_roots
 from .ports import Backend, Names, Taps
@@ -217,4 +216,4 @@ class Descriptions:
             return await work
         except (XacroError, OSError) as e:
             log.warning('the robot description (%s) cannot be read: %s', source, e)
-            raise tornado.web.HTTPError(502, f'the robot description ({source}) cannot be expanded: {e}') from None
+            raise Refusal(502, f'the robot description ({source}) cannot be expanded: {e}') from None

@@ -12,6 +12,7 @@ from gateway.backends.base import QoS
 from gateway.bridge.gateway import Gateway
 from gateway.bridge.taps import Senders, Taps
 from gateway.media.recordings import RecordingLimits, RecordingManager
+from gateway.rules.errors import Refusal
 from gateway.settings import Settings
 
 from tests.support.wait import until
@@ -80,23 +81,21 @@ async def test_record_then_play(world, topic, tmp_path):
 
 
 async def test_bounds(world, topic, tmp_path):
-    import tornado.web
-
     backend = world.backend
     gateway = Gateway(Settings(), backend)
     pub = backend.create_publisher(topic, STRING, QoS())
     try:
         await until(lambda: any(name == topic for name, _ in backend.topics()), what=f'{topic} in the graph')
         full = recordings(gateway, tmp_path, RecordingLimits(disk_reserve=2**62))
-        with pytest.raises(tornado.web.HTTPError) as refused:
+        with pytest.raises(Refusal) as refused:
             full.start((topic,), None)
-        assert refused.value.status_code == 507 and 'free' in refused.value.log_message
+        assert refused.value.status == 507 and 'free' in refused.value.message
 
         small = recordings(gateway, tmp_path, RecordingLimits(max_bytes=2000, max_concurrent=1))
         rec = small.start((topic,), None)
-        with pytest.raises(tornado.web.HTTPError) as busy:
+        with pytest.raises(Refusal) as busy:
             small.start((topic,), None)
-        assert busy.value.status_code == 409
+        assert busy.value.status == 409
         while rec.state == 'recording':   # lock-step: each message recorded, or the cap reached
             base = rec.messages
             pub.publish({'data': 'x' * 100})
