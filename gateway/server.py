@@ -24,6 +24,7 @@ from . import rules
 from .lab import grades, roster
 from .bridge import rosapi, topicstats
 from .bridge.gateway import Gateway
+from .bridge.taps import Senders, Taps
 from .lab.checker import LiveAttempts
 from .lab.exercises import Checker, Library
 from .runs import RunManager, start_runs
@@ -43,8 +44,8 @@ class Parts:
     runs: RunManager
     recordings: RecordingManager
     history: History | None
-    lti: object = None        # rules.lti.LtiConfig with --lti
-    grades: object = None     # rules.grades.Outbox with --lti: posts queued scores to the LMS
+    lti: object = None        # auth.lti.LtiConfig with --lti
+    grades: object = None     # lab.grades.Outbox with --lti: posts queued scores to the LMS
     exercises: Library | None = None
     checker: Checker | None = None   # the live exercise attempts (their results to ``on_result``)
 
@@ -58,7 +59,9 @@ def start(gateway: Gateway, files: rules.Files) -> Parts:
     gateway.install(rules.compose(gateway.rule_doors(), files, reads=reads, runs=runs, attempts=attempts.live,
                                   keepers=(runs.keeper,)))
     topicstats.TopicStats(gateway)   # /rosgate/topic_stats: the rates /inspect shows
-    recordings = start_recordings(gateway)
+    taps = Taps(gateway)   # the topics' shared fan-outs, for the parts that are not clients
+    recordings = start_recordings(settings.storage, gateway.hooks, taps=taps, types=gateway.backend,
+                                  graph=gateway.backend, senders=Senders(gateway), names=gateway.policy)
     outbox = None
     if files.lti is not None:   # an ended attempt's score goes to the LMS of the learner's launch
         outbox = grades.Outbox(gateway.store, files.lti)
@@ -67,8 +70,9 @@ def start(gateway: Gateway, files: rules.Files) -> Parts:
             tornado.ioloop.IOLoop.current().spawn_callback(roster.refresh, gateway.store, files.lti)
     checker = Checker(gateway, gateway.store, attempts=attempts, recorder=recordings,
                       on_result=[outbox.result] if outbox is not None else [])
-    history = start_history(gateway)
-    start_twin(gateway, history, settings.twin.opcua)
+    history = start_history(settings.twin, gateway.hooks, store=gateway.store, taps=taps, graph=gateway.backend,
+                            names=gateway.policy, fleet=gateway.ruleset.fleet)
+    start_twin(history, settings.twin.opcua, gateway.hooks, policy=gateway.policy, address=settings.address)
     if runs_socket is not None:   # runs reach the websocket alone, on a unix socket bound into their box
         runs.serve(socket_app(gateway), runs_socket)
     return Parts(runs=runs, recordings=recordings, history=history, lti=files.lti, grades=outbox,

@@ -8,5 +8,8 @@ what is recorded, as whom, with its limits) and their playback through the one p
 (``playback``). The HTTP routes are ``web.video`` and ``web.recordings``.
 
 May import: ``rules``, ``auth``, ``store``, ``backends`` (types) and ``settings`` (and ``protocol``);
-never ``bridge`` or ``web``: the bridge imports ``images`` and ``grids``, and the gateway is handed in.
+never ``bridge`` or ``web``: the bridge imports ``images`` and ``grids``. Each part is handed the few
+doors it uses, typed in ``ports`` (the topics' fan-outs, the publish door for a playback, the
+backend's topics and types, the rules' answer about a name), never the Gateway: the bridge builds
+them (``bridge.taps``).
 """

@@ -1,7 +1,7 @@
 """Playing a recording back into the graph: each message on its topic (under an optional prefix)
 at its recorded time offset divided by ``rate``.
 
-A playback publishes for the person who started it, through the gateway's one door: the name
+A playback publishes for the person who started it, through the gateway's one door (``Senders``): the name
 globs, the driver lease, clamps and stops apply as to that person's own ``publish`` ops. When
 a rule refuses a message (someone else drives that robot, an admin stopped it) the playback ends.
 
@@ -20,16 +20,17 @@ from protocol.errors import ProtocolError
 from protocol.msgdefs import Definitions
 
 from ..backends.base import QoS
+from .ports import Senders
 
 log = logging.getLogger('rosgate.recordings')
 
 
 class Playback:
-    def __init__(self, gateway, path: Path, rate: float, prefix: str, name: str, role: str | None,
+    def __init__(self, senders: Senders, path: Path, rate: float, prefix: str, name: str, role: str | None,
                  person: str | None = None):
         from rosbags.rosbag2 import Reader
 
-        self.gateway, self.path, self.rate, self.prefix = gateway, path, rate, prefix
+        self.senders, self.path, self.rate, self.prefix = senders, path, rate, prefix
         self.who = (name, role, person)   # person: rules.stations.person_of of who started it
         self.reader = Reader(path)
         self.reader.open()
@@ -49,13 +50,13 @@ class Playback:
 
     async def run(self) -> int:
         loop = asyncio.get_running_loop()
-        gw = self.gateway
+        door = self.senders
         name, role, person = self.who
-        sender = gw.open_sender(name, role, remote=f'playback of {self.path.name}', person=person)
+        sender = door.open_sender(name, role, remote=f'playback of {self.path.name}', person=person)
         pubs = {}
         try:
             for conn in self.reader.connections:
-                pubs[conn.id] = gw.open_publisher(sender, self.prefix + conn.topic, conn.msgtype, QoS())
+                pubs[conn.id] = door.open_publisher(sender, self.prefix + conn.topic, conn.msgtype, QoS())
             t0, start = None, loop.time()
             for conn, stamp, data in self.reader.messages():
                 if t0 is None:
@@ -63,14 +64,14 @@ class Playback:
                 delay = start + (stamp - t0) / 1e9 / self.rate - loop.time()
                 if delay > 0:
                     await asyncio.sleep(delay)
-                if gw.publish(sender, pubs[conn.id], from_cdr(self.defs, conn.msgtype, bytes(data))):
+                if door.publish(sender, pubs[conn.id], from_cdr(self.defs, conn.msgtype, bytes(data))):
                     self.published += 1
             log.info('played %s: %d messages', self.path.name, self.published)
         except ProtocolError as e:
             self.refused = e.message
             log.info('playing %s ended after %d messages: %s', self.path.name, self.published, e.message)
         finally:
-            gw.close_sender(sender)   # its moving commands stop, its leases go
+            door.close_sender(sender)   # its moving commands stop, its leases go
             for pub in pubs.values():
                 pub.detach(sender.id)
             self.reader.close()

@@ -32,12 +32,13 @@ from fnmatch import fnmatchcase
 from pathlib import Path
 
 import cbor2
-import tornado.web
 
 from ..rules.access import Action, Area, allowed, may
+from ..rules.errors import Refusal
 from ..rules.names import parse_globs
 from .playback import Playback
-from ..settings import data_dir
+from .ports import Graph, Names, Parts, Senders, Taps, Types
+from ..settings import StorageSettings, data_dir
 from ..rules.hooks import Hook
 
 log = logging.getLogger('rosgate.recordings')
@@ -121,12 +122,12 @@ class Recording:
         return any(fnmatchcase(topic, g) for g in self.globs)
 
     def add_topic(self, topic: str, type: str) -> None:
-        gw = self.manager.gateway
-        msgdef = gw.backend.msg_def(type)
-        text, rihs01 = definition(gw.backend, type, msgdef)
-        gw.backend.to_cdr(type, {})   # a type the backend cannot serialize fails here, not in the fan-out
+        types = self.manager.types
+        msgdef = types.msg_def(type)
+        text, rihs01 = definition(types, type, msgdef)
+        types.to_cdr(type, {})   # a type the backend cannot serialize fails here, not in the fan-out
         self.connections[topic] = self.writer.add_connection(topic, type, msgdef=text, rihs01=rihs01)
-        fan = gw.fanout(topic, type)
+        fan = self.manager.taps.fanout(topic, type)
         tap = _Tap(self, topic)
         self.taps[topic] = (fan, tap)
         sub = fan.add(tap, None, (0, 0, 'cbor-raw', None, None))
@@ -156,7 +157,7 @@ class Recording:
         self.bytes = self.file.stat().st_size
 
 
-def definition(backend, type: str, msgdef) -> tuple[str, str]:
+def definition(backend: Types, type: str, msgdef) -> tuple[str, str]:
     """The definition text (with its dependencies, as ROS 2 stores it) and its RIHS01 hash."""
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
@@ -167,8 +168,14 @@ def definition(backend, type: str, msgdef) -> tuple[str, str]:
 
 
 class RecordingManager(Hook):
-    def __init__(self, gateway, dir: Path, limits: RecordingLimits = RecordingLimits()):
-        self.gateway, self.dir, self.limits = gateway, Path(dir), limits
+    """The recordings and playbacks: what each takes through the topics' fan-outs (``taps``, typed by
+    ``types``, found in ``graph``), as whom (``names``: the rules' answer, and the lease), and the
+    playbacks' publishing for their starters (``senders``)."""
+
+    def __init__(self, dir: Path, limits: RecordingLimits = RecordingLimits(), *, taps: Taps, types: Types,
+                 graph: Graph, senders: Senders, names: Names):
+        self.dir, self.limits = Path(dir), limits
+        self.taps, self.types, self.graph, self.senders, self.names = taps, types, graph, senders, names
         self.recordings: dict[str, Recording] = {}
         self.plays: dict[str, asyncio.Task] = {}
         self.playing: dict[str, Playback] = {}   # what each task of plays plays
@@ -185,29 +192,29 @@ class RecordingManager(Hook):
         lim = self.limits
         others = [r for r in self.active() if r.counted] if counted else []
         if len(others) >= lim.max_concurrent:
-            raise tornado.web.HTTPError(409, f'{lim.max_concurrent} recordings are already running; stop one first')
+            raise Refusal(409, f'{lim.max_concurrent} recordings are already running; stop one first')
         if owner is not None and sum(r.owner == owner for r in others) >= lim.max_per_person:
-            raise tornado.web.HTTPError(429, f'{owner} already runs {lim.max_per_person} recordings; stop one first')
+            raise Refusal(429, f'{owner} already runs {lim.max_per_person} recordings; stop one first')
         if owner is not None and not allowed(who, Action.EXEMPT, Area.RECORDINGS):
             kept = [r for r in self.listing() if r.get('owner') == owner]
             size = sum(r.get('bytes') or 0 for r in kept)
             if len(kept) >= lim.person_count or size >= lim.person_bytes:
-                raise tornado.web.HTTPError(429, f'{owner} keeps {len(kept)} recordings of {size} bytes, the most one '
-                                                 f'person may ({lim.person_count}, {lim.person_bytes} bytes): delete '
-                                                 'some, or ask the teacher')
+                raise Refusal(429, f'{owner} keeps {len(kept)} recordings of {size} bytes, the most one '
+                              f'person may ({lim.person_count}, {lim.person_bytes} bytes): delete '
+                              'some, or ask the teacher')
         self.dir.mkdir(parents=True, exist_ok=True)
         free = shutil.disk_usage(self.dir).free
         if free < lim.max_bytes + lim.disk_reserve:
             log.warning('recordings: only %d MiB free in %s', free // 2**20, self.dir)   # the folder: the admins'
-            raise tornado.web.HTTPError(507, f'only {free // 2**20} MiB free for recordings; a recording needs '
-                                             f'{(lim.max_bytes + lim.disk_reserve) // 2**20} MiB')
+            raise Refusal(507, f'only {free // 2**20} MiB free for recordings; a recording needs '
+                          f'{(lim.max_bytes + lim.disk_reserve) // 2**20} MiB')
         rec_id = f"rec-{time.strftime('%Y%m%d-%H%M%S')}-{secrets.token_hex(2)}"
         try:
             rec = Recording(self, rec_id, globs, max_seconds, owner, who, attempt)
             rec.counted = counted
         except Exception:   # rosbags' WriterError, OSError: the log says where (a path is the admins')
             log.exception('cannot create recording %s in %s', rec_id, self.dir)
-            raise tornado.web.HTTPError(500, 'cannot create the recording (the gateway\'s log says why)') from None
+            raise Refusal(500, 'cannot create the recording (the gateway\'s log says why)') from None
         self.recordings[rec_id] = rec
         try:
             self._match(rec)
@@ -224,9 +231,9 @@ class RecordingManager(Hook):
     def _match(self, rec: Recording) -> None:
         """Take the topics the globs of the recording ask for and its starter may subscribe to (a
         recording is a way to subscribe: ``may`` as them)."""
-        policy = self.gateway.policy
-        for topic, type in self.gateway.backend.topics():
-            if topic not in rec.connections and rec.wants(topic) and may(policy, rec.who, 'subscribe', topic) is None:
+        for topic, type in self.graph.topics():
+            if (topic not in rec.connections and rec.wants(topic)
+                    and may(self.names, rec.who, 'subscribe', topic) is None):
                 try:
                     rec.add_topic(topic, type)
                 except Exception as e:   # an unknown type, a definition rosbags cannot parse, ...
@@ -306,22 +313,29 @@ class RecordingManager(Hook):
         owner = self.owner(rec_id)
         if owner != identity.owner:
             whose = f"{owner}'s" if owner else 'not yours'
-            raise tornado.web.HTTPError(403, f'recording {rec_id} is {whose}; {identity.name} may not {verb} it')
+            raise Refusal(403, f'recording {rec_id} is {whose}; {identity.name} may not {verb} it')
         attempt = self.attempt_of(rec_id) if changes else None
         if attempt is not None:
-            raise tornado.web.HTTPError(403, f'recording {rec_id} is the record of exercise attempt {attempt}, the '
-                                             f'teacher\'s evidence: {identity.name} may read it, not {verb} it')
+            raise Refusal(403, f'recording {rec_id} is the record of exercise attempt {attempt}, the '
+                          f'teacher\'s evidence: {identity.name} may read it, not {verb} it')
 
     def path(self, rec_id: str) -> Path:
         if not _ID.fullmatch(rec_id):
-            raise tornado.web.HTTPError(404, f'no recording {rec_id[:80]!r}')
+            raise Refusal(404, f'no recording {rec_id[:80]!r}')
         rec = self.recordings.get(rec_id)
         if rec is not None and rec.state == 'recording':
-            raise tornado.web.HTTPError(409, f'recording {rec_id} is still running; stop it first')
+            raise Refusal(409, f'recording {rec_id} is still running; stop it first')
         path = self.dir / rec_id
         if not (path / f'{rec_id}.mcap').is_file():
-            raise tornado.web.HTTPError(404, f'no recording {rec_id!r}')
+            raise Refusal(404, f'no recording {rec_id!r}')
         return path
+
+    def delete(self, rec_id: str) -> None:
+        """A finished recording gone from the disk (its playback stopped first)."""
+        path = self.path(rec_id)
+        self.stop_playing(rec_id)
+        shutil.rmtree(path)
+        self.recordings.pop(rec_id, None)
 
     # --- playback -----------------------------------------------------------------------------
 
@@ -329,13 +343,13 @@ class RecordingManager(Hook):
         """Start playing (as ``identity``): refused up front (403) where the name globs would
         refuse that person's publishing, and (409) into a robot someone else drives."""
         if rec_id in self.plays and not self.plays[rec_id].done():
-            raise tornado.web.HTTPError(409, f'recording {rec_id} is already playing')
+            raise Refusal(409, f'recording {rec_id} is already playing')
         path = self.path(rec_id)
         name, role = (identity.owner, identity.role) if identity is not None else ('playback', None)
         try:
-            playback = Playback(self.gateway, path, rate, prefix, name, role, person)
+            playback = Playback(self.senders, path, rate, prefix, name, role, person)
         except Exception as e:   # a damaged file, a type rosbags cannot parse
-            raise tornado.web.HTTPError(422, f'cannot play {rec_id}: {e}') from None
+            raise Refusal(422, f'cannot play {rec_id}: {e}') from None
         try:
             self._may_play(playback, name, role, person)
         except BaseException:
@@ -348,17 +362,16 @@ class RecordingManager(Hook):
         return playback.summary()
 
     def _may_play(self, playback: Playback, name: str, role: str | None, person: str | None) -> None:
-        policy = self.gateway.policy
-        probe = self.gateway.itself.__class__(name, role, person=person)   # the bridge's Sender, never opened
-        lease = policy.lease
+        probe = self.senders.probe(name, role, person)   # a sender never opened
+        lease = self.names.lease
         for topic, type in playback.targets():
-            why = may(policy, probe, 'publish', topic)
+            why = may(self.names, probe, 'publish', topic)
             if why is not None:
-                raise tornado.web.HTTPError(403, f'cannot play into {topic}: {why}')
+                raise Refusal(403, f'cannot play into {topic}: {why}')
             refusal = None if lease is None else lease.topic_refusal(person, topic, type) if lease.is_command(
                 topic, type) else lease.names.refusal(probe, topic)   # a station's other topics: its holder's
             if refusal is not None:
-                raise tornado.web.HTTPError(409, f'cannot play into {topic}: {refusal}')
+                raise Refusal(409, f'cannot play into {topic}: {refusal}')
 
     def stop_playing(self, rec_id: str) -> bool:
         task = self.plays.pop(rec_id, None)
@@ -394,14 +407,15 @@ class RecordingManager(Hook):
             task.cancel()
 
 
-def start_recordings(gateway) -> RecordingManager:
-    """The recordings' manager (a part of the gateway's hooks); with --record, the start-up
+def start_recordings(storage: StorageSettings, hooks: Parts, *, taps: Taps, types: Types, graph: Graph,
+                     senders: Senders, names: Names) -> RecordingManager:
+    """The recordings' manager (a part of the gateway's ``hooks``); with --record, the start-up
     recording begins once the loop runs."""
-    storage = gateway.settings.storage
     record = storage.record
     folder = storage.recordings_dir or record
-    manager = RecordingManager(gateway, Path(folder) if folder else default_recordings_dir())
-    gateway.hooks.add(manager)
+    manager = RecordingManager(Path(folder) if folder else default_recordings_dir(), taps=taps, types=types,
+                               graph=graph, senders=senders, names=names)
+    hooks.add(manager)
     if record:
         globs = parse_globs(storage.record_topics) or ('/*',)
         asyncio.get_running_loop().call_soon(_start_up, manager, globs)
@@ -411,8 +425,8 @@ def start_recordings(gateway) -> RecordingManager:
 def _start_up(manager: RecordingManager, globs: tuple[str, ...]) -> None:
     try:
         rec = manager.start(globs, None)
-    except tornado.web.HTTPError as e:
-        log.error('--record: %s', e.log_message)
+    except Refusal as e:
+        log.error('--record: %s', e.message)
         return
     log.info('--record: recording %s into %s', ', '.join(globs), rec.path)
 

@@ -12,9 +12,10 @@ import asyncio
 import itertools
 
 import tornado.iostream
-import tornado.web
 
+from ..rules.errors import Refusal
 from . import images
+from .ports import Graph, Taps
 
 BOUNDARY = 'boundarydonotcross'
 FIND_WAIT = 2.0         # s an unknown topic is looked for (a camera node starting) before 404
@@ -51,7 +52,7 @@ class Source:
         self.viewers: set = set()
         self.problem: str | None = None   # why the last frame could not be made
         self.key = ('video', next(_keys))
-        self.fan = video.gateway.fanout(topic, type)
+        self.fan = video.taps.fanout(topic, type)
         self.fan.watch(self.key, self._on_message, target)
 
     def part(self, msg: dict, image: bytes | images.ImageError | None = None) -> Part:
@@ -135,8 +136,11 @@ class Viewer:
 
 
 class Video:
-    def __init__(self, gateway):
-        self.gateway = gateway
+    """The sources streamed now, each watching its topic's fan-out (``taps``); the image topics
+    found in ``graph``."""
+
+    def __init__(self, taps: Taps, graph: Graph):
+        self.taps, self.graph = taps, graph
         self.sources: dict[tuple, Source] = {}
 
     def source(self, topic: str, type: str, target: images.Target | None) -> Source:
@@ -151,15 +155,15 @@ class Video:
         loop = asyncio.get_running_loop()
         deadline = loop.time() + FIND_WAIT
         while True:
-            types = dict(self.gateway.backend.topics())
+            types = dict(self.graph.topics())
             found = pick(types, topic, kind)
             if found is not None:
                 return found
             if topic in types:
-                raise tornado.web.HTTPError(404, f'{topic} is {types[topic]}, not an image topic '
-                                                 f'({" or ".join(images.TYPES)})')
+                raise Refusal(404, f'{topic} is {types[topic]}, not an image topic '
+                              f'({" or ".join(images.TYPES)})')
             if loop.time() >= deadline:
-                raise tornado.web.HTTPError(404, f'no image topic {topic} (nor {topic}/compressed)')
+                raise Refusal(404, f'no image topic {topic} (nor {topic}/compressed)')
             await asyncio.sleep(0.1)
 
 

@@ -10,5 +10,7 @@ checks on a path) and the dashboard's gauge limits (``gauges``). The HTTP routes
 ``web.description``, ``web.packages`` and ``web.gauges``.
 
 May import: ``rules``, ``auth``, ``store``, ``backends`` (types) and ``settings``; never ``bridge`` or
-``web``: the gateway is handed in.
+``web``. Each part is handed the few doors it uses, typed in ``ports`` (the topics' fan-outs, the
+backend's listings, the rules' answer about a name, the store, the fleet's timekeeper), never the
+Gateway: the bridge builds the fan-outs' door (``bridge.taps``).
 """

@@ -32,11 +32,11 @@ import tempfile
 from collections import OrderedDict
 from pathlib import Path
 
-import tornado.web
-
 from ..backends.base import BackendError
+from ..rules.errors import Refusal
 from ..rules.access import may
 from .packages import package_roots
+from .ports import Backend, Names, Taps
 
 log = logging.getLogger('rosgate.description')
 CHILD = Path(__file__).with_name('xacro_child.py')
@@ -130,10 +130,13 @@ def check_urdf(urdf: Path | None, mesh_path) -> None:
 
 
 class Descriptions:
-    """Where a namespace's description comes from, and the expansions made (by their text)."""
+    """Where a namespace's description comes from (the --urdf file; else the graph's, read through
+    the topic's fan-out, ``taps``, or a node's parameter, as far as ``names`` lets the asker), and
+    the expansions made (by their text)."""
 
-    def __init__(self, gateway, urdf: Path | None, roots: list[Path]):
-        self.gateway, self.urdf, self.roots = gateway, urdf, roots
+    def __init__(self, urdf: Path | None, roots: list[Path], *, taps: Taps, graph: Backend, names: Names):
+        self.urdf, self.roots = urdf, roots
+        self.taps, self.graph, self.names = taps, graph, names
         self.cache: OrderedDict[str, asyncio.Future] = OrderedDict()
         self.children = asyncio.Semaphore(CHILDREN)
         self.file: tuple | None = None   # ((mtime, size), text) of the --urdf file
@@ -164,11 +167,10 @@ class Descriptions:
 
     async def retained(self, topic: str) -> str | None:
         """The topic's latest message's text (its retained one for a new subscriber), or None."""
-        gw = self.gateway
-        type_ = gw.topic_type(topic)
+        type_ = self.taps.topic_type(topic)
         if type_ not in ('std_msgs/msg/String', 'std_msgs/String'):
             return None
-        fan = gw.fanout(topic, 'std_msgs/msg/String')
+        fan = self.taps.fanout(topic, 'std_msgs/msg/String')
         if fan.last is not None:
             return fan.last.get('data')
         loop = asyncio.get_running_loop()
@@ -192,16 +194,16 @@ class Descriptions:
     async def find(self, who, ns: str) -> dict:
         if self.urdf is not None:
             return {'urdf': await self._or_502(asyncio.to_thread(self.file_text), '--urdf'), 'from': '--urdf'}
-        gw = self.gateway
+        graph = self.graph
         topic = f'{ns}/robot_description'
-        if may(gw.policy, who, 'subscribe', topic) is None and gw.backend.publishers(topic):
+        if may(self.names, who, 'subscribe', topic) is None and graph.publishers(topic):
             text = await self.retained(topic)
             if text and text.strip():
                 return {'urdf': await self._or_502(self.expanded(text), 'topic'), 'from': 'topic'}
         node = f'{ns}/robot_state_publisher'
-        if node in gw.backend.nodes() and gw.policy.visible(who, 'params', f'{node}:robot_description'):
+        if node in graph.nodes() and self.names.visible(who, 'params', f'{node}:robot_description'):
             try:
-                text = await gw.backend.get_param(node, 'robot_description')
+                text = await graph.get_param(node, 'robot_description')
             except (KeyError, BackendError):
                 text = None
             if isinstance(text, str) and text.strip():
@@ -214,4 +216,4 @@ class Descriptions:
             return await work
         except (XacroError, OSError) as e:
             log.warning('the robot description (%s) cannot be read: %s', source, e)
-            raise tornado.web.HTTPError(502, f'the robot description ({source}) cannot be expanded: {e}') from None
+            raise Refusal(502, f'the robot description ({source}) cannot be expanded: {e}') from None

@@ -4,7 +4,7 @@ An operator at a distance needs the robot's past as well as its present (is ther
 to get back?), and a browser keeps nothing once it is closed. So the gateway itself is one more
 subscriber of each kept topic's shared fan-out (no second backend subscription), at most about
 once a second per topic (the fan-out's own ``throttle_rate`` keeps the latest message), and writes
-each numeric field as a point through the one store (``gateway.store``):
+each numeric field as a point through the one store:
 
 - ``history_points``: full rate (1 Hz) for the recent ``--history-full-hours`` (a day by default);
 - ``history_minutes``: older points rolled up into per-minute count/min/mean/max, once a minute;
@@ -36,8 +36,10 @@ import sqlalchemy as sa
 
 from ..rules.access import may
 from ..rules.names import parse_globs
+from ..settings import TwinSettings
 from ..store import METADATA
 from ..rules.hooks import Hook
+from .ports import Graph, Names, Parts, Store, Taps, Timekeeper
 
 log = logging.getLogger('rosgate.history')
 
@@ -136,10 +138,17 @@ class _Tap:
 
 class History(Hook):
     """The topics kept (their taps), the points waiting for the next batch, the latest value of
-    each field (for the OPC UA face, ``listeners``), and the store work: batches, roll-ups, cap."""
+    each field (for the OPC UA face, ``listeners``), and the store work: batches, roll-ups, cap.
+    It reads through the topics' fan-outs (``taps``) what ``graph`` lists and ``names`` lets a client
+    subscribe to; ``fleet``: the gateways on one PostgreSQL, of which only the timekeeper writes
+    (None: this one alone). A history that only writes and reads (the bench, the store's tests) is
+    given the store alone."""
 
-    def __init__(self, gateway, globs: tuple[str, ...] | None, *, max_bytes: int, full_seconds: float):
-        self.gateway, self.globs = gateway, globs
+    def __init__(self, globs: tuple[str, ...] | None, *, max_bytes: int, full_seconds: float,
+                 store: Store | None = None, taps: Taps | None = None, graph: Graph | None = None,
+                 names: Names | None = None, fleet: Timekeeper | None = None):
+        self.globs, self.store, self.fleet = globs, store, fleet
+        self.fanouts, self.graph, self.names = taps, graph, names   # (self.taps: the topics kept)
         self.max_bytes, self.full_seconds = max_bytes, full_seconds
         self.taps: dict[str, tuple] = {}              # topic -> (fanout, _Tap)
         self.refused: set[str] = set()                # topics that cannot be kept (logged once)
@@ -151,10 +160,6 @@ class History(Hook):
         self.window: deque[tuple[float, int]] = deque(maxlen=64)   # (time, rows) after each batch
         self.tasks: list[asyncio.Task] = []
 
-    @property
-    def store(self):
-        return self.gateway.store
-
     # --- which topics -----------------------------------------------------------------------
 
     def wants(self, topic: str, type: str) -> bool:
@@ -163,24 +168,24 @@ class History(Hook):
         return any(fnmatchcase(topic, g) for g in self.globs)
 
     def match(self) -> None:
-        policy, backend = self.gateway.policy, self.gateway.backend
+        backend = self.graph
         for topic in [t for t in self.taps if not backend.publishers(t)]:
             self.release(topic)   # its robot is gone: the history's subscription must not keep the name listed
         for topic, type in backend.topics():
             if topic in self.taps or topic in self.refused or not self.wants(topic, type):
                 continue
-            if may(policy, None, 'subscribe', topic) is not None:
+            if may(self.names, None, 'subscribe', topic) is not None:
                 continue
             if not backend.publishers(topic):
                 continue   # only looked for (a page's subscription): nothing of the robot's to keep
             fan = None
             try:
-                fan = self.gateway.fanout(topic, type)
+                fan = self.fanouts.fanout(topic, type)
                 tap = _Tap(self, topic, type)
                 fan.add(tap, None, (THROTTLE_MS, 1, 'none', None))
             except Exception as e:   # an unknown type, a topic of two types, ...
                 if fan is not None and not fan.subscribers:
-                    self.gateway.drop_fanout(fan)   # made here for nothing: no backend subscription left behind
+                    self.fanouts.drop_fanout(fan)   # made here for nothing: no backend subscription left behind
                 self.refused.add(topic)
                 log.warning('history cannot keep %s (%s): %s', topic, type, e)
                 continue
@@ -225,8 +230,7 @@ class History(Hook):
     def writes(self) -> bool:
         """Whether this gateway writes the history: alone, yes; in a fleet of gateways on one
         PostgreSQL (store.fleet) only its timekeeper does, so each series is written once."""
-        fleet = getattr(self.gateway.ruleset, 'fleet', None)
-        return fleet is None or fleet.timekeeper
+        return self.fleet is None or self.fleet.timekeeper
 
     def flush(self) -> None:
         if not self.writes():
@@ -318,7 +322,6 @@ class History(Hook):
     # --- lifecycle --------------------------------------------------------------------------
 
     def start(self) -> None:
-        self.store   # opened now: a bad --db fails at start, not at the first batch
         self.match()
         for every, job in ((POLL, self.match), (FLUSH, self.flush),
                            (COMPACT_EVERY, lambda: self.writes() and self.store.submit(self.compact)),
@@ -355,14 +358,14 @@ def history_globs(value: str | None) -> tuple[str, ...] | None | bool:
     return parse_globs(value)
 
 
-def start_history(gateway) -> History | None:
+def start_history(s: TwinSettings, hooks: Parts, *, store: Store, taps: Taps, graph: Graph, names: Names,
+                  fleet: Timekeeper | None) -> History | None:
     """The gateway's history as its settings ask (None with --history none); it starts keeping now."""
-    s = gateway.settings.twin
     globs = history_globs(s.history)
     if globs is False:
         return None
-    history = History(gateway, globs, max_bytes=int(s.history_max_mb * 2**20),
-                      full_seconds=s.history_full_hours * 3600)
-    gateway.hooks.add(history)
+    history = History(globs, max_bytes=int(s.history_max_mb * 2**20), full_seconds=s.history_full_hours * 3600,
+                      store=store, taps=taps, graph=graph, names=names, fleet=fleet)
+    hooks.add(history)
     history.start()
     return history

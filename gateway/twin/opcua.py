@@ -36,6 +36,7 @@ from ..rules.access import may
 from ..auth.tokens import AuthError
 from ..settings import data_dir
 from ..rules.hooks import Hook
+from .ports import Parts, SignIn
 
 log = logging.getLogger('rosgate.opcua')
 NAMESPACE = 'urn:rosgate:twin'
@@ -60,13 +61,14 @@ class Twin(Hook):
     """The OPC UA server on a thread and event loop of its own: asyncua builds its standard
     address space in pure Python at start (about ten seconds of one core on a busy machine), which
     on the gateway's loop would stall every client meanwhile. Points cross over in one dict
-    under a lock, taken in batches."""
+    under a lock, taken in batches. ``policy``: who signs in (its ``auth``; None: nobody), the
+    stations; ``address``: the gateway's --address."""
 
-    def __init__(self, gateway, history, port: int):
-        self.gateway, self.history, self.port = gateway, history, port
-        self.auth = gateway.policy.auth
-        self.host = gateway.settings.address or '0.0.0.0'
-        self.shown = gateway.settings.address or 'localhost'
+    def __init__(self, history, port: int, *, policy: SignIn, address: str = ''):
+        self.history, self.port, self.policy = history, port, policy
+        self.auth = policy.auth
+        self.host = address or '0.0.0.0'
+        self.shown = address or 'localhost'
         self.server = None
         self.nodes: dict[tuple, object] = {}    # folder path or (folder path, field) -> asyncua Node
         self.dirty: dict[tuple[str, str], tuple[float, float]] = dict(history.latest)
@@ -83,7 +85,7 @@ class Twin(Hook):
 
     def on_point(self, topic: str, field: str, t: float, v: float) -> None:
         """On the gateway's loop, from the history."""
-        stations = self.gateway.policy.stations
+        stations = self.policy.stations
         if stations is not None:
             self.stations = tuple(stations.stations())
         with self.lock:
@@ -99,7 +101,7 @@ class Twin(Hook):
         from asyncua import Server, ua     # there: the start-up check refused --opcua without it
         logging.getLogger('asyncua').setLevel(logging.WARNING)   # it logs each node it makes at INFO
         self.loop, self.stopping, self.ua = asyncio.get_running_loop(), asyncio.Event(), ua
-        server = Server(user_manager=_Users(self.gateway.policy) if self.auth is not None else None)
+        server = Server(user_manager=_Users(self.policy) if self.auth is not None else None)
         await server.init()
         server.set_endpoint(f'opc.tcp://{self.host}:{self.port}/rosgate/')
         server.set_server_name('rosgate twin')
@@ -188,7 +190,7 @@ def _utc(t: float) -> datetime:
 class _Users:
     """asyncua's user manager: the user name and a token of that user, as with --auth elsewhere."""
 
-    def __init__(self, policy):
+    def __init__(self, policy: SignIn):
         self.policy = policy
 
     def get_user(self, iserver, username=None, password=None, certificate=None):
@@ -208,12 +210,12 @@ class _Users:
         return User(role=UserRole.User, name=identity.name)
 
 
-def start_twin(gateway, history, port: int | None) -> Twin | None:
+def start_twin(history, port: int | None, hooks: Parts, *, policy: SignIn, address: str = '') -> Twin | None:
     """The OPC UA server with --opcua (the start-up check refused it without asyncua, or with
     --history none)."""
     if port is None:
         return None
-    twin = Twin(gateway, history, port)
-    gateway.hooks.add(twin)
+    twin = Twin(history, port, policy=policy, address=address)
+    hooks.add(twin)
     twin.start()
     return twin

@@ -9,7 +9,7 @@ import os
 import re
 from pathlib import Path
 
-import tornado.web
+from ..rules.errors import Refusal
 
 PACKAGE_NAME = re.compile(r'^[A-Za-z0-9_][A-Za-z0-9_-]{0,99}$')   # REP 144: letters, digits, _ (and - seen)
 SUFFIXES = frozenset({'.stl', '.dae', '.obj', '.mtl', '.png', '.jpg', '.jpeg', '.tga', '.bmp', '.tif', '.tiff',
@@ -38,9 +38,9 @@ def find(roots: list[Path], package: str, path: str) -> Path | None:
     name that could leave its root (checked again on the real path: symlinks)."""
     parts = safe_parts(path)
     if not PACKAGE_NAME.match(package) or parts is None:
-        raise tornado.web.HTTPError(403, 'not a file of a package')
+        raise Refusal(403, 'not a file of a package')
     if Path(parts[-1]).suffix.lower() not in SUFFIXES:
-        raise tornado.web.HTTPError(403, f'only {", ".join(sorted(SUFFIXES))} files are served')
+        raise Refusal(403, f'only {", ".join(sorted(SUFFIXES))} files are served')
     left = False
     for root in roots:
         base = root / package
@@ -53,7 +53,7 @@ def find(roots: list[Path], package: str, path: str) -> Path | None:
             continue
         return Path(real)
     if left:
-        raise tornado.web.HTTPError(403, 'the file leaves its package (give its real folder with --mesh-path)')
+        raise Refusal(403, 'the file leaves its package (give its real folder with --mesh-path)')
     return None
 
 

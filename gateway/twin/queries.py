@@ -1,6 +1,8 @@
 """Reading the history back (``twin.history`` keeps it; ``web.history`` is its HTTP face): one
 series' points of a span as kept (1 Hz recently, per minute before) or grouped into buckets of a
-step, and the list of series. Each function takes a connection of the store's (``Store.run``).
+step, and the list of series. Each function takes a connection of the store's (``Store.run``);
+``series``, ``points`` and ``figures`` are what the HTTP face awaits, the store's work done on its
+thread (web/ holds no SQL).
 """
 
 from __future__ import annotations
@@ -8,7 +10,7 @@ from __future__ import annotations
 import orjson
 import sqlalchemy as sa
 
-from .history import MINUTE, MINUTES, POINTS, SERIES
+from .history import MINUTE, MINUTES, POINTS, SERIES, History
 
 RAW = 'SELECT CAST(t AS DOUBLE PRECISION) / 1000, v FROM history_points WHERE series = {s} AND t >= {lo} AND t <= {hi} ORDER BY t'
 
@@ -100,3 +102,30 @@ def listing(conn: sa.Connection) -> dict[str, list[str]]:
     for topic, field in conn.execute(sa.select(SERIES.c.topic, SERIES.c.field).order_by(SERIES.c.id)):
         out.setdefault(topic, []).append(field)
     return out
+
+
+async def series(history: History) -> dict[str, list[str]]:
+    """Every series by topic: those in the store, and those kept live here but not written yet."""
+    known = await history.store.run(listing)
+    for live in history.taps:
+        known.setdefault(live, [])
+        known[live] += [f for f in history.kept_fields(live) or () if f not in known[live]]
+    return known
+
+
+async def points(history: History, topic: str, field: str, lo: int, hi: int, step: int | None,
+                 as_json: bool = False) -> dict:
+    """One series' points from ``lo`` to ``hi`` (ms), as ``query`` gives them; none for a series
+    never written."""
+    def read(conn: sa.Connection) -> dict:
+        sid = history.series_id(conn, topic, field, create=False)
+        return {'t': [], 'v': []} if sid is None else query(conn, sid, lo, hi, step, as_json=as_json)
+    return await history.store.run(read)
+
+
+async def figures(history: History) -> dict:
+    """The history's figures (``History.stats``): the database's size and the bytes in use."""
+    store = history.store
+    used = await store.run(history.used_bytes)
+    size = await store.run(lambda conn: store.size()) if not store.sqlite else store.size()
+    return history.stats(size, used)

@@ -22,6 +22,7 @@ import orjson
 import tornado.web
 
 from ..bridge.gateway import Gateway
+from ..bridge.taps import Taps
 from ..media.video import Video
 from ..twin.description import Descriptions
 from .bookings import booking_routes
@@ -130,10 +131,13 @@ def make_app(gateway: Gateway, parts) -> tornado.web.Application:
     routes += run_routes(parts.runs, parts.recordings, gateway.backend, settings.storage.programs_dir)
     routes += recording_routes(parts.recordings)
     routes += booking_routes(ruleset.slots, policy.sessions, store)
-    routes += video_routes(Video(gateway), policy, gateway.backend) + history_routes(parts.history, policy)
+    taps = Taps(gateway)   # the topics' shared fan-outs, as a stream and a description read them
+    routes += video_routes(Video(taps, gateway.backend), policy, gateway.backend)
+    routes += history_routes(parts.history, policy)
     routes += package_routes(settings.twin.mesh_path) + gauge_routes(settings.twin.gauges)
     routes += block_routes(settings.storage.blocks_dir, settings.ide_dir)
-    routes += description_routes(Descriptions(gateway, *description_files(settings.twin)))
+    routes += description_routes(Descriptions(*description_files(settings.twin), taps=taps, graph=gateway.backend,
+                                              names=policy))
     routes += share_routes(policy.auth is not None)
     if parts.checker is not None:
         routes += exercise_routes(parts.exercises, parts.checker, ruleset.attempts, store)

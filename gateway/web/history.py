@@ -24,7 +24,7 @@ import tornado.web
 from ..rules.access import Action, Area, allowed, may
 from ..rules.policy import Policy
 from ..twin.history import History
-from ..twin.queries import MAX_BUCKETS, listing, query
+from ..twin.queries import MAX_BUCKETS, figures, points, series
 from .api import JsonHandler, authorized, query_number
 
 DEFAULT_SPAN = 600.0
@@ -44,13 +44,9 @@ class _Handler(JsonHandler):
 class HistoryHandler(_Handler):
     @authorized(Area.HISTORY)
     async def get(self) -> None:
-        h, identity = self.history, self.identity
+        identity = self.identity
         topic = self.get_query_argument('topic', None)
-        known = await h.store.run(listing)
-        for live in h.taps:
-            fields = h.kept_fields(live)
-            known.setdefault(live, [])
-            known[live] += [f for f in fields or () if f not in known[live]]
+        known = await series(self.history)
         if topic is None:
             self.finish({'series': [{'topic': t, 'fields': f} for t, f in sorted(known.items())
                                     if self.may_read(identity, t)]})
@@ -83,12 +79,7 @@ class HistoryHandler(_Handler):
         if fmt not in ('json', 'csv'):
             raise tornado.web.HTTPError(400, '"format" is json or csv')
         lo, hi = int(start * 1000), int(to * 1000)
-
-        def read(conn):
-            sid = h.series_id(conn, topic, field, create=False)
-            return {'t': [], 'v': []} if sid is None else query(conn, sid, lo, hi, step_ms, as_json=fmt == 'json')
-
-        data = await h.store.run(read)
+        data = await points(self.history, topic, field, lo, hi, step_ms, as_json=fmt == 'json')
         if fmt == 'csv':
             self.set_header('Content-Type', 'text/csv; charset=utf-8')
             self.set_header('Content-Disposition', f'attachment; filename="history.csv"')
@@ -107,10 +98,8 @@ class HistoryHandler(_Handler):
 class HistoryStatsHandler(_Handler):
     @authorized(Area.HISTORY)
     async def get(self) -> None:
-        h, identity = self.history, self.identity
-        used = await h.store.run(h.used_bytes)
-        size = await h.store.run(lambda conn: h.store.size()) if not h.store.sqlite else h.store.size()
-        stats = h.stats(size, used)
+        identity = self.identity
+        stats = await figures(self.history)
         if not allowed(identity, Action.SEE, Area.SERVER):   # where the database is (a path, a host) is the admins'
             stats['db'] = stats['db'].split(':', 1)[0]
         self.finish(stats)

@@ -26,6 +26,7 @@ import tornado.web
 
 from ..twin.packages import find, package_roots
 from ..rules.access import Area
+from ..rules.errors import Refusal
 from .api import authorized
 
 MAX_AGE = 300   # s a mesh is used from the browser's cache before it is revalidated (304)
@@ -40,7 +41,10 @@ class PackageHandler(tornado.web.StaticFileHandler):
 
     @authorized(Area.PACKAGES)
     async def get(self, package: str, path: str, include_body: bool = True) -> None:
-        real = find(self.roots, package, path)
+        try:
+            real = find(self.roots, package, path)
+        except Refusal as e:   # a static handler's errors are tornado's own
+            raise tornado.web.HTTPError(e.status, e.message) from None
         if real is None:
             raise tornado.web.HTTPError(404, f'{package}/{path} is in no package root')
         self.root = str(real.parent)

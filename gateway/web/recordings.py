@@ -13,7 +13,6 @@ DELETE /api/recordings/ID/play      -> stops playing
 from __future__ import annotations
 
 import re
-import shutil
 from pathlib import Path
 
 import tornado.web
@@ -72,10 +71,7 @@ class RecordingHandler(_Handler):
             m.stop(rec, 'stopped')
             self.finish(rec.summary())
             return
-        path = m.path(rec_id)
-        m.stop_playing(rec_id)
-        shutil.rmtree(path)
-        m.recordings.pop(rec_id, None)
+        m.delete(rec_id)
         self.set_status(204)
         self.clear_header('Content-Type')
         self.finish()

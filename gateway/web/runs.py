@@ -30,6 +30,7 @@ import tornado.web
 from ..lab.programs import stored_program
 from ..rules.access import Action, Area, allowed
 from ..rules.access import lowered
+from ..rules.errors import Refusal
 from ..rules.stations import person_of
 from ..runs import Run, RunManager
 from ..runs.archive import Archive
@@ -169,10 +170,9 @@ class RunListHandler(_Handler):
         recordings = self.recordings
         try:
             rec = recordings.start(self._station_globs(run.ns), run.timeout + RECORD_SLACK, owner)
-        except tornado.web.HTTPError as e:
+        except Refusal as e:
             self.manager.stop(run, 'stopped')
-            raise tornado.web.HTTPError(e.status_code, f'run {run.id} stopped: its recording was refused: '
-                                                       f'{e.log_message}') from None
+            raise Refusal(e.status, f'run {run.id} stopped: its recording was refused: {e.message}') from None
 
         def finish() -> tuple[str, int]:
             recordings.stop(rec, f'run {run.id} ended')

@@ -10,7 +10,9 @@ import pytest
 
 from gateway.backends.base import QoS
 from gateway.bridge.gateway import Gateway
-from gateway.media.recordings import RecordingManager
+from gateway.bridge.taps import Senders, Taps
+from gateway.media.recordings import RecordingLimits, RecordingManager
+from gateway.rules.errors import Refusal
 from gateway.settings import Settings
 
 from tests.support.wait import until
@@ -19,12 +21,18 @@ pytestmark = pytest.mark.asyncio(loop_scope='session')
 STRING = 'std_msgs/msg/String'
 
 
+def recordings(gateway: Gateway, folder, limits: RecordingLimits = RecordingLimits()) -> RecordingManager:
+    """A manager handed its doors as the server's start hands them."""
+    return RecordingManager(folder, limits, taps=Taps(gateway), types=gateway.backend, graph=gateway.backend,
+                            senders=Senders(gateway), names=gateway.policy)
+
+
 async def test_record_then_play(world, topic, tmp_path):
     from rosbags.highlevel import AnyReader
 
     backend = world.backend
     gateway = Gateway(Settings(), backend)
-    manager = RecordingManager(gateway, tmp_path)
+    manager = recordings(gateway, tmp_path)
     pub = backend.create_publisher(topic, STRING, QoS())
     try:
         await until(lambda: any(name == topic for name, _ in backend.topics()), what=f'{topic} in the graph')
@@ -73,25 +81,21 @@ async def test_record_then_play(world, topic, tmp_path):
 
 
 async def test_bounds(world, topic, tmp_path):
-    import tornado.web
-
-    from gateway.media.recordings import RecordingLimits
-
     backend = world.backend
     gateway = Gateway(Settings(), backend)
     pub = backend.create_publisher(topic, STRING, QoS())
     try:
         await until(lambda: any(name == topic for name, _ in backend.topics()), what=f'{topic} in the graph')
-        full = RecordingManager(gateway, tmp_path, RecordingLimits(disk_reserve=2**62))
-        with pytest.raises(tornado.web.HTTPError) as refused:
+        full = recordings(gateway, tmp_path, RecordingLimits(disk_reserve=2**62))
+        with pytest.raises(Refusal) as refused:
             full.start((topic,), None)
-        assert refused.value.status_code == 507 and 'free' in refused.value.log_message
+        assert refused.value.status == 507 and 'free' in refused.value.message
 
-        small = RecordingManager(gateway, tmp_path, RecordingLimits(max_bytes=2000, max_concurrent=1))
+        small = recordings(gateway, tmp_path, RecordingLimits(max_bytes=2000, max_concurrent=1))
         rec = small.start((topic,), None)
-        with pytest.raises(tornado.web.HTTPError) as busy:
+        with pytest.raises(Refusal) as busy:
             small.start((topic,), None)
-        assert busy.value.status_code == 409
+        assert busy.value.status == 409
         while rec.state == 'recording':   # lock-step: each message recorded, or the cap reached
             base = rec.messages
             pub.publish({'data': 'x' * 100})

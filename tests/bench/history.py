@@ -49,15 +49,6 @@ DAY = 86_400
 BAR_WRITE_PCT, BAR_READ_MS = 2.0, 100.0
 
 
-class _Gateway:
-    """What the history asks of a gateway when it only writes: its store, and its rules (no fleet
-    of gateways here: this one writes)."""
-
-    def __init__(self, store: Store):
-        self.store = store
-        self.ruleset = None
-
-
 def battery(i: int, t: float) -> dict:
     pct = 1.0 - (t % 3600) / 7200 - i / 1000
     return {'header': {'stamp': {'sec': int(t), 'nanosec': 0}, 'frame_id': f's{i:02d}/base_link'},
@@ -69,7 +60,7 @@ def battery(i: int, t: float) -> dict:
 
 async def write_load(seconds: float, folder: str) -> dict:
     store = Store(f'sqlite:///{folder}/write.db')
-    history = History(_Gateway(store), None, max_bytes=2**30, full_seconds=DAY)
+    history = History(None, max_bytes=2**30, full_seconds=DAY, store=store)
     taps = [_Tap(history, f'/s{i:02d}/battery_state', TYPE) for i in range(1, STATIONS + 1)]
     flushes = asyncio.ensure_future(_every(FLUSH, history.flush))
     cpu0, wall0, busy0 = time.process_time(), time.monotonic(), machine_busy_s()
@@ -105,7 +96,7 @@ async def _every(seconds: float, job) -> None:
 def fill_day(data_home: str, series: int = 10) -> tuple[float, float]:
     """A day of 1 Hz points for some series in the store a gateway with this XDG_DATA_HOME opens."""
     store = Store(f"sqlite:///{data_home}/rosgate/rosgate.db")
-    history = History(_Gateway(store), None, max_bytes=2**31, full_seconds=2 * DAY)
+    history = History(None, max_bytes=2**31, full_seconds=2 * DAY, store=store)
     end = time.time()
     start = end - DAY
     for s in range(series):
@@ -138,7 +129,7 @@ def read_load(folder: str, series: int = 10) -> dict:
     start, end = fill_day(home, series)
     busy0, wall0 = machine_busy_s(), time.monotonic()
     store = Store(f"sqlite:///{home}/rosgate/rosgate.db")
-    h = History(_Gateway(store), None, max_bytes=2**31, full_seconds=2 * DAY)
+    h = History(None, max_bytes=2**31, full_seconds=2 * DAY, store=store)
     sid = store.run_now(lambda c: h.series_id(c, '/s01/battery_state', 'percentage', create=False))
     lo, hi = int(start * 1000), int(end * 1000)
     points = len(store.run_now(lambda c: query(c, sid, lo, hi, None))['t'])

@@ -38,7 +38,7 @@ def three_hours(store: Store, h: History, end: float) -> list[tuple[int, float]]
 
 
 def test_old_points_become_minutes_and_reads_span_both(store):
-    h = History(None, None, max_bytes=2**30, full_seconds=HOUR)
+    h = History(None, max_bytes=2**30, full_seconds=HOUR)
     end = (time.time() // 60) * 60
     points = three_hours(store, h, end)
     store.run_now(lambda c: h.compact(c, now=end))
@@ -81,7 +81,7 @@ def test_old_points_become_minutes_and_reads_span_both(store):
 
 
 def test_over_the_cap_the_oldest_tenth_goes(store):
-    h = History(None, None, max_bytes=2**30, full_seconds=24 * HOUR)
+    h = History(None, max_bytes=2**30, full_seconds=24 * HOUR)
     end = time.time()
     points = three_hours(store, h, end)
     used = store.run_now(h.used_bytes)

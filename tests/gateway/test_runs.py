@@ -387,3 +387,25 @@ def test_a_ros2_node_run_is_an_rclpy_program_on_a_trusted_gateway_only(runs_gw):
         else:
             raise AssertionError(f'{source!r} taken as a node')
     assert node_arguments('/s07') == ['--ros-args', '-r', '__ns:=/s07'] and node_arguments('') == []
+
+
+def test_a_run_whose_recording_is_refused_stops_at_once_saying_why(runs_gw):
+    """A run asked to be recorded is not run unrecorded: with every recording slot taken it is
+    stopped as it starts, and the answer (409) says the recording was refused and why."""
+    taken = []
+    try:
+        for _ in range(8):   # the recordings' concurrent cap (4 by default), whatever is left running
+            status, body = api(runs_gw, 'POST', '/api/recordings', {'topics': ['/turtle1/pose'], 'max_seconds': 120})
+            if status != 201:
+                break
+            taken.append(body['id'])
+        assert status == 409 and 'recordings are already running' in body['error'], body
+        status, body = api(runs_gw, 'POST', '/api/runs', {'source': program('rt.sleep(60)'), 'record': True})
+        assert status == 409, body
+        words = body['error']
+        assert 'stopped: its recording was refused' in words and 'recordings are already running' in words, body
+        run_id = words.split()[1]
+        assert ended(runs_gw, run_id)['state'] == 'stopped'
+    finally:
+        for rec_id in taken:
+            api(runs_gw, 'DELETE', f'/api/recordings/{rec_id}')
