@@ -16,7 +16,7 @@ import time
 from contextlib import contextmanager
 
 from .auth import TOKENS, login
-from .fleet import drive, owner_on, stations
+from .fleet import claim, drive, owner_on, stations
 from .http import http
 from .postgres import kill_ports
 from .wait import wait_for
@@ -113,7 +113,7 @@ def stop_through_a(a, b, faults: Faults, fault: str, follow) -> None:
     that until the teacher's Release and his new claim: the next motion is the one he sends then."""
     with Client(a.ws_url, TOKENS['admin']) as teacher, Client(b.ws_url, TOKENS['operator2']) as bob, \
             Client(b.ws_url, TOKENS['viewer']) as watcher:
-        assert bob.call('/s02/fleet/claim')['values']['success'] is True
+        assert claim(bob, '/s02/fleet/claim')['success'] is True
         heard = follow(watcher, '/s02')
         bob.send({'op': 'set_level', 'level': 'info'})
         stream = Stream(bob, '/s02')
@@ -141,7 +141,7 @@ def stop_through_a(a, b, faults: Faults, fault: str, follow) -> None:
         wait_for(lambda: owner_on(teacher, '/s02') == 'bob', 30, 0.0, what="bob's claim on A")
         assert teacher.call('/s02/fleet/release')['values']['success'] is True
         told(bob, 'teacher released /s02')                      # B has it: bob claims again
-        assert bob.call('/s02/fleet/claim')['values']['success'] is True
+        assert claim(bob, '/s02/fleet/claim')['success'] is True
         drive_again(bob, '/s02', 0.5)
         moved = heard(lambda m: not is_zero_twist(m), 15)
         assert moved['linear']['x'] == 0.5, moved          # no 1.0 of before reached the robot
@@ -309,11 +309,11 @@ def release_through_the_other_gateway(a, b) -> None:
     is ended, whichever gateway holds it), and bob claims it through A."""
     with Client(a.ws_url, TOKENS['operator']) as alice_a, Client(b.ws_url, TOKENS['operator']) as alice_b, \
             Client(a.ws_url, TOKENS['operator2']) as bob, Client(b.ws_url, TOKENS['viewer']) as watcher:
-        assert alice_a.call('/s01/fleet/claim')['values']['success'] is True
+        assert claim(alice_a, '/s01/fleet/claim')['success'] is True
         stations(watcher)
         wait_for(lambda: owner_on(watcher, '/s01') == 'alice', 30, 0.0, what="alice's claim known on B")
         assert alice_b.call('/s01/fleet/release')['values']['success'] is True
         stations(bob)
         wait_for(lambda: owner_on(bob, '/s01') is None, 30, 0.0, what='/s01 free on A')
-        assert bob.call('/s01/fleet/claim')['values'] == {'success': True, 'message': '/s01'}
+        assert claim(bob, '/s01/fleet/claim') == {'success': True, 'message': '/s01'}
         bob.call('/s01/fleet/release')

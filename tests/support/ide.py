@@ -82,13 +82,17 @@ class IdePage:
         self.page.screenshot(path=str(ARTIFACTS / f"{name}.png"))
 
 
-def open_teleop(chromium, gw, query: str = "", **ctx_args):
+def open_teleop(chromium, gw, query: str = "", sent: list | None = None, **ctx_args):
     """The teleop page (with ``query``) in a new browser context, ready and connected:
-    (context, page, its page errors)."""
+    (context, page, its page errors). ``sent``, if given, gathers every op the page sends (parsed),
+    from its first connection on."""
     ctx = chromium.new_context(**ctx_args)
     page = ctx.new_page()
     errors = []
     page.on("pageerror", lambda e: errors.append(str(e)))
+    if sent is not None:
+        page.on("websocket", lambda ws: ws.on("framesent", lambda f: sent.append(json.loads(f))
+                                                if isinstance(f, str) and f.startswith("{") else None))
     page.goto(gw.http_url + "teleop" + query)
     page.wait_for_function("document.body?.dataset.ready === 'true'")
     page.wait_for_function("document.body?.dataset.connection === 'connected'")
