@@ -18,7 +18,7 @@ from tornado.websocket import websocket_connect
 
 from tests.support.contract import rclpy_missing
 from tests.support.rawsocket import client_frame, raw_websocket
-from tests.support.wait import until
+from tests.support.wait import TIMEOUT, until
 
 pytestmark = [
     pytest.mark.asyncio(loop_scope='session'),
@@ -480,7 +480,7 @@ async def test_a_64_kib_byte_array_crosses_the_rclpy_backend_byte_exact_both_way
     try:
         await pub.send({'op': 'advertise', 'topic': topic, 'type': type_})
         loop = asyncio.get_running_loop()
-        deadline = loop.time() + 20
+        deadline = loop.time() + TIMEOUT
         while not heard:       # until DDS matched the ROS node's subscription with the gateway
             assert loop.time() < deadline, 'the ROS node heard nothing'
             await pub.send({'op': 'publish', 'topic': topic, 'msg': {
@@ -493,7 +493,7 @@ async def test_a_64_kib_byte_array_crosses_the_rclpy_backend_byte_exact_both_way
 
         await pub.send({'op': 'publish', 'id': 'not-b64', 'topic': topic,
                         'msg': {'header': header, 'format': 'raw', 'data': 'not base64!'}})
-        status = await pub.expect(lambda m: m.get('op') == 'status' and m.get('id') == 'not-b64')
+        status = await pub.expect(lambda m: m.get('op') == 'status' and m.get('id') == 'not-b64', TIMEOUT)
         assert status['level'] == 'error' and 'data' in status['msg'] and 'base64' in status['msg'], status
 
         for client, compression in ((json_sub, 'none'), (cbor_sub, 'cbor')):
@@ -504,7 +504,7 @@ async def test_a_64_kib_byte_array_crosses_the_rclpy_backend_byte_exact_both_way
         from_node = CompressedImage(format='node', data=ros_payload)
 
         async def heard_from_node(client: Client, decode) -> dict:
-            deadline = loop.time() + 20
+            deadline = loop.time() + TIMEOUT
             while True:
                 assert loop.time() < deadline, 'no message of the ROS node arrived'
                 publish(from_node)
