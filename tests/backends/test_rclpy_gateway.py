@@ -494,7 +494,9 @@ async def test_a_64_kib_byte_array_crosses_the_rclpy_backend_byte_exact_both_way
         await pub.send({'op': 'publish', 'id': 'not-b64', 'topic': topic,
                         'msg': {'header': header, 'format': 'raw', 'data': 'not base64!'}})
         status = await pub.expect(lambda m: m.get('op') == 'status' and m.get('id') == 'not-b64', TIMEOUT)
-        assert status['level'] == 'error' and 'data' in status['msg'] and 'base64' in status['msg'], status
+        assert status['level'] == 'error', status
+        assert status['msg'].startswith('publish (id not-b64):') and "'data'" in status['msg'] \
+            and 'base64' in status['msg'], status
 
         for client, compression in ((json_sub, 'none'), (cbor_sub, 'cbor')):
             await client.send({'op': 'subscribe', 'topic': topic, 'type': type_, 'compression': compression})
