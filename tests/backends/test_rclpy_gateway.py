@@ -485,8 +485,7 @@ async def test_a_64_kib_byte_array_crosses_the_rclpy_backend_byte_exact_both_way
             assert loop.time() < deadline, 'the ROS node heard nothing'
             await pub.send({'op': 'publish', 'topic': topic, 'msg': {
                 'header': header, 'format': 'raw', 'data': base64.b64encode(payload).decode()}})
-            await pub.sync()
-            await asyncio.sleep(0.05)
+            await pub.sync()   # a round trip paces the publishes
         got = deserialize_message(heard[0], CompressedImage)
         assert (got.header.frame_id, got.header.stamp.sec, got.format) == ('cam', 7, 'raw')
         assert bytes(got.data) == payload
@@ -497,11 +496,12 @@ async def test_a_64_kib_byte_array_crosses_the_rclpy_backend_byte_exact_both_way
         assert status['level'] == 'error', status
         assert status['msg'].startswith('publish (id not-b64):') and "'data'" in status['msg'] \
             and 'base64' in status['msg'], status
+        await pub.sync()       # the connection carries on
 
         for client, compression in ((json_sub, 'none'), (cbor_sub, 'cbor')):
             await client.send({'op': 'subscribe', 'topic': topic, 'type': type_, 'compression': compression})
             await client.sync()
-        ros_payload = payload[::-1]
+        ros_payload = payload[1:] + payload[:1]
         publish = caller.publisher(CompressedImage, topic)
         from_node = CompressedImage(format='node', data=ros_payload)
 
