@@ -7,6 +7,7 @@ websocket clients; ROS callers are plain rclpy nodes of their own context (``Ros
 from __future__ import annotations
 
 import asyncio
+import base64
 import itertools
 import json
 import socket
@@ -17,7 +18,7 @@ from tornado.websocket import websocket_connect
 
 from tests.support.contract import rclpy_missing
 from tests.support.rawsocket import client_frame, raw_websocket
-from tests.support.wait import until
+from tests.support.wait import TIMEOUT, until
 
 pytestmark = [
     pytest.mark.asyncio(loop_scope='session'),
@@ -460,3 +461,69 @@ async def test_two_gateways_on_one_graph_are_two_nodes(gateway, start_gateway, c
     finally:
         client.close()
     second.stop()
+
+
+async def test_a_64_kib_byte_array_crosses_the_rclpy_backend_byte_exact_both_ways(gateway, caller):
+    """uint8[] of 64 KiB (every byte value): a client's base64 reaches a ROS node as the same bytes,
+    and a ROS node's bytes reach a JSON client as their base64 and a CBOR client as themselves. A
+    value that is not base64 gets a status naming the op, the id and the field; the connection
+    carries on."""
+    from rclpy.serialization import deserialize_message
+    from sensor_msgs.msg import CompressedImage
+
+    topic, type_ = '/rclpy_bytes_64k', 'sensor_msgs/msg/CompressedImage'
+    payload = bytes(reversed(range(256))) * 128 + bytes(range(256)) * 128
+    header = {'stamp': {'sec': 7, 'nanosec': 8}, 'frame_id': 'cam'}
+    heard = caller.raw_listener(CompressedImage, topic)
+    pub = await Client.open(gateway)
+    json_sub, cbor_sub = await Client.open(gateway), await Client.open(gateway)
+    try:
+        await pub.send({'op': 'advertise', 'topic': topic, 'type': type_})
+        loop = asyncio.get_running_loop()
+        deadline = loop.time() + TIMEOUT
+        while not heard:       # until DDS matched the ROS node's subscription with the gateway
+            assert loop.time() < deadline, 'the ROS node heard nothing'
+            await pub.send({'op': 'publish', 'topic': topic, 'msg': {
+                'header': header, 'format': 'raw', 'data': base64.b64encode(payload).decode()}})
+            await pub.sync()   # a round trip paces the publishes
+        got = deserialize_message(heard[0], CompressedImage)
+        assert (got.header.frame_id, got.header.stamp.sec, got.format) == ('cam', 7, 'raw')
+        assert bytes(got.data) == payload
+
+        await pub.send({'op': 'publish', 'id': 'not-b64', 'topic': topic,
+                        'msg': {'header': header, 'format': 'raw', 'data': 'not base64!'}})
+        status = await pub.expect(lambda m: m.get('op') == 'status' and m.get('id') == 'not-b64', TIMEOUT)
+        assert status['level'] == 'error', status
+        assert status['msg'].startswith('publish (id not-b64):') and "'data'" in status['msg'] \
+            and 'base64' in status['msg'], status
+        await pub.sync()       # the connection carries on
+
+        for client, compression in ((json_sub, 'none'), (cbor_sub, 'cbor')):
+            await client.send({'op': 'subscribe', 'topic': topic, 'type': type_, 'compression': compression})
+            await client.sync()
+        ros_payload = payload[1:] + payload[:1]
+        publish = caller.publisher(CompressedImage, topic)
+        from_node = CompressedImage(format='node', data=ros_payload)
+
+        async def heard_from_node(client: Client, decode) -> dict:
+            deadline = loop.time() + TIMEOUT
+            while True:
+                assert loop.time() < deadline, 'no message of the ROS node arrived'
+                publish(from_node)
+                try:
+                    while True:
+                        frame = await asyncio.wait_for(client.conn.read_message(), 0.5)
+                        assert frame is not None, 'connection closed'
+                        msg = decode(frame)
+                        if msg.get('op') == 'publish' and msg['msg']['format'] == 'node':
+                            return msg['msg']
+                except asyncio.TimeoutError:
+                    continue
+        as_json = await heard_from_node(json_sub, json.loads)
+        assert base64.b64decode(as_json['data'], validate=True) == ros_payload
+        as_cbor = await heard_from_node(cbor_sub, cbor2.loads)
+        assert as_cbor['data'] == ros_payload
+    finally:
+        for client in (pub, json_sub, cbor_sub):
+            client.close()
+    assert gateway.alive

@@ -47,8 +47,9 @@ def isolated() -> bool:
     return names == ["lo"]
 
 
-def reexec_isolated(argv: list[str]) -> None:
-    """Run this harness again inside a fresh loopback-only network namespace (never returns)."""
+def reexec_isolated(argv: list[str], module: str = "tests.bench") -> None:
+    """Run this harness (or another module of it) again inside a fresh loopback-only network
+    namespace (never returns)."""
     if os.environ.get(NETNS_MARK):
         raise SystemExit("still not isolated after unshare: the namespace has more than loopback")
     if shutil.which("unshare") is None or shutil.which("ip") is None:
@@ -58,7 +59,7 @@ def reexec_isolated(argv: list[str]) -> None:
     # a DDS domain of our own as well: Fast DDS's shared-memory transport is not namespaced
     env.setdefault("ROS_DOMAIN_ID", str(1 + os.getpid() % 200))
     script = 'ip link set lo up && exec "$0" "$@"'
-    os.execvpe("unshare", ["unshare", "-rn", "sh", "-c", script, sys.executable, "-m", "tests.bench",
+    os.execvpe("unshare", ["unshare", "-rn", "sh", "-c", script, sys.executable, "-m", module,
                            *argv], env)
 
 

@@ -169,6 +169,21 @@ def test_quick_rclpy_bench_yields_every_figure(tmp_path):
     assert rows[">= 60% of the rclpy ceiling's calls/s at C=32"]["value"] > 0
 
 
+@pytest.mark.skipif(not (ROS_VENV / "bin" / "python").exists() or shutil.which("unshare") is None,
+                    reason="needs .venv-ros (make .venv-ros/.installed) and unshare")
+def test_steps_of_a_publish_each_get_a_figure():
+    """python -m tests.bench.steps: every step of the rclpy publish path, timed at each size."""
+    proc = subprocess.run([sys.executable, "-m", "tests.bench.steps", "--sizes", "64,65536", "--windows", "2"],
+                          cwd=REPO, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    rows = [line.rsplit(None, 2) for line in proc.stdout.splitlines()[1:]]
+    names = [row[0].strip() for row in rows]
+    assert "JSON -> dict (decode_text)" in names and "DDS publish + own reader take" in names, proc.stdout
+    assert names[-1] == "sum" and len(names) == 11, proc.stdout
+    for name, small, large in rows:
+        assert float(small) > 0 and float(large) > 0, (name, proc.stdout)
+
+
 def test_image_sequence_read_from_json_and_cbor_frames():
     for seq in (0, 23, 24, 300, 70_000, 2**33):
         msg = {"header": {"stamp": {"sec": seq, "nanosec": 9}, "frame_id": "camera"}, "data": b"x" * 100}
