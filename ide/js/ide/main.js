@@ -13,6 +13,7 @@ import { Runner } from '../run/runner.js';
 import { Console } from './console.js';
 import { WorldView } from '../views/worldview.js';
 import * as storage from '../editors/storage.js';
+import { download } from '../views/download.js';
 import { MakeBlockDialog, registerMakeBlock } from '../blocks/makeblock.js';
 import { whoami, showIdentity, abilities } from '../link/auth.js';
 import { bindLayout, fitProgram, PHONE } from './layout.js';
@@ -382,11 +383,11 @@ async function start() {
     await ide.loadProgram(kept);
   };
   $('#download').onclick = () => {
-    storage.download(`${storage.safeName(ide.programName)}.json`, JSON.stringify(program(), null, 1));
+    download(`${storage.safeName(ide.programName)}.json`, JSON.stringify(program(), null, 1));
   };
   $('#download-py').onclick = () => {
     if (textMode.active) { textMode.download(ide.programName, runtimePy); return; }
-    storage.download(`${storage.safeName(ide.programName).replace(/\W+/g, '_')}.py`, ide.generatePython(), 'text/x-python');
+    download(`${storage.safeName(ide.programName).replace(/\W+/g, '_')}.py`, ide.generatePython(), 'text/x-python');
   };
   mountPackages(ide, { runtimePy, define: (def) => Blockly.Blocks[def.json.type] || defineBlock({ ...def.json, rosgate: def.spec }, 330) });
   $('#upload').onclick = async () => {
