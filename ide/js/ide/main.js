@@ -1,5 +1,6 @@
 // The IDE page: registers the blocks, builds the workspace and wires the UI, one part after the
 // other, each the mount of a module of its own (each uses what those before it put on `ide`).
+// `ide` is the page's state, exported (for tests: tests/support/page_state.js).
 // Nothing else registers anything.
 import '../blocks/fields.js';
 import '../blocks/msgblock.js';
@@ -17,14 +18,13 @@ import { mountRecorder } from '../lab/recorder.js';
 import { mountBooking } from '../lab/booking.js';
 import { t } from '../i18n.js';
 
-const ide = {
+export const ide = {
   sets: {},
   blockSets: new BlockSets(),   // the gateway's --blocks-dir: robots' sets, the class's shared blocks
   custom: [],            // "make a block" definitions saved with the program
   programName: 'my program',
   robot: 'any',
 };
-window.rosgateIde = ide;
 
 async function start() {
   registerMakeBlock();           // the made blocks' mutator, before any block is defined
@@ -40,8 +40,8 @@ async function start() {
 }
 
 // the page's one module: the bar's Rec and Booking first (as the page lays them out), then the IDE
-mountRecorder();
-mountBooking();
+ide.recorder = mountRecorder();
+ide.booking = mountBooking();
 start().catch((e) => {
   document.body.dataset.ready = 'error';
   console.error(e);

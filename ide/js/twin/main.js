@@ -35,8 +35,8 @@ const state = {
   model: null, pose: null, battery: null, temps: {}, frames: 0, markers: 0, scanPoints: 0, blinkOn: false,
   meshes: null, missing: [], joints: 0, tf: false, map: null, paths: 0, urdfFrom: null,
 };
-const twin = { state, onBattery, onTemperature, frames: new Frames() };   // the handlers: for tests
-window.twin = twin;
+// the page's state, exported with its handlers (for tests: tests/support/page_state.js)
+export const twin = { state, onBattery, onTemperature, frames: new Frames() };
 
 // ---- the scene ---------------------------------------------------------------
 function makeScene() {
