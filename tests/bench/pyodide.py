@@ -30,6 +30,7 @@ import threading
 import time
 
 from tests.bench.report import save
+from tests.support import page_state
 from tests.support.ide import CHROMIUM, CHROMIUM_ARGS
 from tests.support.process import GatewayProcess
 
@@ -41,7 +42,7 @@ RUN = """async ({source, ns}) => {
     onError: (e) => out.errors.push(e)}).then(() => { out.done = true; });
 }"""
 FIRST_PRINT = "print('up')\n"
-SLEEPER = "import js, time\nprint('memory', js.rosgateMemory())\nprint('up')\nwhile True:\n    time.sleep(0.1)\n"
+SLEEPER = "import _rosgate_js, time\nprint('memory', _rosgate_js.memory())\nprint('up')\nwhile True:\n    time.sleep(0.1)\n"
 PY_LOOP = """import time, roslibpy
 ros = roslibpy.Ros('localhost', 9090)
 ros.run()
@@ -137,7 +138,7 @@ class Counter:
 
 
 def open_ide(ctx, gw):
-    page = ctx.new_page()
+    page = page_state.install(ctx.new_page())
     page.goto(gw.http_url)
     page.wait_for_function("document.body?.dataset.ready === 'true' && document.body.dataset.connection === 'connected'",
                            timeout=30000)
@@ -182,7 +183,7 @@ def start_once(ctx, gw) -> tuple[float, int, dict]:
 
 def open_text(ctx, gw) -> float:
     """ms from a page's start (its navigation) to Python ready in the bar of a new Python program."""
-    page = ctx.new_page()
+    page = page_state.install(ctx.new_page())
     page.goto(gw.http_url + "?mode=text&lang=python")
     page.wait_for_selector(".text-python[data-state='ready']", timeout=120000)
     ms = page.evaluate("performance.now()")

@@ -53,9 +53,10 @@ def test_gauges_history_and_limits(chromium, rover):
         page.screenshot(path=str(ARTIFACTS / "teleop-dashboard-tablet.png"))
 
         # the warning colours: a hot motor turns amber then red, a low battery red
-        colours = page.evaluate("""() => {
+        colours = page.evaluate("""async () => {
+          const { gauge } = await import('./js/teleop/dashboard.js');   // the page's own instance
           const probe = document.createElement('div'); document.body.append(probe);
-          const g = window.teleopGauge(probe, { label: 'probe', unit: '°C', min: 20, max: 90, warn: 50, danger: 65 });
+          const g = gauge(probe, { label: 'probe', unit: '°C', min: 20, max: 90, warn: 50, danger: 65 });
           const out = [];
           for (const v of [40, 55, 70]) { g.set(v); out.push([probe.dataset.level, getComputedStyle(probe.querySelector('.g-fill')).stroke]); }
           probe.remove();

@@ -23,7 +23,7 @@ from contextlib import nullcontext
 
 import pytest
 
-from tests.support import netlink
+from tests.support import netlink, page_state
 from tests.support.ide import CHROMIUM, CHROMIUM_ARGS
 from tests.support.process import ROOT
 from tests.support.rawclient import Raw
@@ -324,7 +324,7 @@ def linked_browser(playwright, tmp_path):
 
 def test_teleop_page_sees_the_outage_and_heals_on_its_station(linked_browser):
     link, gw, browser = linked_browser
-    page = browser.new_page()
+    page = page_state.install(browser.new_page())
     errors = []
     page.on('pageerror', lambda e: errors.append(str(e)))
     page.goto(gw.http_url + 'teleop', timeout=60000)
@@ -424,7 +424,7 @@ def test_class_view_of_ten_stations_fits_a_1_mbit_line(playwright, tmp_path):
                 browser = p.chromium.launch(executable_path=str(link.chromium_wrapper(CHROMIUM, tmp_path)),
                                             args=CHROMIUM_ARGS)
                 try:
-                    page = browser.new_page(viewport={'width': 1400, 'height': 900})
+                    page = page_state.install(browser.new_page(viewport={'width': 1400, 'height': 900}))
                     opened = time.monotonic()
                     page.goto(gw.http_url + 'class', timeout=60000)
                     page.wait_for_function(f"(document.body.dataset.tiles === '{stations}') && "
@@ -500,7 +500,7 @@ def test_teleop_camera_stays_fresh_over_a_1_mbit_line(playwright, tmp_path, came
                 browser = p.chromium.launch(executable_path=str(link.chromium_wrapper(CHROMIUM, tmp_path)),
                                             args=CHROMIUM_ARGS)
                 try:
-                    page = browser.new_page(viewport={'width': 390, 'height': 844})
+                    page = page_state.install(browser.new_page(viewport={'width': 390, 'height': 844}))
                     page.goto(gw.http_url + 'teleop', timeout=60000)
                     page.wait_for_function("window.teleop?.frames >= 5", timeout=60000, polling=100)
                     page.evaluate(CAMERA_AGES)

@@ -42,8 +42,8 @@ def test_shared_pieces_are_mounted_by_the_entries():
     for entry, mounts in (("ide/main.js", ["mountRecorder", "mountBooking"]),
                           ("teleop/main.js", ["mountRecorder", "mountBooking"]), ("class/main.js", ["mountBooking"])):
         text = (IDE / "js" / entry).read_text()
-        for mount in mounts:
-            assert re.search(rf"^{mount}\(\);", text, re.M), (entry, mount)
+        for mount in mounts:   # at the entry's top level, the part kept in the page's state
+            assert re.search(rf"^(?:\w+\.\w+ = )?{mount}\(\);", text, re.M), (entry, mount)
 
 
 def test_no_top_level_await():
@@ -136,3 +136,17 @@ def test_folders_stay_small():
     big = {str(d.relative_to(IDE)): n for d in [IDE / "js", *(p for p in (IDE / "js").rglob("*") if p.is_dir())]
            if (n := len(list(d.glob("*.js")))) > 20}
     assert not big, f"folders of ide/js over 20 modules: {big}"
+
+
+PAGE_GLOBAL = re.compile(r"\b(?:window|globalThis|self)\.([A-Za-z_$][\w$]*)\s*=(?!=)")
+
+
+def test_no_page_global():
+    """No module puts its state on the page's global object: each page's entry exports it, and the
+    tests read it through tests/support/page_state.js. (A worker's message handler is its own.)"""
+    found = [f"{path.relative_to(IDE)}:{n}: {m.group(0)}" for path in SOURCES if (IDE / "js") in path.parents
+             for n, line in enumerate(path.read_text().splitlines(), 1)
+             for m in PAGE_GLOBAL.finditer(line) if m.group(1) != "onmessage"]
+    assert not found, "globals set by the pages' modules:\n" + "\n".join(found)
+    # the pattern still finds what it looks for
+    assert PAGE_GLOBAL.search("window.rosgateIde = ide;") and not PAGE_GLOBAL.search("if (window.x === 1)")

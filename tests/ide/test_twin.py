@@ -10,6 +10,7 @@ from contextlib import contextmanager
 import roslibpy
 
 from tests.support.ide import ARTIFACTS, PHONE
+from tests.support.ros import RosClient
 
 PIXEL_POLL = 250   # ms between reads of the whole canvas (each is a full readPixels)
 WAIT = 60000   # ms: a busy machine compiles the shaders slowly
@@ -85,6 +86,31 @@ def test_twin_draws_the_rover_and_it_turns_on_the_canvas(chromium, rover):
         page.wait_for_function("twin.state.blinkOn === true && twin.model.body.emissive.getHex() === 0xff0000", timeout=WAIT)
         page.wait_for_function("twin.state.blinkOn === false && twin.model.body.emissive.getHex() === 0", timeout=WAIT)
         page.wait_for_function("document.querySelector('#battery').dataset.level === 'danger'", timeout=WAIT)
+        assert not errors, errors
+
+
+def test_the_twin_connects_again_after_the_gateway_restarts_and_draws_on(chromium, start_gateway):
+    """The gateway restarts at the same address: the twin's link makes the connection again by
+    itself, subscribes again and draws the new gateway's rover as it turns, with the model it had
+    (one robot in the scene). A twin that opened its connection once stayed closed."""
+    gw = start_gateway("--robot", "rover")
+    with phone_page(chromium, gw.http_url + "twin") as (page, errors):
+        page.wait_for_function("twin.state.model === 'urdf' && twin.state.pose !== null && twin.state.scanPoints > 100",
+                               timeout=WAIT)
+        robot = page.evaluate_handle("twin.robot")
+        gw.stop()
+        page.wait_for_function("document.body.dataset.connection !== 'connected'", timeout=WAIT)
+        again = start_gateway("--robot", "rover", "--port", str(gw.port))
+        page.wait_for_function("document.body.dataset.connection === 'connected'", timeout=WAIT)
+        page.evaluate("twin.state.scanPoints = 0")
+        yaw0 = page.evaluate("twin.robot.rotation.z")
+        with RosClient(again) as ros:
+            drive(ros, 0.0, 1.5, 1.2)   # turn on the spot, on the new gateway
+        page.wait_for_function(f"Math.abs(twin.robot.rotation.z - ({yaw0})) > 0.6", timeout=WAIT)
+        page.wait_for_function("twin.state.scanPoints > 100", timeout=WAIT)   # the scan subscribed again
+        assert page.evaluate("(robot) => robot === twin.robot && twin.scene.children.filter((o) => o === robot).length", robot) == 1
+        frames = page.evaluate("twin.state.frames")
+        page.wait_for_function(f"twin.state.frames > {frames + 3}", timeout=WAIT)
         assert not errors, errors
 
 

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pytest
 
+from tests.support import page_state
 from tests.support.ide import CHROMIUM, CHROMIUM_ARGS
 from tests.support.install import copy_source, run, started
 from tests.support.ros import client
@@ -79,7 +80,7 @@ def test_ide_and_teleop_work_in_chromium(installed, playwright):
     with nullcontext(playwright) as p:
         browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
         try:
-            page = browser.new_page()
+            page = page_state.install(browser.new_page())
             failed, errors = [], []
             page.on('response', lambda r: r.status >= 400 and failed.append(f'{r.status} {r.url}'))
             page.on('pageerror', lambda e: errors.append(str(e)))

@@ -22,6 +22,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from tests.support.page_state import with_state
+
 ROOT = Path(__file__).resolve().parents[2]
 WEBKIT_DRIVER = os.environ.get("ROSGATE_WEBKIT_DRIVER") or "/usr/bin/WebKitWebDriver"
 MINIBROWSER = os.environ.get("ROSGATE_MINIBROWSER") or "/usr/lib/x86_64-linux-gnu/webkit2gtk-4.1/MiniBrowser"
@@ -202,8 +204,8 @@ class WebKit(Engine):
     def open(self, url):
         self.driver.get(url)
 
-    def js(self, expr):
-        return self.driver.execute_script(f"return ({expr});")
+    def js(self, expr):   # (no init scripts here: the names of page_state.js come with each evaluation)
+        return self.driver.execute_script(f"return {with_state(expr)};")
 
     def click(self, selector):
         self.driver.find_element(self.by.CSS_SELECTOR, selector).click()
@@ -280,8 +282,8 @@ class Firefox(Engine):
     def open(self, url):
         self._send("open", url=url, width=SIZE[0], height=SIZE[1])
 
-    def js(self, expr):
-        return self._send("js", expr=expr)
+    def js(self, expr):   # (as WebKit's)
+        return self._send("js", expr=with_state(expr))
 
     def click(self, selector):
         self._send("click", selector=selector)

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 
+from tests.support import page_state
 from tests.support.auth import tokens_toml
 from tests.support.process import ROOT, GatewayProcess
 from tests.support.ros import client
@@ -171,16 +172,18 @@ PATIENCE_MS = 90_000   # a page's waits, clicks and loads without a timeout of t
 
 def patient(browser):
     """The browser, whose new contexts and pages wait ``PATIENCE_MS`` where a call names no
-    timeout: a deadline is patience, not a bar (a page's load took over 30 s at load 50)."""
+    timeout: a deadline is patience, not a bar (a page's load took over 30 s at load 50); and
+    see the pages' state by the names of tests/support/page_state.js."""
     new_context, new_page = browser.new_context, browser.new_page
 
     def patient_context(*args, **kwargs):
-        ctx = new_context(*args, **kwargs)
+        ctx = page_state.install(new_context(*args, **kwargs))
         ctx.set_default_timeout(PATIENCE_MS)
         return ctx
 
     def patient_page(*args, **kwargs):
         page = new_page(*args, **kwargs)
+        page_state.install(page.context)
         page.context.set_default_timeout(PATIENCE_MS)
         return page
 

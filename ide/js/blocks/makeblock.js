@@ -2,6 +2,7 @@
 // The definition (block JSON + rosgate spec) is saved with the program.
 /* global Blockly */
 import { normType } from '../robot/graph.js';
+import { addCustomBlock, updateToolbox } from './toolbox.js';
 import { t } from '../i18n.js';
 
 const NUMERIC = /^(u?int(8|16|32|64)|float(32|64)|double|byte|char)$/;
@@ -119,7 +120,7 @@ const PICK_MIXIN = {
   },
 };
 
-// Registers the reader's mutator (main.js calls this once, before any block is made).
+// Registers the reader's mutator (js/ide/main.js calls this once, before any block is defined).
 export function registerMakeBlock() {
   if (Blockly.Extensions.isRegistered(PICK_MUTATOR)) return;
   Blockly.Extensions.registerMutator(PICK_MUTATOR, PICK_MIXIN, function () {
@@ -193,4 +194,24 @@ export class MakeBlockDialog {
       this.msg.textContent = e.message;
     }
   }
+}
+
+// "Make a block" and "Publish my blocks" in the toolbox's "My blocks", and the shared blocks a
+// program uses saved with it.
+export function mountMakeBlock(ide) {
+  const { workspace, console: consoleView } = ide;
+  const maker = new MakeBlockDialog(document.querySelector('#dlg-make'), ide.graph, (def) => addCustomBlock(ide, def));
+  workspace.registerButtonCallback('makeBlock', () => maker.open());
+  ide.publishBlocks = () => ide.blockSets.publish(ide.custom).then(
+    (n) => { consoleView.info(t('ide.blocks.published', { n })); updateToolbox(ide); return n; },
+    (e) => { consoleView.error(t('ide.blocks.publish.failed', { error: e.message })); throw e; });
+  workspace.registerButtonCallback('publishBlocks', () => ide.publishBlocks().catch(() => {}));
+  workspace.addChangeListener((e) => {   // a shared block in the program: saved with it
+    if (e.type !== Blockly.Events.BLOCK_CREATE) return;
+    for (const id of e.ids ?? []) {
+      const made = ide.blockSets.sharedOf(workspace.getBlockById(id)?.type);
+      if (made && !ide.custom.some((c) => c.json.type === made.json.type)) ide.custom.push(made);
+    }
+  });
+  ide.makeBlock = maker;
 }

@@ -24,8 +24,7 @@ const TILE_RUNS = 3;     // a student's newest kept runs shown on their tile
 // A tile's world at 2 Hz: the gateway merges the markers of each half second (newest of each wins,
 // no change lost), so ten tiles fit a home line (docs/teacher.md)
 const TILE_STREAM = { throttle_rate: 500, queue_length: 4 };
-const view = { titles: {}, ros: null, lease: new DriverLease(), tiles: new Map(), topics: [], types: [], services: [], owners: {}, seq: 0, runs: [], exercises: [] };
-window.classView = view;
+export const view = { titles: {}, ros: null, lease: new DriverLease(), tiles: new Map(), topics: [], types: [], services: [], owners: {}, seq: 0, runs: [], exercises: [] };
 
 function setStatus(s, text) { const el = $('#status'); el.dataset.state = s; el.textContent = text; document.body.dataset.connection = s; }
 
@@ -123,7 +122,7 @@ class Tile {
     this.report = null;
     this.el.querySelector('.stop').onclick = () => stop(ns);
     this.el.querySelector('.release').onclick = () => release(ns);
-    this.el.querySelector('.open').onclick = () => showProgram(this.report, ns);
+    this.el.querySelector('.open').onclick = async () => { view.programShown = await showProgram(this.report, ns); };
     this.ros = null;
     if (view.ros?.isConnected) this.attach(view.ros);
     this.show();
@@ -269,5 +268,5 @@ function setup() {
 
 setup();
 connect();
-mountBooking();   // the page's one module mounts the bar's Booking too
+view.booking = mountBooking();   // the page's one module mounts the bar's Booking too
 document.body.dataset.ready = 'true';

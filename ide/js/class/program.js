@@ -26,13 +26,14 @@ function define(def, colour) {
   Blockly.common.defineBlocksWithJsonArray([json]);
 }
 
+// Resolves to how much it shows: the blocks, or a text program's lines.
 export async function showProgram(report, ns) {
   const dlg = document.querySelector('#dlg-program');
   document.querySelector('#program-title').textContent = `${ns} · ${report?.by?.name || t('class.student')} · ${report?.name ?? ''}`;
   document.querySelector('#program-close').onclick = () => dlg.close();
   dlg.showModal();
   const view = document.querySelector('#program-view');
-  if (report?.program?.kind === 'text') { showText(report, view); return; }
+  if (report?.program?.kind === 'text') return showText(report, view);
   view.hidden = false;
   document.querySelector('#program-text')?.remove();
   await defineBlocks();
@@ -53,7 +54,7 @@ export async function showProgram(report, ns) {
     document.querySelector('#program-note').textContent = t('class.program.failed', { error: e.message });
   }
   workspace.zoomToFit?.();
-  window.classView.programShown = workspace.getAllBlocks(false).length;
+  return workspace.getAllBlocks(false).length;
 }
 
 // A text program: its lines, numbered, the line it ran at when reported marked.
@@ -75,5 +76,5 @@ function showText(report, view) {
   }));
   const lang = { python: 'Python', javascript: 'JavaScript' }[report.program.lang] ?? 'text';
   document.querySelector('#program-note').textContent = t('class.program.readonly', { lang });
-  window.classView.programShown = lines.length;
+  return lines.length;
 }

@@ -63,17 +63,6 @@ export function loadAutosave() {
   } catch { return null; }
 }
 
-export function download(filename, text, type = 'application/json') {
-  const url = URL.createObjectURL(new Blob([text], { type }));
-  const a = document.createElement('a');
-  a.href = url;
-  a.download = filename;
-  document.body.append(a);
-  a.click();
-  a.remove();
-  setTimeout(() => URL.revokeObjectURL(url), 1000);
-}
-
 export function pickFile(accept = '.json,application/json') {
   return new Promise((resolve) => {
     const input = document.createElement('input');

@@ -3,6 +3,7 @@
 // block program as readable Python or JavaScript that imports the runtime), and the downloads
 // that run unchanged (the Python one with the runtime bundled on its import line).
 import * as storage from './storage.js';
+import { download } from '../views/download.js';
 import { t, num } from '../i18n.js';
 
 export const LANGS = { python: 'Python', javascript: 'JavaScript' };
@@ -166,6 +167,6 @@ export class TextMode {
   // The file that runs unchanged outside the page.
   download(name, runtimeSource) {
     const text = this.lang === 'python' ? bundlePython(this.text, runtimeSource) : this.text;
-    storage.download(fileName(name, this.lang), text, this.lang === 'python' ? 'text/x-python' : 'text/javascript');
+    download(fileName(name, this.lang), text, this.lang === 'python' ? 'text/x-python' : 'text/javascript');
   }
 }

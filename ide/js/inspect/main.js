@@ -33,8 +33,7 @@ function notice(text) {
 const url = params.get('url') || `${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/`;
 const link = new Link(url);
 const wire = new Wire(link);
-const inspect = { link, wire, types: new Map() };
-window.inspect = inspect;   // for tests and the curious
+export const inspect = { link, wire, types: new Map() };   // the page's state (tests: tests/support/page_state.js)
 
 const topics = new TopicList(wire, { root: $('#topics-card'), body: $('#topics tbody'), filter: $('#topics-filter'), count: $('#topics-count') });
 const echo = new Echo(wire, { root: $('#echo-card'), topic: $('#echo-topic'), rate: $('#echo-rate'), pause: $('#echo-pause'),

@@ -7,7 +7,7 @@ import uPlot from 'uplot';
 import { field } from '../../runtime/util.js';
 import { leaves } from './tree.js';
 import { t, num } from '../i18n.js';
-import { download } from '../teleop/history.js';
+import { download } from '../views/download.js';
 
 const COLOURS = ['#ff7043', '#42a5f5', '#66bb6a', '#ab47bc', '#ffca28', '#26c6da', '#ef5350', '#8d6e63'];
 const MAX_ROWS = 20000;
@@ -38,10 +38,10 @@ export class Plot {
     els.pause.addEventListener('click', () => this.pause(!this.paused));
     els.clear.addEventListener('click', () => { this.rows = { t: [], v: this.series.map(() => []) }; this.draw(); });
     els.span.addEventListener('change', () => this.draw());
-    els.csv.addEventListener('click', () => download(new Blob([csv(this.series, this.rows)], { type: 'text/csv' }), 'plot.csv'));
+    els.csv.addEventListener('click', () => download('plot.csv', csv(this.series, this.rows), 'text/csv'));
     els.png.addEventListener('click', () => {
       const canvas = this.els.chart.querySelector('canvas');
-      if (canvas) canvas.toBlob((b) => download(b, 'plot.png'), 'image/png');
+      if (canvas) canvas.toBlob((b) => download('plot.png', b), 'image/png');
     });
     new ResizeObserver(() => this.chart?.setSize(this.size())).observe(els.chart);
   }

@@ -247,7 +247,6 @@ export class Booking {
 export function mountBooking(bar = document.querySelector('#bar')) {
   if (!bar) return null;
   const booking = new Booking(bar);
-  window.rosgateBooking = booking;
   booking.attach();
   return booking;
 }

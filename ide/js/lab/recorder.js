@@ -184,7 +184,6 @@ export class Recorder {
 export function mountRecorder(bar = document.querySelector('#bar')) {
   if (!bar) return null;
   const recorder = new Recorder(bar);
-  window.rosgateRecorder = recorder;
   recorder.attach();
   return recorder;
 }

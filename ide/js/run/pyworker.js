@@ -28,6 +28,11 @@ const bridge = {
   log(text, level) { post({ kind: 'log', text, level }); },
   close() { post({ kind: 'close' }); },
   line(n) { Atomics.store(ctrl, LINE, n); },
+  // The worker's memory (tests/bench/pyodide.py: `import _rosgate_js; _rosgate_js.memory()`): Python's
+  // wasm heap and the worker's JavaScript heap, bytes.
+  memory() {
+    return JSON.stringify({ wasm: pyodide?._module?.HEAPU8?.byteLength ?? null, js: performance.memory?.usedJSHeapSize ?? null });
+  },
   // Waits up to `ms` for the gateway's messages and takes them all: '' or newline-separated JSON.
   take(ms) {
     if (ms > 0 && Atomics.load(ctrl, USED) === 0) {
@@ -44,10 +49,6 @@ const bridge = {
     return new TextDecoder().decode(copy);
   },
 };
-
-// The worker's memory (tests/bench/pyodide.py): Python's wasm heap and the worker's JavaScript heap, bytes.
-globalThis.rosgateMemory = () => JSON.stringify({
-  wasm: pyodide?._module?.HEAPU8?.byteLength ?? null, js: performance.memory?.usedJSHeapSize ?? null });
 
 // The start's phases (ms from the worker's start), for `python -m tests.bench pyodide`.
 const timing = {};

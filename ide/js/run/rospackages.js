@@ -7,6 +7,7 @@ import { zipSync, strToU8 } from '../../vendor/fflate.mjs';
 import { blockNode, rosPackage } from '../../generators/package.js';
 import { bundlePython } from '../editors/textmode.js';
 import * as storage from '../editors/storage.js';
+import { download } from '../views/download.js';
 import { t } from '../i18n.js';
 
 const ROUNDS = 3;   // reads of missing type definitions before the node is written with what is known
@@ -41,7 +42,7 @@ async function programCode(ide, program, define, runtimePy) {
 
 function downloadZip(name, files) {
   const zip = zipSync(Object.fromEntries(Object.entries(files).map(([p, text]) => [p, strToU8(text)])));
-  storage.download(`${storage.safeName(name)}.zip`, zip, 'application/zip');
+  download(`${storage.safeName(name)}.zip`, zip, 'application/zip');
 }
 
 /**

@@ -4,6 +4,7 @@
 // live samples appended by the dashboard as before. A gateway that keeps no history of a series
 // leaves that series as this browser saw it; only the series it lists are asked for.
 import { api, ApiError } from '../link/api.js';
+import { download } from '../views/download.js';
 
 // span (s) -> the step (s) asked of the gateway: at most ~1000 points a series
 export const SPANS = new Map([[600, 1], [3600, 5], [86400, 90], [604800, 600]]);
@@ -83,17 +84,6 @@ export function localInput(t) {
 }
 const fromInput = (v) => new Date(v).getTime() / 1000;
 
-/** Saves a Blob as a file of the browser's (the CSV and PNG of a span; the inspect page's plots too). */
-export function download(blob, name) {
-  const a = document.createElement('a');
-  a.href = URL.createObjectURL(blob);
-  a.download = name;
-  document.body.append(a);
-  a.click();
-  a.remove();
-  setTimeout(() => URL.revokeObjectURL(a.href), 10000);
-}
-
 /**
  * The span chooser: a <select> of seconds, or "custom" with a day and from/to inputs (els: {select,
  * range, day, from, to, show, csv, png}); each choice loads its span from the gateway. The CSV and
@@ -142,7 +132,7 @@ export function bindSpan(els, history, sources) {
     showRange();
   });
   const stamp = () => localInput(history.span()[0]).replace(/[:T]/g, '-');
-  els.csv?.addEventListener('click', () => download(new Blob([history.csv()], { type: 'text/csv' }), `history-${stamp()}.csv`));
-  els.png?.addEventListener('click', async () => download(await history.png(), `history-${stamp()}.png`));
+  els.csv?.addEventListener('click', () => download(`history-${stamp()}.csv`, history.csv(), 'text/csv'));
+  els.png?.addEventListener('click', async () => download(`history-${stamp()}.png`, await history.png()));
   return load;
 }

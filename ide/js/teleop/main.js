@@ -38,8 +38,7 @@ const state = {
   limits: { linear: null, angular: null },   // from the robot's node parameters, when it has them
   blocked: '',                               // why this page may not drive now ('' : it may)
 };
-window.teleop = state;
-window.teleopGauge = gauge;   // for tests of the warning colours
+export { state as teleop };   // the page's state (for tests: tests/support/page_state.js)
 const lease = new DriverLease();
 const home = new HomeEstimate(document.querySelector('#home'));   // enough charge to drive back?
 state.home = home;
@@ -593,8 +592,8 @@ function showNotice(text) {
 }
 
 // the page's one module: the bar complete (Rec, Booking) before the joystick measures the page
-mountRecorder();
-mountBooking();
+state.recorder = mountRecorder();
+state.booking = mountBooking();
 setupRobot();
 if (params.get('topic')) $('#topic').value = params.get('topic');
 setupKeys();

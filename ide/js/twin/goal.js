@@ -27,12 +27,14 @@ function floorPoint(twin, event) {
 }
 
 /**
- * Offers goals when `${ns}/navigate_to_pose` exists. frame() names the frame of the floor (the
- * map's); onState(text) tells the page. Returns {action, send(x, y, yaw)} or null.
+ * Offers goals when `${ns}/navigate_to_pose` exists. rosNow() gives the page's connection at the
+ * moment (its link makes a new one after an outage; null while there is none); frame() names the
+ * frame of the floor (the map's); onState(text) tells the page. Returns {action, send(x, y, yaw)}
+ * or null.
  */
-export async function offerGoals(ros, twin, { ns, frame, onState }) {
+export async function offerGoals(rosNow, twin, { ns, frame, onState }) {
   const action = `${ns}/navigate_to_pose`;
-  if (!(await actionServers(ros)).includes(action)) return null;
+  if (!(await actionServers(rosNow())).includes(action)) return null;
   const button = document.createElement('button');
   button.type = 'button';
   button.id = 'goal';
@@ -45,6 +47,8 @@ export async function offerGoals(ros, twin, { ns, frame, onState }) {
   let armed = false;
   let seq = 0;
   const send = (x, y, yaw) => {
+    const ros = rosNow();
+    if (!ros) { onState(t('goal.failed', { why: t('status.lost') })); return null; }
     const id = `send_action_goal:${action}:twin.${++seq}`;
     arrow.position.set(x, y, 0.05);
     arrow.setDirection(new THREE.Vector3(Math.cos(yaw), Math.sin(yaw), 0));

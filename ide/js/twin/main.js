@@ -9,7 +9,7 @@
 // around it; the world's markers (walls, bounds); the body blinks red below 20 % battery and
 // each wheel takes its motor's temperature colour (as the dashboard's gauges: 50 °C amber,
 // 65 °C red). Orbit and zoom by mouse or touch (OrbitControls); the view follows the robot.
-import { Ros, Topic, Service } from 'roslib';
+import { Topic, Service } from 'roslib';
 import * as THREE from 'three';
 import { OrbitControls } from 'three';
 import { loadUrdf, applyJointState, description, isXacro } from './urdf.js';
@@ -20,6 +20,7 @@ import { MapLayer } from './map3d.js';
 import { mapSubscribe } from '../views/grid.js';
 import { offerGoals } from './goal.js';
 import { Drawables } from './drawables.js';
+import { Link } from '../link/link.js';
 import { t, tn, num } from '../i18n.js';
 
 const params = new URLSearchParams(location.search);
@@ -34,8 +35,8 @@ const state = {
   model: null, pose: null, battery: null, temps: {}, frames: 0, markers: 0, scanPoints: 0, blinkOn: false,
   meshes: null, missing: [], joints: 0, tf: false, map: null, paths: 0, urdfFrom: null,
 };
-const twin = { state, onBattery, onTemperature, frames: new Frames() };   // the handlers: for tests
-window.twin = twin;
+// the page's state, exported with its handlers (for tests: tests/support/page_state.js)
+export const twin = { state, onBattery, onTemperature, frames: new Frames() };
 
 // ---- the scene ---------------------------------------------------------------
 function makeScene() {
@@ -357,21 +358,28 @@ async function start(ros) {
     $('#model').textContent = state.error;
   }
   if (has(name('/world/markers'))) listen(ros, name('/world/markers'), 'visualization_msgs/msg/MarkerArray', onMarkers);
-  twin.drawables = new Drawables(twin, ns);   // point clouds, markers, goals (drawables.js)
+  twin.drawables ??= new Drawables(twin, ns);   // point clouds, markers, goals (drawables.js): kept across links
   twin.drawables.attach(ros, new Map([...types].filter(([t]) => has(t))));
-  twin.goals = await offerGoals(ros, twin, {
+  twin.goals ??= await offerGoals(() => twin.link.ros, twin, {   // (offered once; asked again while it is not)
     ns, frame: () => twin.map.frame || state.rootFrame || 'map', onState: (text) => { state.goal = text; notice(text); },
   });
   document.body.dataset.ready = 'true';
 }
 
+// One Link (link.js), as the other pages: seen by its pings, made again after an outage or a
+// gateway's restart. Each new connection subscribes again (start); the scene, the model and what
+// was drawn are kept, and the robot moves on from where it was drawn.
 function connect() {
   const url = params.get('url') || `${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/`;
-  const ros = new Ros({});
-  ros.on('connection', () => { setStatus('connected', t('status.connected')); start(ros); });
-  ros.on('close', () => setStatus('closed', t('status.disconnected')));
-  ros.on('error', () => setStatus('error', t('status.error')));
-  ros.connect(url);
+  const link = new Link(url);
+  twin.link = link;
+  link.addEventListener('state', (e) => {
+    const s = e.detail;
+    setStatus(s, t(s === 'connected' ? 'status.connected' : s === 'lost' ? 'status.lost' : 'status.connecting'));
+  });
+  link.addEventListener('open', (e) => { start(e.detail); });
+  setStatus('connecting', t('status.connecting'));
+  link.start();
 }
 
 if (params.has('embed')) document.body.dataset.embed = '';   // the teleop page's 3D panel
