@@ -44,6 +44,7 @@ from dataclasses import dataclass
 from enum import Enum, StrEnum
 
 from .errors import Refusal
+from .leasetable import Command, LeaseFacts, Verdict, Who, verdict
 from .stations import person_of as _person_of_request
 from .tokens import ROLES, Role
 
@@ -319,6 +320,14 @@ class StationGrants:
 
     def exempt(self, who) -> bool:
         return allowed(self._who(who), Action.EXEMPT, Area.STATIONS)
+
+    def who(self, who) -> Who:
+        """``who`` as the lease's table reads it."""
+        return Who(self.overrides(who), self.exempt(who), is_gateway(who))
+
+    def verdict(self, who, command: Command, facts: LeaseFacts) -> Verdict:
+        """The lease's answer to ``who`` for ``command`` in a group of these facts (``rules.leasetable``)."""
+        return verdict(self.who(who), command, facts)
 
 
 def is_gateway(who) -> bool:
