@@ -49,6 +49,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum, StrEnum
 from fnmatch import fnmatchcase
+from functools import lru_cache
 
 from .errors import Refusal
 from .names import ACTION_KINDS, CONTROL_TOPIC, OWN_PREFIX, WRITING_ROSAPI, action_of
@@ -423,12 +424,21 @@ class StationGrants:
         return allowed(self._who(who), Action.EXEMPT, Area.STATIONS)
 
     def who(self, who) -> Who:
-        """``who`` as the lease's table reads it."""
-        return Who(self.overrides(who), self.exempt(who), is_gateway(who))
+        """``who`` as the lease's table reads it (by its role alone: remembered per role)."""
+        if who is None or isinstance(who, str):
+            return _station_who(self.auth, who, False)
+        role = role_of(who)
+        return _station_who(self.auth, role, role == GATEWAY_ROLE)
 
     def verdict(self, who, command: Command, facts: LeaseFacts) -> Verdict:
         """The lease's answer to ``who`` for ``command`` in a group of these facts (``rules.leasetable``)."""
         return verdict(self.who(who), command, facts)
+
+
+@lru_cache(maxsize=64)
+def _station_who(auth: bool, role: str | None, itself: bool) -> Who:
+    grants = StationGrants(auth)
+    return Who(grants.overrides(role), grants.exempt(role), itself)
 
 
 def is_gateway(who) -> bool:

@@ -17,8 +17,9 @@ the lease's branches as they were, and that every row decides some case.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from enum import Enum, StrEnum
+from enum import StrEnum
 from functools import lru_cache
+from typing import NamedTuple
 
 
 class Command(StrEnum):
@@ -32,22 +33,22 @@ class Command(StrEnum):
     RELEASE_STATION = 'release-station'  # the claims: another's station, or all of them
 
 
-class Holder(Enum):
+class Holder(StrEnum):
     NONE = 'nobody'
     SELF = 'this client'
     SAME_PERSON = 'another client of the same person'
     OTHER = 'someone else'
 
 
-class Owning(Enum):
+class Owning(StrEnum):
     FREE = 'nobody\'s station'
     MINE = 'the asker\'s station'
     OTHERS = 'another\'s station'
 
 
-@dataclass(frozen=True, slots=True)
-class LeaseFacts:
-    """A group's lease as the one asking sees it (``Lease.facts``): pure data."""
+class LeaseFacts(NamedTuple):
+    """A group's lease as the one asking sees it (``Lease.facts``): pure data (a tuple: made and
+    hashed for every command that is not its holder's)."""
     holder: Holder = Holder.NONE
     owner: Owning = Owning.FREE
     barred: bool = False       # the teacher released it from this person (owner FREE only)
@@ -64,8 +65,7 @@ class LeaseFacts:
         return (self.owner is Owning.FREE and not self.barred) or self.owner is Owning.MINE
 
 
-@dataclass(frozen=True, slots=True)
-class Who:
+class Who(NamedTuple):
     """The asker as the table reads it (``StationGrants.who``)."""
     override: bool = False     # takes over others' leases, releases others' stations, stops
     exempt: bool = False       # passes a Stop, a bar, an ended slot (a signed-in admin)
