@@ -69,8 +69,11 @@ def who(session) -> str:
     return f'{name} (client {session.id})' if name else f'client {session.id}'
 
 
-# The words of each refusal, by command and reason ({...}: what ``_Said`` looks up, when asked).
+# The words of each refusal, by command and reason ({...}: what ``_Said`` looks up, when asked);
+# a bar and an ended slot are worded alike for every command (``SAID``) but a page's command.
 C, V = Command, Verdict
+CLAIM_A_FREE_ONE = '{group} is {owner}\'s station; claim a free robot, or ask the teacher'
+SAID = {V.RELEASED: '{released}', V.ENDED: '{ended}'}
 WORDS = {
     (C.DRIVE, V.STOPPED): '{name}: {stopper} stopped {group}; send "take {group}" (the Take button) to drive it again',
     (C.DRIVE, V.BEING_TAKEN): '{name}: {settler} is taking the driver lease for {group} (exclusive control); {way_out}',
@@ -81,8 +84,6 @@ WORDS = {
     (C.DRIVE, V.OTHERS_STATION): '{name}: {group} is {owner}\'s station; press "Claim a robot" for your own, or ask '
                                  'the teacher',
     (C.DRIVE, V.OTHER_DRIVES): '{name}: {holder} is driving{where} (exclusive control); {way_out}',
-    (C.TAKE, V.ENDED): '{ended}',
-    (C.TAKE, V.RELEASED): '{released}',
     (C.TAKE, V.STOPPED_OWNER_ONLY): '{stopper} stopped {group}; only its owner ({owner}) can take it again, or an '
                                     'admin release it: press "Claim a robot" for your own',
     (C.TAKE, V.OTHERS_STATION): '{group} is {owner}\'s station; only they or an admin can take it: press "Claim a '
@@ -94,16 +95,12 @@ WORDS = {
     (C.RELEASE, V.ADMIN_RELEASES): '{holder} is driving{where}; only an admin can release it',
     (C.RUN, V.STOPPED_TAKE_FIRST): '{stopper} stopped {group}; press Take (send "take {group}") to drive it again, '
                                    'then run',
-    (C.RUN, V.RELEASED): '{released}',
-    (C.RUN, V.OTHERS_STATION): '{group} is {owner}\'s station; claim a free robot, or ask the teacher',
-    (C.RUN, V.ENDED): '{ended}',
+    (C.RUN, V.OTHERS_STATION): CLAIM_A_FREE_ONE,
     (C.RUN, V.HOLDS_LEASE): '{holder} holds the driver lease{of_ns} (exclusive control); a run needs it: wait for '
                             '"release" or ask an admin',
     (C.PLAY, V.STOPPED): '{stopper} stopped{where}; send "take {group}" (the Take button) first',
     (C.PLAY, V.DRIVING): '{holder} is driving{where} (exclusive control); wait for "release"',
-    (C.PLAY, V.RELEASED): '{released}',
-    (C.PLAY, V.OTHERS_STATION): '{group} is {owner}\'s station; claim a free robot, or ask the teacher',
-    (C.PLAY, V.ENDED): '{ended}',
+    (C.PLAY, V.OTHERS_STATION): CLAIM_A_FREE_ONE,
 }
 
 
@@ -229,7 +226,8 @@ class Lease(FleetLease, Hook):
     def _refusal(self, command: Command, answer: Verdict, group: str, session=None, key: str | None = None,
                  name: str = '', ns: str = '') -> str:
         """The words of a refusal (``WORDS``), naming who holds what."""
-        return WORDS[command, answer].format_map(_Said(self, group, session, key, name, ns))
+        words = WORDS.get((command, answer)) or SAID[answer]
+        return words.format_map(_Said(self, group, session, key, name, ns))
 
     def require(self, session, name: str, type: str | None = None, msg: dict | None = None) -> Wait | None:
         """Grant a free lease to a commanding client of the station's owner (or of a station nobody
