@@ -24,6 +24,7 @@ from protocol.errors import ProtocolError
 from protocol.msgdefs import Definitions, MsgDef, normalize
 
 from ..backends.base import BackendError, is_hidden
+from ..rules.access import Action
 
 if TYPE_CHECKING:
     from .session import ClientSession
@@ -62,7 +63,7 @@ async def call(s: ClientSession, name: str, args: Any) -> dict:
 # --- listings ------------------------------------------------------------------------------
 
 def _visible(s: ClientSession, kind: str, pairs):
-    return [(n, t) for n, t in pairs if s.gateway.policy.visible(s, kind, n)]
+    return [(n, t) for n, t in pairs if s.listed(kind, n)]
 
 
 def _topics(s, hidden: bool = False):
@@ -114,7 +115,7 @@ def service_type(s, service):
 
 def service_providers(s, service):
     name = _abs(service)
-    if not s.gateway.policy.visible(s, 'services', name):
+    if not s.listed('services', name):
         return {'providers': []}
     if handles(name) or name in s.gateway.own_services:
         return {'providers': [NODE if handles(name) else '/' + s.gateway.settings.node_name.strip('/')]}
@@ -138,7 +139,7 @@ def node_details(s, node):
     except BackendError:
         return {'subscribing': [], 'publishing': [], 'services': []}
     def listed(kind: str, names: list[str]) -> list[str]:
-        return [n for n in names if not is_hidden(n) and s.gateway.policy.visible(s, kind, n)]
+        return [n for n in names if not is_hidden(n) and s.listed(kind, n)]
 
     return {'subscribing': listed('topics', info.subscribing), 'publishing': listed('topics', info.publishing),
             'services': listed('services', info.services)}
@@ -146,12 +147,12 @@ def node_details(s, node):
 
 def publishers(s, topic):
     name = _abs(topic)
-    return {'publishers': s.backend.publishers(name) if s.gateway.policy.visible(s, 'topics', name) else []}
+    return {'publishers': s.backend.publishers(name) if s.listed('topics', name) else []}
 
 
 def subscribers(s, topic):
     name = _abs(topic)
-    return {'subscribers': s.backend.subscribers(name) if s.gateway.policy.visible(s, 'topics', name) else []}
+    return {'subscribers': s.backend.subscribers(name) if s.listed('topics', name) else []}
 
 
 def action_servers(s):
@@ -209,7 +210,7 @@ def _param(s, name: str) -> tuple[str, str]:
     node, sep, param = name.partition(':')
     if not sep or not node or not param:
         raise BackendError(f'parameter names are "<node>:<param>", got {name!r}')
-    if not s.gateway.policy.visible(s, 'params', name):
+    if not s.listed('params', name):
         raise BackendError(f'parameter {name} is not allowed by this gateway')
     return _abs(node), param
 
@@ -224,7 +225,7 @@ async def get_param(s, name, default_value):
 
 async def set_param(s, name, value):
     node, param = _param(s, name)
-    s.gateway.policy.check(s, 'param', name, 'call_service', None)
+    s.require(Action.PARAM, name, 'call_service', None)
     try:
         parsed = json.loads(value)
     except ValueError:
@@ -247,14 +248,14 @@ async def has_param(s, name):
 
 async def delete_param(s, name):
     node, param = _param(s, name)
-    s.gateway.policy.check(s, 'param', name, 'call_service', None)
+    s.require(Action.PARAM, name, 'call_service', None)
     await s.backend.delete_param(node, param)
     return {}
 
 
 async def get_param_names(s):
     names = await s.backend.param_names()
-    return {'names': [n for n in names if s.gateway.policy.visible(s, 'params', n)]}
+    return {'names': [n for n in names if s.listed('params', n)]}
 
 
 def get_time(s):

@@ -9,6 +9,7 @@ import logging
 from collections.abc import Callable, Coroutine
 from typing import TYPE_CHECKING, Any
 
+from protocol import ops
 from protocol.errors import ProtocolError
 from protocol.session import Session
 
@@ -18,6 +19,8 @@ from .capabilities import HANDLERS
 from ..backends.base import BackendError
 from .outbox import Outbox
 from ..rules.freshness import ClientClock, Fence
+from ..rules.access import Action, Name
+from ..rules.names import Refused
 from ..rules.settle import Wait
 
 if TYPE_CHECKING:
@@ -111,8 +114,35 @@ class ClientSession:
             for guard in self.gateway.guards:   # e.g. a run's output for its starter alone
                 guard(self, item)
             handler(self, item)
+        except Refused as e:   # the rules refused it: a call or goal also gets its failed reply, first
+            self.failed(item, e.message)
+            self.report(item.OP, item.id, e)
         except Exception as e:  # the one catch site: every failure becomes a status
             self.report(item.OP, item.id, e)
+
+    def failed(self, op, message: str) -> None:
+        """The failed reply of a refused call or goal, so clients waiting on it (roslibjs,
+        roslibpy) fail at once instead of timing out; other ops have none."""
+        if isinstance(op, ops.CallService):
+            self.reply({'op': 'service_response', 'service': op.service, 'id': op.id,
+                        'values': message, 'result': False})
+        elif isinstance(op, ops.SendActionGoal):
+            self.reply({'op': 'action_result', 'action': op.action, 'id': op.id,
+                        'values': message, 'status': 0, 'result': False})
+
+    def decide(self, action: Action, resource):
+        """The one access decision (``rules.access``) about this client: None, or an ``Unauthorized``."""
+        return self.gateway.policy.access.decide(self, action, resource)
+
+    def require(self, action: Action, name: str, op: str | None, id: str | None) -> None:
+        """``decide`` about a name; a refusal raises as a status naming op and id."""
+        why = self.decide(action, Name(name))
+        if why is not None:
+            raise ProtocolError(why.message, op=op, id=id)
+
+    def listed(self, kind: str, name: str) -> bool:
+        """Whether a listing shows this client ``name`` (kind: topics, services, actions, params)."""
+        return self.decide(Action.LIST, Name(name, kind)) is None
 
     def spawn(self, coro: Coroutine, op: str, id: str | None) -> asyncio.Task:
         """Run long work (calls, goals) without blocking this client's later ops."""

@@ -29,7 +29,7 @@ from collections import deque
 from typing import TYPE_CHECKING
 
 from ..backends.base import BackendError
-from ..rules.access import may
+from ..rules.access import Action, Name
 
 if TYPE_CHECKING:
     from .fanout import TopicFanout
@@ -120,7 +120,7 @@ class TopicStats:
         return {'rates': rates, 'bandwidths': bandwidths, 'windows': windows}
 
     def meter(self, session, topic: str, type: str | None, now: float) -> Meter | None:
-        if type is None or may(self.gateway.policy, session, 'subscribe', topic) is not None:
+        if type is None or session.decide(Action.SUBSCRIBE, Name(topic)) is not None:
             return None
         meter = self.meters.get(topic)
         if meter is None or meter.fan.closed:

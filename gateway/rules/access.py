@@ -3,14 +3,19 @@
 Two questions, both answered here and nowhere else (tests/security/test_access_is_one.py walks the
 code for a role compared anywhere else):
 
-- Names (the websocket's verbs): ``may(policy, who, action, name)`` answers for every path the same
-  way: the websocket's ops (``Policy.check``), video streams, the history, OPC UA, recordings (what
-  they take, as whom), playback. ``who`` is an ``Identity`` (an HTTP caller, an OPC UA user), a
+- Names (the websocket's verbs): ``Access.decide(who, action, Name(name))`` (the gateway's one
+  ``Access``, ``policy.access``: its name globs, keepers and stations; ``may(policy, who, action,
+  name)`` and ``Access.refusal`` are its words) answers for every path the same way: the websocket's
+  and Foxglove's ops (``Policy.check``), their listings (``LIST``: the globs), rosapi's parameter
+  writes, topic statistics, video streams, the history, OPC UA, recordings (what they take, as
+  whom), playback. ``who`` is an ``Identity`` (an HTTP caller, an OPC UA user), a
   session or sender (its ``attrs['role']``), or None: the gateway asking for itself, or a caller
   when auth is off; then the name globs alone decide. ``action``: subscribe, read (the gateway's
   read-only services), publish, call, send_goal, advertise_service, advertise_action, param,
-  programs; ``name``: the topic, service or action, or None to ask about the role alone. It returns
-  None (allowed) or the reason, which every path words the same.
+  programs, list; ``name``: the topic, service or action, or None to ask about the role alone. It
+  returns None (allowed) or an ``Unauthorized`` whose words every path gives the same.
+- The driver lease's commands: ``StationGrants.verdict`` reads the role and asks the lease's table
+  (``rules.leasetable``).
 - Areas (the HTTP APIs, the stations, a program's report): ``decide(who, action, area, owner)``
   answers from ``TABLE`` (which role may SEE, CHANGE, MANAGE -- everyone's, or on someone else's
   behalf -- or be EXEMPT from a per-person limit in each ``Area``) and the owner rule: a thing of
@@ -40,10 +45,15 @@ or Identity is (``rules.stations``' key). The role sets are named once here.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum, StrEnum
+from fnmatch import fnmatchcase
+from functools import lru_cache
 
 from .errors import Refusal
+from .names import ACTION_KINDS, CONTROL_TOPIC, OWN_PREFIX, WRITING_ROSAPI, action_of
+from .leasetable import Command, LeaseFacts, Verdict, Who, verdict
 from .stations import person_of as _person_of_request
 from ..auth.tokens import ROLES, Role
 
@@ -149,10 +159,22 @@ def role_refusal(who, need: str, name: str | None, stations, rosapi_write: bool 
 
 def may(policy, who, action: str, name: str | None = None) -> str | None:
     """None when ``who`` may ``action`` ``name`` under ``policy``, else why not."""
-    return policy.refusal(who, action, name)
+    return policy.access.refusal(who, action, name)
 
 
 class Action(StrEnum):
+    # names (the websocket's verbs, asked about a ``Name``; equal to the words the doors used)
+    SUBSCRIBE = 'subscribe'
+    READ = 'read'           # the gateway's read-only services, a node's parameter getters
+    PUBLISH = 'publish'
+    CALL = 'call'
+    SEND_GOAL = 'send_goal'
+    ADVERTISE_SERVICE = 'advertise_service'
+    ADVERTISE_ACTION = 'advertise_action'
+    PARAM = 'param'         # change parameters
+    PROGRAMS = 'programs'
+    LIST = 'list'           # see a name in the graph's listings (rosapi, Foxglove's graph): the globs
+    # areas and owned things
     SEE = 'see'
     CHANGE = 'change'
     MANAGE = 'manage'       # everyone's, or on someone else's behalf
@@ -236,6 +258,87 @@ BY_PERSON = frozenset({Area.BOOKINGS, Area.QUEUE, Area.STATIONS, Area.REPORTS})
 
 
 @dataclass(frozen=True, slots=True)
+class Name:
+    """A topic, service, action or parameter as a resource of ``Access.decide`` (None: the role
+    alone is asked about); ``kind`` for ``LIST``: topics, services, actions or params."""
+    name: str | None
+    kind: str | None = None
+
+
+class Access:
+    """The one decision with this gateway's facts: ``decide`` answers for the areas (``TABLE``)
+    and for names: with --auth the role (``role_refusal``), then rosbridge's name globs
+    (``ACTION_KINDS``; an action's hidden names follow its actions glob; nobody publishes on the
+    gateway's own topics but its control topic), then the keepers (never for the gateway's own).
+    ``who`` None: the gateway asking for itself, or any caller with --auth off."""
+
+    def __init__(self, globs: dict[str, tuple[str, ...] | None], *, auth: bool = False, stations=None,
+                 reads: Callable[[str], bool] = lambda name: False, keepers: tuple = ()):
+        self.globs, self.auth, self.stations, self.reads, self.keepers = globs, auth, stations, reads, keepers
+
+    def matches(self, kind: str, name: str) -> bool:
+        globs = self.globs.get(kind)
+        return globs is None or any(fnmatchcase(name, g) for g in globs)
+
+    def allows(self, action: str, name: str) -> bool:
+        if action == 'publish' and name.startswith(OWN_PREFIX) and name != CONTROL_TOPIC:
+            return False   # the gateway's own announcements: only the gateway publishes there
+        base = action_of(name)     # an action's hidden services and topics follow its actions glob too
+        if base is not None and not self.matches('actions', base):
+            return False
+        return all(self.matches(kind, name) for kind in ACTION_KINDS[action])
+
+    def visible(self, kind: str, name: str) -> bool:
+        """LIST: kind is topics, services, actions or params."""
+        if kind == 'topics':
+            return self.matches('topics', name) and (self.matches('topics_pub', name) or self.matches('topics_sub', name))
+        return self.matches(kind, name)
+
+    def refusal(self, who, action: str, name: str | None) -> str | None:
+        """The words of ``decide`` about a name: None, or why ``who`` may not ``action`` ``name``."""
+        if self.auth and who is not None:
+            need = permission(action, name, self.reads) if name is not None else action
+            why = role_refusal(who, need, name, self.stations, name in WRITING_ROSAPI)
+            if why is not None:
+                return why
+        if name is None:
+            return None
+        if not self.allows(action, name):
+            return f'{name} is not allowed for {action} by this gateway'
+        if who is not None and not is_gateway(who):   # nor from the gateway itself
+            for keeper in self.keepers:
+                why = keeper(who, action, name)
+                if why is not None:
+                    return why
+        return None
+
+    def decide(self, who, action: Action, resource, owner: str | None | Whose = AREA) -> Unauthorized | None:
+        """None when ``who`` may ``action`` ``resource`` (a ``Name``, or an ``Area``: ``decide``), else why not."""
+        if type(resource) is not Name:
+            return decide(who, action, resource, owner)
+        if action is Action.LIST:
+            if self.visible(resource.kind, resource.name):
+                return None
+            why = f'{resource.name} is not listed by this gateway'
+        else:
+            why = self.refusal(who, action, resource.name)
+            if why is None:
+                return None
+        return Unauthorized(401 if why is NOT_AUTHENTICATED else 403, why, actor(who), action, resource)
+
+
+def permission(action: str, name: str, reads: Callable[[str], bool]) -> str:
+    """The permission an action needs; calls of the gateway's own rosapi services (``reads``)
+    are reads, except the parameter writes; a node's parameter services (``parameter_service``)
+    are reads or parameter writes."""
+    if action == 'call' and reads(name):
+        return 'param' if name in WRITING_ROSAPI else 'read'
+    if action == 'call':
+        return parameter_service(name) or action
+    return action
+
+
+@dataclass(frozen=True, slots=True)
 class Actor:
     """Who asks, as ``decide`` reads it: a role (None: not one of ``Role``, as the gateway's own),
     or a standing (OPEN, NOBODY); the keys things are owned by."""
@@ -250,7 +353,7 @@ class Actor:
 
 class Unauthorized(Refusal):
     """``decide``'s answer when it refuses: the HTTP status (401 not signed in, 403 not allowed),
-    the words, and what was asked."""
+    the words, and what was asked (``area``: an ``Area``, or a ``Name`` asked of ``Access.decide``)."""
 
     def __init__(self, status: int, message: str, actor: Actor, action: Action, area: Area):
         super().__init__(status, message)
@@ -319,6 +422,23 @@ class StationGrants:
 
     def exempt(self, who) -> bool:
         return allowed(self._who(who), Action.EXEMPT, Area.STATIONS)
+
+    def who(self, who) -> Who:
+        """``who`` as the lease's table reads it (by its role alone: remembered per role)."""
+        if who is None or isinstance(who, str):
+            return _station_who(self.auth, who, False)
+        role = role_of(who)
+        return _station_who(self.auth, role, role == GATEWAY_ROLE)
+
+    def verdict(self, who, command: Command, facts: LeaseFacts) -> Verdict:
+        """The lease's answer to ``who`` for ``command`` in a group of these facts (``rules.leasetable``)."""
+        return verdict(self.who(who), command, facts)
+
+
+@lru_cache(maxsize=64)
+def _station_who(auth: bool, role: str | None, itself: bool) -> Who:
+    grants = StationGrants(auth)
+    return Who(grants.overrides(role), grants.exempt(role), itself)
 
 
 def is_gateway(who) -> bool:

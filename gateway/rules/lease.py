@@ -46,7 +46,8 @@ from fnmatch import fnmatchcase
 from protocol.errors import ProtocolError
 
 from ..backends.base import QoS
-from .access import StationGrants, is_gateway, role_of
+from .access import StationGrants, is_gateway
+from .leasetable import Command, Holder, LeaseFacts, Owning, Verdict
 from .policy import CONTROL_TOPIC
 from .ports import Announcer, Subscribes
 
@@ -66,6 +67,77 @@ RESCAN_PERIOD = 2.0       # s between checks for new stations (announced when th
 def who(session) -> str:
     name = session.attrs.get('name')
     return f'{name} (client {session.id})' if name else f'client {session.id}'
+
+
+# The words of each refusal, by command and reason ({...}: what ``_Said`` looks up, when asked);
+# a bar and an ended slot are worded alike for every command (``SAID``) but a page's command.
+C, V = Command, Verdict
+CLAIM_A_FREE_ONE = '{group} is {owner}\'s station; claim a free robot, or ask the teacher'
+SAID = {V.RELEASED: '{released}', V.ENDED: '{ended}'}
+WORDS = {
+    (C.DRIVE, V.STOPPED): '{name}: {stopper} stopped {group}; send "take {group}" (the Take button) to drive it again',
+    (C.DRIVE, V.BEING_TAKEN): '{name}: {settler} is taking the driver lease for {group} (exclusive control); {way_out}',
+    (C.DRIVE, V.ELSEWHERE): '{name}: {elsewhere} is driving{where} through another gateway (exclusive control); '
+                            '{way_out}',
+    (C.DRIVE, V.RELEASED): '{name}: {released}',
+    (C.DRIVE, V.ENDED): '{name}: {ended}',
+    (C.DRIVE, V.OTHERS_STATION): '{name}: {group} is {owner}\'s station; press "Claim a robot" for your own, or ask '
+                                 'the teacher',
+    (C.DRIVE, V.OTHER_DRIVES): '{name}: {holder} is driving{where} (exclusive control); {way_out}',
+    (C.TAKE, V.STOPPED_OWNER_ONLY): '{stopper} stopped {group}; only its owner ({owner}) can take it again, or an '
+                                    'admin release it: press "Claim a robot" for your own',
+    (C.TAKE, V.OTHERS_STATION): '{group} is {owner}\'s station; only they or an admin can take it: press "Claim a '
+                                'robot" for your own',
+    (C.TAKE, V.ELSEWHERE): '{elsewhere} is driving {group} through another gateway; only an admin can take over: '
+                           '{way_out}',
+    (C.TAKE, V.OTHER_DRIVES): '{holder} is driving{where}; only an admin can take over: {way_out}',
+    (C.STOP, V.ADMIN_STOPS): 'only an admin can stop {group}',
+    (C.RELEASE, V.ADMIN_RELEASES): '{holder} is driving{where}; only an admin can release it',
+    (C.RUN, V.STOPPED_TAKE_FIRST): '{stopper} stopped {group}; press Take (send "take {group}") to drive it again, '
+                                   'then run',
+    (C.RUN, V.OTHERS_STATION): CLAIM_A_FREE_ONE,
+    (C.RUN, V.HOLDS_LEASE): '{holder} holds the driver lease{of_ns} (exclusive control); a run needs it: wait for '
+                            '"release" or ask an admin',
+    (C.PLAY, V.STOPPED): '{stopper} stopped{where}; send "take {group}" (the Take button) first',
+    (C.PLAY, V.DRIVING): '{holder} is driving{where} (exclusive control); wait for "release"',
+    (C.PLAY, V.OTHERS_STATION): CLAIM_A_FREE_ONE,
+}
+
+
+class _Said(dict):
+    """What a refusal's words name, looked up when they name it."""
+
+    def __init__(self, lease, group: str, session, key: str | None, name: str, ns: str):
+        super().__init__(group=group, name=name, where='' if group == ROOT else f' {group}',
+                         of_ns=f' of {ns}' if ns else '')
+        self.lease, self.session, self.key = lease, session, key
+
+    def __missing__(self, what: str) -> str:
+        return getattr(self, what)()
+
+    def stopper(self) -> str:
+        return self.lease.halted.get(self['group'])
+
+    def owner(self) -> str:
+        return self.lease.owners.owner(self['group']).name
+
+    def holder(self) -> str:
+        return who(self.lease.holders[self['group']])
+
+    def elsewhere(self) -> str:
+        return self.lease.elsewhere(self['group'], self.key)
+
+    def settler(self) -> str:
+        return self.lease.settling[self['group']][1]
+
+    def way_out(self) -> str:
+        return self.lease._way_out(self.session, self['group'])
+
+    def released(self) -> str:
+        return self.lease._released(self['group'])
+
+    def ended(self) -> str:
+        return self.lease.owners.walk_in_refusal(self['group'], self.key)
 
 
 def glob_group(glob: str) -> str:
@@ -136,59 +208,50 @@ class Lease(FleetLease, Hook):
 
     # --- commands -------------------------------------------------------------------------------
 
+    def facts(self, group: str, key: str | None, session=None, *, moving: bool = True) -> LeaseFacts:
+        """The group's lease as person ``key`` (and her client ``session``, if one asks) sees it."""
+        holder, owner, settling = self.holders.get(group), self.owners.owner(group), self.settling.get(group)
+        free = owner is None
+        return LeaseFacts(
+            holder=Holder.NONE if holder is None else Holder.SELF if holder is session
+            else Holder.SAME_PERSON if person(holder) == key else Holder.OTHER,
+            owner=Owning.FREE if free else Owning.MINE if owner.person == key else Owning.OTHERS,
+            barred=free and self.owners.is_barred(group, key),
+            ended=free and key is not None and self.owners.walk_in_refusal(group, key) is not None,
+            halted=group in self.halted,
+            elsewhere=self.elsewhere(group, key) is not None,
+            settling=Holder.NONE if settling is None else Holder.SELF if settling[0] == key else Holder.OTHER,
+            moving=moving)
+
+    def _refusal(self, command: Command, answer: Verdict, group: str, session=None, key: str | None = None,
+                 name: str = '', ns: str = '') -> str:
+        """The words of a refusal (``WORDS``), naming who holds what."""
+        words = WORDS.get((command, answer)) or SAID[answer]
+        return words.format_map(_Said(self, group, session, key, name, ns))
+
     def require(self, session, name: str, type: str | None = None, msg: dict | None = None) -> Wait | None:
         """Grant a free lease to a commanding client of the station's owner (or of a station nobody
         owns); refuse everyone but the holder. Nobody moves a stopped robot until its owner takes it
         again; zero commands (a page stopping its program) pass without taking the lease. In a
         fleet a free lease waits for PostgreSQL's word: the answer is then a ``Wait`` (settle.py).
         msg: the command (None: a moving one)."""
-        if not self.is_command(name, type):
+        if not self.is_command(name, type):   # the table's first row: a name that is no command passes
             return None
-        if is_gateway(session) and msg is not None and not moving_command(msg):
-            return None   # a stop the gateway publishes itself
         group = self.group(name)
-        holder = self.holders.get(group)
-        if holder is session:
-            return None
-        moving = msg is None or type not in self.types or moving_command(msg)   # only asked here: rare
-        stopper = self.halted.get(group)
-        if stopper is not None:
-            if not moving and holder is None:
-                return None
-            raise ProtocolError(f'{name}: {stopper} stopped {group}; send "take {group}" (the Take button) to '
-                                'drive it again')
-        key = person(session)
-        settling = self.settling.get(group)
-        if settling is not None:       # someone here is asking PostgreSQL for it: hers wait with it
-            if settling[0] == key:
-                return settling[2]
-            if not moving:
-                return None
-            raise ProtocolError(f'{name}: {settling[1]} is taking the driver lease for {group} (exclusive control); '
-                                f'{self._way_out(session, group)}')
-        if holder is not None and person(holder) == key:
-            if moving:      # another page or run of the same person: her robot, without a word
-                self._grant(group, session, quiet=True)
-            return None
-        if holder is None:
-            elsewhere = self.elsewhere(group, key)
-            if elsewhere is not None:   # even a zero: nothing of hers reaches a robot another drives
-                where = '' if group == ROOT else f' {group}'
-                raise ProtocolError(f'{name}: {elsewhere} is driving{where} through another gateway (exclusive '
-                                    f'control); {self._way_out(session, group)}')
-            owner = self.owners.owner(group)
-            barred = self._walk_in_refusal(group, key) if owner is None else None
-            if barred is None and (owner is None or owner.person == key):
-                return self._grant_settled(group, session)
-            if not moving:
-                return None
-            if barred is not None:
-                raise ProtocolError(f'{name}: {barred}')
-            raise ProtocolError(f'{name}: {group} is {owner.name}\'s station; press "Claim a robot" for your '
-                                'own, or ask the teacher')
-        where = '' if group == ROOT else f' {group}'
-        raise ProtocolError(f'{name}: {who(holder)} is driving{where} (exclusive control); '
-                            f'{self._way_out(session, group)}')
+        if self.holders.get(group) is session:   # the holder's own: the table passes it whatever else holds
+            return None                          # (tests/security/test_lease_table.py), so nothing is looked up
+        key, gateway = person(session), is_gateway(session)   # the gateway's zeros pass, whatever their type
+        moving = msg is None or (type not in self.types and not gateway) or moving_command(msg)
+        answer = self.grants.verdict(session, Command.DRIVE, self.facts(group, key, session, moving=moving))
+        if answer.refused:
+            raise ProtocolError(self._refusal(Command.DRIVE, answer, group, session, key, name))
+        if answer is Verdict.WAIT:       # someone here is asking PostgreSQL for it: hers wait with it
+            return self.settling[group][2]
+        if answer is Verdict.QUIET:      # another page or run of the same person: her robot, without a word
+            self._grant(group, session, quiet=True)
+        elif answer is Verdict.GRANT:
+            return self._grant_settled(group, session)
+        return None
 
     def _walk_in_refusal(self, group: str, key: str) -> str | None:
         """Why person ``key`` may not take a station nobody owns: the teacher released it from her,
@@ -199,7 +262,7 @@ class Lease(FleetLease, Hook):
 
     def _way_out(self, session, group: str) -> str:
         """What resolves a refusal because someone else holds group's lease, for this client."""
-        if self._may_override(session):
+        if self.grants.overrides(session):
             return 'press Take to take over'
         if group in self.stations():
             return 'press "Claim a robot" for a robot of your own, or ask the teacher'
@@ -213,22 +276,11 @@ class Lease(FleetLease, Hook):
         """Why something new that person ``key`` starts (a playback) could not command ``topic``
         now: a stop holds its group, someone drives it (even that person, from a page), or it is
         another person's station. None: it could."""
-        if not self.is_command(topic, type):
+        if not self.is_command(topic, type):   # the table's first row
             return None
-        group = self.group(topic)
-        where = '' if group == ROOT else f' {group}'
-        stopper = self.halted.get(group)
-        if stopper is not None:
-            return f'{stopper} stopped{where}; send "take {group}" (the Take button) first'
-        holder = self.holders.get(group)
-        if holder is not None:
-            return f'{who(holder)} is driving{where} (exclusive control); wait for "release"'
-        owner = self.owners.owner(group)
-        if owner is None and self.owners.is_barred(group, key):
-            return self._released(group)
-        if owner is not None and owner.person != key:
-            return f'{group} is {owner.name}\'s station; claim a free robot, or ask the teacher'
-        return self.owners.walk_in_refusal(group, key) if owner is None and key is not None else None
+        group = self.group(topic)   # (the table's answer to a playback is the same whoever starts it)
+        answer = self.grants.verdict(None, Command.PLAY, self.facts(group, key))
+        return self._refusal(Command.PLAY, answer, group, key=key) if answer.refused else None
 
     def publish_hook(self, session, pub, msg, issued=None):
         if pub.topic == CONTROL_TOPIC:
@@ -240,34 +292,12 @@ class Lease(FleetLease, Hook):
             return msg
         return self.require(session, pub.topic, pub.type, msg) or msg
 
-    def _may_override(self, session) -> bool:
-        return self.grants.overrides(session)
-
-    def may_take_over(self, role: str | None) -> bool:
-        return self.grants.overrides(role)
-
     def run_refusal(self, key: str, role: str | None, ns: str) -> str | None:
         """Why a robot-side run of person ``key`` (starter's ``role``) could not drive namespace
         ``ns``, or None when it may (it then takes the lease, from its person's page quietly)."""
         group = self.group_of_namespace(ns)
-        admin = self.grants.exempt(role)   # a signed-in admin: past a stop, a bar or an ended slot
-        where = f' of {ns}' if ns else ''
-        stopper = self.halted.get(group)
-        if stopper is not None and not admin:
-            return f'{stopper} stopped {group}; press Take (send "take {group}") to drive it again, then run'
-        owner = self.owners.owner(group)
-        if owner is None and self.owners.is_barred(group, key) and not admin:
-            return self._released(group)
-        if owner is not None and owner.person != key and not self.may_take_over(role):
-            return f'{group} is {owner.name}\'s station; claim a free robot, or ask the teacher'
-        barred = self.owners.walk_in_refusal(group, key) if owner is None and not admin else None
-        if barred is not None:
-            return barred
-        holder = self.holders.get(group)
-        if holder is not None and person(holder) != key and not self.may_take_over(role):
-            return (f'{who(holder)} holds the driver lease{where} (exclusive control); a run needs it: wait for '
-                    '"release" or ask an admin')
-        return None
+        answer = self.grants.verdict(role, Command.RUN, self.facts(group, key))
+        return self._refusal(Command.RUN, answer, group, key=key, ns=ns) if answer.refused else None
 
     def take(self, session, ns: str | None = None) -> None:
         """What "take NS" on the control topic does, for a client that does not send it itself
@@ -280,27 +310,17 @@ class Lease(FleetLease, Hook):
                 or (verb in ('stop', 'take-if-free') and len(words) != 2)):
             raise ProtocolError(f'{CONTROL_TOPIC} takes "take [NS]", "take-if-free NS", "release [NS]" or '
                                 f'"stop NS", not {" ".join(words)!r}')
-        if verb == 'release' and len(words) == 1:
+        if verb == 'release' and len(words) == 1:   # all of the client's: nothing to decide
             for group in [g for g, h in self.holders.items() if h is session]:
                 self._grant(group, None)
-            return
-        group = self.group_of_namespace(words[1]) if len(words) == 2 else ROOT
-        holder = self.holders.get(group)
-        owner = self.owners.owner(group)
-        barred = owner is None and self.owners.is_barred(group, person(session))
-        mine = (owner is None and not barred) or (owner is not None and owner.person == person(session))
-        ended = self.owners.walk_in_refusal(group, person(session)) if owner is None else None
-        if ended is not None and verb.startswith('take') and not self._may_override(session):
-            if verb == 'take-if-free':   # someone else's slot, or hers just ended (rules.bookings)
-                return
-            raise ProtocolError(ended)
-        if verb == 'take-if-free':   # a page on its own station: never a stopped one, never another's
-            if holder is None and mine and group not in self.halted and self.elsewhere(group, person(session)) is None:
-                return self._grant_settled(group, session)
             return None
-        if verb == 'stop':
-            if not self._may_override(session):
-                raise ProtocolError(f'only an admin can stop {group}')
+        group = self.group_of_namespace(words[1]) if len(words) == 2 else ROOT
+        command, key = Command(verb), person(session)
+        answer = self.grants.verdict(session, command, self.facts(group, key, session))
+        if answer.refused:
+            raise ProtocolError(self._refusal(command, answer, group, session, key))
+        holder = self.holders.get(group)
+        if answer is Verdict.HALT:
             self.stopped[group] = round(time.time(), 3)
             if holder is not None:
                 self._grant(group, None, by=session, why='stopped the robot and freed')
@@ -310,53 +330,28 @@ class Lease(FleetLease, Hook):
             if self.fleet is not None and not self.fleet.confirmed():
                 session.status('warning', f'{group} is stopped through this gateway; {self.fleet.why_unconfirmed()}, '
                                           'so the other gateways learn of the Stop when it is back')
-            return None
-        if verb == 'release':
-            if holder is session:
-                self._grant(group, None)
-            elif self._may_override(session):
-                if holder is not None:
-                    self._grant(group, None, by=session, why='released')
-                self._unhalt(group, end=who(session))   # and whoever drives it through another gateway
-                self._announce()
-            elif holder is not None:
-                raise ProtocolError(f'{who(holder)} is driving{"" if group == ROOT else " " + group}; '
-                                    'only an admin can release it')
-            return
-        # take
-        if barred and not self._may_override(session):
-            raise ProtocolError(self._released(group))
-        stopper = self.halted.get(group)
-        if stopper is not None and not mine and not self.grants.exempt(session):
-            raise ProtocolError(f'{stopper} stopped {group}; only its owner ({owner.name}) can take it again, '
-                                'or an admin release it: press "Claim a robot" for your own')
-        if not mine and not self._may_override(session):
-            raise ProtocolError(f'{group} is {owner.name}\'s station; only they or an admin can take it: press '
-                                '"Claim a robot" for your own')
-        elsewhere = self.elsewhere(group, person(session))
-        if holder is None and elsewhere is not None and not self._may_override(session):
-            raise ProtocolError(f'{elsewhere} is driving {group} through another gateway; only an admin can take '
-                                f'over: {self._way_out(session, group)}')
-        if holder is session:
-            self._unhalt(group)
+        elif answer is Verdict.FREE:
+            self._grant(group, None)
+        elif answer is Verdict.FREE_BY:
+            if holder is not None:
+                self._grant(group, None, by=session, why='released')
+            self._unhalt(group, end=who(session))   # and whoever drives it through another gateway
             self._announce()
-        elif holder is None:
+        elif answer is Verdict.GRANT:
+            if command is Command.TAKE:
+                self._unhalt(group)
+            return self._grant_settled(group, session)
+        elif answer in (Verdict.KEEP, Verdict.SHARE, Verdict.TAKE_OVER):
             self._unhalt(group)
-            if elsewhere is not None:   # an admin's takeover: hers, whatever the others hold
+            if answer is Verdict.KEEP:
+                self._announce()
+            elif answer is Verdict.SHARE:   # her run, or another tab of hers: quietly
+                self._grant(group, session)
+                if session.attrs.get('run') is not None and holder.attrs.get('run') is None:
+                    self.lent[group] = holder
+            else:   # an admin's (or anyone's with --auth off) takeover: hers, whatever the others hold
                 self._grant(group, session, by=session)
-            else:
-                return self._grant_settled(group, session)
-        elif person(holder) == person(session):   # her run, or another tab of hers: quietly
-            self._unhalt(group)
-            self._grant(group, session)
-            if session.attrs.get('run') is not None and holder.attrs.get('run') is None:
-                self.lent[group] = holder
-        elif self._may_override(session):
-            self._unhalt(group)
-            self._grant(group, session, by=session)
-        else:
-            raise ProtocolError(f'{who(holder)} is driving{"" if group == ROOT else " " + group}; '
-                                f'only an admin can take over: {self._way_out(session, group)}')
+        return None
 
     def hand_over(self, group: str, key: str | None, why: str) -> None:
         """A booked slot begins (key: its booker) or ends (None): the lease is freed unless a

@@ -13,6 +13,10 @@ from typing import NoReturn
 from protocol import ops
 from protocol.errors import ProtocolError
 
+OWN_PREFIX = '/rosgate/'              # the gateway's own topics (driver, runs' state and output)
+CONTROL_TOPIC = '/rosgate/control'    # where clients ask for the driver lease
+WRITING_ROSAPI = ('/rosapi/set_param', '/rosapi/delete_param')
+
 # what each checked action needs: (glob kinds that must all match)
 ACTION_KINDS = {
     'publish': ('topics', 'topics_pub'),
@@ -143,13 +147,12 @@ def target(op) -> tuple[str, str] | None:
     return None
 
 
-def refuse(session, op, message: str) -> NoReturn:
-    """A status error naming op and id; calls and goals also get their failed reply so clients
-    waiting on them (roslibjs, roslibpy) fail at once instead of timing out."""
-    if isinstance(op, ops.CallService):
-        session.reply({'op': 'service_response', 'service': op.service, 'id': op.id,
-                       'values': message, 'result': False})
-    elif isinstance(op, ops.SendActionGoal):
-        session.reply({'op': 'action_result', 'action': op.action, 'id': op.id,
-                       'values': message, 'status': 0, 'result': False})
-    raise ProtocolError(message, op=op.OP, id=op.id)
+class Refused(ProtocolError):
+    """An op refused by the rules in front of it (the policy's gate): the status names op and id;
+    the session's catch site (``bridge.session``) also answers a refused call or goal with its
+    failed reply, so clients waiting on it (roslibjs, roslibpy) fail at once instead of timing out."""
+
+
+def refuse(op, message: str) -> NoReturn:
+    """Refuse ``op``: the rules write nothing into the session, they raise."""
+    raise Refused(message, op=op.OP, id=op.id)

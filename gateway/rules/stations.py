@@ -50,6 +50,7 @@ from protocol.errors import ProtocolError
 
 from ..backends.base import QoS
 from .hooks import Hook
+from .leasetable import Command, LeaseFacts
 from .ports import Announcer, Graph, LeaseView, Parties
 from ..settings import StationSettings
 from ..store.fleet import Unreachable
@@ -355,7 +356,8 @@ class Stations(Hook):
             lease.free(station, session)
 
     def _may_release(self, session) -> bool:
-        return self.grants is None or self.grants.overrides(session)
+        """Another's station, or all of them (the lease's table: RELEASE_STATION)."""
+        return self.grants is None or not self.grants.verdict(session, Command.RELEASE_STATION, LeaseFacts()).refused
 
     def _clients_of(self, key: str) -> list:
         return [s for s in self.parties.sessions.values() if person(s) == key]

@@ -25,6 +25,7 @@ from protocol.errors import ProtocolError
 
 from ...backends import blame
 from ...backends.base import BackendError
+from ...rules.access import Action
 from .hub import EMPTY, GONE, Service
 from .topics import Dropped
 
@@ -95,9 +96,7 @@ def _rule_name(s: FoxgloveSession, name: str, op) -> str:
 def _readable(s: FoxgloveSession, op, work: bool = True) -> None:
     """A parameter or graph read: the gate, then the role's read permission."""
     s.gate(op.OP, getattr(op, 'id', None), work)
-    why = s.gateway.policy.refusal(s, 'read', None)
-    if why is not None:
-        raise ProtocolError(why, op=op.OP, id=getattr(op, 'id', None))
+    s.require(Action.READ, None, op.OP, getattr(op, 'id', None))
 
 
 async def _names(s: FoxgloveSession, op, names) -> list[str]:
@@ -105,8 +104,7 @@ async def _names(s: FoxgloveSession, op, names) -> list[str]:
     if not names:
         names = [fg.parameter_name(node, param) for node, _, param in
                  (n.partition(':') for n in await s.backend.param_names())]
-    policy = s.gateway.policy
-    return [n for n in names if policy.visible(s, 'params', _rule_name(s, n, op))]
+    return [n for n in names if s.listed('params', _rule_name(s, n, op))]
 
 
 def get_parameters(s: FoxgloveSession, op: fg.GetParameters) -> None:
@@ -124,7 +122,7 @@ def get_parameters(s: FoxgloveSession, op: fg.GetParameters) -> None:
 def set_parameters(s: FoxgloveSession, op: fg.SetParameters) -> None:
     s.gate(op.OP, op.id, work=True)
     for p in op.parameters:
-        s.gateway.policy.check(s, 'param', _rule_name(s, p.name, op), op.OP, op.id)
+        s.require(Action.PARAM, _rule_name(s, p.name, op), op.OP, op.id)
 
     async def change() -> None:
         backend = s.backend

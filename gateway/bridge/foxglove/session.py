@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING, Any
 from protocol import foxglove as fg
 from protocol.errors import ProtocolError
 
+from ...rules.access import Action, Name
 from ..session import ClientSession
 from .calls import CALLS
 from .hub import EMPTY, Channel, Graph, Service
@@ -118,8 +119,8 @@ class FoxgloveSession(ClientSession):
             raise ProtocolError(f'this client already has {limit} calls and requests pending (--max-pending-calls)',
                                 op=op, id=id)
 
-    def may(self, action: str, name: str | None) -> bool:
-        return self.gateway.policy.refusal(self, action, name) is None
+    def may(self, action: Action, name: str | None) -> bool:
+        return self.decide(action, Name(name)) is None
 
     # --- outgoing ------------------------------------------------------------------------------
 
@@ -156,7 +157,7 @@ class FoxgloveSession(ClientSession):
                     if topic == channel.topic:
                         self.drop_subscription(sid)
         self.channels.difference_update(gone)
-        new = [c for c in added if self.may('subscribe', c.topic)]
+        new = [c for c in added if self.may(Action.SUBSCRIBE, c.topic)]
         self.channels.update(c.id for c in new)
         if gone:
             self.send(fg.unadvertise(gone))
@@ -165,7 +166,7 @@ class FoxgloveSession(ClientSession):
             self.send(fg.advertise([c.wire for c in new]))
         s_gone = [s.id for s in s_removed if s.id in self.offered_services]
         self.offered_services.difference_update(s_gone)
-        s_new = [s for s in s_added if self.may('call', s.name)]
+        s_new = [s for s in s_added if self.may(Action.CALL, s.name)]
         self.offered_services.update(s.id for s in s_new)
         if s_gone:
             self.send(fg.unadvertise_services(s_gone))
@@ -186,10 +187,9 @@ class FoxgloveSession(ClientSession):
         """The names this client may see whose nodes changed since it was last told, and those
         that went."""
         last = self.graph or EMPTY
-        policy = self.gateway.policy
-        published = {t: n for t, n in graph.published.items() if policy.visible(self, 'topics', t)}
+        published = {t: n for t, n in graph.published.items() if self.listed('topics', t)}
         subscribed = {t: n for t, n in graph.subscribed.items() if t in published}
-        services = {s: n for s, n in graph.services.items() if policy.visible(self, 'services', s)}
+        services = {s: n for s, n in graph.services.items() if self.listed('services', s)}
         update = ({t: n for t, n in published.items() if last.published.get(t) != n},
                   {t: n for t, n in subscribed.items() if last.subscribed.get(t) != n},
                   {s: n for s, n in services.items() if last.services.get(s) != n},
