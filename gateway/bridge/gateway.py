@@ -92,7 +92,7 @@ class Gateway:
         self.started = time.time()
         self.policy = Policy(settings)
         self.service_owners: dict[str, ClientSession] = {}
-        self.hooks = Hooks()           # the parts following the gateway's events (rules.hooks)
+        self.hooks = Hooks()           # the parts following the gateway's events (rules.hooks), sealed once
         self.ruleset = None            # the rules in force (rules.compose), once installed
         self.rules: tuple = ()         # the publish door's: (sender, SharedPublisher, msg, issued) -> msg or None
         self.guards: tuple = ()        # (session, op) -> None, or raise ProtocolError to refuse the op
@@ -114,13 +114,12 @@ class Gateway:
         return RuleDoors(self)
 
     def install(self, rules) -> None:
-        """Puts the rules in force (``rules.compose``), once, before the first client."""
+        """Puts the rules in force (``rules.compose``), once, before the first client. Their parts
+        hear events once ``hooks.seal`` is given them with the others' (``server.start``)."""
         if self.ruleset is not None:
             raise RuntimeError('the rules are installed once')
         self.ruleset, self.policy = rules, rules.policy
         self.rules, self.guards = rules.publish, rules.guards
-        for part in rules.hooks:
-            self.hooks.add(part)
 
     @property
     def store(self) -> Store:

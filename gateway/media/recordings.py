@@ -400,8 +400,7 @@ def start_recordings(gateway) -> RecordingManager:
     storage = gateway.settings.storage
     record = storage.record
     folder = storage.recordings_dir or record
-    manager = RecordingManager(gateway, Path(folder) if folder else default_recordings_dir())
-    gateway.hooks.add(manager)
+    manager = RecordingManager(gateway, Path(folder) if folder else default_recordings_dir())   # a hook (server.start)
     if record:
         globs = parse_globs(storage.record_topics) or ('/*',)
         asyncio.get_running_loop().call_soon(_start_up, manager, globs)

@@ -136,7 +136,7 @@ class _Tap:
 
 class History(Hook):
     """The topics kept (their taps), the points waiting for the next batch, the latest value of
-    each field (for the OPC UA face, ``listeners``), and the store work: batches, roll-ups, cap."""
+    each field (for the OPC UA face, ``on_history_point``), and the store work: batches, roll-ups, cap."""
 
     def __init__(self, gateway, globs: tuple[str, ...] | None, *, max_bytes: int, full_seconds: float):
         self.gateway, self.globs = gateway, globs
@@ -145,7 +145,6 @@ class History(Hook):
         self.refused: set[str] = set()                # topics that cannot be kept (logged once)
         self.pending: list[tuple[str, str, int, float]] = []   # (topic, field, t_ms, v)
         self.latest: dict[tuple[str, str], tuple[float, float]] = {}
-        self.listeners: list = []                     # fn(topic, field, t, v) on every new point
         self.ids: dict[tuple[str, str], int] = {}     # series ids, used on the store's thread only
         self.rows = 0                                 # written since start
         self.window: deque[tuple[float, int]] = deque(maxlen=64)   # (time, rows) after each batch
@@ -216,11 +215,7 @@ class History(Hook):
                 continue
             self.pending.append((tap.topic, path, t_ms, v))
             self.latest[(tap.topic, path)] = (now, v)
-            for listener in self.listeners:
-                try:
-                    listener(tap.topic, path, now, v)
-                except Exception:
-                    log.exception('history listener failed')
+            self.gateway.hooks.history_point(tap.topic, path, now, v)   # on_history_point (the OPC UA twin)
 
     def writes(self) -> bool:
         """Whether this gateway writes the history: alone, yes; in a fleet of gateways on one
@@ -230,7 +225,7 @@ class History(Hook):
 
     def flush(self) -> None:
         if not self.writes():
-            self.pending = []   # the points stay live here (latest, listeners); the timekeeper keeps them
+            self.pending = []   # the points stay live here (latest, on_history_point); the timekeeper keeps them
             return
         if self.pending:
             batch, self.pending = self.pending, []
@@ -363,6 +358,5 @@ def start_history(gateway) -> History | None:
         return None
     history = History(gateway, globs, max_bytes=int(s.history_max_mb * 2**20),
                       full_seconds=s.history_full_hours * 3600)
-    gateway.hooks.add(history)
-    history.start()
+    history.start()   # a part of the gateway's hooks (server.start)
     return history

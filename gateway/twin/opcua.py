@@ -78,11 +78,10 @@ class Twin(Hook):
         self.thread = threading.Thread(target=self._run, name='rosgate-opcua', daemon=True)
 
     def start(self) -> None:
-        self.history.listeners.append(self.on_point)
         self.thread.start()
 
-    def on_point(self, topic: str, field: str, t: float, v: float) -> None:
-        """On the gateway's loop, from the history."""
+    def on_history_point(self, topic: str, field: str, t: float, v: float) -> None:
+        """On the gateway's loop, from the history (rules.hooks)."""
         stations = self.gateway.policy.stations
         if stations is not None:
             self.stations = tuple(stations.stations())
@@ -174,8 +173,6 @@ class Twin(Hook):
         return node
 
     def on_shutdown(self) -> None:
-        if self.on_point in self.history.listeners:
-            self.history.listeners.remove(self.on_point)
         if self.loop is not None and self.stopping is not None:
             self.loop.call_soon_threadsafe(self.stopping.set)
             self.thread.join(10)
@@ -213,7 +210,6 @@ def start_twin(gateway, history, port: int | None) -> Twin | None:
     --history none)."""
     if port is None:
         return None
-    twin = Twin(gateway, history, port)
-    gateway.hooks.add(twin)
+    twin = Twin(gateway, history, port)   # a part of the gateway's hooks (server.start)
     twin.start()
     return twin

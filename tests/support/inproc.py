@@ -51,7 +51,9 @@ class InProcess:
         await self.backend.start()
         self.gateway = Gateway(settings, self.backend)
         # what viewers may call: the gateway's read-only services, as server.start gives them
-        self.gateway.install(rules.compose(self.gateway.rule_doors(), start.files, reads=rosapi.handles))
+        composed = rules.compose(self.gateway.rule_doors(), start.files, reads=rosapi.handles)
+        self.gateway.install(composed)
+        self.gateway.hooks.seal(composed.hooks)   # the rules' parts hear the gateway's events, as server.start seals them
         return self
 
     async def __aexit__(self, *exc) -> None:
