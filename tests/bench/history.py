@@ -37,6 +37,7 @@ import urllib.request
 import orjson
 
 from gateway.bridge import encode
+from gateway.rules.hooks import Hooks
 from gateway.store import Store
 from gateway.twin.history import FLUSH, History, _Tap
 from gateway.twin.queries import query
@@ -56,6 +57,7 @@ class _Gateway:
     def __init__(self, store: Store):
         self.store = store
         self.ruleset = None
+        self.hooks = Hooks()   # nobody follows its points here
 
 
 def battery(i: int, t: float) -> dict:
