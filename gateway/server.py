@@ -26,6 +26,7 @@ from . import rules
 from .rules import grades, roster
 from .bridge import rosapi, topicstats
 from .bridge.gateway import Gateway
+from .bridge.outbox import BATCHING
 from .exercises import Checker, Library
 from .exercises.checker import LiveAttempts
 from .runs import RunManager, start_runs
@@ -98,7 +99,7 @@ def pages_box(base: str) -> str:
 async def serve(settings: Settings, files: rules.Files, backend, sockets: list[socket.socket], *,
                 announce=print) -> None:
     """Run the gateway on sockets already bound (``tornado.netutil.bind_sockets``)."""
-    await backend.start()
+    await backend.start(**BATCHING)   # each client gets a batch's frames in one write (bridge.outbox)
     gateway = Gateway(settings, backend)
     try:
         parts = start(gateway, files)

@@ -21,7 +21,6 @@ from ..backends.base import BackendError, QoS
 from .doors import RuleDoors
 from .fanout import TopicFanout
 from .foxglove.hub import Hub
-from .outbox import after_batch, corked
 from protocol.errors import ProtocolError
 
 from ..rules import GATEWAY_ROLE, Hooks
@@ -105,9 +104,6 @@ class Gateway:
         self._store: Store | None = None
         self.images_rendered = 0       # images made to measure (fan-out), in /health: one per frame and size
         self.foxglove = Hub(self)      # the graph as the Foxglove sessions see it (bridge.foxglove)
-        if hasattr(backend, 'batch_scope'):   # a backend delivering messages in batches
-            backend.batch_scope = corked      # sends each client its share in one write
-            backend.after_batch = after_batch   # and takes what the gateway published at a batch's end
 
     def rule_doors(self) -> RuleDoors:
         """What ``rules.compose`` hands on to the rules' parts (``rules.ports``): never the Gateway."""
