@@ -3,7 +3,9 @@
 ``start(gateway, files)`` makes the parts in this order, each before what needs it: the runs (their
 manager, sandbox and unix socket: ``runs.start_runs``), the rules composed with the runs' part at
 the publish door and put in force (``rules.compose``, ``Gateway.install``), the recordings (and
-``--record``'s recording), the history, the OPC UA twin. ``web.app.make_app`` then only builds the
+``--record``'s recording), the history, the OPC UA twin; each given what it uses, nothing assigned
+to it later, and then every part that follows the gateway's events sealed into its hooks, once
+(``rules.hooks``). ``web.app.make_app`` then only builds the
 route table from them; ``serve`` runs it all until SIGINT or SIGTERM and stops it in the reverse.
 A part that cannot start as asked raises ``settings.Refused`` (the CLI exits 2 naming the flags).
 """
@@ -24,6 +26,7 @@ from . import rules
 from .lab import grades, roster
 from .bridge import rosapi, topicstats
 from .bridge.gateway import Gateway
+from .bridge.outbox import BATCHING
 from .bridge.taps import Senders, Taps
 from .lab.checker import LiveAttempts
 from .lab.exercises import Checker, Library
@@ -47,7 +50,7 @@ class Parts:
     lti: object = None        # auth.lti.LtiConfig with --lti
     grades: object = None     # lab.grades.Outbox with --lti: posts queued scores to the LMS
     exercises: Library | None = None
-    checker: Checker | None = None   # the live exercise attempts (their results to ``on_result``)
+    checker: Checker | None = None   # the live exercise attempts (their ends told to the hooks)
 
 
 def start(gateway: Gateway, files: rules.Files) -> Parts:
@@ -56,23 +59,29 @@ def start(gateway: Gateway, files: rules.Files) -> Parts:
                                    rules=lambda: gateway.ruleset)   # the rules, composed next, hold the runs
     attempts = LiveAttempts()   # the checker's live attempts, whose stations the rules keep
     reads = lambda name: rosapi.handles(name) or name == topicstats.SERVICE   # noqa: E731 (what viewers may call)
-    gateway.install(rules.compose(gateway.rule_doors(), files, reads=reads, runs=runs, attempts=attempts.live,
-                                  keepers=(runs.keeper,)))
-    topicstats.TopicStats(gateway)   # /rosgate/topic_stats: the rates /inspect shows
-    taps = Taps(gateway)   # the topics' shared fan-outs, for the parts that are not clients
-    recordings = start_recordings(settings.storage, gateway.hooks, taps=taps, types=gateway.backend,
-                                  graph=gateway.backend, senders=Senders(gateway), names=gateway.policy)
-    outbox = None
-    if files.lti is not None:   # an ended attempt's score goes to the LMS of the learner's launch
-        outbox = grades.Outbox(gateway.store, files.lti)
-        outbox.start()
-        if any(reg.memberships_urls for reg in files.lti.registrations):   # rosters known before any launch
-            tornado.ioloop.IOLoop.current().spawn_callback(roster.refresh, gateway.store, files.lti)
-    checker = Checker(gateway, gateway.store, attempts=attempts, recorder=recordings,
-                      on_result=[outbox.result] if outbox is not None else [])
-    history = start_history(settings.twin, gateway.hooks, store=gateway.store, taps=taps, graph=gateway.backend,
-                            names=gateway.policy, fleet=gateway.ruleset.fleet)
-    start_twin(history, settings.twin.opcua, gateway.hooks, policy=gateway.policy, address=settings.address)
+    ruled = rules.compose(gateway.rule_doors(), files, reads=reads, runs=runs, attempts=attempts.live,
+                          keepers=(runs.keeper,))
+    gateway.install(ruled)
+    recordings = history = twin = outbox = None
+    try:
+        topicstats.TopicStats(gateway)   # /rosgate/topic_stats: the rates /inspect shows
+        taps = Taps(gateway)   # the topics' shared fan-outs, for the parts that are not clients
+        recordings = start_recordings(settings.storage, taps=taps, types=gateway.backend, graph=gateway.backend,
+                                      senders=Senders(gateway), names=gateway.policy)
+        if files.lti is not None:   # an ended attempt's score goes to the LMS of the learner's launch
+            outbox = grades.Outbox(gateway.store, files.lti)
+            outbox.start()
+            if any(reg.memberships_urls for reg in files.lti.registrations):   # rosters known before any launch
+                tornado.ioloop.IOLoop.current().spawn_callback(roster.refresh, gateway.store, files.lti)
+        checker = Checker(gateway, gateway.store, attempts=attempts, recorder=recordings, events=gateway.hooks)
+        history = start_history(settings.twin, gateway.hooks, store=gateway.store, taps=taps, graph=gateway.backend,
+                                names=gateway.policy, fleet=gateway.ruleset.fleet)
+        twin = start_twin(history, settings.twin.opcua, policy=gateway.policy, address=settings.address)
+    finally:
+        # every part built hears the gateway's events from now (and its shutdown, should a part fail to
+        # start), in this order: the rules' first (a slot's end stops a station's commands before its
+        # run is stopped), then the recordings, the history, the twin, the grades' outbox
+        gateway.hooks.seal((*ruled.hooks, recordings, history, twin, outbox))
     if runs_socket is not None:   # runs reach the websocket alone, on a unix socket bound into their box
         runs.serve(socket_app(gateway), runs_socket)
     return Parts(runs=runs, recordings=recordings, history=history, lti=files.lti, grades=outbox,
@@ -94,7 +103,7 @@ def pages_box(base: str) -> str:
 async def serve(settings: Settings, files: rules.Files, backend, sockets: list[socket.socket], *,
                 announce=print) -> None:
     """Run the gateway on sockets already bound (``tornado.netutil.bind_sockets``)."""
-    await backend.start()
+    await backend.start(**BATCHING)   # each client gets a batch's frames in one write (bridge.outbox)
     gateway = Gateway(settings, backend)
     try:
         parts = start(gateway, files)

@@ -33,6 +33,7 @@ import os
 import secrets
 import time
 from dataclasses import dataclass
+from typing import Protocol
 
 import sqlalchemy as sa
 import tornado.web
@@ -111,6 +112,11 @@ def _hash(session_id: str) -> str:
     return hashlib.sha256(session_id.encode()).hexdigest()
 
 
+class SignOutEvents(Protocol):
+    """Where a sign-in's end is told (``rules.hooks.Hooks``: ``on_signed_out`` of every part)."""
+    def signed_out(self, key: str) -> None: ...
+
+
 @dataclass(frozen=True)
 class Session:
     identity: Identity
@@ -121,12 +127,14 @@ class Session:
 class Sessions:
     """Begin, find and end sessions. ``store``: the gateway's Store (None: kept in memory only)."""
 
-    def __init__(self, store, secret: bytes, *, hours: float = DEFAULT_HOURS, still_valid=lambda s: True):
+    def __init__(self, store, secret: bytes, *, hours: float = DEFAULT_HOURS, still_valid=lambda s: True,
+                 fleet=None, events: SignOutEvents | None = None):
+        """fleet: store.fleet.Fleet (the other gateways hear sign-ins and outs; rules.fleet); events:
+        told of each sign-in ended (``rules.hooks.Hooks``: its websockets close, bridge.doors)."""
         self.store, self.secret, self.seconds = store, secret, hours * 3600
         self.live: dict[str, Session] = {}
         self.known: dict[str, Person] = {}
-        self.fleet = None        # store.fleet.Fleet (rules.fleet): the other gateways hear sign-ins and outs
-        self.on_revoked = lambda key: None   # a session ended: its websockets close (rules.compose)
+        self.fleet, self.events = fleet, events
         if store is not None:
             now = time.time()
             self.known = {r.owner: Person(r.owner, r.name, r.role, r.kind, r.seen)
@@ -199,7 +207,7 @@ class Sessions:
         if key is None or key not in self.live:
             return False
         self._drop(key)
-        self.on_revoked(key)
+        self._revoked(key)
         return True
 
     async def sign_out(self, cookie_value: str | None) -> str | None:
@@ -210,7 +218,7 @@ class Sessions:
         if key is None:
             return None
         s = self.live.pop(key, None)
-        self.on_revoked(key)
+        self._revoked(key)
         if self.store is None:
             return None
         delete = lambda c: c.execute(TABLE.delete().where(TABLE.c.id_hash == key))   # noqa: E731
@@ -258,7 +266,7 @@ class Sessions:
         """A sign-out through another gateway (its row): refused here from now, its websockets
         closed, and that gateway told (it answers once every gateway has said so)."""
         self.live.pop(key, None)
-        self.on_revoked(key)
+        self._revoked(key)
         self.fleet.ack('revoked', key)
 
     def created_since(self, c: sa.Connection, since: float) -> list:
@@ -270,6 +278,10 @@ class Sessions:
         for row in rows:
             if row.id_hash not in self.live and row.expires > now and ('revoked', row.id_hash) not in self.fleet.values:
                 self.heard_login(row._asdict())
+
+    def _revoked(self, key: str) -> None:
+        if self.events is not None:
+            self.events.signed_out(key)
 
     def _drop(self, key: str) -> None:
         self.live.pop(key, None)

@@ -119,7 +119,11 @@ class Backend(Protocol):
     node_name: str       # the gateway's own node, e.g. '/rosgate'
     defs: Any            # has .msg(type) -> MsgDef (nested lookups of protocol.convert)
 
-    async def start(self) -> None: ...
+    async def start(self, batch_scope: Callable[[], Any] | None = None,
+                    after_batch: Callable[[Callable[[], None]], bool] | None = None) -> None:
+        """batch_scope: what a batch of messages is delivered inside (the bridge's ``corked``: each
+        client's share in one write); after_batch(fn): whether fn runs at the end of the open batch
+        (the bridge's ``after_batch``). None: each message on its own."""
     async def stop(self) -> None: ...
 
     # types

@@ -21,7 +21,6 @@ from ..backends.base import BackendError, QoS
 from .doors import RuleDoors
 from .fanout import TopicFanout
 from .foxglove.hub import Hub
-from .outbox import after_batch, corked
 from protocol.errors import ProtocolError
 
 from ..rules import GATEWAY_ROLE, Hooks
@@ -92,7 +91,7 @@ class Gateway:
         self.started = time.time()
         self.policy = Policy(settings)
         self.service_owners: dict[str, ClientSession] = {}
-        self.hooks = Hooks()           # the parts following the gateway's events (rules.hooks)
+        self.hooks = Hooks()           # the parts following the gateway's events (rules.hooks), sealed once
         self.ruleset = None            # the rules in force (rules.compose), once installed
         self.rules: tuple = ()         # the publish door's: (sender, SharedPublisher, msg, issued) -> msg or None
         self.guards: tuple = ()        # (session, op) -> None, or raise ProtocolError to refuse the op
@@ -105,22 +104,18 @@ class Gateway:
         self._store: Store | None = None
         self.images_rendered = 0       # images made to measure (fan-out), in /health: one per frame and size
         self.foxglove = Hub(self)      # the graph as the Foxglove sessions see it (bridge.foxglove)
-        if hasattr(backend, 'batch_scope'):   # a backend delivering messages in batches
-            backend.batch_scope = corked      # sends each client its share in one write
-            backend.after_batch = after_batch   # and takes what the gateway published at a batch's end
 
     def rule_doors(self) -> RuleDoors:
         """What ``rules.compose`` hands on to the rules' parts (``rules.ports``): never the Gateway."""
         return RuleDoors(self)
 
     def install(self, rules) -> None:
-        """Puts the rules in force (``rules.compose``), once, before the first client."""
+        """Puts the rules in force (``rules.compose``), once, before the first client. Their parts
+        hear events once ``hooks.seal`` is given them with the others' (``server.start``)."""
         if self.ruleset is not None:
             raise RuntimeError('the rules are installed once')
         self.ruleset, self.policy = rules, rules.policy
         self.rules, self.guards = rules.publish, rules.guards
-        for part in rules.hooks:
-            self.hooks.add(part)
 
     @property
     def store(self) -> Store:

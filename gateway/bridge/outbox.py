@@ -273,6 +273,11 @@ def after_batch(fn: Callable[[], None]) -> bool:
     return True
 
 
+# what a backend is started with (``Backend.start``, by ``server.serve``): a batch of messages it
+# delivers is one cork, and what the gateway publishes meanwhile is taken at its end
+BATCHING = {'batch_scope': corked, 'after_batch': after_batch}
+
+
 def _malloc_trim():
     path = ctypes.util.find_library('c')
     try:

@@ -4,8 +4,8 @@ The checker watches the topic's shared fan-out (as a ``/stream`` camera source d
 subscription for all), so it reads what the backend delivers (turtlesim's ``/turtleN/pose``, a rover's ``odom``, its
 ``scan``) and never what a page says. An attempt ends at the goal reached (or failed for good), at
 the exercise's time limit, or when the program stops (``stop``); its result is written to the store
-and handed to every callable in ``on_result(identity, exercise, attempt_result)``: the grades code
-subscribes there. With a ``recorder`` (the gateway's recordings), each attempt records the robot's
+and told as the hooks' ``on_attempt_ended(identity, exercise, attempt_result)`` (``rules.hooks``):
+the grades' outbox hears it. With a ``recorder`` (the gateway's recordings), each attempt records the robot's
 pose (and scan, and the topics of its goal) and the station's velocity commands, owned by the
 student: the teacher's replay of the run. While an attempt is live (``live()``), its station is
 kept for it by ``rules.attempts``: the pose and scan it reads (``Attempt.kept``) are the robot's
@@ -179,14 +179,19 @@ class Attempt:
         return self.result
 
 
+class AttemptEvents(Protocol):
+    """Where an attempt's end is told (``rules.hooks.Hooks``: ``on_attempt_ended`` of every part)."""
+    def attempt_ended(self, identity, exercise, result) -> None: ...
+
+
 class Checker:
-    """The live attempts (one per station at a time) and the ``on_result`` hook list."""
+    """The live attempts (one per station at a time); each one's end told to ``events``
+    (``rules.hooks.Hooks``: ``on_attempt_ended``, heard by the grades' outbox)."""
 
     def __init__(self, topics: Topics, store: Submits, *, attempts: LiveAttempts | None = None,
-                 recorder: Recorder | None = None, on_result: Iterable[Callable] = ()):
-        self.topics, self.store, self.recorder = topics, store, recorder
+                 recorder: Recorder | None = None, events: AttemptEvents | None = None):
+        self.topics, self.store, self.recorder, self.events = topics, store, recorder, events
         self.attempts = LiveAttempts() if attempts is None else attempts   # attempt id -> Attempt
-        self.on_result = tuple(on_result)             # fn(identity, exercise, attempt_result)
         self.ended: OrderedDict[str, AttemptResult] = OrderedDict()   # the newest, while the store writes
 
     def topic(self, station: str, name: str) -> str:
@@ -284,8 +289,5 @@ class Checker:
             self.ended.popitem(last=False)
         row = attempt.result.row()
         self.store.submit(lambda conn: results.insert(conn, row))
-        for fn in self.on_result:
-            try:
-                fn(attempt.identity, attempt.exercise, attempt.result)
-            except Exception:
-                log.exception('on_result %r failed', fn)
+        if self.events is not None:
+            self.events.attempt_ended(attempt.identity, attempt.exercise, attempt.result)

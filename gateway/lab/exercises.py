@@ -20,8 +20,8 @@ The title and the instructions (Markdown, shown beside the editor: the IDE rende
 of its own) are a text or one per language (``{"en": ..., "es": ...}``; ``title`` may be such an
 object too, or ``titles`` gives the other languages): the pages show the reader's.
 ``goals`` turns the goal into an evaluator (pure); ``checker`` watches the robot's own topics during
-an attempt and keeps each result (``results``: table ``exercise_attempts``), then calls the hook list
-``Checker.on_result``. Files are read on each request (a class has tens), so an edit needs no restart.
+an attempt and keeps each result (``results``: table ``exercise_attempts``), then tells the hooks
+(``on_attempt_ended``). Files are read on each request (a class has tens), so an edit needs no restart.
 """
 
 from __future__ import annotations

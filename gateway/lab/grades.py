@@ -4,8 +4,8 @@ A launch whose id_token carries the AGS endpoint claim is remembered (``remember
 line item URL per (person, resource link), with the platform that issued it and the exercise the
 link opens (``exercise_of``: its custom ``exercise``, which the deep link put there, or ``?exercise=``
 in its target link; a platform that kept neither: the line item's ``resourceId``, read from the
-platform by ``resolve``, beside the launch and again when a result finds no link). ``Outbox.result`` is the
-exercises' ``Checker.on_result`` hook: when an attempt ends, passed or failed, its score (0..1,
+platform by ``resolve``, beside the launch and again when a result finds no link). ``Outbox.on_attempt_ended`` is
+the exercises' checker's event (``rules.hooks``): when an attempt ends, passed or failed, its score (0..1,
 a failed attempt's partial score too) is queued for the newest launch of that person from a link
 of that exercise, and nothing is queued for someone who did not launch from one. ``post_result``
 is the one door to a score; only the gateway's checker calls it, no page or rosbridge op reaches
@@ -36,6 +36,7 @@ import sqlalchemy as sa
 from tornado.httpclient import AsyncHTTPClient, HTTPClientError, HTTPRequest
 from tornado.ioloop import PeriodicCallback
 
+from ..rules.hooks import Hook
 from ..store import METADATA, Store
 from ..auth.lti import CLAIM, LtiConfig, Registration
 
@@ -189,9 +190,9 @@ def _scores_url(lineitem: str) -> str:
     return urllib.parse.urlunsplit(parts._replace(path=parts.path.rstrip('/') + '/scores'))
 
 
-class Outbox:
-    """Posts due scores: ``start`` flushes every ``period`` seconds on the running loop; ``result``
-    (the checker's hook) queues an ended attempt's score and flushes at once."""
+class Outbox(Hook):
+    """Posts due scores: ``start`` flushes every ``period`` seconds on the running loop; ``on_attempt_ended``
+    (the checker's event) queues an ended attempt's score and flushes at once."""
 
     def __init__(self, store: Store, config: LtiConfig):
         self.store, self.config = store, config
@@ -199,8 +200,8 @@ class Outbox:
         self._lock = asyncio.Lock()
         self._tasks: set = set()
 
-    def result(self, identity, exercise, attempt) -> None:
-        """``Checker.on_result``: an attempt ended (on the loop; never raises into the checker)."""
+    def on_attempt_ended(self, identity, exercise, attempt) -> None:
+        """An attempt ended (the checker's event) (on the loop; never raises into the checker)."""
         if identity is None or not getattr(identity, 'key', None):
             return   # no person (auth off, a token without a key): no LMS to tell
         task = asyncio.get_running_loop().create_task(self.queue(identity.key, exercise.id, attempt))

@@ -2,8 +2,8 @@
 
 ``bridge.taps.Taps`` (the topics' shared fan-outs) is the ``Taps``, ``bridge.taps.Senders`` (the one
 publish door, for someone who is not a client) the ``Senders``; a backend is the ``Graph`` and the
-``Types``; ``rules.policy.Policy`` the ``Names`` (asked through ``rules.access.may``), with its lease;
-``rules.hooks.Hooks`` takes the parts (``Parts``). No module in media/ holds the Gateway.
+``Types``; ``rules.policy.Policy`` the ``Names`` (asked through ``rules.access.may``), with its lease; the
+parts themselves are sealed into ``rules.hooks.Hooks`` by ``server.start``. No module in media/ holds the Gateway.
 """
 
 from __future__ import annotations
@@ -12,7 +12,6 @@ from collections.abc import Callable
 from typing import Any, Protocol
 
 from ..backends.base import QoS
-from ..rules.hooks import Hook
 from .images import ImageError, Target
 
 
@@ -78,7 +77,3 @@ class Names(Protocol):
     lease: Lease | None
     def refusal(self, who: Any, action: str, name: str | None) -> str | None: ...
 
-
-class Parts(Protocol):
-    """Where a part that follows the gateway's events is added (``rules.hooks.Hooks``)."""
-    def add(self, part: Hook) -> None: ...

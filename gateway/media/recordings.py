@@ -37,7 +37,7 @@ from ..rules.access import Action, Area, allowed, may
 from ..rules.errors import Refusal
 from ..rules.names import parse_globs
 from .playback import Playback
-from .ports import Graph, Names, Parts, Senders, Taps, Types
+from .ports import Graph, Names, Senders, Taps, Types
 from ..settings import StorageSettings, data_dir
 from ..rules.hooks import Hook
 
@@ -407,7 +407,7 @@ class RecordingManager(Hook):
             task.cancel()
 
 
-def start_recordings(storage: StorageSettings, hooks: Parts, *, taps: Taps, types: Types, graph: Graph,
+def start_recordings(storage: StorageSettings, *, taps: Taps, types: Types, graph: Graph,
                      senders: Senders, names: Names) -> RecordingManager:
     """The recordings' manager (a part of the gateway's ``hooks``); with --record, the start-up
     recording begins once the loop runs."""
@@ -415,7 +415,6 @@ def start_recordings(storage: StorageSettings, hooks: Parts, *, taps: Taps, type
     folder = storage.recordings_dir or record
     manager = RecordingManager(Path(folder) if folder else default_recordings_dir(), taps=taps, types=types,
                                graph=graph, senders=senders, names=names)
-    hooks.add(manager)
     if record:
         globs = parse_globs(storage.record_topics) or ('/*',)
         asyncio.get_running_loop().call_soon(_start_up, manager, globs)

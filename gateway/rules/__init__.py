@@ -30,7 +30,7 @@ from typing import NamedTuple
 from .access import StationGrants
 from .attempts import AttemptRule
 from .bookings import BookingLimits, Slots, Timetable
-from .fleet import join as join_fleet
+from .fleet import FleetPart
 from .hooks import Hook, Hooks  # noqa: F401 (for the bridge and web)
 from .lease import Lease
 from .names import parse_globs, parse_networks
@@ -42,6 +42,7 @@ from .safety import Clamp, Safety, VelocityLimits
 from ..auth.lti import LtiConfig
 from ..auth.sessions import Sessions, cookie_secret
 from .stations import Stations
+from .stops import Stops
 from ..auth.tokens import Authenticator, Brake, TokenStore
 from ..settings import SafetySettings
 from ..store.fleet import Fleet
@@ -215,52 +216,29 @@ def compose(doors: RuleDoors, files: Files = Files(), *, reads=lambda name: Fals
                     stop_on_disconnect=safe.stop_on_disconnect, cmd_timeout=safe.cmd_timeout, limits=velocity,
                     cmd_max_age=safe.cmd_max_age, require_stamp=safe.require_cmd_stamp)
 
+    db = settings.storage.db_url or ''
+    fleet = Fleet.of(doors.store) if db.startswith('postgresql') else None   # the other gateways, given to each rule
     auth = sessions = None
     if files.tokens is not None or files.lti is not None:
         store = files.tokens if files.tokens is not None else TokenStore([])   # only LMS launches sign in
         auth = Authenticator(store, Brake(base=sec.auth_backoff))
-        sessions = Sessions(doors.store, cookie_secret(), hours=sec.session_hours,
+        # a sign-in ended: its websockets close (here, and on each gateway that applies it: bridge.doors)
+        sessions = Sessions(doors.store, cookie_secret(), hours=sec.session_hours, fleet=fleet, events=doors.hooks,
                             still_valid=lambda s: s.kind != 'token' or s.identity.listed(store.entries))
-
-        def signed_out(key):   # that sign-in's websockets close (here, and on each gateway that applies it)
-            for session in list(doors.parties.sessions.values()):
-                if session.attrs.get('signin') == key:
-                    session.close_connection(1008, 'signed out')
-        sessions.on_revoked = signed_out
     timetable = None
     if lab.booking:
         timetable = Timetable(doors.store, BookingLimits(
             slot=lab.slot_minutes * 60, per_day=lab.booking_per_day, per_week=lab.booking_per_week,
-            ahead=lab.booking_ahead * 86400))
-    queue = Queue(timetable, grace=st.claim_grace) if timetable is not None else None
+            ahead=lab.booking_ahead * 86400), events=doors.hooks, fleet=fleet)
+    queue = Queue(timetable, grace=st.claim_grace, fleet=fleet) if timetable is not None else None
     lease = None   # the lease, made below, asks the stations who owns what; they ask it through lambda: lease
     stations = Stations(announce=doors.announce, graph=backend, parties=doors.parties, lease=lambda: lease,
                         types=frozenset(types), idle=st.claim_idle, grace=st.claim_grace,
-                        grants=StationGrants(auth is not None), timetable=timetable, queue=queue)
-
-    def group_of(topic):
-        return lease.group(topic) if lease is not None else next(
-            (ns for ns in stations.stations() if topic.startswith(ns + '/')), '/')
-
-    def in_group(group):
-        return lambda topic: group_of(topic) == group
-
-    def stop_group(group):
-        """The teacher's Stop and a slot's end: every command left moving in the group is zeroed,
-        what else publishes into it (playbacks) ends."""
-        for session in doors.parties.everyone():
-            safety.stop_session(session, in_group(group))
-        doors.hooks.group_stopped(group, group_of)
-
-    def zero_group(group):
-        """Every velocity topic of the group on the graph zeroed: what a dead gateway left moving."""
-        safety.zero_topics([(t, ty) for t, ty in backend.topics() if group_of(t) == group])
-
+                        grants=StationGrants(auth is not None), timetable=timetable, queue=queue, fleet=fleet)
+    stops = Stops(safety=safety, parties=doors.parties, graph=backend, events=doors.hooks, stations=stations)
     if safe.exclusive_control:
         lease = Lease(announce=doors.announce, control=backend, types=frozenset(types), globs=parse_globs(safe.control_glob),
-                      grants=StationGrants(auth is not None), stations=stations,
-                      on_lost=lambda session, group: safety.stop_session(session, in_group(group)),
-                      stop_group=stop_group, zero_group=zero_group)
+                      grants=StationGrants(auth is not None), stations=stations, stops=stops, fleet=fleet)
     limits = Limits(max_subscriptions=sec.max_subscriptions, max_publishers=sec.max_publishers,
                     max_pending_calls=sec.max_pending_calls, max_op_rate=sec.max_op_rate)
     reports = Reports(stations, auth=auth is not None)
@@ -275,17 +253,17 @@ def compose(doors: RuleDoors, files: Files = Files(), *, reads=lambda name: Fals
             log.warning('--booking without --exclusive-control: slots seat their bookers and end on time, but '
                         'nothing keeps others\' commands off a booked robot')
         slots = Slots(timetable, events=doors.hooks, caller=backend, stations=stations, lease=lease,
-                      stop_group=stop_group, reset=lab.station_reset, queue=queue)
-    fleet = part = None
-    db = settings.storage.db_url or ''
-    if db.startswith('postgresql'):
-        fleet = Fleet.of(doors.store)
-        part = join_fleet(fleet, lease=lease, stations=stations, sessions=sessions, timetable=timetable)
+                      stops=stops, reset=lab.station_reset, queue=queue)
+    part = None
+    if fleet is not None:
+        part = FleetPart(fleet, lease=lease, stations=stations, sessions=sessions, timetable=timetable)
+        part.start()
 
     publish = (*((live.publish_hook,) if live is not None else ()), *((runs.publish_hook,) if runs is not None else ()),
                *((lease.publish_hook,) if lease is not None else ()), reports.publish_hook, safety.publish_hook)
     guards = ()
-    hooks = tuple(h for h in (stations, lease, safety, slots, runs, part) if h is not None)
+    signouts = doors.signouts if sessions is not None else None
+    hooks = tuple(h for h in (stations, lease, safety, slots, runs, part, signouts) if h is not None)
     log.info('security: auth %s, exclusive control %s, stop on disconnect %s, cmd timeout %s s, '
              'cmd max age %s s%s', 'on' if auth else 'off', 'on' if lease else 'off', safety.stop_on_disconnect,
              safety.cmd_timeout, safety.cmd_max_age, ', stamps required' if safety.require_stamp else '')

@@ -12,7 +12,7 @@ when the next one begins, who may not walk in.
 anyone else's claim and driver lease end, the booker's first command takes the lease without
 Take. At its end the gateway acts by itself, whatever the pages do (a sleeping laptop or a dead
 link changes nothing): the lease is freed and every command left moving in the station is zeroed
-through the same path as the teacher's Stop (``stop_group``: clients, playbacks), the booker's
+through the same path as the teacher's Stop (``rules.stops``: clients, playbacks), the booker's
 robot-side runs in the station end (hooks' ``on_slot_ended``), the ``--station-reset`` service is
 called in the station's namespace, and the next booking takes over. Until the next booking, or
 one slot length after hers, the booker may not walk back in (a slot cannot be stretched).
@@ -45,7 +45,8 @@ from ..store import METADATA
 from ..auth import courses
 from .errors import Refusal
 from .hooks import Hook
-from .ports import Caller, SlotEvents
+from .ports import Caller, SlotEvents, TimetableEvents
+from .stops import Stops
 
 log = logging.getLogger('rosgate.bookings')
 MAX_SLEEP = 5.0            # s the timer sleeps at most (catches a clock that jumped)
@@ -104,12 +105,14 @@ def clock(at: float) -> str:
 class Timetable:
     """Every booking not long past, in memory (sorted by start), written through to the store."""
 
-    def __init__(self, store, limits: BookingLimits, now: Callable[[], float] = time.time):
+    def __init__(self, store, limits: BookingLimits, now: Callable[[], float] = time.time, *,
+                 events: TimetableEvents | None = None, fleet=None):
+        """events: told of each change (``rules.hooks.Hooks``: Slots wakes up); fleet:
+        store.fleet.Fleet, bookings made through other gateways (rules.fleet)."""
         self.store, self.limits, self.now = store, limits, now
+        self.events, self.fleet = events, fleet
         self.bookings: list[Booking] = []
-        self.changed: Callable[[], None] = lambda: None   # Slots wakes up
         self.ended: dict[str, tuple[str, float]] = {}       # station -> (its last booker, barred until)
-        self.fleet = None    # store.fleet.Fleet: bookings made through other gateways (rules.fleet)
         self.bookings = store.run_now(self._load)
         log.info('bookings: %d loaded from %s', len(self.bookings), store.url)
 
@@ -125,7 +128,7 @@ class Timetable:
         known = {b.id: b for b in self.bookings if b.id is not None}
         self.bookings = [known.get(b.id, b) for b in rows] + [b for b in self.bookings if b.id is None]
         self.bookings.sort(key=lambda b: b.start)
-        self.changed()
+        self._changed()
 
     # --- questions the rules ask ------------------------------------------------------------------
 
@@ -226,7 +229,7 @@ class Timetable:
         except Exception:
             self.bookings.remove(booking)
             raise
-        self.changed()
+        self._changed()
         if self.fleet is not None:
             self.fleet.notify('bookings')
         return booking
@@ -235,9 +238,13 @@ class Timetable:
         await self.store.run(lambda c: c.execute(sa.delete(TABLE).where(TABLE.c.id == booking.id)))
         if booking in self.bookings:
             self.bookings.remove(booking)
-        self.changed()
+        self._changed()
         if self.fleet is not None:
             self.fleet.notify('bookings')
+
+    def _changed(self) -> None:
+        if self.events is not None:
+            self.events.timetable_changed()
 
     def forget_old(self) -> None:
         """Bookings older than the quotas look are dropped from memory (the store keeps them)."""
@@ -249,16 +256,18 @@ class Slots(Hook):
     """The timer that starts and ends slots (see the module docstring)."""
 
     def __init__(self, timetable: Timetable, *, events: SlotEvents, caller: Caller, stations, lease,
-                 stop_group: Callable[[str], None], reset: str | None = None, queue=None):
+                 stops: Stops, reset: str | None = None, queue=None):
         """events: told of each slot's end; caller: the backend, for the reset; queue: the walk-ins'
         line (rules.queue), for the API."""
         self.timetable, self.stations, self.lease = timetable, stations, lease
         self.events, self.caller, self.queue = events, caller, queue
-        self.stop_group, self.reset = stop_group, reset
+        self.stops, self.reset = stops, reset
         self.active: dict[str, Booking] = {}          # station -> the booking whose slot is on
         self.resets: set[asyncio.Task] = set()
         self.timer: asyncio.TimerHandle | None = None
-        timetable.changed = self.tick
+        self.tick()
+
+    def on_timetable_changed(self) -> None:
         self.tick()
 
     def tick(self) -> None:
@@ -310,7 +319,7 @@ class Slots(Hook):
         why = f'{booking.name}\'s slot on {station} ended'
         if self.lease is not None:
             self.lease.hand_over(station, None, why)
-        self.stop_group(station)
+        self.stops.stop_group(station, self.lease.group if self.lease is not None else None)
         self.events.slot_ended(station, booking.person, why)
         self.stations.unseat(station, booking.person, why)
         nxt = self.timetable.next(station, now)

@@ -40,7 +40,6 @@ import asyncio
 import json
 import logging
 import time
-from collections.abc import Callable
 from fnmatch import fnmatchcase
 
 from protocol.errors import ProtocolError
@@ -56,6 +55,7 @@ from .safety import moving_command
 from .settle import FleetLease, Wait
 from .stations import Stations, person
 from .stationnames import StationNames
+from .stops import Stops
 from .hooks import Hook
 
 DRIVER_TOPIC = '/rosgate/driver'
@@ -147,21 +147,21 @@ def glob_group(glob: str) -> str:
 
 class Lease(FleetLease, Hook):
     def __init__(self, *, announce: Announcer, control: Subscribes, types: frozenset[str],
-                 globs: tuple[str, ...] | None, grants: StationGrants, on_lost: Callable[[object, str], None],
-                 stations: Stations, stop_group: Callable[[str], None] = lambda group: None,
-                 zero_group: Callable[[str], None] | None = None):
+                 globs: tuple[str, ...] | None, grants: StationGrants, stations: Stations, stops: Stops,
+                 fleet=None):
         """announce: where /rosgate/driver is published (and the gateway's own services, no
-        station's); control: the backend, where the control topic is declared."""
+        station's); control: the backend, where the control topic is declared; stops: a driver
+        who loses the lease stops, a Stop zeroes the group (``rules.stops``, with the lease's
+        groups); fleet: store.fleet.Fleet, the other gateways' leases (rules.fleet)."""
         self.types, self.globs = types, globs or ()
-        self.grants, self.on_lost, self.stop_group = grants, on_lost, stop_group
-        self.zero_group = zero_group             # every command topic of a group zeroed (a dead gateway's)
+        self.grants, self.stops = grants, stops
         self.owners = stations
         self.holders: dict[str, object] = {}     # group -> session
         self.since: dict[str, float] = {}
         self.stopped: dict[str, float] = {}      # group -> when an admin last stopped it
         self.halted: dict[str, str] = {}         # group -> who stopped it, until "take" by its owner
         self.lent: dict[str, object] = {}        # group -> the session a run of the same person took it from
-        self.fleet = None                        # store.fleet.Fleet: the other gateways' leases (rules.fleet)
+        self.fleet = fleet
         self.settling: dict[str, tuple] = {}     # group -> (person, who, Wait): a free lease asked of PostgreSQL
         # a station's services, actions and other topics: the holder's
         self.names = StationNames(self, own_services=announce.own_services)
@@ -325,7 +325,7 @@ class Lease(FleetLease, Hook):
             if holder is not None:
                 self._grant(group, None, by=session, why='stopped the robot and freed')
             self._halt(group, who(session))   # sticks until the owner's "take" or an admin's "release"
-            self.stop_group(group)
+            self.stops.stop_group(group, self.group)
             self._announce()
             if self.fleet is not None and not self.fleet.confirmed():
                 session.status('warning', f'{group} is stopped through this gateway; {self.fleet.why_unconfirmed()}, '
@@ -394,7 +394,7 @@ class Lease(FleetLease, Hook):
         self.since[group] = time.time()
         where = '' if group == ROOT else f' for {group}'
         if previous is not None and previous is not session and not previous.closed:
-            self.on_lost(previous, group)   # whoever gives up the lease, or loses it, stops moving
+            self.stops.stop_session(previous, group, self.group)   # whoever gives up the lease, or loses it, stops moving
             if by is not None and by is not previous:
                 previous.status('warning', f'{who(by)} {why} the driver lease{where}; your commands were stopped')
         if session is not None:

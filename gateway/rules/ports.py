@@ -81,6 +81,11 @@ class SlotEvents(Protocol):
     def slot_ended(self, station: str, person: str, why: str) -> None: ...
 
 
+class TimetableEvents(Protocol):
+    """Where a booking made or removed is told (``rules.hooks.Hooks``: ``on_timetable_changed``)."""
+    def timetable_changed(self) -> None: ...
+
+
 class LeaseView(Protocol):
     """The driver lease as the stations meet it (``rules.lease.Lease``): built after them, since it
     asks them who owns what, so the stations are given ``() -> the lease`` (None: no lease)."""
@@ -94,15 +99,18 @@ class Backend(Graph, Messages, Subscribes, Caller, Protocol):
     """The backend as the rules use it: its graph, definitions and clock, subscribe and service call."""
 
 
-class GroupEvents(SlotEvents, Protocol):
-    """The events the rules emit (``rules.hooks.Hooks``): a group stopped, a slot ended."""
+class GroupEvents(SlotEvents, TimetableEvents, Protocol):
+    """The events the rules emit (``rules.hooks.Hooks``): a group stopped, a slot ended, the
+    timetable changed, a sign-in ended."""
     def group_stopped(self, group: str, group_of: Callable[[str], str]) -> None: ...
+    def signed_out(self, key: str) -> None: ...
 
 
 class RuleDoors(Protocol):
     """Everything ``compose`` hands on, in one value (``bridge.doors.RuleDoors``, built by the bridge):
     the settings, the store (opened when first asked for), the backend, the hooks, and the gateway's
-    own topics and services, its publish door and who is there."""
+    own topics and services, its publish door and who is there, and the part closing an ended
+    sign-in's websockets (a ``rules.hooks.Hook``, heard with the rules' parts when there are sign-ins)."""
     settings: Any
     store: Any
     backend: Backend
@@ -110,3 +118,4 @@ class RuleDoors(Protocol):
     announce: Announcer
     door: Door
     parties: Parties
+    signouts: Any

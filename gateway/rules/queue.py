@@ -32,11 +32,11 @@ class Waiting:
 
 
 class Queue:
-    def __init__(self, timetable, grace: float = 60.0):
-        self.timetable, self.grace = timetable, grace
+    def __init__(self, timetable, grace: float = 60.0, *, fleet=None):
+        """fleet: store.fleet.Fleet, the line shared (rules.fleet)."""
+        self.timetable, self.grace, self.fleet = timetable, grace, fleet
         self.line: list[Waiting] = []
         self.seated: dict[str, tuple[str, float]] = {}   # person -> (station, when), told once asked
-        self.fleet = None                                 # store.fleet.Fleet: the line shared
 
     def place(self, key: str) -> int | None:
         return next((i + 1 for i, w in enumerate(self.line) if w.person == key), None)

@@ -122,7 +122,7 @@ class FleetLease:
         self.stopped[group] = round(time.time(), 3)
         self.halted[group] = by
         self._drop_holder(group, f'{by} stopped the robot and freed the driver lease for {group}')
-        self.stop_group(group)
+        self.stops.stop_group(group, self.group)
         self._announce()
 
     def released_elsewhere(self, group: str, by: str) -> None:
@@ -140,8 +140,7 @@ class FleetLease:
         driver left moving is zeroed from here, as that gateway's dead-man would have (one graph)."""
         log.info('driver lease for %s lapsed (%s through a gateway that stopped answering): stopping it',
                  group, hold.who)
-        if self.zero_group is not None:
-            self.zero_group(group)
+        self.stops.zero_group(group, self.group)
         self._announce()
 
     def lost_elsewhere(self, group: str, hold, why: str | None = None) -> None:

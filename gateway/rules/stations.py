@@ -116,20 +116,22 @@ class Owner:
 class Stations(Hook):
     def __init__(self, *, announce: Announcer, graph: Graph, parties: Parties,
                  lease: Callable[[], LeaseView | None] = lambda: None, types: frozenset[str],
-                 idle: float = CLAIM_IDLE, grace: float = CLAIM_GRACE, grants=None, timetable=None, queue=None):
+                 idle: float = CLAIM_IDLE, grace: float = CLAIM_GRACE, grants=None, timetable=None, queue=None,
+                 fleet=None):
         """announce: /rosgate/stations and the claim services; graph: where stations are found;
         parties: who is connected and what they advertise; lease: () -> the driver lease (built after
         the stations, which it asks; None: no --exclusive-control);
         grants: who may release others' stations (``rules.access.StationGrants``; None: anyone, as without --auth);
         timetable: the bookings (rules.bookings.Timetable) and queue: the walk-ins' line
-        (rules.queue.Queue), with --booking."""
+        (rules.queue.Queue), with --booking; fleet: store.fleet.Fleet, claims made through other
+        gateways (rules.fleet)."""
         self.announce, self.graph, self.parties, self._lease = announce, graph, parties, lease
         self.types, self.idle, self.grace, self.grants = types, idle, grace, grants
         self.timetable, self.queue = timetable, queue
         self.owners: dict[str, Owner] = {}
         self.released: dict[str, dict] = {}
         self.barred: dict[str, str] = {}      # station -> the person the teacher released it from
-        self.fleet = None                     # store.fleet.Fleet: claims made through other gateways
+        self.fleet = fleet
         self._stations: tuple[str, ...] = ()
         self._stations_at = -float('inf')
         self._served: set[str] = set()

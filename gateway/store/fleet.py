@@ -37,7 +37,7 @@ import logging
 import secrets
 import time
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any, Callable, Protocol
 
 import sqlalchemy as sa
 
@@ -68,6 +68,21 @@ class Stopped:
     by: str
 
 
+class FleetListener(Protocol):
+    """What the fleet tells the rules (``rules.fleet.FleetPart``), one typed method per event, on
+    the loop; given once to ``Fleet.start`` (the store may not import ``rules.hooks``)."""
+    def on_event(self, what: str, event: dict) -> None: ...                      # another gateway's notice
+    def on_state_changed(self, kind: str, name: str, old: dict | None, new: dict | None) -> None: ...
+    def on_hold_lost(self, kind: str, name: str, holder: Hold | None, why: str | None) -> None: ...
+    def on_hold_lapsed(self, kind: str, name: str, holder: Hold) -> None: ...   # its gateway died
+    def on_read(self, name: str, data: Any) -> None: ...                       # a reader's result, each beat
+    def on_cut_off(self) -> None: ...          # confirmation lapsed (once)
+    def on_back(self) -> None: ...             # and returned
+
+
+Reader = Callable[[sa.Connection, float], Any]   # read(connection, since): its result to ``on_read``
+
+
 def clock(at: float) -> str:
     return time.strftime('%H:%M:%S', time.localtime(at))
 
@@ -84,14 +99,8 @@ class Fleet:
         self.mine: dict[tuple[str, str], tuple[str, str]] = {}   # (kind, name) -> (person, who)
         self.others: dict[tuple[str, str], Hold] = {}
         self.heard: dict[tuple[str, str], float] = {}   # when an event last changed a hold (monotonic)
-        self.handlers: dict[str, list[Callable[[dict], None]]] = {}
-        self.lost: dict[str, Callable[[str, Hold | None, str | None], None]] = {}   # kind -> fn(name, holder, why)
-        self.lapsed: dict[str, Callable[[str, Hold], None]] = {}  # kind -> fn(name, holder): its gateway died
         self.values: dict[tuple[str, str], dict] = {}            # the shared state: (kind, name) -> value
-        self.changed: dict[str, Callable[[str, dict | None, dict | None], None]] = {}   # kind -> fn(name, old, new)
-        self.readers: dict[str, Callable[[Any], None]] = {}      # name -> apply(data) on the loop
-        self.cut: list[Callable[[], None]] = []                  # called once when confirmation lapses
-        self.back: list[Callable[[], None]] = []                 # and when it returns
+        self.listener: FleetListener | None = None               # the rules (``start``)
         self.booking_key = BOOKING_KEY
         self.confirmed_until = 0.0
         self.unreachable = None          # time.time() since when the mirror is not confirmed (None: it is)
@@ -113,24 +122,21 @@ class Fleet:
 
     # --- on the loop --------------------------------------------------------------------------
 
-    def start(self, loop: asyncio.AbstractEventLoop) -> None:
-        """The shared state read once before the first client (a Stop in force holds at once)."""
-        self._loop = loop
+    def start(self, loop: asyncio.AbstractEventLoop, listener: FleetListener,
+              readers: dict[str, Reader] | None = None) -> None:
+        """The shared state read once before the first client (a Stop in force holds at once).
+        ``listener`` hears every change, event and loss; ``readers``: name -> read(connection, since),
+        run at each beat (since: the database's clock, a margin before the last read) on the fleet's
+        thread, what it read told to ``listener.on_read(name, data)`` on the loop."""
+        if self._loop is not None:
+            raise RuntimeError('the fleet is started once')
+        self._loop, self.listener = loop, listener
+        self.db.readers.update(readers or {})
         started = time.monotonic()
         self._read(self.db.run_now(lambda c: self.db._beat(c, started, 0)), first=True)
         self.db.start()
         self._timer = loop.call_later(WATCH, self._watch)
         log.info('fleet: gateway %s on %s', self.id, self.store.url)
-
-    def on(self, what: str, fn: Callable[[dict], None]) -> None:
-        """fn(event) for each event ``what`` from another gateway, on the loop."""
-        self.handlers.setdefault(what, []).append(fn)
-
-    def reader(self, name: str, read: Callable[[sa.Connection, float], Any], apply: Callable[[Any], None]) -> None:
-        """read(connection, since) at each beat (since: the database's clock, a margin before the
-        last read), apply(what it read) on the loop."""
-        self.db.readers[name] = read
-        self.readers[name] = apply
 
     def confirmed(self) -> bool:
         return time.monotonic() < self.confirmed_until
@@ -143,17 +149,18 @@ class Fleet:
         if self.unreachable is None and not self.confirmed():
             self.unreachable = time.time() - max(0.0, time.monotonic() - self.confirmed_until + HOLD - MARGIN)
             log.warning('fleet: %s; its leases end and no new one is taken until it does', self.why_unconfirmed())
-            for fn in self.cut:
-                self._call(fn)
+            self._tell('on_cut_off')
         if self._loop is not None and not self._loop.is_closed():
             self._timer = self._loop.call_later(WATCH, self._watch)
 
-    @staticmethod
-    def _call(fn, *args) -> None:
+    def _tell(self, event: str, *args) -> None:
+        """The listener's ``event(*args)``; one that raises is logged, the fleet carries on."""
+        if self.listener is None:
+            return
         try:
-            fn(*args)
+            getattr(self.listener, event)(*args)
         except Exception:
-            log.exception('fleet: %s failed', getattr(fn, '__qualname__', fn))
+            log.exception('fleet: %s of %s failed', event, type(self.listener).__name__)
 
     # --- holds ----------------------------------------------------------------------------------
 
@@ -252,9 +259,7 @@ class Fleet:
 
     def _lose(self, key: tuple[str, str], holder: Hold | None, why: str | None = None) -> None:
         """Our hold is gone: ``holder`` has it now, or nobody (ended elsewhere: ``why``, or lapsed)."""
-        fn = self.lost.get(key[0])
-        if fn is not None:
-            self._call(fn, key[1], holder, why)
+        self._tell('on_hold_lost', key[0], key[1], holder, why)
 
     def _lost_hold(self, kind: str, name: str, person: str, who: str, row) -> None:
         """Our INSERT found the hold someone else's (both took it at once): we give way."""
@@ -312,9 +317,7 @@ class Fleet:
             del self.values[key]
         else:
             self.values[key] = value
-        fn = self.changed.get(kind)
-        if fn is not None:
-            self._call(fn, name, old, value)
+        self._tell('on_state_changed', kind, name, old, value)
 
     def ack(self, kind: str, name: str) -> None:
         """Tell the gateway that wrote it that this one applied (kind, name) (a logout)."""
@@ -395,8 +398,8 @@ class Fleet:
             if waiting is not None:
                 waiting[0].add(event['gw'])
                 waiting[1].set()
-        for fn in self.handlers.get(what, ()):
-            self._call(fn, event)
+        if what is not None:
+            self._tell('on_event', what, event)
 
     def _read(self, read: Read, first: bool = False) -> None:
         """A beat's read of the shared state: the mirror brought to it, except what changed here
@@ -424,15 +427,14 @@ class Fleet:
         for key in [k for k, at in self._state_heard.items() if at < now - 60]:
             del self._state_heard[key]
         for name, data in read.extra.items():
-            self._call(self.readers[name], data)
+            self._tell('on_read', name, data)
         was_cut = self.unreachable is not None
         self.confirmed_until = read.started + HOLD - MARGIN
         self.unreachable = None
         self.db.applied = read.clock
         if was_cut and not first:
             log.info('fleet: the database answers again; the shared state is read')
-            for fn in self.back:
-                self._call(fn)
+            self._tell('on_back')
 
     def _read_holds(self, read: Read, now: float) -> None:
         seen = {}
@@ -449,9 +451,7 @@ class Fleet:
         gone = [(key, h) for key, h in self.others.items() if key not in seen]
         self.others = seen
         for (kind, name), h in gone:   # not given back (that is an event): it lapsed, its gateway is gone
-            fn = self.lapsed.get(kind)
-            if fn is not None:
-                self._call(fn, name, h)
+            self._tell('on_hold_lapsed', kind, name, h)
 
     async def once(self, name: str, within: float = 30.0) -> bool:
         """Whether this gateway is the one to do ``name`` (a row only one gateway inserts); waits

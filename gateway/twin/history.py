@@ -39,7 +39,7 @@ from ..rules.names import parse_globs
 from ..settings import TwinSettings
 from ..store import METADATA
 from ..rules.hooks import Hook
-from .ports import Graph, Names, Parts, Store, Taps, Timekeeper
+from .ports import Graph, Names, Points, Store, Taps, Timekeeper
 
 log = logging.getLogger('rosgate.history')
 
@@ -138,7 +138,7 @@ class _Tap:
 
 class History(Hook):
     """The topics kept (their taps), the points waiting for the next batch, the latest value of
-    each field (for the OPC UA face, ``listeners``), and the store work: batches, roll-ups, cap.
+    each field (to ``events``: ``on_history_point``, the OPC UA face), and the store work: batches, roll-ups, cap.
     It reads through the topics' fan-outs (``taps``) what ``graph`` lists and ``names`` lets a client
     subscribe to; ``fleet``: the gateways on one PostgreSQL, of which only the timekeeper writes
     (None: this one alone). A history that only writes and reads (the bench, the store's tests) is
@@ -146,15 +146,14 @@ class History(Hook):
 
     def __init__(self, globs: tuple[str, ...] | None, *, max_bytes: int, full_seconds: float,
                  store: Store | None = None, taps: Taps | None = None, graph: Graph | None = None,
-                 names: Names | None = None, fleet: Timekeeper | None = None):
-        self.globs, self.store, self.fleet = globs, store, fleet
+                 names: Names | None = None, fleet: Timekeeper | None = None, events: Points | None = None):
+        self.globs, self.store, self.fleet, self.events = globs, store, fleet, events
         self.fanouts, self.graph, self.names = taps, graph, names   # (self.taps: the topics kept)
         self.max_bytes, self.full_seconds = max_bytes, full_seconds
         self.taps: dict[str, tuple] = {}              # topic -> (fanout, _Tap)
         self.refused: set[str] = set()                # topics that cannot be kept (logged once)
         self.pending: list[tuple[str, str, int, float]] = []   # (topic, field, t_ms, v)
         self.latest: dict[tuple[str, str], tuple[float, float]] = {}
-        self.listeners: list = []                     # fn(topic, field, t, v) on every new point
         self.ids: dict[tuple[str, str], int] = {}     # series ids, used on the store's thread only
         self.rows = 0                                 # written since start
         self.window: deque[tuple[float, int]] = deque(maxlen=64)   # (time, rows) after each batch
@@ -221,11 +220,8 @@ class History(Hook):
                 continue
             self.pending.append((tap.topic, path, t_ms, v))
             self.latest[(tap.topic, path)] = (now, v)
-            for listener in self.listeners:
-                try:
-                    listener(tap.topic, path, now, v)
-                except Exception:
-                    log.exception('history listener failed')
+            if self.events is not None:
+                self.events.history_point(tap.topic, path, now, v)   # on_history_point (the OPC UA twin)
 
     def writes(self) -> bool:
         """Whether this gateway writes the history: alone, yes; in a fleet of gateways on one
@@ -234,7 +230,7 @@ class History(Hook):
 
     def flush(self) -> None:
         if not self.writes():
-            self.pending = []   # the points stay live here (latest, listeners); the timekeeper keeps them
+            self.pending = []   # the points stay live here (latest, on_history_point); the timekeeper keeps them
             return
         if self.pending:
             batch, self.pending = self.pending, []
@@ -358,14 +354,13 @@ def history_globs(value: str | None) -> tuple[str, ...] | None | bool:
     return parse_globs(value)
 
 
-def start_history(s: TwinSettings, hooks: Parts, *, store: Store, taps: Taps, graph: Graph, names: Names,
+def start_history(s: TwinSettings, events: Points, *, store: Store, taps: Taps, graph: Graph, names: Names,
                   fleet: Timekeeper | None) -> History | None:
     """The gateway's history as its settings ask (None with --history none); it starts keeping now."""
     globs = history_globs(s.history)
     if globs is False:
         return None
     history = History(globs, max_bytes=int(s.history_max_mb * 2**20), full_seconds=s.history_full_hours * 3600,
-                      store=store, taps=taps, graph=graph, names=names, fleet=fleet)
-    hooks.add(history)
-    history.start()
+                      store=store, taps=taps, graph=graph, names=names, fleet=fleet, events=events)
+    history.start()   # a part of the gateway's hooks (server.start)
     return history

@@ -36,7 +36,7 @@ from ..rules.access import may
 from ..auth.tokens import AuthError
 from ..settings import data_dir
 from ..rules.hooks import Hook
-from .ports import Parts, SignIn
+from .ports import SignIn
 
 log = logging.getLogger('rosgate.opcua')
 NAMESPACE = 'urn:rosgate:twin'
@@ -80,11 +80,10 @@ class Twin(Hook):
         self.thread = threading.Thread(target=self._run, name='rosgate-opcua', daemon=True)
 
     def start(self) -> None:
-        self.history.listeners.append(self.on_point)
         self.thread.start()
 
-    def on_point(self, topic: str, field: str, t: float, v: float) -> None:
-        """On the gateway's loop, from the history."""
+    def on_history_point(self, topic: str, field: str, t: float, v: float) -> None:
+        """On the gateway's loop, from the history (rules.hooks)."""
         stations = self.policy.stations
         if stations is not None:
             self.stations = tuple(stations.stations())
@@ -176,8 +175,6 @@ class Twin(Hook):
         return node
 
     def on_shutdown(self) -> None:
-        if self.on_point in self.history.listeners:
-            self.history.listeners.remove(self.on_point)
         if self.loop is not None and self.stopping is not None:
             self.loop.call_soon_threadsafe(self.stopping.set)
             self.thread.join(10)
@@ -210,12 +207,11 @@ class _Users:
         return User(role=UserRole.User, name=identity.name)
 
 
-def start_twin(history, port: int | None, hooks: Parts, *, policy: SignIn, address: str = '') -> Twin | None:
+def start_twin(history, port: int | None, *, policy: SignIn, address: str = '') -> Twin | None:
     """The OPC UA server with --opcua (the start-up check refused it without asyncua, or with
     --history none)."""
     if port is None:
         return None
-    twin = Twin(history, port, policy=policy, address=address)
-    hooks.add(twin)
+    twin = Twin(history, port, policy=policy, address=address)   # a part of the gateway's hooks (server.start)
     twin.start()
     return twin

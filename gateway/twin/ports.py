@@ -4,7 +4,7 @@
 the ``Params`` (both: the ``Backend``); ``rules.policy.Policy`` the ``Names`` (asked through
 ``rules.access.may``), with its ``auth`` and ``stations`` the ``SignIn``; the fleet of gateways
 (``store.fleet.Fleet``) the ``Timekeeper``; ``store.Store`` the ``Store``; ``rules.hooks.Hooks``
-takes the parts (``Parts``). No module in twin/ holds the Gateway.
+hears the history's points (``Points``). No module in twin/ holds the Gateway.
 """
 
 from __future__ import annotations
@@ -12,7 +12,6 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable
 from typing import Any, Protocol
 
-from ..rules.hooks import Hook
 
 
 class Fanout(Protocol):
@@ -90,6 +89,6 @@ class Store(Protocol):
     def size(self) -> int: ...
 
 
-class Parts(Protocol):
-    """Where a part that follows the gateway's events is added (``rules.hooks.Hooks``)."""
-    def add(self, part: Hook) -> None: ...
+class Points(Protocol):
+    """Where the history tells of each point it keeps (``rules.hooks.Hooks``: ``on_history_point``)."""
+    def history_point(self, topic: str, field: str, t: float, v: float) -> None: ...

@@ -30,6 +30,7 @@ async def measure(runs: int = 7, n: int = 20000) -> dict:
     gw = Gateway(replace(Settings(), safety=SafetySettings(exclusive_control=True, cmd_timeout=0)), backend)
     composed = rules.compose(gw.rule_doors())
     gw.install(composed)
+    gw.hooks.seal(composed.hooks)
     composed.stations._stations = tuple(f'/s{i:02d}' for i in range(1, 31))   # as a --fleet 30 finds them
     composed.stations._stations_at = float('inf')
     ada = gw.open_sender('ada', 'operator', person='user ada')

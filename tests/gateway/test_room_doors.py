@@ -71,10 +71,10 @@ async def test_the_rooms_doors_are_what_the_server_hands_them(tokens):
             pairs = [
                 (media.Taps, Taps(g)), (media.Senders, Senders(g)), (media.Graph, backend), (media.Types, backend),
                 (media.Names, policy), (media.Lease, policy.lease), (media.StationNames, policy.lease.names),
-                (media.Parts, g.hooks), (media.Fanout, fan), (media.Outlet, g.publisher('/doors', STRING, QoS())),
+                (media.Fanout, fan), (media.Outlet, g.publisher('/doors', STRING, QoS())),
                 (twin.Taps, Taps(g)), (twin.Backend, backend), (twin.Names, policy), (twin.SignIn, policy),
                 (twin.Tokens, policy.auth), (twin.Stations, policy.stations), (twin.Store, g.store),
-                (twin.Timekeeper, Fleet), (twin.Parts, g.hooks), (twin.Fanout, fan),
+                (twin.Timekeeper, Fleet), (twin.Points, g.hooks), (twin.Fanout, fan),
             ]
             assert all(members(port) for port, _ in pairs)
             wrong = [w for port, obj in pairs for w in unmet(port, obj)]

@@ -76,10 +76,12 @@ def test_hooks_hear_every_event_in_order_and_a_failing_one_is_logged(caplog):
             heard.append(('slot', station, person, why))
 
     hooks = Hooks()
-    hooks.add(Broken())
-    hooks.add(Listening())
     with pytest.raises(TypeError):
-        hooks.add(object())
+        hooks.seal((Broken(), object()))
+    hooks.close('before the seal')                # nobody hears it yet
+    hooks.seal((Broken(), None, Listening()))     # None: a part not built (no --opcua ...)
+    with pytest.raises(RuntimeError):
+        hooks.seal((Listening(),))                # once
     with caplog.at_level(logging.ERROR, logger='rosgate'):
         hooks.close('a session')
         hooks.slot_ended('/s01', 'ann', 'ended')
@@ -114,6 +116,8 @@ async def test_the_rules_are_composed_in_their_documented_order(tmp_path):
         assert composed.hooks == (composed.stations, composed.lease, composed.safety, composed.slots, runs)
         gateway.install(composed)
         assert gateway.policy is composed.policy and gateway.rules == composed.publish
+        assert list(gateway.hooks) == []          # heard once sealed, with the other parts (server.start)
+        gateway.hooks.seal(composed.hooks)
         assert list(gateway.hooks) == list(composed.hooks)
         with pytest.raises(RuntimeError):
             gateway.install(composed)

@@ -266,6 +266,18 @@ def test_logout_ends_the_session_on_the_server(secured):
         assert reply['result'] is False and 'not authenticated' in reply['values']
 
 
+def test_logout_closes_that_sign_ins_websockets_and_no_others(secured):
+    """Her pages' websockets close (1008) the moment she signs out (``auth.sessions`` tells the
+    hooks, ``bridge.doors.SignOuts`` closes them); another sign-in's connection carries on."""
+    mine, other = login(secured, TOKENS['operator']), login(secured, TOKENS['operator'])
+    with Client(secured.ws_url, additional_headers={'Cookie': mine}) as hers, \
+            Client(secured.ws_url, additional_headers={'Cookie': other}) as theirs:
+        assert hers.call('/rosapi/get_time')['result'] is True
+        assert http(secured, '/logout', method='POST', headers={'Cookie': mine})[0] == 303
+        assert hers.closed_code(30) == 1008
+        assert theirs.call('/rosapi/get_time')['result'] is True
+
+
 def test_sessions_survive_a_restart_and_end_at_their_expiry(launch, tokens_file, tmp_path):
     """Kept in the store: a restarted gateway knows its sessions; --session-hours bounds them."""
     from tests.support.process import GatewayProcess

@@ -23,6 +23,7 @@ import tornado.httputil
 from gateway import rules
 from gateway.bridge import rosapi
 from gateway.bridge.gateway import Gateway
+from gateway.bridge.outbox import BATCHING
 from gateway.bridge.session import ClientSession
 from gateway.cli import build_parser, check, make_backend, ros_style, settings_from
 from gateway.rules.stations import BROWSER_COOKIE
@@ -48,10 +49,12 @@ class InProcess:
         settings = settings_from(parser.parse_args(ros_style(list(self.flags), parser)))
         start = check(settings)
         self.backend = make_backend(settings, start.robots, [], 'rosgate_in_process')
-        await self.backend.start()
+        await self.backend.start(**BATCHING)   # as server.serve starts it
         self.gateway = Gateway(settings, self.backend)
         # what viewers may call: the gateway's read-only services, as server.start gives them
-        self.gateway.install(rules.compose(self.gateway.rule_doors(), start.files, reads=rosapi.handles))
+        composed = rules.compose(self.gateway.rule_doors(), start.files, reads=rosapi.handles)
+        self.gateway.install(composed)
+        self.gateway.hooks.seal(composed.hooks)   # the rules' parts hear the gateway's events, as server.start seals them
         return self
 
     async def __aexit__(self, *exc) -> None:

@@ -79,12 +79,18 @@ class RclpyBackend(TypesAndGraph):
         # the pump delivers each batch of messages inside this (the gateway: one write per client)
         self.batch_scope: Callable[[], Any] = contextlib.nullcontext
         # fn -> whether fn runs at the end of the gateway's open batch (the frames of one socket
-        # read); False: no batch is open
+        # read); False: no batch is open (both given to ``start``)
         self.after_batch: Callable[[Callable[[], None]], bool] = lambda fn: False
 
     # --- lifecycle ----------------------------------------------------------------------------
 
-    async def start(self) -> None:
+    async def start(self, batch_scope=None, after_batch=None) -> None:
+        """batch_scope, after_batch: the bridge's (``bridge.outbox``), so each client gets a batch's
+        frames in one write; None: each message on its own."""
+        if batch_scope is not None:
+            self.batch_scope = batch_scope
+        if after_batch is not None:
+            self.after_batch = after_batch
         import rclpy  # noqa: PLC0415 (optional dependency, present on ROS 2 machines)
         from rclpy.callback_groups import ReentrantCallbackGroup  # noqa: PLC0415
         from rclpy.context import Context  # noqa: PLC0415

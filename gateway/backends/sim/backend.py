@@ -27,16 +27,10 @@ class SimBackend:
         self._node: Node | None = None
         self.robots: list = []
 
-    @property
-    def batch_scope(self):
-        """What a timer's tick publishes inside (the gateway sets its ``corked``): timers.Ticker."""
-        return self.graph.batch_scope
-
-    @batch_scope.setter
-    def batch_scope(self, scope) -> None:
-        self.graph.batch_scope = scope
-
-    async def start(self) -> None:
+    async def start(self, batch_scope=None, after_batch=None) -> None:
+        """batch_scope: what a timer's tick publishes inside (the bridge's ``corked``: timers.Ticker)."""
+        if batch_scope is not None:
+            self.graph.batch_scope = batch_scope
         self._node = self.graph.node(self.node_name)
         if self._demo:
             start_demo_nodes(self.graph, talker=self._talker, fibonacci_interval=self._fib_interval)
