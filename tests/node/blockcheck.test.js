@@ -1,5 +1,5 @@
 // The page's block check (ide/js/blocks/blockcheck.js) on the cases the gateway's is run on too
-// (tests/gateway/test_blockcheck.py): the page and the gateway refuse the same definitions.
+// (tests/lab/test_blockcheck.py): the page and the gateway refuse the same definitions.
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { readFileSync } from 'node:fs';

@@ -30,7 +30,7 @@ SLOW = (
     'tests/fuzz/',
     'tests/ide/test_robot_runs.py',
     'tests/ide/test_nginx_proxy.py',
-    'tests/gateway/test_run_sandbox.py',
+    'tests/runs/test_run_sandbox.py',
     'tests/security/test_bookings.py',
     'tests/ide/test_booking.py',
 )

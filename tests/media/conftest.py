@@ -1,4 +1,4 @@
-"""Fixtures of the gateway tests: a gateway with no robot and a test camera publishing to it
+"""Fixtures of the media tests: a gateway with no robot and a test camera publishing to it
 (its web_video_server URLs and image subscriptions)."""
 
 from __future__ import annotations
