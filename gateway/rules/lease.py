@@ -239,7 +239,7 @@ class Lease(FleetLease, Hook):
             return None
         group = self.group(name)
         if self.holders.get(group) is session:   # the holder's own: the table passes it whatever else holds
-            return None                          # (tests/security/test_lease_table.py), so nothing is looked up
+            return None                          # (tests/rules/test_lease_table.py), so nothing is looked up
         key, gateway = person(session), is_gateway(session)   # the gateway's zeros pass, whatever their type
         moving = msg is None or (type not in self.types and not gateway) or moving_command(msg)
         answer = self.grants.verdict(session, Command.DRIVE, self.facts(group, key, session, moving=moving))

@@ -10,7 +10,7 @@ teacher's Stop, bar or ended slot -- a signed-in admin), and does what the answe
 is a refusal (its reason; the lease words it, naming who holds what) or an allow with its effect,
 which is state, not permission (grant the lease, quietly between one person's clients, lend it to a
 run, halt, free ...). ``TABLE`` is read top to bottom per command; the first row whose conditions
-all hold answers. tests/security/test_lease_table.py checks every case against a transcription of
+all hold answers. tests/rules/test_lease_table.py checks every case against a transcription of
 the lease's branches as they were, and that every row decides some case.
 """
 

@@ -2,7 +2,7 @@
 rules composed from the command line's flags (the CLI's parser and check, ``rules.compose``), and
 clients that are real ``ClientSession``s fed frames as the websocket handler feeds them (its
 ``open``: the connection's attributes from the upgrade request, ``hooks.connect``), their replies
-read back. For the rules' tables (tests/security/test_rule_tables.py): a case costs microseconds
+read back. For the rules' tables (tests/rules/test_rule_tables.py): a case costs microseconds
 where a gateway process costs a second of CPU to start.
 
     async with InProcess('--fleet', '3', '--exclusive-control', '--auth', tokens) as gw:

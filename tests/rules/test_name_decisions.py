@@ -9,7 +9,7 @@ from __future__ import annotations
 import pytest
 
 from gateway.rules.access import Action, Name, Unauthorized, may
-from tests.security.test_rule_tables import FLEET, GLOBS, MAY, MAY_GLOBS, people
+from tests.rules.test_rule_tables import FLEET, GLOBS, MAY, MAY_GLOBS, people
 from tests.support.auth import tokens_toml
 from tests.support.inproc import InProcess
 
