@@ -84,8 +84,7 @@ WORDS = {
     (C.DRIVE, V.OTHERS_STATION): '{name}: {group} is {owner}\'s station; press "Claim a robot" for your own, or ask '
                                  'the teacher',
     (C.DRIVE, V.OTHER_DRIVES): '{name}: {holder} is driving{where} (exclusive control); {way_out}',
-    (C.TAKE, V.STOPPED_OWNER_ONLY): '{stopper} stopped {group}; only its owner ({owner}) can take it again, or an '
-                                    'admin release it: press "Claim a robot" for your own',
+    (C.TAKE, V.STOPPED_OWNER_ONLY): '{stopper} stopped {group}; {owner_only}',
     (C.TAKE, V.OTHERS_STATION): '{group} is {owner}\'s station; only they or an admin can take it: press "Claim a '
                                 'robot" for your own',
     (C.TAKE, V.ELSEWHERE): '{elsewhere} is driving {group} through another gateway; only an admin can take over: '
@@ -119,7 +118,18 @@ class _Said(dict):
         return self.lease.halted.get(self['group'])
 
     def owner(self) -> str:
-        return self.lease.owners.owner(self['group']).name
+        o = self.lease.owners.owner(self['group'])
+        return 'nobody' if o is None else o.name
+
+    def owner_only(self) -> str:
+        """Who may take a stopped station: its owner; or, when nobody owns it (the teacher released it
+        from this person), what keeps her from it."""
+        group = self['group']
+        if self.lease.owners.owner(group) is not None:
+            return f'only its owner ({self.owner()}) can take it again, or an admin release it: press "Claim a ' \
+                   'robot" for your own'
+        why = self.lease._walk_in_refusal(group, self.key) or 'press "Claim a robot" for one'
+        return f'nobody owns {group} now; {why}'
 
     def holder(self) -> str:
         return who(self.lease.holders[self['group']])

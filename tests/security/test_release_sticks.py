@@ -73,3 +73,39 @@ def test_one_persons_clients_share_her_station_without_a_word(launch, tokens_fil
         # another person is refused, and told what resolves it
         refusal = bob.refusal({'op': 'publish', 'topic': S01, 'type': TWIST, 'msg': twist(0.3)})
         assert 'is driving /s01' in refusal['msg'] and 'Claim a robot' in refusal['msg'], refusal
+
+
+def browser(gw, id: str) -> Client:
+    """A page of browser ``id`` (with auth off its id cookie is who the person is)."""
+    return Client(gw.ws_url, additional_headers={'Cookie': f'rosgate_browser={id}'})
+
+
+def take(client: Client, ns: str) -> dict | None:
+    return client.refusal({'op': 'publish', 'topic': '/rosgate/control', 'type': 'std_msgs/msg/String',
+                           'msg': {'data': f'take {ns}'}})
+
+
+def test_with_auth_off_a_take_of_a_released_then_stopped_station_is_refused_in_words(launch):
+    gw = launch('--robot', 'turtlesim', '--fleet', '2', '--exclusive-control', '--cmd-timeout', '0')
+    with browser(gw, 'teacher-browser-0001') as teacher, browser(gw, 'student-browser-0002') as ide, \
+            browser(gw, 'student-browser-0003') as bob:
+        teacher.subscribe(DRIVER, 'std_msgs/msg/String')
+        assert ide.call('/fleet/claim')['values'] == {'success': True, 'message': '/s01'}
+        assert ide.refusal({'op': 'publish', 'topic': S01, 'type': TWIST, 'msg': twist(0.5)}) is None
+        latest(teacher, DRIVER, lambda d: d['drivers']['/s01'] is not None)
+        # the teacher's Release, then her Stop of the station nobody owns now
+        assert teacher.call('/s01/fleet/release')['values']['success'] is True
+        assert teacher.refusal({'op': 'publish', 'topic': '/rosgate/control', 'type': 'std_msgs/msg/String',
+                                'msg': {'data': 'stop /s01'}}) is None
+        latest(teacher, DRIVER, lambda d: '/s01' in d['halted'] and d['drivers']['/s01'] is None)
+        # the released browser's Take: a refusal that says the station is nobody's and what resolves it
+        refusal = take(ide, '/s01')
+        assert refusal and 'internal error' not in refusal['msg'], refusal
+        assert 'stopped /s01; nobody owns /s01 now' in refusal['msg'], refusal
+        assert 'released /s01' in refusal['msg'] and 'Claim a robot' in refusal['msg'], refusal
+        # every client carries on: another browser takes the free station (the table's grant) and drives
+        assert take(bob, '/s01') is None
+        latest(teacher, DRIVER, lambda d: d['drivers']['/s01'] is not None and '/s01' not in d['halted'])
+        assert bob.refusal({'op': 'publish', 'topic': S01, 'type': TWIST, 'msg': twist(0.2)}) is None
+        # and the released browser claims a station of her own
+        assert ide.call('/fleet/claim')['values'] == {'success': True, 'message': '/s02'}
