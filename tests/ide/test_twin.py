@@ -55,7 +55,7 @@ def drive(ros, linear: float, angular: float, seconds: float) -> None:
 def test_twin_draws_the_rover_and_it_turns_on_the_canvas(chromium, rover):
     gw, ros = rover
     with phone_page(chromium, gw.http_url + "twin") as (page, errors):
-        page.wait_for_function("document.body.dataset.ready === 'true'", timeout=WAIT)
+        page.wait_for_function("document.body.dataset.ready === 'true' && !!window.twin", timeout=WAIT)
         page.wait_for_function("twin.state.model === 'urdf' && twin.state.pose !== null && twin.state.frames > 5", timeout=WAIT)
         page.wait_for_function("twin.state.markers >= 4 && twin.state.scanPoints > 100 && twin.state.battery > 0", timeout=WAIT)
         page.wait_for_function("Number.isFinite(twin.state.temps.left)", timeout=WAIT)
@@ -95,6 +95,8 @@ def test_the_twin_connects_again_after_the_gateway_restarts_and_draws_on(chromiu
     (one robot in the scene). A twin that opened its connection once stayed closed."""
     gw = start_gateway("--robot", "rover")
     with phone_page(chromium, gw.http_url + "twin") as (page, errors):
+        # the page's state is read once its entry module is there (tests/support/page_state.js)
+        page.wait_for_function("document.body.dataset.ready === 'true' && !!window.twin", timeout=WAIT)
         page.wait_for_function("twin.state.model === 'urdf' && twin.state.pose !== null && twin.state.scanPoints > 100",
                                timeout=WAIT)
         robot = page.evaluate_handle("twin.robot")
@@ -117,7 +119,7 @@ def test_the_twin_connects_again_after_the_gateway_restarts_and_draws_on(chromiu
 def test_twin_of_a_fleet_station_and_the_teleop_link(chromium, start_gateway):
     gw = start_gateway("--fleet", "2", "--robot", "rover")
     with phone_page(chromium, gw.http_url + "teleop?ns=/s02") as (page, errors):
-        page.wait_for_function("document.body?.dataset.ready === 'true'", timeout=WAIT)
+        page.wait_for_function("document.body?.dataset.ready === 'true' && !!window.teleop", timeout=WAIT)
         assert page.get_attribute("#twin-link", "href").endswith("twin?ns=%2Fs02")
         page.click("#twin-link")
         page.wait_for_function("window.twin && twin.state.model === 'urdf' && twin.state.pose !== null", timeout=WAIT)
@@ -130,7 +132,7 @@ def test_twin_of_a_fleet_station_and_the_teleop_link(chromium, start_gateway):
 def test_the_teleop_pages_3d_panel_draws_its_station_only_while_shown(chromium, start_gateway):
     gw = start_gateway("--fleet", "2", "--robot", "rover")
     with phone_page(chromium, gw.http_url + "teleop?ns=/s02") as (page, errors):
-        page.wait_for_function("document.body?.dataset.ready === 'true'", timeout=WAIT)
+        page.wait_for_function("document.body?.dataset.ready === 'true' && !!window.teleop", timeout=WAIT)
         # hidden: no frame loaded, no WebGL, no second connection
         assert page.is_hidden("#twin-frame") and page.get_attribute("#twin-frame", "src") is None
         assert [f.url for f in page.frames if f != page.main_frame] in ([], ["about:blank"])

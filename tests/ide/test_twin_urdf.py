@@ -43,7 +43,7 @@ def open_page(page, url: str):
     """Go to the page at url and wait for its module to have run: it awaits the page's language
     first, so it may run after the load event goto waits for."""
     page.goto(url)
-    page.wait_for_function("document.body?.dataset.ready === 'true'", timeout=WAIT)
+    page.wait_for_function("document.body?.dataset.ready === 'true' && !!(window.twin || window.teleop)", timeout=WAIT)
 
 
 @contextmanager
@@ -90,7 +90,7 @@ def test_the_robots_own_meshes_draw_and_its_wheel_turns(chromium, bot):
     gw, joints = bot
     joints.publish(roslibpy.Message(joint_state(0.0)))
     with tablet_page(chromium, gw.http_url + 'twin?ns=/bot') as (page, errors):
-        page.wait_for_function("document.body.dataset.ready === 'true'", timeout=WAIT)
+        page.wait_for_function("document.body.dataset.ready === 'true' && !!window.twin", timeout=WAIT)
         page.wait_for_function("twin.state.model === 'urdf' && twin.state.meshes === 'missing'", timeout=WAIT)
         assert page.evaluate('twin.state.urdfFrom') == 'topic'
         missing = page.evaluate('twin.state.missing')
@@ -134,7 +134,7 @@ def test_the_robots_own_meshes_draw_and_its_wheel_turns(chromium, bot):
 def test_the_map_draws_in_the_teleop_pages_world_view(chromium, bot):
     gw, _ = bot
     with tablet_page(chromium, gw.http_url + 'teleop?ns=/bot') as (page, errors):
-        page.wait_for_function("document.body?.dataset.ready === 'true'", timeout=WAIT)
+        page.wait_for_function("document.body?.dataset.ready === 'true' && !!window.teleop", timeout=WAIT)
         page.wait_for_function('window.teleop.world?.grid?.w > 0', timeout=WAIT)
         assert page.is_visible('#world')
         grid = page.evaluate('({ w: teleop.world.grid.w, h: teleop.world.grid.h, frame: teleop.world.grid.frame })')
@@ -158,7 +158,7 @@ def test_the_map_draws_in_the_teleop_pages_world_view(chromium, bot):
 def test_a_tap_on_the_floor_sends_a_navigation_goal(chromium, bot):
     gw, _ = bot
     with tablet_page(chromium, gw.http_url + 'twin?ns=/bot') as (page, errors):
-        page.wait_for_function("document.body.dataset.ready === 'true' && twin.state.map", timeout=WAIT)
+        page.wait_for_function("document.body.dataset.ready === 'true' && !!window.twin && twin.state.map", timeout=WAIT)
         assert page.is_visible('#goal')
         page.click('#goal')   # (first: the page's bar may change size with the button's state)
         # a floor point in front of the robot (x = 1.5, y = 0.5), where the page draws it

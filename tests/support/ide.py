@@ -94,7 +94,7 @@ def open_teleop(chromium, gw, query: str = "", sent: list | None = None, **ctx_a
         page.on("websocket", lambda ws: ws.on("framesent", lambda f: sent.append(json.loads(f))
                                                 if isinstance(f, str) and f.startswith("{") else None))
     page.goto(gw.http_url + "teleop" + query)
-    page.wait_for_function("document.body?.dataset.ready === 'true'")
+    page.wait_for_function("document.body?.dataset.ready === 'true' && !!window.teleop")   # its state readable
     page.wait_for_function("document.body?.dataset.connection === 'connected'")
     return ctx, page, errors
 
