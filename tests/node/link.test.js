@@ -6,7 +6,7 @@ import { spawn } from 'node:child_process';
 import { once } from 'node:events';
 import { fileURLToPath } from 'node:url';
 import path from 'node:path';
-import { Link, RETRY, SILENCE, backoff } from '../../ide/js/link/link.js';
+import { Link, RETRY, SILENCE, backoff, heavy } from '../../ide/js/link/link.js';
 
 const root = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '..', '..');
 const python = process.env.ROSGATE_PYTHON || path.join(root, '.venv', 'bin', 'python');
@@ -134,4 +134,18 @@ test('an idle robot\'s data is current: its age counts from the newest pong, not
   link.restart = () => {};
   link._drop();
   gw.proc.kill('SIGKILL');
+});
+
+test('a heavy moment of the page (heavy()) makes every link of the page patient', async () => {
+  const a = new Link('ws://127.0.0.1:1/');
+  const b = new Link('ws://127.0.0.1:1/');
+  for (const link of [a, b]) for (let i = 0; i < 40; i++) link._measured(20);
+  let done;
+  const loading = new Promise((resolve) => { done = resolve; });
+  assert.equal(heavy(loading), loading);
+  assert.deepEqual([a.silence(), b.silence()], [5000, 5000]);   // a Python worker starting in the page
+  done();
+  await loading;
+  await new Promise((resolve) => { setTimeout(resolve, 0); });
+  assert.deepEqual([a.silence(), b.silence()], [SILENCE, SILENCE]);
 });

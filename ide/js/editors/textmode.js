@@ -87,7 +87,7 @@ export class TextMode {
 
   // Python starts loading when a Python program opens (Pyodide's start is seconds on a 2-core
   // machine): the bar shows it loading, with the time so far, and then ready. The page's link
-  // allows the longer silence a loaded machine shows meanwhile (link.js patient()).
+  // allows the longer silence a loaded machine shows meanwhile (pyrun.js, link.js heavy()).
   _preparePython(editor) {
     if (this.python) return;
     const bar = editor.tools;
@@ -109,7 +109,6 @@ export class TextMode {
       return ok;
     });
     state.dataset.state = 'loading';
-    this.ide.link?.patient(this.python);
   }
 
   get active() { return this.lang !== null; }

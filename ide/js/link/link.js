@@ -28,6 +28,14 @@ const LOOK_EVERY = 100;                 // ms between looks at the silence
 export const RETRY = { first: 150, factor: 2, cap: 800, jitter: 0.3 };   // ms; each delay ±30 %
 export const ATTEMPT_TIMEOUT = 2500;    // ms an attempt may go unanswered while the round trip is unknown
 const PING_ID = 'link.ping';
+const links = new Set();                // the page's links: a heavy moment of the page makes each patient
+
+// A heavy moment of the page (a Python worker starting: Pyodide compiling): every link of the page
+// allows the longer silence until `promise` settles (Link.patient). Returns `promise`.
+export function heavy(promise) {
+  for (const link of links) link.patient(promise);
+  return promise;
+}
 
 // The delay before attempt n (0, 1, ...): first·factor^n, at most cap, spread by ±jitter.
 export function backoff(n, { first, factor, cap, jitter } = RETRY, random = Math.random) {
@@ -58,6 +66,7 @@ export class Link extends EventTarget {
     this.ticker = null;
     this.pinged = 0;
     this.busy = 0;             // heavy moments of the page under way (patient())
+    links.add(this);
   }
 
   // A heavy moment the page knows of: Pyodide compiling its 10 MB of WebAssembly takes both cores of

@@ -13,6 +13,7 @@
 // after Stop does not wait for Pyodide to start.
 import { isVelocityType, zeroVelocity } from '../../runtime/util.js';
 import { t, num } from '../i18n.js';
+import { heavy } from '../link/link.js';
 
 const MAILBOX = 4 * 2 ** 20;     // bytes of gateway messages waiting for the worker
 const PER_TOPIC = 200;           // messages of one topic kept while the worker is busy (the oldest go)
@@ -55,6 +56,7 @@ function startWorker(guest = false) {
   });
   const w = { worker, ready, isReady: false };
   ready.then(() => { w.isReady = true; }, () => {});
+  heavy(ready);   // Pyodide compiling takes the machine for seconds: the page's links are patient meanwhile
   return w;
 }
 

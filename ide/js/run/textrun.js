@@ -278,7 +278,7 @@ export class TextRunner extends EventTarget {
     run.py = py;
     if (!py.isReady()) {      // Python started loading when the program opened (textmode.js): say we wait
       this.ide.console.info(t('text.python.loading'));
-      this.ide.link?.patient(py.prepare());
+      py.prepare();
     }
     const problems = await py.checkPython(text);
     if (this.run_ !== run) return;
@@ -293,10 +293,8 @@ export class TextRunner extends EventTarget {
     if (this.run_ !== run) return;
     await py.runPython(text, {
       guest: Boolean(this.ide.foreign),          // another person's program: a worker apart (js/run/foreign.js)
-      starting: (ready, guest) => {              // its own Pyodide loads: the link is patient meanwhile
-        if (!guest) return;
-        if (this.run_ === run) this.ide.console.info(t('text.python.loading'));
-        this.ide.link?.patient(ready);
+      starting: (ready, guest) => {              // its own Pyodide loads (the link is patient meanwhile: pyrun.js)
+        if (guest && this.run_ === run) this.ide.console.info(t('text.python.loading'));
       },
       ros: run.door.ros,
       namespace: this.ide.ns ?? '',
