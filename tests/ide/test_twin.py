@@ -4,6 +4,7 @@ low-battery blink."""
 
 from __future__ import annotations
 
+import math
 import time
 from contextlib import contextmanager
 
@@ -11,6 +12,7 @@ import roslibpy
 
 from tests.support.ide import ARTIFACTS, PHONE
 from tests.support.ros import RosClient
+from tests.support.wait import wait_for
 
 PIXEL_POLL = 250   # ms between reads of the whole canvas (each is a full readPixels)
 WAIT = 60000   # ms: a busy machine compiles the shaders slowly
@@ -42,12 +44,21 @@ def phone_page(chromium, url: str):
         ctx.close()
 
 
-def drive(ros, linear: float, angular: float, seconds: float) -> None:
+def turn(ros, angle: float = 1.0) -> None:
+    """Turns the rover on the spot until its odometry says it turned by ``angle`` (rad): commands
+    every 0.1 s (a loaded machine may deliver fewer; the gateway zeroes the robot when this
+    connection's publisher goes)."""
+    odom = ros.watch("/odom", "nav_msgs/msg/Odometry")
+    yaw = lambda m: math.atan2(2 * m["pose"]["pose"]["orientation"]["w"] * m["pose"]["pose"]["orientation"]["z"],
+                               1 - 2 * m["pose"]["pose"]["orientation"]["z"] ** 2)
+    yaw0 = yaw(wait_for(odom.latest, what="odometry"))
     cmd = roslibpy.Topic(ros.ros, "/cmd_vel", "geometry_msgs/msg/Twist")
     cmd.advertise()
-    t0 = time.time()
-    while time.time() - t0 < seconds:
-        cmd.publish(roslibpy.Message({"linear": {"x": linear, "y": 0, "z": 0}, "angular": {"x": 0, "y": 0, "z": angular}}))
+    turned = lambda: abs(math.remainder(yaw(odom.latest()) - yaw0, math.tau)) > angle
+    deadline = time.monotonic() + 60
+    while not turned():
+        assert time.monotonic() < deadline, f"the rover did not turn by {angle} rad in 60 s: {odom.latest()}"
+        cmd.publish(roslibpy.Message({"linear": {"x": 0, "y": 0, "z": 0}, "angular": {"x": 0, "y": 0, "z": 1.5}}))
         time.sleep(0.1)
     cmd.unadvertise()
 
@@ -64,7 +75,7 @@ def test_twin_draws_the_rover_and_it_turns_on_the_canvas(chromium, rover):
         yaw0 = page.evaluate("twin.robot.rotation.z")
         assert before["webgl"] and len(before["mask"]) > 200, len(before["mask"])   # the robot is on the canvas
 
-        drive(ros, 0.0, 1.5, 1.2)   # turn on the spot
+        turn(ros)   # on the spot
         page.wait_for_function(f"Math.abs(twin.robot.rotation.z - ({yaw0})) > 0.6", timeout=WAIT)
         frames = page.evaluate("twin.state.frames")
         page.wait_for_function(f"twin.state.frames > {frames + 3}", timeout=WAIT)
@@ -107,8 +118,15 @@ def test_the_twin_connects_again_after_the_gateway_restarts_and_draws_on(chromiu
         page.evaluate("twin.state.scanPoints = 0")
         yaw0 = page.evaluate("twin.robot.rotation.z")
         with RosClient(again) as ros:
-            drive(ros, 0.0, 1.5, 1.2)   # turn on the spot, on the new gateway
-        page.wait_for_function(f"Math.abs(twin.robot.rotation.z - ({yaw0})) > 0.6", timeout=WAIT)
+            turn(ros)   # on the spot, on the new gateway
+            try:
+                page.wait_for_function(f"Math.abs(twin.robot.rotation.z - ({yaw0})) > 0.6", timeout=WAIT)
+            except Exception as e:
+                odom = ros.watch("/odom", "nav_msgs/msg/Odometry")
+                wait_for(odom.latest, what="odometry")
+                seen = page.evaluate("JSON.stringify({state: twin.state, yaw: twin.robot.rotation.z,"
+                                     " lost: twin.link.lastLost, link: twin.link.state})")
+                raise AssertionError(f"the twin did not turn: {seen}; the rover's odometry: {odom.latest()}") from e
         page.wait_for_function("twin.state.scanPoints > 100", timeout=WAIT)   # the scan subscribed again
         assert page.evaluate("(robot) => robot === twin.robot && twin.scene.children.filter((o) => o === robot).length", robot) == 1
         frames = page.evaluate("twin.state.frames")
