@@ -312,5 +312,6 @@ class Pump:
         with self._scope():
             while batch:
                 self._call(*batch.popleft())
-        self._room.set()
+        if not self._room.is_set():   # (the pump clears it, then looks at the batch again)
+            self._room.set()
         return count
