@@ -127,6 +127,28 @@ def test_ide_runs_a_block_program_and_stop_stops_the_turtle(engine, lab, watcher
     assert not [m for t, m in cmd.since(zero) if m["linear"]["x"] or m["angular"]["z"]]
 
 
+def test_python_loads_and_its_start_makes_the_link_patient(engine, lab):
+    """Python's module graph evaluates in every engine, and a Python worker's start (a heavy moment
+    of the page: link.js heavy(), called by pyrun.js) makes the page's link allow the longer silence
+    until it settles: a link declared lost while Pyodide compiles stopped the program."""
+    engine.open(lab.http_url)
+    engine.wait(READY, what="the IDE connected")
+    engine.js("""(Promise.all([import('/js/run/pyrun.js'), import('/js/link/link.js')]).then(([py, m]) => {
+      let done;
+      const loading = new Promise((resolve) => { done = resolve; });
+      const before = rosgateIde.link.silence();
+      m.heavy(loading);
+      const during = rosgateIde.link.silence();
+      done();
+      loading.then(() => setTimeout(() => {
+        window.heavySeen = { run: typeof py.runPython, before, during, after: rosgateIde.link.silence() };
+      }, 0));
+    }, (e) => { window.heavySeen = { error: String(e) }; }), true)""")
+    seen = engine.wait("window.heavySeen", what="the modules imported")
+    assert seen.get("run") == "function", seen
+    assert seen["during"] == 5000 and seen["before"] < 5000 and seen["after"] == seen["before"], seen
+
+
 def test_teleop_keys_and_joystick_drive_and_release_stops(engine, lab, watcher):
     ros = watcher(lab)
     cmd = ros.watch("/cmd_vel", TWIST)

@@ -45,9 +45,9 @@ def phone_page(chromium, url: str):
 
 
 def turn(ros, angle: float = 1.0) -> None:
-    """Turns the rover on the spot until its odometry says it turned by ``angle`` (rad): commands
-    every 0.1 s (a loaded machine may deliver fewer; the gateway zeroes the robot when this
-    connection's publisher goes)."""
+    """Turns the rover on the spot until its odometry says it turned by ``angle`` (rad), not for a
+    time: a loaded machine may deliver the commands late, and the gateway zeroes the robot when
+    this connection's publisher goes."""
     odom = ros.watch("/odom", "nav_msgs/msg/Odometry")
     yaw = lambda m: math.atan2(2 * m["pose"]["pose"]["orientation"]["w"] * m["pose"]["pose"]["orientation"]["z"],
                                1 - 2 * m["pose"]["pose"]["orientation"]["z"] ** 2)
@@ -56,10 +56,11 @@ def turn(ros, angle: float = 1.0) -> None:
     cmd.advertise()
     turned = lambda: abs(math.remainder(yaw(odom.latest()) - yaw0, math.tau)) > angle
     deadline = time.monotonic() + 60
-    while not turned():
+    while not turned():   # a command for each odometry message (25 Hz): the rover's own pace
         assert time.monotonic() < deadline, f"the rover did not turn by {angle} rad in 60 s: {odom.latest()}"
         cmd.publish(roslibpy.Message({"linear": {"x": 0, "y": 0, "z": 0}, "angular": {"x": 0, "y": 0, "z": 1.5}}))
-        time.sleep(0.1)
+        heard = len(odom.messages)
+        wait_for(lambda: len(odom.messages) > heard, what="the next odometry message")
     cmd.unadvertise()
 
 
