@@ -263,3 +263,22 @@ def test_step_pause_and_resume(turtle_gateway, turtle_ros, ide_factory):
     wait_for(lambda: moving(cmd, t1), timeout=2, what="driving again after Resume")
     ide.page.click("#stop")
     ide.wait_idle(timeout=2)
+
+
+def test_a_run_is_under_way_from_the_press_and_stop_cancels_it_before_its_first_block(turtle_gateway, ide_factory):
+    """Run may wait for the graph (a loaded machine reads it slowly): the page shows the run at
+    once, and Stop meanwhile means none of its blocks runs."""
+    ide = ide_factory(turtle_gateway)
+    ide.js("(p) => rosgateIde.loadProgram(p)", program(ex.seq(ex.log(ex.text("first")))))
+    ide.js("() => { rosgateIde.runner.ready = () => new Promise((r) => { window.graphRead = r; }); }")
+    ide.run()
+    assert ide.js("document.body.dataset.run") == "running"
+    ide.page.click("#stop")
+    assert ide.js("document.body.dataset.run") == "idle"
+    ide.js("() => window.graphRead()")
+    ide.run()                                 # the next run, once the graph is read, runs its blocks
+    assert ide.js("document.body.dataset.run") == "running"
+    ide.js("() => window.graphRead()")
+    ide.wait_idle()
+    assert ide.logs() == ["first"]
+    assert not ide.errors, ide.errors

@@ -20,6 +20,7 @@ export class Runner extends EventTarget {
     this.state = 'idle';         // idle | running | paused
     this.errors = new Map();     // block id -> message
     this.runs = 0;
+    this.starting = 0;           // the run waiting for the graph before its first block (0: none)
     this.heldAt = null;          // block the paused program holds at (null while a block runs)
     addEventListener('pagehide', () => this.rt?.stop());
   }
@@ -35,7 +36,7 @@ export class Runner extends EventTarget {
   }
 
   async run({ paused = false, step = false } = {}) {
-    if (this.rt) this.stop();
+    if (this.rt || this.starting) this.stop();
     const ros = this.getRos();
     if (!ros?.isConnected) {
       this.console.error(t('run.not.connected'));
@@ -43,13 +44,18 @@ export class Runner extends EventTarget {
     }
     this.clearErrors();
     const run = ++this.runs;
+    // the run is under way from the press (Stop works) while the page reads the graph for its names
+    this.starting = run;
+    this._setState(paused || step ? 'paused' : 'running');
     await this.ready();
-    if (this.runs !== run) return;           // Run or Step pressed again meanwhile
+    if (this.starting !== run) return;       // stopped, or Run or Step pressed again, meanwhile
+    this.starting = 0;
     let code;
     try {
       code = jsGen.generate(this.workspace, { instrument: true });
     } catch (e) {
       this.console.error(t('run.codegen.failed', { error: e.message }));
+      this._setState('idle');
       return;
     }
     const rt = new Runtime(ros, {
@@ -62,7 +68,6 @@ export class Runner extends EventTarget {
     if (paused) rt.pause();
     this.pendingStep = step;                 // the first Step runs the first block too
     if (step) rt.stepOnce();
-    this._setState(paused || step ? 'paused' : 'running');
     this.console.info(t(paused || step ? 'run.started.step' : 'run.started', { run }));
     const loose = this.loose().length;
     if (loose) this.console.info(tn('run.loose', loose));
@@ -137,6 +142,12 @@ export class Runner extends EventTarget {
   }
 
   stop() {
+    if (this.starting) {
+      this.starting = 0;
+      this._setState('idle');
+      this.console.info(t('run.stopped'));
+      return;
+    }
     const rt = this.rt;
     if (!rt) return;
     this._finish(rt, t('run.stopped'));
@@ -161,7 +172,7 @@ export class Runner extends EventTarget {
   // Runs the highlighted block to its end (a move, a wait), then holds before the next one
   // with the robot stopped; the first Step starts a run and runs its first block.
   step() {
-    if (!this.rt) { this.run({ step: true }); return; }
+    if (!this.rt) { if (!this.starting) this.run({ step: true }); return; }
     const block = this.heldAt ? this.workspace.getBlockById(this.heldAt) : null;
     this.console.info(block ? t('run.step.block', { block: blockText(block) }) : t('run.step'));
     this.heldAt = null;
