@@ -29,16 +29,18 @@ def test_a_fresh_browser_shows_the_earlier_drive_over_an_hour(chromium, rover):
         page.select_option("#plot-span", "3600")
         page.wait_for_function("document.querySelector('#plot-span').dataset.loaded > 0 && "
                                "!document.querySelector('#plot-span').dataset.loading")
+        # the rows and what the charts draw, read at one instant (a live sample a second adds a row)
         rows = page.evaluate("({t: teleop.history.rows.t, speed: teleop.history.rows.speed, "
-                             "battery: teleop.history.rows.battery, window: teleop.history.window})")
+                             "battery: teleop.history.rows.battery, window: teleop.history.window, "
+                             "drawn: [...teleop.history.charts.values()].map((c) => c.chart.data[0].length)})")
         assert rows['window'] == 3600
         before = [v for t, v in zip(rows['t'], rows['speed']) if t < opened - 1 and v is not None]
         assert len(before) >= 3 and max(before) > 0.3            # the drive, from before the page opened
         assert min(rows['t']) < drove_until
         assert any(v is not None and 0 < v <= 100 for v in rows['battery'])
         # the chart draws those rows, and live samples keep coming after them
-        drawn = page.evaluate("[...teleop.history.charts.values()].map((c) => c.chart.data[0].length)")
-        assert all(n == len(rows['t']) for n in drawn) and drawn
+        drawn = rows['drawn']
+        assert drawn and all(n == len(rows['t']) for n in drawn), (drawn, len(rows['t']))
         # each step's min and max around its mean, drawn as a band behind the line
         band = page.evaluate("""(() => {
           const h = teleop.history, c = [...h.charts.values()].find((c) => c.div.dataset.unit === 'm/s');
