@@ -79,8 +79,8 @@ def logged(ide: IdePage, text: str, timeout: float = PYODIDE_START) -> str:
     try:
         wait_for(lambda: text in console(ide), timeout, what=repr(text))
     except AssertionError as e:
-        lost = ide.js("rosgateIde.link?.lastLost ?? null")
-        raise AssertionError(f'{e}; console:\n{console(ide)[-3000:]}\npage errors: {ide.errors}\nlink lost: {lost}') from e
+        raise AssertionError(f'{e}; console:\n{console(ide)[-3000:]}\npage errors: {ide.errors}\n'
+                             f'the page: {ide.python_state()}') from e
     return console(ide)
 
 

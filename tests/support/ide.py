@@ -81,6 +81,16 @@ class IdePage:
     def screenshot(self, name: str):
         self.page.screenshot(path=str(ARTIFACTS / f"{name}.png"))
 
+    def python_state(self) -> dict:
+        """Where the page's Python run is, for a failure's message: the run's phase (loading,
+        checking, graph, running), whether a worker waits ready, the last worker's start, the link."""
+        return self.page.evaluate("""async () => {
+          const py = await import(new URL('js/run/pyrun.js', location.href)).catch((e) => null);
+          return { phase: rosgateIde.textRunner.run_?.phase ?? null, ready: py?.isReady() ?? null,
+                   timing: py?.startTiming() ?? null, lost: rosgateIde.link?.lastLost ?? null,
+                   connection: document.body.dataset.connection };
+        }""")
+
 
 def open_teleop(chromium, gw, query: str = "", sent: list | None = None, **ctx_args):
     """The teleop page (with ``query``) in a new browser context, ready and connected:

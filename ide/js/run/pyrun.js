@@ -91,12 +91,16 @@ export async function checkPython(source) {
   }
   const id = ++checks;
   return new Promise((resolve) => {
-    const onMessage = (e) => {
-      if (e.data?.kind !== 'checked' || e.data.id !== id) return;
+    const done = (errors) => {
       worker.removeEventListener('message', onMessage);
-      resolve(e.data.errors);
+      worker.removeEventListener('error', onError);
+      resolve(errors);
     };
+    const onMessage = (e) => { if (e.data?.kind === 'checked' && e.data.id === id) done(e.data.errors); };
+    // a worker that failed meanwhile answers nothing: the run goes on and says why it cannot start
+    const onError = () => { if (spare === w) spare = null; worker.terminate(); done([]); };
     worker.addEventListener('message', onMessage);
+    worker.addEventListener('error', onError);
     worker.postMessage({ kind: 'check', id, source: String(source) });
   });
 }

@@ -276,10 +276,12 @@ export class TextRunner extends EventTarget {
     }
     if (this.run_ !== run) return;
     run.py = py;
+    run.phase = 'loading';            // where a Python run is: loading, checking, graph, running
     if (!py.isReady()) {      // Python started loading when the program opened (textmode.js): say we wait
       this.ide.console.info(t('text.python.loading'));
       py.prepare();
     }
+    run.phase = 'checking';
     const problems = await py.checkPython(text);
     if (this.run_ !== run) return;
     if (problems.length) {
@@ -289,8 +291,10 @@ export class TextRunner extends EventTarget {
       this._finish(run, t('text.not.run'));
       return;
     }
+    run.phase = 'graph';
     await this.ready();
     if (this.run_ !== run) return;
+    run.phase = 'running';
     await py.runPython(text, {
       guest: Boolean(this.ide.foreign),          // another person's program: a worker apart (js/run/foreign.js)
       starting: (ready, guest) => {              // its own Pyodide loads (the link is patient meanwhile: pyrun.js)
