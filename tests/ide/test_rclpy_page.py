@@ -71,17 +71,11 @@ def stop(ide: IdePage):
 
 
 def console(ide: IdePage) -> str:
-    """The console's lines as they were written (a line of the program may hold a newline)."""
-    return ide.js("[...document.querySelectorAll('#console-lines .line')].map((d) => d.textContent).join('\\n')")
+    return ide.console_lines()
 
 
 def logged(ide: IdePage, text: str, timeout: float = PYODIDE_START) -> str:
-    try:
-        wait_for(lambda: text in console(ide), timeout, what=repr(text))
-    except AssertionError as e:
-        raise AssertionError(f'{e}; console:\n{console(ide)[-3000:]}\npage errors: {ide.errors}\n'
-                             f'the page: {ide.python_state()}') from e
-    return console(ide)
+    return ide.logged(text, timeout)
 
 
 def test_the_publisher_tutorial_typed_in_talks_to_roslibpy(ide, turtle):

@@ -208,29 +208,19 @@ ROSLIBPY_SERVING = [
 ]
 
 
-def says(ide, line: str):
-    """Waits for the console's line ``line``; a failure says where the page's Python run was."""
-    try:
-        ide.page.wait_for_function("(line) => [...document.querySelectorAll('#console-lines .line')]"
-                                   ".some((l) => l.textContent === line)", arg=line, timeout=PYODIDE_START * 1000)
-    except Exception as e:
-        raise AssertionError(f"{line!r} not in the console: {ide.console_text()[-2000:]}\n"
-                             f"the page: {ide.python_state()}") from e
-
-
 def test_timers_and_served_services_work_in_the_page(ide, turtle):
     """The runtime's every and serve_service at the top level (no main()), and a roslibpy server with
     call_later: served through the gateway while the program waits; Stop ends them."""
     type_python(ide, SERVING)
     ide.page.click("#run")
-    says(ide, 'ticking True')
+    ide.logged('ticking True', PYODIDE_START)
     assert turtle.call("/page/add", "example_interfaces/srv/AddTwoInts", {"a": 2, "b": 40})["sum"] == 42
     assert ide.js("document.body.dataset.run") == "running"     # its handlers keep it going
     ide.page.click("#stop")
     ide.page.wait_for_function("document.body.dataset.run === 'idle'")
     type_python(ide, ROSLIBPY_SERVING)
     ide.page.click("#run")
-    says(ide, 'later')
+    ide.logged('later', PYODIDE_START)
     answer = wait_for(lambda: _call(turtle, "/page/set", "std_srvs/srv/SetBool", {"data": True}), what="/page/set")
     assert answer == {"success": True, "message": "set from the page"}
     ide.page.click("#stop")
@@ -248,7 +238,7 @@ def _call(turtle, service, type_, args):
 def test_a_run_the_lost_link_ends_says_why(ide, turtle):
     type_python(ide, DRIVE)
     ide.page.click("#run")
-    says(ide, 'driving 6')
+    ide.logged('driving 6', PYODIDE_START)
     ide.js("rosgateIde.link._lose('silent')")      # what the link does when the gateway falls silent
     ide.page.wait_for_function("document.body.dataset.run === 'idle'")
     assert "■ stopped: the link to the gateway was lost (robot stopped)" in ide.console_text()

@@ -9,6 +9,7 @@ import os
 import shutil
 
 from tests.support.process import ROOT
+from tests.support.wait import wait_for
 from tests.support.wsclient import Client
 
 ARTIFACTS = ROOT / "tests" / "ide" / "artifacts"
@@ -81,9 +82,22 @@ class IdePage:
     def screenshot(self, name: str):
         self.page.screenshot(path=str(ARTIFACTS / f"{name}.png"))
 
+    def console_lines(self) -> str:
+        """The console's lines as they were written (a line of the program may hold a newline)."""
+        return self.js("[...document.querySelectorAll('#console-lines .line')].map((d) => d.textContent).join('\\n')")
+
+    def logged(self, text: str, timeout: float) -> str:
+        """Waits until ``text`` is in the console; a failure says where the page's Python run was."""
+        try:
+            wait_for(lambda: text in self.console_lines(), timeout, what=repr(text))
+        except AssertionError as e:
+            raise AssertionError(f'{e}; console:\n{self.console_lines()[-3000:]}\npage errors: {self.errors}\n'
+                                 f'the page: {self.python_state()}') from e
+        return self.console_lines()
+
     def python_state(self) -> dict:
-        """Where the page's Python run is, for a failure's message: the run's phase (loading,
-        checking, graph, running), whether a worker waits ready, the last worker's start, the link."""
+        """Where the page's Python run is, for a failure's message: the run's phase (checking:
+        Python's load and its check, graph, running), whether a worker waits ready, the last worker's start, the link."""
         return self.page.evaluate("""async () => {
           const py = await import(new URL('js/run/pyrun.js', location.href)).catch((e) => null);
           return { phase: rosgateIde.textRunner.run_?.phase ?? null, ready: py?.isReady() ?? null,

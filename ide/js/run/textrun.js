@@ -276,12 +276,11 @@ export class TextRunner extends EventTarget {
     }
     if (this.run_ !== run) return;
     run.py = py;
-    run.phase = 'loading';            // where a Python run is: loading, checking, graph, running
     if (!py.isReady()) {      // Python started loading when the program opened (textmode.js): say we wait
       this.ide.console.info(t('text.python.loading'));
       py.prepare();
     }
-    run.phase = 'checking';
+    run.phase = 'checking';           // where a Python run is: checking (Python's load, then its check), graph, running
     const problems = await py.checkPython(text);
     if (this.run_ !== run) return;
     if (problems.length) {
